@@ -1,0 +1,7 @@
+// The penumbra subcommands; each returns a process exit code (see args.h).
+#pragma once
+
+int pn_cmd_render(int argc, char **argv);
+int pn_cmd_info(int argc, char **argv);
+
+void pn_print_render_help(void);

@@ -1,0 +1,7 @@
+// Wall-clock timing for CPU stages (GPU passes use timestamp queries, see gpu/).
+#pragma once
+#include <stdint.h>
+
+// Monotonic time in nanoseconds.
+uint64_t pn_time_ns(void);
+static inline double pn_ms_since(uint64_t start_ns) { return (double)(pn_time_ns() - start_ns) * 1e-6; }

@@ -1,0 +1,335 @@
+#include "gpu/device.h"
+
+#include <ctype.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+const char *pn_vk_result_str(VkResult r)
+{
+    switch (r) {
+#define X(c) case c: return #c;
+    X(VK_SUCCESS) X(VK_NOT_READY) X(VK_TIMEOUT) X(VK_INCOMPLETE) X(VK_SUBOPTIMAL_KHR)
+    X(VK_ERROR_OUT_OF_HOST_MEMORY) X(VK_ERROR_OUT_OF_DEVICE_MEMORY) X(VK_ERROR_INITIALIZATION_FAILED)
+    X(VK_ERROR_DEVICE_LOST) X(VK_ERROR_MEMORY_MAP_FAILED) X(VK_ERROR_LAYER_NOT_PRESENT)
+    X(VK_ERROR_EXTENSION_NOT_PRESENT) X(VK_ERROR_FEATURE_NOT_PRESENT) X(VK_ERROR_INCOMPATIBLE_DRIVER)
+    X(VK_ERROR_TOO_MANY_OBJECTS) X(VK_ERROR_FORMAT_NOT_SUPPORTED) X(VK_ERROR_OUT_OF_DATE_KHR)
+    X(VK_ERROR_SURFACE_LOST_KHR)
+#undef X
+    default: return "VkResult error";
+    }
+}
+
+static VKAPI_ATTR VkBool32 VKAPI_CALL on_debug_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                                       VkDebugUtilsMessageTypeFlagsEXT type,
+                                                       const VkDebugUtilsMessengerCallbackDataEXT *data,
+                                                       void *user)
+{
+    pn_gpu_device *dev = user;
+    if (severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) {
+        dev->validation_messages++;
+        pn_log(severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT ? PN_LOG_ERROR : PN_LOG_WARN,
+               "vulkan validation: %s", data->pMessage);
+    }
+    return VK_FALSE;
+}
+
+pn_gpu_device_desc pn_gpu_device_desc_from_env(void)
+{
+    const char *v = getenv("PN_VALIDATION");
+    const char *d = getenv("PN_DEVICE");
+    return (pn_gpu_device_desc){
+        .validation = v && *v && strcmp(v, "0") != 0,
+        .selector = d && *d ? d : NULL,
+    };
+}
+
+static int type_rank(VkPhysicalDeviceType t)
+{
+    switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+    }
+}
+
+static bool ci_contains(const char *hay, const char *needle)
+{
+    size_t n = strlen(needle);
+    for (; *hay; hay++)
+        if (strncasecmp(hay, needle, n) == 0)
+            return true;
+    return n == 0;
+}
+
+pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32_t *index)
+{
+    uint32_t count = 0;
+    VK_CHECK(vkEnumeratePhysicalDevices(instance, &count, NULL));
+    if (count == 0) {
+        pn_error("no Vulkan device found (is mesa-vulkan-drivers installed? ci/deps.sh installs it)");
+        return PN_ERR_VULKAN;
+    }
+    VkPhysicalDevice *pd = calloc(count, sizeof *pd);
+    if (!pd)
+        return PN_ERR_MEMORY;
+    VkResult vr = vkEnumeratePhysicalDevices(instance, &count, pd);
+    if (vr != VK_SUCCESS && vr != VK_INCOMPLETE) {
+        free(pd);
+        pn_error("vkEnumeratePhysicalDevices failed: %s", pn_vk_result_str(vr));
+        return PN_ERR_VULKAN;
+    }
+    int best = -1, best_rank = -1;
+    bool by_index = selector && *selector && strspn(selector, "0123456789") == strlen(selector);
+    for (uint32_t i = 0; i < count; i++) {
+        VkPhysicalDeviceProperties p;
+        vkGetPhysicalDeviceProperties(pd[i], &p);
+        bool ok13 = p.apiVersion >= VK_API_VERSION_1_3;
+        if (selector) {
+            bool match = by_index ? (uint32_t)atoi(selector) == i : ci_contains(p.deviceName, selector);
+            if (match && best < 0) {
+                if (!ok13) {
+                    pn_error("PN_DEVICE=%s selects %s, which lacks Vulkan 1.3", selector, p.deviceName);
+                    free(pd);
+                    return PN_ERR_VULKAN;
+                }
+                best = (int)i;
+            }
+        } else if (ok13 && type_rank(p.deviceType) > best_rank) {
+            best = (int)i;
+            best_rank = type_rank(p.deviceType);
+        }
+    }
+    free(pd);
+    if (best < 0) {
+        if (selector)
+            pn_error("PN_DEVICE=%s matches none of the %u Vulkan devices (see `penumbra info`)", selector, count);
+        else
+            pn_error("no Vulkan 1.3 device among the %u found", count);
+        return PN_ERR_VULKAN;
+    }
+    *index = (uint32_t)best;
+    return PN_OK;
+}
+
+static bool layer_available(const char *name)
+{
+    uint32_t n = 0;
+    vkEnumerateInstanceLayerProperties(&n, NULL);
+    VkLayerProperties *props = calloc(n ? n : 1, sizeof *props);
+    bool found = false;
+    if (props && vkEnumerateInstanceLayerProperties(&n, props) == VK_SUCCESS)
+        for (uint32_t i = 0; i < n && !found; i++)
+            found = strcmp(props[i].layerName, name) == 0;
+    free(props);
+    return found;
+}
+
+static pn_result create_instance(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
+{
+    const char *layers[] = {"VK_LAYER_KHRONOS_validation"};
+    const char *exts[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    if (desc->validation && !layer_available(layers[0])) {
+        pn_error("PN_VALIDATION is set but VK_LAYER_KHRONOS_validation is not installed "
+                 "(Debian package vulkan-validationlayers; ci/deps.sh installs it)");
+        return PN_ERR_VULKAN;
+    }
+    VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+    VkValidationFeaturesEXT features = {
+        .sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT,
+        .enabledValidationFeatureCount = 1,
+        .pEnabledValidationFeatures = enables,
+    };
+    VkDebugUtilsMessengerCreateInfoEXT messenger_info = {
+        .sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT,
+        .pNext = &features,
+        .messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT,
+        .messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                       VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT,
+        .pfnUserCallback = on_debug_message,
+        .pUserData = dev,
+    };
+    VkApplicationInfo app = {
+        .sType = VK_STRUCTURE_TYPE_APPLICATION_INFO,
+        .pApplicationName = "penumbra",
+        .pEngineName = "penumbra",
+        .apiVersion = VK_API_VERSION_1_3,
+    };
+    VkInstanceCreateInfo info = {
+        .sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO,
+        // Chaining the messenger info also reports messages from instance creation itself.
+        .pNext = desc->validation ? &messenger_info : NULL,
+        .pApplicationInfo = &app,
+        .enabledLayerCount = desc->validation ? 1 : 0,
+        .ppEnabledLayerNames = layers,
+        .enabledExtensionCount = desc->validation ? 1 : 0,
+        .ppEnabledExtensionNames = exts,
+    };
+    VkResult r = vkCreateInstance(&info, NULL, &dev->instance);
+    if (r != VK_SUCCESS) {
+        pn_error("cannot create a Vulkan 1.3 instance: %s (is libvulkan1 with a driver installed?)",
+                 pn_vk_result_str(r));
+        return PN_ERR_VULKAN;
+    }
+    if (desc->validation) {
+        PFN_vkCreateDebugUtilsMessengerEXT create = (PFN_vkCreateDebugUtilsMessengerEXT)vkGetInstanceProcAddr(
+            dev->instance, "vkCreateDebugUtilsMessengerEXT");
+        messenger_info.pNext = NULL;
+        if (!create) {
+            pn_error("vkCreateDebugUtilsMessengerEXT not available");
+            return PN_ERR_VULKAN;
+        }
+        VK_CHECK(create(dev->instance, &messenger_info, NULL, &dev->messenger));
+    }
+    return PN_OK;
+}
+
+static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
+{
+    uint32_t index;
+    PN_TRY(pn_gpu_pick_physical(dev->instance, desc->selector, &index));
+    uint32_t count = index + 1;
+    VkPhysicalDevice *pd = calloc(count, sizeof *pd);
+    if (!pd)
+        return PN_ERR_MEMORY;
+    VkResult vr = vkEnumeratePhysicalDevices(dev->instance, &count, pd);
+    dev->physical = pd[index];
+    free(pd);
+    if (vr != VK_SUCCESS && vr != VK_INCOMPLETE)
+        VK_CHECK(vr);
+
+    dev->subgroup = (VkPhysicalDeviceSubgroupProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->subgroup};
+    vkGetPhysicalDeviceProperties2(dev->physical, &props2);
+    dev->props = props2.properties;
+    vkGetPhysicalDeviceMemoryProperties(dev->physical, &dev->memory);
+
+    uint32_t qn = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(dev->physical, &qn, NULL);
+    VkQueueFamilyProperties qf[16];
+    qn = qn > 16 ? 16 : qn;
+    vkGetPhysicalDeviceQueueFamilyProperties(dev->physical, &qn, qf);
+    dev->queue_family = UINT32_MAX;
+    const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+    for (uint32_t i = 0; i < qn && dev->queue_family == UINT32_MAX; i++)
+        if ((qf[i].queueFlags & need) == need && qf[i].timestampValidBits > 0)
+            dev->queue_family = i;
+    if (dev->queue_family == UINT32_MAX) {
+        pn_error("%s has no queue with graphics, compute and timestamps", dev->props.deviceName);
+        return PN_ERR_VULKAN;
+    }
+
+    VkPhysicalDeviceVulkan13Features f13 = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
+        .dynamicRendering = VK_TRUE,
+        .synchronization2 = VK_TRUE,
+    };
+    VkPhysicalDeviceVulkan12Features f12 = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
+        .pNext = &f13,
+        .hostQueryReset = VK_TRUE,
+    };
+    VkPhysicalDeviceFeatures2 f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &f12};
+    float priority = 1.0f;
+    VkDeviceQueueCreateInfo qi = {
+        .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
+        .queueFamilyIndex = dev->queue_family,
+        .queueCount = 1,
+        .pQueuePriorities = &priority,
+    };
+    VkDeviceCreateInfo di = {
+        .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
+        .pNext = &f,
+        .queueCreateInfoCount = 1,
+        .pQueueCreateInfos = &qi,
+    };
+    VK_CHECK(vkCreateDevice(dev->physical, &di, NULL, &dev->device));
+    vkGetDeviceQueue(dev->device, dev->queue_family, 0, &dev->queue);
+    VkCommandPoolCreateInfo pi = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+        .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+        .queueFamilyIndex = dev->queue_family,
+    };
+    VK_CHECK(vkCreateCommandPool(dev->device, &pi, NULL, &dev->cmd_pool));
+    return PN_OK;
+}
+
+pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
+{
+    memset(dev, 0, sizeof *dev);
+    dev->validation = desc->validation;
+    pn_result r = create_instance(desc, dev);
+    if (r == PN_OK)
+        r = create_device(desc, dev);
+    if (r != PN_OK)
+        pn_gpu_device_destroy(dev);
+    return r;
+}
+
+void pn_gpu_device_destroy(pn_gpu_device *dev)
+{
+    if (dev->device) {
+        vkDeviceWaitIdle(dev->device);
+        if (dev->cmd_pool)
+            vkDestroyCommandPool(dev->device, dev->cmd_pool, NULL);
+        vkDestroyDevice(dev->device, NULL);
+    }
+    if (dev->messenger) {
+        PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)vkGetInstanceProcAddr(
+            dev->instance, "vkDestroyDebugUtilsMessengerEXT");
+        if (destroy)
+            destroy(dev->instance, dev->messenger, NULL);
+    }
+    if (dev->instance)
+        vkDestroyInstance(dev->instance, NULL);
+    unsigned messages = dev->validation_messages;
+    bool validation = dev->validation;
+    memset(dev, 0, sizeof *dev);
+    dev->validation_messages = messages; // still readable after destroy: the final count
+    dev->validation = validation;
+}
+
+pn_result pn_gpu_begin_once(pn_gpu_device *dev, VkCommandBuffer *cmd)
+{
+    VkCommandBufferAllocateInfo ai = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
+        .commandPool = dev->cmd_pool,
+        .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
+        .commandBufferCount = 1,
+    };
+    VK_CHECK(vkAllocateCommandBuffers(dev->device, &ai, cmd));
+    VkCommandBufferBeginInfo bi = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
+    };
+    VkResult r = vkBeginCommandBuffer(*cmd, &bi);
+    if (r != VK_SUCCESS) {
+        vkFreeCommandBuffers(dev->device, dev->cmd_pool, 1, cmd);
+        VK_CHECK(r);
+    }
+    return PN_OK;
+}
+
+pn_result pn_gpu_submit_wait(pn_gpu_device *dev, VkCommandBuffer cmd)
+{
+    VkResult r = vkEndCommandBuffer(cmd);
+    if (r == VK_SUCCESS) {
+        VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd};
+        r = vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE);
+        if (r == VK_SUCCESS)
+            r = vkQueueWaitIdle(dev->queue);
+    }
+    vkFreeCommandBuffers(dev->device, dev->cmd_pool, 1, &cmd);
+    VK_CHECK(r);
+    return PN_OK;
+}
+
+uint32_t pn_gpu_memory_type(const pn_gpu_device *dev, uint32_t type_bits, VkMemoryPropertyFlags flags)
+{
+    for (uint32_t i = 0; i < dev->memory.memoryTypeCount; i++)
+        if ((type_bits & (1u << i)) && (dev->memory.memoryTypes[i].propertyFlags & flags) == flags)
+            return i;
+    return UINT32_MAX;
+}

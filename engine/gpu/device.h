@@ -1,0 +1,46 @@
+// The Vulkan device: instance, the chosen physical device, one queue that does graphics and
+// compute, a command pool and, with validation, a debug messenger that counts messages.
+#pragma once
+#include <stdbool.h>
+
+#include "gpu/vk.h"
+
+typedef struct pn_gpu_device_desc {
+    bool validation;      // Khronos validation layer + synchronization validation
+    const char *selector; // NULL: best device; else an index ("1") or a name substring
+} pn_gpu_device_desc;
+
+typedef struct pn_gpu_device {
+    VkInstance instance;
+    VkDebugUtilsMessengerEXT messenger;
+    VkPhysicalDevice physical;
+    VkPhysicalDeviceProperties props;
+    VkPhysicalDeviceSubgroupProperties subgroup;
+    VkPhysicalDeviceMemoryProperties memory;
+    VkDevice device;
+    uint32_t queue_family;
+    VkQueue queue;
+    VkCommandPool cmd_pool;
+    bool validation;
+    unsigned validation_messages; // warnings and errors reported by the layer so far
+} pn_gpu_device;
+
+// Desc from the environment: PN_VALIDATION=1 turns validation on, PN_DEVICE selects the device.
+pn_gpu_device_desc pn_gpu_device_desc_from_env(void);
+
+// Creates everything or nothing; logs the reason on failure. `out` must not move afterwards
+// (the messenger keeps a pointer to it to count messages).
+pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *out);
+void pn_gpu_device_destroy(pn_gpu_device *dev);
+
+// Picks a physical device: by PN_DEVICE-style selector if given (index or case-insensitive name
+// substring), else the best by type (discrete, integrated, virtual, CPU) among those with Vulkan
+// 1.3. Writes its index in the enumeration order; logs and fails if none fits.
+pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32_t *index);
+
+// One-shot command buffers for uploads and single frames: begin, then submit and wait.
+pn_result pn_gpu_begin_once(pn_gpu_device *dev, VkCommandBuffer *cmd);
+pn_result pn_gpu_submit_wait(pn_gpu_device *dev, VkCommandBuffer cmd);
+
+// Index of a memory type with all of `flags` among `type_bits`, or UINT32_MAX.
+uint32_t pn_gpu_memory_type(const pn_gpu_device *dev, uint32_t type_bits, VkMemoryPropertyFlags flags);

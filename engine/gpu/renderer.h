@@ -1,0 +1,55 @@
+// One frame of penumbra: G-buffer raster pass, shadow compute pass, shading compute pass,
+// readback. Shared by render, demo and bench.
+#pragma once
+#include "gpu/resources.h"
+#include "scene/scene.h"
+#include "scene/view.h"
+
+typedef struct pn_frame_times {
+    double gbuffer_ms, shadow_ms, shade_ms; // GPU time per pass, from timestamp queries
+} pn_frame_times;
+
+// The frame's images after pn_renderer_render, in the renderer's host-visible readback buffer.
+// All are width*height pixels, row 0 at the top; background pixels are all zero.
+typedef struct pn_frame_images {
+    const float *p;        // rgba: world position, w = 1 where geometry is
+    const float *n;        // rgba: unit normal facing the viewer, w = view depth
+    const float *albedo;   // rgba: linear albedo, w = 1 where geometry is
+    const float *v;        // one float: visibility of the light, 0..1
+    const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
+} pn_frame_images;
+
+typedef struct pn_renderer {
+    pn_gpu_device *dev;
+    uint32_t width, height;
+    float scene_min[3], scene_max[3]; // for the clip planes
+
+    pn_gpu_buffer vertices, indices, materials;
+    pn_gpu_image *textures; // at least one (a white texel when the scene has none)
+    uint32_t texture_count;
+    VkSampler sampler;
+    pn_draw *draws;
+    uint32_t draw_count;
+
+    pn_gpu_image p, n, albedo, depth, v, radiance;
+    pn_gpu_buffer readback;
+
+    VkDescriptorPool descriptor_pool;
+    VkDescriptorSetLayout gbuffer_set_layout, shadow_set_layout, shade_set_layout;
+    VkDescriptorSet gbuffer_set, shadow_set, shade_set;
+    VkPipelineLayout gbuffer_layout, shadow_layout, shade_layout;
+    VkPipeline gbuffer_pipeline, shadow_pipeline, shade_pipeline;
+    VkQueryPool timestamps;
+    VkCommandBuffer cmd;
+} pn_renderer;
+
+// Uploads the scene and creates targets and pipelines for width x height.
+pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, uint32_t width, uint32_t height,
+                             pn_renderer *out);
+void pn_renderer_destroy(pn_renderer *r);
+
+// Records, submits and waits for one frame; fills `times` and leaves the images readable through
+// pn_renderer_images until the next call.
+pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);
+
+void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);

@@ -1,0 +1,276 @@
+#include "gpu/resources.h"
+
+#include <string.h>
+
+static pn_result allocate(pn_gpu_device *dev, VkMemoryRequirements req, VkMemoryPropertyFlags want,
+                          VkMemoryPropertyFlags fallback, VkDeviceMemory *out)
+{
+    uint32_t type = pn_gpu_memory_type(dev, req.memoryTypeBits, want);
+    if (type == UINT32_MAX)
+        type = pn_gpu_memory_type(dev, req.memoryTypeBits, fallback);
+    if (type == UINT32_MAX) {
+        pn_error("no Vulkan memory type for an allocation of %llu bytes", (unsigned long long)req.size);
+        return PN_ERR_VULKAN;
+    }
+    VkMemoryAllocateInfo ai = {
+        .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+        .allocationSize = req.size,
+        .memoryTypeIndex = type,
+    };
+    VkResult r = vkAllocateMemory(dev->device, &ai, NULL, out);
+    if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY) {
+        pn_error("out of GPU memory allocating %.1f MiB", (double)req.size / (1 << 20));
+        return PN_ERR_MEMORY;
+    }
+    VK_CHECK(r);
+    return PN_OK;
+}
+
+pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUsageFlags usage,
+                               pn_gpu_memory memory, pn_gpu_buffer *out)
+{
+    memset(out, 0, sizeof *out);
+    out->size = size;
+    VkBufferCreateInfo bi = {
+        .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+        .size = size ? size : 16,
+        .usage = usage,
+        .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+    };
+    VK_CHECK(vkCreateBuffer(dev->device, &bi, NULL, &out->buffer));
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(dev->device, out->buffer, &req);
+    VkMemoryPropertyFlags want, fallback;
+    switch (memory) {
+    case PN_GPU_DEVICE_LOCAL:
+        want = fallback = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+        break;
+    case PN_GPU_HOST_UPLOAD:
+        want = fallback = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+        break;
+    default: // readback prefers cached memory: the CPU reads every byte
+        want = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT | VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+        fallback = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+        break;
+    }
+    pn_result r = allocate(dev, req, want, fallback, &out->memory);
+    if (r != PN_OK) {
+        pn_gpu_buffer_destroy(dev, out);
+        return r;
+    }
+    VK_CHECK(vkBindBufferMemory(dev->device, out->buffer, out->memory, 0));
+    if (memory != PN_GPU_DEVICE_LOCAL)
+        VK_CHECK(vkMapMemory(dev->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
+    return PN_OK;
+}
+
+void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf)
+{
+    if (buf->buffer)
+        vkDestroyBuffer(dev->device, buf->buffer, NULL);
+    if (buf->memory)
+        vkFreeMemory(dev->device, buf->memory, NULL); // unmaps implicitly
+    memset(buf, 0, sizeof *buf);
+}
+
+pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const void *data, VkDeviceSize size,
+                                         VkBufferUsageFlags usage, pn_gpu_buffer *out)
+{
+    pn_gpu_buffer staging;
+    PN_TRY(pn_gpu_buffer_create(dev, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
+    memcpy(staging.mapped, data, size);
+    pn_result r = pn_gpu_buffer_create(dev, size, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_DEVICE_LOCAL, out);
+    VkCommandBuffer cmd;
+    if (r == PN_OK)
+        r = pn_gpu_begin_once(dev, &cmd);
+    if (r == PN_OK) {
+        vkCmdCopyBuffer(cmd, staging.buffer, out->buffer, 1, &(VkBufferCopy){.size = size});
+        // Later submissions read it in any stage: make the copy visible to all of them.
+        pn_gpu_cmd_barrier(cmd,
+                           &(VkMemoryBarrier2){
+                               .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                               .srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
+                               .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                               .dstStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                               .dstAccessMask = VK_ACCESS_2_MEMORY_READ_BIT,
+                           },
+                           0, NULL);
+        r = pn_gpu_submit_wait(dev, cmd);
+    }
+    pn_gpu_buffer_destroy(dev, &staging);
+    if (r != PN_OK)
+        pn_gpu_buffer_destroy(dev, out);
+    return r;
+}
+
+pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc, pn_gpu_image *out)
+{
+    memset(out, 0, sizeof *out);
+    out->format = desc->format;
+    out->extent = (VkExtent2D){desc->width, desc->height};
+    out->mip_levels = desc->mip_levels ? desc->mip_levels : 1;
+    VkImageCreateInfo ii = {
+        .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+        .imageType = VK_IMAGE_TYPE_2D,
+        .format = desc->format,
+        .extent = {desc->width, desc->height, 1},
+        .mipLevels = out->mip_levels,
+        .arrayLayers = 1,
+        .samples = VK_SAMPLE_COUNT_1_BIT,
+        .tiling = VK_IMAGE_TILING_OPTIMAL,
+        .usage = desc->usage,
+        .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+        .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+    };
+    VK_CHECK(vkCreateImage(dev->device, &ii, NULL, &out->image));
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(dev->device, out->image, &req);
+    pn_result r = allocate(dev, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, &out->memory);
+    if (r != PN_OK) {
+        pn_gpu_image_destroy(dev, out);
+        return r;
+    }
+    VK_CHECK(vkBindImageMemory(dev->device, out->image, out->memory, 0));
+    VkImageViewCreateInfo vi = {
+        .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
+        .image = out->image,
+        .viewType = VK_IMAGE_VIEW_TYPE_2D,
+        .format = desc->format,
+        .subresourceRange = {desc->aspect ? desc->aspect : VK_IMAGE_ASPECT_COLOR_BIT, 0, out->mip_levels, 0, 1},
+    };
+    VK_CHECK(vkCreateImageView(dev->device, &vi, NULL, &out->view));
+    return PN_OK;
+}
+
+void pn_gpu_image_destroy(pn_gpu_device *dev, pn_gpu_image *img)
+{
+    if (img->view)
+        vkDestroyImageView(dev->device, img->view, NULL);
+    if (img->image)
+        vkDestroyImage(dev->device, img->image, NULL);
+    if (img->memory)
+        vkFreeMemory(dev->device, img->memory, NULL);
+    memset(img, 0, sizeof *img);
+}
+
+static VkImageAspectFlags aspect_of(VkFormat f)
+{
+    return f == VK_FORMAT_D32_SFLOAT || f == VK_FORMAT_D16_UNORM ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT;
+}
+
+VkImageMemoryBarrier2 pn_gpu_image_barrier(const pn_gpu_image *img, VkPipelineStageFlags2 src_stage,
+                                           VkAccessFlags2 src_access, VkPipelineStageFlags2 dst_stage,
+                                           VkAccessFlags2 dst_access, VkImageLayout old_layout,
+                                           VkImageLayout new_layout)
+{
+    return (VkImageMemoryBarrier2){
+        .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2,
+        .srcStageMask = src_stage,
+        .srcAccessMask = src_access,
+        .dstStageMask = dst_stage,
+        .dstAccessMask = dst_access,
+        .oldLayout = old_layout,
+        .newLayout = new_layout,
+        .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+        .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+        .image = img->image,
+        .subresourceRange = {aspect_of(img->format), 0, VK_REMAINING_MIP_LEVELS, 0, 1},
+    };
+}
+
+void pn_gpu_cmd_barrier(VkCommandBuffer cmd, const VkMemoryBarrier2 *memory, uint32_t image_count,
+                        const VkImageMemoryBarrier2 *images)
+{
+    VkDependencyInfo di = {
+        .sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO,
+        .memoryBarrierCount = memory ? 1 : 0,
+        .pMemoryBarriers = memory,
+        .imageMemoryBarrierCount = image_count,
+        .pImageMemoryBarriers = images,
+    };
+    vkCmdPipelineBarrier2(cmd, &di);
+}
+
+static uint32_t mip_count(uint32_t w, uint32_t h)
+{
+    uint32_t n = 1;
+    while ((w | h) >> n)
+        n++;
+    return n;
+}
+
+pn_result pn_gpu_texture_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const uint8_t *rgba,
+                                pn_gpu_image *out)
+{
+    VkDeviceSize size = (VkDeviceSize)width * height * 4;
+    uint32_t mips = mip_count(width, height);
+    pn_gpu_buffer staging;
+    PN_TRY(pn_gpu_buffer_create(dev, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
+    memcpy(staging.mapped, rgba, size);
+    pn_result r = pn_gpu_image_create(dev,
+                                      &(pn_gpu_image_desc){
+                                          .format = VK_FORMAT_R8G8B8A8_SRGB,
+                                          .width = width,
+                                          .height = height,
+                                          .mip_levels = mips,
+                                          .usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                                                   VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                                      },
+                                      out);
+    VkCommandBuffer cmd;
+    if (r == PN_OK)
+        r = pn_gpu_begin_once(dev, &cmd);
+    if (r != PN_OK) {
+        pn_gpu_buffer_destroy(dev, &staging);
+        pn_gpu_image_destroy(dev, out);
+        return r;
+    }
+    VkImageMemoryBarrier2 b = pn_gpu_image_barrier(out, VK_PIPELINE_STAGE_2_NONE, 0, VK_PIPELINE_STAGE_2_TRANSFER_BIT,
+                                                   VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 1, &b);
+    VkBufferImageCopy copy = {
+        .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+        .imageExtent = {width, height, 1},
+    };
+    vkCmdCopyBufferToImage(cmd, staging.buffer, out->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+    // Each mip is blitted from the one above, which first moves to TRANSFER_SRC; sRGB blits filter
+    // in linear space, so the mips keep the right average brightness.
+    int32_t w = (int32_t)width, h = (int32_t)height;
+    for (uint32_t m = 1; m < mips; m++) {
+        VkImageMemoryBarrier2 to_src = pn_gpu_image_barrier(out, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                                            VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                                                            VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+        to_src.subresourceRange.baseMipLevel = m - 1;
+        to_src.subresourceRange.levelCount = 1;
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &to_src);
+        int32_t nw = w > 1 ? w / 2 : 1, nh = h > 1 ? h / 2 : 1;
+        VkImageBlit blit = {
+            .srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, m - 1, 0, 1},
+            .srcOffsets = {{0, 0, 0}, {w, h, 1}},
+            .dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, m, 0, 1},
+            .dstOffsets = {{0, 0, 0}, {nw, nh, 1}},
+        };
+        vkCmdBlitImage(cmd, out->image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out->image,
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
+        w = nw, h = nh;
+    }
+    // All but the last mip are TRANSFER_SRC now, the last is TRANSFER_DST.
+    VkImageMemoryBarrier2 fin[2];
+    fin[0] = pn_gpu_image_barrier(out, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                                  VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    fin[0].subresourceRange.levelCount = mips - 1;
+    fin[1] = pn_gpu_image_barrier(out, VK_PIPELINE_STAGE_2_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                  VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    fin[1].subresourceRange.baseMipLevel = mips - 1;
+    fin[1].subresourceRange.levelCount = 1;
+    pn_gpu_cmd_barrier(cmd, NULL, mips > 1 ? 2 : 1, mips > 1 ? fin : fin + 1);
+    r = pn_gpu_submit_wait(dev, cmd);
+    pn_gpu_buffer_destroy(dev, &staging);
+    if (r != PN_OK)
+        pn_gpu_image_destroy(dev, out);
+    return r;
+}

@@ -1,0 +1,1321 @@
+// glTF 2.0 loader: tinygltf parses the file, this flattens the default scene into pn_scene (one
+// world-space indexed triangle list, a draw per primitive instance, materials, RGBA8 textures,
+// the first perspective camera). The project's only C++ file; nothing C++ crosses its boundary:
+// every exception is caught here and every array handed out is malloc'd for pn_scene_destroy.
+//
+// tinygltf checks the JSON structure but not the binary layout, so everything read from a buffer
+// is validated here first, in 64-bit arithmetic, against counts a hostile file may make up.
+#include <tiny_gltf.h>
+
+#include <sys/stat.h>
+
+#include <cassert>
+#include <cerrno>
+#include <cmath>
+#include <cstdarg>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+extern "C" {
+#include "core/log.h"
+#include "scene/scene.h"
+}
+
+namespace {
+
+// Output limits: a scene beyond these is not something this renderer can hold on the GPU, and
+// refusing early keeps a file that instances one big mesh many times from exhausting memory.
+constexpr uint64_t kMaxVertices = 1ull << 27; // 4 GiB of pn_vertex
+constexpr uint64_t kMaxIndices = 1ull << 29;  // 2 GiB of indices
+// An accessor without a bufferView is all zeros (plus sparse values): no data bounds its count.
+constexpr uint64_t kMaxUnbackedCount = 1ull << 24;
+// Node graphs are trees; a deeper one is not a scene anybody made by hand or by an exporter.
+constexpr uint32_t kMaxDepth = 1024;
+// tinygltf's error strings can quote a whole data: URI; keep log lines readable.
+constexpr size_t kMaxMessage = 400;
+constexpr double kPi = 3.14159265358979323846;
+
+constexpr int kU8 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+constexpr int kI8 = TINYGLTF_COMPONENT_TYPE_BYTE;
+constexpr int kU16 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+constexpr int kI16 = TINYGLTF_COMPONENT_TYPE_SHORT;
+constexpr int kU32 = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+constexpr int kF32 = TINYGLTF_COMPONENT_TYPE_FLOAT;
+
+// Thrown after the message has been logged; carries the result code to return.
+struct Failure {
+    pn_result result;
+};
+
+// Column-major 4x4, m[col * 4 + row], as glTF stores node.matrix.
+struct Mat4 {
+    double m[16];
+};
+
+Mat4 mat_identity()
+{
+    Mat4 r{};
+    r.m[0] = r.m[5] = r.m[10] = r.m[15] = 1.0;
+    return r;
+}
+
+Mat4 mat_mul(const Mat4 &a, const Mat4 &b)
+{
+    Mat4 r{};
+    for (int c = 0; c < 4; c++)
+        for (int row = 0; row < 4; row++) {
+            double s = 0.0;
+            for (int k = 0; k < 4; k++)
+                s += a.m[k * 4 + row] * b.m[c * 4 + k];
+            r.m[c * 4 + row] = s;
+        }
+    return r;
+}
+
+// The upper 3x3 as rows, for the per-vertex loops.
+struct Affine {
+    double a[3][3];
+    double t[3];
+    double normal[3][3]; // cofactor matrix times sign(det): inverse-transpose up to a scale
+    double det;
+};
+
+Affine make_affine(const Mat4 &w)
+{
+    Affine f{};
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++)
+            f.a[r][c] = w.m[c * 4 + r];
+        f.t[r] = w.m[12 + r];
+    }
+    const double(*a)[3] = f.a;
+    double cof[3][3] = {
+        {a[1][1] * a[2][2] - a[1][2] * a[2][1], a[1][2] * a[2][0] - a[1][0] * a[2][2],
+         a[1][0] * a[2][1] - a[1][1] * a[2][0]},
+        {a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][0] * a[2][2] - a[0][2] * a[2][0],
+         a[0][1] * a[2][0] - a[0][0] * a[2][1]},
+        {a[0][1] * a[1][2] - a[0][2] * a[1][1], a[0][2] * a[1][0] - a[0][0] * a[1][2],
+         a[0][0] * a[1][1] - a[0][1] * a[1][0]},
+    };
+    f.det = a[0][0] * cof[0][0] + a[0][1] * cof[0][1] + a[0][2] * cof[0][2];
+    // inverse-transpose = cof / det; the scale does not matter as normals are renormalised, the
+    // sign does (a mirroring transform must not turn normals inside out). With det == 0 the
+    // cofactor still gives the normal of the flattened surface.
+    double s = f.det < 0.0 ? -1.0 : 1.0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++)
+            f.normal[r][c] = s * cof[r][c];
+    return f;
+}
+
+inline bool finite3(const double v[3])
+{
+    return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+
+// Normalises v in place; false (v untouched) if it has no usable direction.
+inline bool normalize3(double v[3])
+{
+    double len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(len > 0.0) || !std::isfinite(len))
+        return false;
+    v[0] /= len, v[1] /= len, v[2] /= len;
+    return finite3(v);
+}
+
+// Unit normal of triangle (a, b, c) wound counter-clockwise, or false if it has no area.
+inline bool face_normal(const float a[3], const float b[3], const float c[3], double n[3])
+{
+    double e1[3] = {(double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]};
+    double e2[3] = {(double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]};
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    return normalize3(n);
+}
+
+inline void set_normal(pn_vertex &v, const double n[3])
+{
+    v.normal[0] = (float)n[0], v.normal[1] = (float)n[1], v.normal[2] = (float)n[2];
+}
+
+inline void set_up_normal(pn_vertex &v)
+{
+    v.normal[0] = 0.0f, v.normal[1] = 1.0f, v.normal[2] = 0.0f;
+}
+
+uint64_t component_size(int type)
+{
+    switch (type) {
+    case kU8:
+    case kI8: return 1;
+    case kU16:
+    case kI16: return 2;
+    case kU32:
+    case kF32: return 4;
+    default: return 0;
+    }
+}
+
+const char *component_name(int type)
+{
+    switch (type) {
+    case kU8: return "unsigned byte";
+    case kI8: return "byte";
+    case kU16: return "unsigned short";
+    case kI16: return "short";
+    case kU32: return "unsigned int";
+    case kF32: return "float";
+    case TINYGLTF_COMPONENT_TYPE_INT: return "int";
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return "double";
+    default: return "unknown";
+    }
+}
+
+const char *type_name(int type)
+{
+    switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+    case TINYGLTF_TYPE_VEC2: return "VEC2";
+    case TINYGLTF_TYPE_VEC3: return "VEC3";
+    case TINYGLTF_TYPE_VEC4: return "VEC4";
+    case TINYGLTF_TYPE_MAT2: return "MAT2";
+    case TINYGLTF_TYPE_MAT3: return "MAT3";
+    case TINYGLTF_TYPE_MAT4: return "MAT4";
+    default: return "unknown";
+    }
+}
+
+int type_components(int type)
+{
+    switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    default: return 0;
+    }
+}
+
+// One component as a float, with glTF's normalisation rules for integer types.
+inline float read_component(const uint8_t *p, int type, bool normalized)
+{
+    switch (type) {
+    case kF32: {
+        float f;
+        std::memcpy(&f, p, 4);
+        return f;
+    }
+    case kU8: return normalized ? (float)p[0] / 255.0f : (float)p[0];
+    case kI8: {
+        int8_t v;
+        std::memcpy(&v, p, 1);
+        return normalized ? std::fmax((float)v / 127.0f, -1.0f) : (float)v;
+    }
+    case kU16: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return normalized ? (float)v / 65535.0f : (float)v;
+    }
+    case kI16: {
+        int16_t v;
+        std::memcpy(&v, p, 2);
+        return normalized ? std::fmax((float)v / 32767.0f, -1.0f) : (float)v;
+    }
+    case kU32: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return (float)v;
+    }
+    default: return 0.0f;
+    }
+}
+
+inline uint32_t read_index(const uint8_t *p, int type)
+{
+    switch (type) {
+    case kU8: return p[0];
+    case kU16: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+    }
+    default: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+    }
+    }
+}
+
+// Collapses a multi-line tinygltf message into one bounded line.
+std::string one_line(const std::string &s)
+{
+    std::string r;
+    bool sep = false; // a line break is pending: emit "; " before the next text
+    for (char ch : s) {
+        if (ch == '\n' || ch == '\r') {
+            sep = !r.empty();
+            continue;
+        }
+        if (sep) {
+            while (!r.empty() && (r.back() == ' ' || r.back() == '.' || r.back() == ';'))
+                r.pop_back();
+            r += "; ";
+            sep = false;
+        }
+        r += (unsigned char)ch < 0x20 ? ' ' : ch;
+    }
+    while (!r.empty() && (r.back() == ' ' || r.back() == ';' || r.back() == '.'))
+        r.pop_back();
+    if (r.size() > kMaxMessage) {
+        r.resize(kMaxMessage);
+        r += "...";
+    }
+    return r;
+}
+
+// Wraps tinygltf's stb_image decoder so that an undecodable image becomes an empty one (the
+// texture is then dropped with a warning) instead of failing the whole file, and so that an
+// image's bufferView is range-checked first: tinygltf 2.7 passes &buffer.data[byteOffset] and
+// byteLength to the decoder without checking them against the buffer.
+bool load_image_lenient(tinygltf::Image *image, const int image_idx, std::string *err,
+                        std::string *warn, int req_width, int req_height,
+                        const unsigned char *bytes, int size, void *user_data)
+{
+    (void)err;
+    const tinygltf::Model *model = static_cast<const tinygltf::Model *>(user_data);
+    std::string tag = "image " + std::to_string(image_idx);
+    if (image->bufferView >= 0 && model) {
+        bool ok = false;
+        if ((size_t)image->bufferView < model->bufferViews.size()) {
+            const tinygltf::BufferView &bv = model->bufferViews[(size_t)image->bufferView];
+            if (bv.buffer >= 0 && (size_t)bv.buffer < model->buffers.size()) {
+                size_t have = model->buffers[(size_t)bv.buffer].data.size();
+                ok = bv.byteLength <= have && bv.byteOffset <= have - bv.byteLength &&
+                     bv.byteLength <= (size_t)INT32_MAX;
+            }
+        }
+        if (!ok) {
+            if (warn)
+                *warn += tag + ": bufferView " + std::to_string(image->bufferView) +
+                         " is not inside its buffer; texture ignored\n";
+            return true;
+        }
+    }
+    if (!bytes || size <= 0) {
+        if (warn)
+            *warn += tag + ": no image data; texture ignored\n";
+        return true;
+    }
+    std::string decode_err;
+    bool ok = tinygltf::LoadImageData(image, image_idx, &decode_err, warn, req_width, req_height,
+                                      bytes, size, nullptr);
+    if (!ok) {
+        image->image.clear();
+        if (warn)
+            *warn += tag + ": " + one_line(decode_err) + "; texture ignored\n";
+    }
+    return true;
+}
+
+bool ends_with_ci(const char *s, const char *suffix)
+{
+    size_t n = std::strlen(s), m = std::strlen(suffix);
+    if (n < m)
+        return false;
+    for (size_t i = 0; i < m; i++) {
+        char a = s[n - m + i], b = suffix[i];
+        if (a >= 'A' && a <= 'Z')
+            a = (char)(a - 'A' + 'a');
+        if (a != b)
+            return false;
+    }
+    return true;
+}
+
+// A validated accessor: `data` points at element 0 and every element i lies in
+// [data + i * stride, data + i * stride + elem_size) inside its buffer.
+struct Access {
+    int index;
+    const char *role;
+    const tinygltf::Accessor *acc;
+    const uint8_t *data; // nullptr: no bufferView, elements are zero (before sparse values)
+    uint64_t stride;
+    uint64_t count;
+    uint64_t elem_size;
+    int ctype;
+    int ncomp;
+};
+
+// A malloc'd growable array of plain structs, so that the big output arrays are built in place
+// and handed to the C side without a copy (pn_scene_destroy frees them with free()).
+template <typename T> class CArray {
+    static_assert(std::is_trivially_copyable<T>::value, "plain data only");
+
+public:
+    CArray() = default;
+    ~CArray() { std::free(p_); }
+    CArray(const CArray &) = delete;
+    CArray &operator=(const CArray &) = delete;
+
+    size_t size() const { return n_; }
+    bool empty() const { return n_ == 0; }
+    T *data() { return p_; }
+    // Resizes to n elements; new ones are uninitialised. Throws std::bad_alloc.
+    void resize(size_t n)
+    {
+        if (n > cap_) {
+            size_t c = cap_ + cap_ / 2 + 64;
+            if (c < n)
+                c = n;
+            void *q = std::realloc(p_, c * sizeof(T));
+            if (!q)
+                throw std::bad_alloc();
+            p_ = static_cast<T *>(q);
+            cap_ = c;
+        }
+        n_ = n;
+    }
+    // Gives up ownership of the (trimmed) array.
+    T *release()
+    {
+        if (n_ && n_ < cap_) {
+            void *q = std::realloc(p_, n_ * sizeof(T));
+            if (q)
+                p_ = static_cast<T *>(q);
+        }
+        T *r = p_;
+        p_ = nullptr;
+        n_ = cap_ = 0;
+        return r;
+    }
+
+private:
+    T *p_ = nullptr;
+    size_t n_ = 0, cap_ = 0;
+};
+
+class Loader {
+public:
+    Loader(const char *path, const tinygltf::Model &model) : path_(path), m_(model) {}
+    ~Loader()
+    {
+        for (pn_texture &t : textures_)
+            std::free(t.rgba);
+    }
+    Loader(const Loader &) = delete;
+    Loader &operator=(const Loader &) = delete;
+
+    void run();
+    pn_result emit(pn_scene *out);
+
+private:
+    [[noreturn]] void fail(pn_result r, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+    void warn(const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+    std::string mesh_tag(int mesh) const;
+    const uint8_t *view_bytes(int view, uint64_t offset, uint64_t need, int acc, const char *role,
+                              const char *what);
+    Access access(int index, const char *role, int type, std::initializer_list<int> ctypes);
+    void decode_floats(const Access &a, std::vector<float> &out);
+    void decode_indices(const Access &a, std::vector<uint32_t> &out);
+    template <typename Fn> void apply_sparse(const Access &a, Fn write);
+
+    Mat4 local_transform(int node);
+    void traverse();
+    void visit_camera(int node, const Mat4 &world);
+    void instance_mesh(int mesh, const Mat4 &world);
+    void instance_primitive(int mesh, int prim, const Affine &xf);
+    uint32_t material_for(int mesh, int material);
+    void build_materials();
+    int32_t texture_for(int material, const tinygltf::TextureInfo &info);
+
+    const char *path_;
+    const tinygltf::Model &m_;
+
+    CArray<pn_vertex> vertices_;
+    CArray<uint32_t> indices_;
+    std::vector<pn_draw> draws_;
+    std::vector<pn_material> materials_;
+    std::vector<pn_texture> textures_;
+    std::vector<int32_t> image_texture_; // glTF image -> index in textures_, -1 none, -2 unseen
+    bool default_material_used_ = false;
+    bool has_camera_ = false;
+    pn_camera camera_{};
+
+    std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
+    std::vector<uint8_t> camera_warned_;
+    bool warned_skin_ = false;
+
+    // scratch, reused across primitives
+    std::vector<float> pos_, nrm_, uv_;
+    std::vector<uint32_t> idx_, tri_;
+    std::vector<uint8_t> bad_normal_;
+};
+
+enum MeshWarning : uint8_t {
+    kWarnNonTriangles = 1,
+    kWarnNoPosition = 2,
+    kWarnTrailing = 4,
+    kWarnMaterial = 8,
+    kWarnMorph = 16,
+};
+
+void Loader::fail(pn_result r, const char *fmt, ...)
+{
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    std::vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    pn_error("%s: %s", path_, msg);
+    throw Failure{r};
+}
+
+void Loader::warn(const char *fmt, ...)
+{
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    std::vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    pn_warn("%s: %s", path_, msg);
+}
+
+std::string Loader::mesh_tag(int mesh) const
+{
+    std::string s = "mesh " + std::to_string(mesh);
+    const std::string &name = m_.meshes[(size_t)mesh].name;
+    if (!name.empty())
+        s += " ('" + (name.size() > 64 ? name.substr(0, 64) + "..." : name) + "')";
+    return s;
+}
+
+// Bytes [offset, offset + need) of bufferView `view`, after checking that the view lies inside its
+// buffer and the range inside the view.
+const uint8_t *Loader::view_bytes(int view, uint64_t offset, uint64_t need, int acc,
+                                  const char *role, const char *what)
+{
+    if (view < 0 || (size_t)view >= m_.bufferViews.size())
+        fail(PN_ERR_FORMAT, "accessor %d (%s): %sbufferView %d does not exist (%zu bufferViews)",
+             acc, role, what, view, m_.bufferViews.size());
+    const tinygltf::BufferView &bv = m_.bufferViews[(size_t)view];
+    if (bv.buffer < 0 || (size_t)bv.buffer >= m_.buffers.size())
+        fail(PN_ERR_FORMAT, "bufferView %d: buffer %d does not exist (%zu buffers)", view,
+             bv.buffer, m_.buffers.size());
+    uint64_t have = m_.buffers[(size_t)bv.buffer].data.size();
+    uint64_t vlen = bv.byteLength, voff = bv.byteOffset;
+    if (vlen > have || voff > have - vlen)
+        fail(PN_ERR_FORMAT,
+             "bufferView %d: bytes %llu..%llu+%llu exceed buffer %d (%llu bytes)", view,
+             (unsigned long long)voff, (unsigned long long)voff, (unsigned long long)vlen,
+             bv.buffer, (unsigned long long)have);
+    if (offset > vlen || need > vlen - offset)
+        fail(PN_ERR_FORMAT,
+             "accessor %d (%s): %s%llu bytes at byteOffset %llu exceed bufferView %d (%llu bytes)",
+             acc, role, what, (unsigned long long)need, (unsigned long long)offset, view,
+             (unsigned long long)vlen);
+    return m_.buffers[(size_t)bv.buffer].data.data() + voff + offset;
+}
+
+Access Loader::access(int index, const char *role, int type, std::initializer_list<int> ctypes)
+{
+    if (index < 0 || (size_t)index >= m_.accessors.size())
+        fail(PN_ERR_FORMAT, "%s accessor %d does not exist (%zu accessors)", role, index,
+             m_.accessors.size());
+    const tinygltf::Accessor &acc = m_.accessors[(size_t)index];
+    bool ctype_ok = false;
+    for (int c : ctypes)
+        ctype_ok |= acc.componentType == c;
+    if (acc.type != type || !ctype_ok) {
+        std::string want;
+        for (int c : ctypes)
+            want += std::string(want.empty() ? "" : " or ") + component_name(c);
+        fail(PN_ERR_FORMAT, "accessor %d (%s): %s %s is not supported (expected %s %s)", index,
+             role, type_name(acc.type), component_name(acc.componentType), type_name(type),
+             want.c_str());
+    }
+    Access a{};
+    a.index = index;
+    a.role = role;
+    a.acc = &acc;
+    a.ctype = acc.componentType;
+    a.ncomp = type_components(type);
+    a.elem_size = component_size(a.ctype) * (uint64_t)a.ncomp;
+    a.count = acc.count;
+    if (a.count == 0)
+        fail(PN_ERR_FORMAT, "accessor %d (%s): count is 0", index, role);
+    if (acc.bufferView == -1) {
+        if (a.count > kMaxUnbackedCount)
+            fail(PN_ERR_FORMAT,
+                 "accessor %d (%s): count %llu without a bufferView exceeds the limit of %llu",
+                 index, role, (unsigned long long)a.count, (unsigned long long)kMaxUnbackedCount);
+        a.data = nullptr;
+        a.stride = a.elem_size;
+        return a;
+    }
+    if (acc.bufferView < 0 || (size_t)acc.bufferView >= m_.bufferViews.size())
+        fail(PN_ERR_FORMAT, "accessor %d (%s): bufferView %d does not exist (%zu bufferViews)",
+             index, role, acc.bufferView, m_.bufferViews.size());
+    const tinygltf::BufferView &bv = m_.bufferViews[(size_t)acc.bufferView];
+    a.stride = bv.byteStride ? (uint64_t)bv.byteStride : a.elem_size;
+    if (a.stride < a.elem_size)
+        fail(PN_ERR_FORMAT, "accessor %d (%s): byteStride %llu is smaller than an element (%llu)",
+             index, role, (unsigned long long)a.stride, (unsigned long long)a.elem_size);
+    // need = stride * (count - 1) + elem_size, saturating: any overflow exceeds every view.
+    uint64_t need;
+    if (__builtin_mul_overflow(a.stride, a.count - 1, &need) ||
+        __builtin_add_overflow(need, a.elem_size, &need))
+        need = UINT64_MAX;
+    if (need == UINT64_MAX || acc.byteOffset > UINT64_MAX - need ||
+        (uint64_t)acc.byteOffset + need > (uint64_t)bv.byteLength)
+        fail(PN_ERR_FORMAT,
+             "accessor %d (%s): count %llu with stride %llu at byteOffset %llu exceeds "
+             "bufferView %d (%llu bytes)",
+             index, role, (unsigned long long)a.count, (unsigned long long)a.stride,
+             (unsigned long long)acc.byteOffset, acc.bufferView,
+             (unsigned long long)bv.byteLength);
+    a.data = view_bytes(acc.bufferView, acc.byteOffset, need, index, role, "");
+    return a;
+}
+
+// Validates the accessor's sparse block and calls write(element, bytes) for every substitution,
+// `bytes` being one tightly packed element of the accessor's own component type.
+template <typename Fn> void Loader::apply_sparse(const Access &a, Fn write)
+{
+    const auto &sp = a.acc->sparse;
+    if (!sp.isSparse)
+        return;
+    if (sp.count < 1 || (uint64_t)sp.count > a.count)
+        fail(PN_ERR_FORMAT, "accessor %d (%s): sparse count %d is not in 1..%llu", a.index,
+             a.role, sp.count, (unsigned long long)a.count);
+    int ictype = sp.indices.componentType;
+    if (ictype != kU8 && ictype != kU16 && ictype != kU32)
+        fail(PN_ERR_FORMAT, "accessor %d (%s): sparse indices of type %s are not supported",
+             a.index, a.role, component_name(ictype));
+    if (sp.indices.byteOffset < 0 || sp.values.byteOffset < 0)
+        fail(PN_ERR_FORMAT, "accessor %d (%s): negative sparse byteOffset", a.index, a.role);
+    uint64_t n = (uint64_t)sp.count, isize = component_size(ictype);
+    const uint8_t *ip = view_bytes(sp.indices.bufferView, (uint64_t)sp.indices.byteOffset,
+                                   n * isize, a.index, a.role, "sparse indices: ");
+    const uint8_t *vp = view_bytes(sp.values.bufferView, (uint64_t)sp.values.byteOffset,
+                                   n * a.elem_size, a.index, a.role, "sparse values: ");
+    for (uint64_t k = 0; k < n; k++) {
+        uint32_t e = read_index(ip + k * isize, ictype);
+        if (e >= a.count)
+            fail(PN_ERR_FORMAT, "accessor %d (%s): sparse index %u >= count %llu", a.index,
+                 a.role, e, (unsigned long long)a.count);
+        write(e, vp + k * a.elem_size);
+    }
+}
+
+void Loader::decode_floats(const Access &a, std::vector<float> &out)
+{
+    const uint64_t nc = (uint64_t)a.ncomp;
+    out.assign(a.count * nc, 0.0f);
+    const uint64_t csize = component_size(a.ctype);
+    const bool norm = a.acc->normalized;
+    if (a.data) {
+        if (a.ctype == kF32 && a.stride == a.elem_size) {
+            std::memcpy(out.data(), a.data, a.count * a.elem_size);
+        } else if (a.ctype == kF32) {
+            for (uint64_t i = 0; i < a.count; i++)
+                std::memcpy(&out[i * nc], a.data + i * a.stride, a.elem_size);
+        } else {
+            for (uint64_t i = 0; i < a.count; i++)
+                for (uint64_t c = 0; c < nc; c++)
+                    out[i * nc + c] = read_component(a.data + i * a.stride + c * csize, a.ctype,
+                                                     norm);
+        }
+    }
+    apply_sparse(a, [&](uint32_t e, const uint8_t *src) {
+        for (uint64_t c = 0; c < nc; c++)
+            out[e * nc + c] = read_component(src + c * csize, a.ctype, norm);
+    });
+}
+
+void Loader::decode_indices(const Access &a, std::vector<uint32_t> &out)
+{
+    out.assign(a.count, 0u);
+    if (a.data) {
+        if (a.ctype == kU32 && a.stride == 4) {
+            std::memcpy(out.data(), a.data, a.count * 4);
+        } else {
+            for (uint64_t i = 0; i < a.count; i++)
+                out[i] = read_index(a.data + i * a.stride, a.ctype);
+        }
+    }
+    apply_sparse(a, [&](uint32_t e, const uint8_t *src) { out[e] = read_index(src, a.ctype); });
+}
+
+Mat4 Loader::local_transform(int index)
+{
+    const tinygltf::Node &n = m_.nodes[(size_t)index];
+    Mat4 r = mat_identity();
+    if (!n.matrix.empty()) {
+        if (n.matrix.size() != 16)
+            fail(PN_ERR_FORMAT, "node %d: matrix has %zu numbers, not 16", index,
+                 n.matrix.size());
+        for (int i = 0; i < 16; i++)
+            r.m[i] = n.matrix[(size_t)i];
+    } else {
+        if ((!n.translation.empty() && n.translation.size() != 3) ||
+            (!n.rotation.empty() && n.rotation.size() != 4) ||
+            (!n.scale.empty() && n.scale.size() != 3))
+            fail(PN_ERR_FORMAT,
+                 "node %d: translation/rotation/scale have %zu/%zu/%zu numbers, not 3/4/3", index,
+                 n.translation.size(), n.rotation.size(), n.scale.size());
+        double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+        for (int i = 0; i < 3 && !n.translation.empty(); i++)
+            t[i] = n.translation[(size_t)i];
+        for (int i = 0; i < 4 && !n.rotation.empty(); i++)
+            q[i] = n.rotation[(size_t)i];
+        for (int i = 0; i < 3 && !n.scale.empty(); i++)
+            s[i] = n.scale[(size_t)i];
+        // glTF requires a unit quaternion; exporters round, so renormalise rather than shear.
+        double ql = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        if (!(ql > 0.0) || !std::isfinite(ql))
+            fail(PN_ERR_FORMAT, "node %d: rotation quaternion is zero or not finite", index);
+        double x = q[0] / ql, y = q[1] / ql, z = q[2] / ql, w = q[3] / ql;
+        double rot[3][3] = {
+            {1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+            {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+            {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)},
+        };
+        // T * R * S: column c of the 3x3 is R's column c scaled by s[c].
+        for (int c = 0; c < 3; c++)
+            for (int row = 0; row < 3; row++)
+                r.m[c * 4 + row] = rot[row][c] * s[c];
+        for (int row = 0; row < 3; row++)
+            r.m[12 + row] = t[row];
+    }
+    for (double v : r.m)
+        if (!std::isfinite(v))
+            fail(PN_ERR_FORMAT, "node %d: transform is not finite", index);
+    return r;
+}
+
+void Loader::run()
+{
+    // tinygltf reads glTF 1.0 files without complaint and finds nothing in them.
+    const std::string &version = m_.asset.version;
+    if (version.compare(0, 2, "2.") != 0)
+        fail(PN_ERR_FORMAT, "glTF version \"%.16s\" is not supported (2.x required)",
+             version.c_str());
+    for (const std::string &ext : m_.extensionsRequired) {
+        if (ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" ||
+            ext == "KHR_mesh_quantization")
+            fail(PN_ERR_FORMAT, "requires extension %s, which is not supported", ext.c_str());
+        warn("requires extension %s, which is not supported; ignoring it", ext.c_str());
+    }
+    mesh_warned_.assign(m_.meshes.size(), 0);
+    camera_warned_.assign(m_.cameras.size(), 0);
+    image_texture_.assign(m_.images.size(), -2);
+    build_materials();
+    traverse();
+    if (indices_.empty())
+        fail(PN_ERR_FORMAT, "no triangles in the scene");
+}
+
+// Depth-first, pre-order, children in file order, with an explicit stack so that a deep (or
+// hostile) hierarchy cannot overflow the call stack. glTF nodes form trees: a node reached a
+// second time means a cycle or a shared child, and is rejected rather than instanced again.
+void Loader::traverse()
+{
+    const size_t nn = m_.nodes.size();
+    std::vector<int> roots;
+    if (!m_.scenes.empty()) {
+        int s = m_.defaultScene >= 0 ? m_.defaultScene : 0;
+        if ((size_t)s >= m_.scenes.size())
+            fail(PN_ERR_FORMAT, "default scene %d does not exist (%zu scenes)", s,
+                 m_.scenes.size());
+        roots = m_.scenes[(size_t)s].nodes;
+    } else {
+        std::vector<uint8_t> is_child(nn, 0);
+        for (const tinygltf::Node &n : m_.nodes)
+            for (int c : n.children)
+                if (c >= 0 && (size_t)c < nn)
+                    is_child[(size_t)c] = 1;
+        for (size_t i = 0; i < nn; i++)
+            if (!is_child[i])
+                roots.push_back((int)i);
+        if (roots.empty() && nn)
+            fail(PN_ERR_FORMAT, "no scenes and no root nodes (the node graph is cyclic)");
+    }
+    struct Item {
+        int node;
+        uint32_t depth;
+        Mat4 parent;
+    };
+    std::vector<uint8_t> visited(nn, 0);
+    std::vector<Item> stack;
+    for (size_t i = roots.size(); i-- > 0;)
+        stack.push_back(Item{roots[i], 0, mat_identity()});
+    while (!stack.empty()) {
+        Item it = stack.back();
+        stack.pop_back();
+        if (it.node < 0 || (size_t)it.node >= nn)
+            fail(PN_ERR_FORMAT, "node %d does not exist (%zu nodes)", it.node, nn);
+        if (visited[(size_t)it.node])
+            fail(PN_ERR_FORMAT,
+                 "node %d is reached twice (a cycle or a node with two parents)", it.node);
+        visited[(size_t)it.node] = 1;
+        if (it.depth > kMaxDepth)
+            fail(PN_ERR_FORMAT, "node hierarchy deeper than %u levels", kMaxDepth);
+        const tinygltf::Node &n = m_.nodes[(size_t)it.node];
+        Mat4 world = mat_mul(it.parent, local_transform(it.node));
+        if (n.camera != -1)
+            visit_camera(it.node, world);
+        if (n.skin != -1 && !warned_skin_) {
+            warned_skin_ = true;
+            warn("skinning is not supported; skinned meshes are drawn in their bind pose");
+        }
+        if (n.mesh != -1) {
+            if (n.mesh < 0 || (size_t)n.mesh >= m_.meshes.size())
+                fail(PN_ERR_FORMAT, "node %d: mesh %d does not exist (%zu meshes)", it.node,
+                     n.mesh, m_.meshes.size());
+            instance_mesh(n.mesh, world);
+        }
+        for (size_t i = n.children.size(); i-- > 0;)
+            stack.push_back(Item{n.children[i], it.depth + 1, world});
+    }
+}
+
+void Loader::visit_camera(int node, const Mat4 &w)
+{
+    int ci = m_.nodes[(size_t)node].camera;
+    if (ci < 0 || (size_t)ci >= m_.cameras.size())
+        fail(PN_ERR_FORMAT, "node %d: camera %d does not exist (%zu cameras)", node, ci,
+             m_.cameras.size());
+    if (has_camera_)
+        return;
+    const tinygltf::Camera &cam = m_.cameras[(size_t)ci];
+    if (cam.type != "perspective") {
+        if (!camera_warned_[(size_t)ci]) {
+            camera_warned_[(size_t)ci] = 1;
+            warn("camera %d: %s cameras are not supported; ignored", ci,
+                 cam.type == "orthographic" ? "orthographic" : "untyped");
+        }
+        return;
+    }
+    double yfov = cam.perspective.yfov;
+    double pos[3] = {w.m[12], w.m[13], w.m[14]};
+    double fwd[3] = {-w.m[8], -w.m[9], -w.m[10]}; // the node's -Z axis
+    double up[3] = {w.m[4], w.m[5], w.m[6]};      // the node's +Y axis
+    const char *problem = nullptr;
+    if (!(yfov > 0.0 && yfov < kPi))
+        problem = "yfov is not in (0, pi)";
+    else if (!finite3(pos))
+        problem = "position is not finite";
+    else if (!normalize3(fwd) || !normalize3(up))
+        problem = "its node's transform is degenerate";
+    if (problem) {
+        if (!camera_warned_[(size_t)ci]) {
+            camera_warned_[(size_t)ci] = 1;
+            warn("camera %d: %s; ignored", ci, problem);
+        }
+        return;
+    }
+    has_camera_ = true;
+    for (int i = 0; i < 3; i++) {
+        camera_.pos[i] = (float)pos[i];
+        camera_.target[i] = (float)(pos[i] + fwd[i]);
+        camera_.up[i] = (float)up[i];
+    }
+    camera_.yfov_deg = (float)(yfov * 180.0 / kPi);
+}
+
+void Loader::instance_mesh(int mesh, const Mat4 &world)
+{
+    Affine xf = make_affine(world);
+    const tinygltf::Mesh &me = m_.meshes[(size_t)mesh];
+    for (size_t p = 0; p < me.primitives.size(); p++)
+        instance_primitive(mesh, (int)p, xf);
+}
+
+void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
+{
+    const tinygltf::Primitive &pr = m_.meshes[(size_t)mesh].primitives[(size_t)prim];
+    uint8_t &warned = mesh_warned_[(size_t)mesh];
+    int mode = pr.mode == -1 ? TINYGLTF_MODE_TRIANGLES : pr.mode;
+    if (mode < TINYGLTF_MODE_POINTS || mode > TINYGLTF_MODE_TRIANGLE_FAN)
+        fail(PN_ERR_FORMAT, "%s primitive %d: mode %d is not a glTF primitive mode",
+             mesh_tag(mesh).c_str(), prim, pr.mode);
+    if (mode < TINYGLTF_MODE_TRIANGLES) {
+        if (!(warned & kWarnNonTriangles)) {
+            warned |= kWarnNonTriangles;
+            warn("%s: point and line primitives are skipped", mesh_tag(mesh).c_str());
+        }
+        return;
+    }
+    auto attr = [&](const char *name) {
+        auto it = pr.attributes.find(name);
+        return it == pr.attributes.end() ? -1 : it->second;
+    };
+    int a_pos = attr("POSITION"), a_nrm = attr("NORMAL"), a_uv = attr("TEXCOORD_0");
+    if (a_pos == -1) {
+        if (!(warned & kWarnNoPosition)) {
+            warned |= kWarnNoPosition;
+            warn("%s primitive %d: no POSITION attribute; skipped", mesh_tag(mesh).c_str(), prim);
+        }
+        return;
+    }
+    if (!pr.targets.empty() && !(warned & kWarnMorph)) {
+        warned |= kWarnMorph;
+        warn("%s: morph targets are not supported; using the base shape", mesh_tag(mesh).c_str());
+    }
+
+    // --- read and validate everything before producing output
+    Access pa = access(a_pos, "POSITION", TINYGLTF_TYPE_VEC3, {kF32});
+    const uint64_t n = pa.count;
+    if (n > kMaxVertices)
+        fail(PN_ERR_MEMORY, "accessor %d (POSITION): %llu vertices exceed the limit of %llu",
+             a_pos, (unsigned long long)n, (unsigned long long)kMaxVertices);
+    decode_floats(pa, pos_);
+    for (uint64_t i = 0; i < n * 3; i++)
+        if (!std::isfinite(pos_[i]))
+            fail(PN_ERR_FORMAT, "accessor %d (POSITION): vertex %llu is not finite", a_pos,
+                 (unsigned long long)(i / 3));
+    bool has_nrm = a_nrm != -1, has_uv = a_uv != -1;
+    if (has_nrm) {
+        Access na = access(a_nrm, "NORMAL", TINYGLTF_TYPE_VEC3, {kF32});
+        if (na.count != n)
+            fail(PN_ERR_FORMAT, "accessor %d (NORMAL): count %llu differs from POSITION's %llu",
+                 a_nrm, (unsigned long long)na.count, (unsigned long long)n);
+        decode_floats(na, nrm_);
+    }
+    if (has_uv) {
+        Access ua = access(a_uv, "TEXCOORD_0", TINYGLTF_TYPE_VEC2, {kF32, kU8, kU16});
+        if (ua.count != n)
+            fail(PN_ERR_FORMAT,
+                 "accessor %d (TEXCOORD_0): count %llu differs from POSITION's %llu", a_uv,
+                 (unsigned long long)ua.count, (unsigned long long)n);
+        decode_floats(ua, uv_);
+    }
+    bool indexed = pr.indices != -1;
+    uint64_t ni = n;
+    if (indexed) {
+        Access ia = access(pr.indices, "indices", TINYGLTF_TYPE_SCALAR, {kU8, kU16, kU32});
+        decode_indices(ia, idx_);
+        ni = ia.count;
+        for (uint64_t i = 0; i < ni; i++)
+            if (idx_[i] >= n)
+                fail(PN_ERR_FORMAT,
+                     "%s primitive %d: accessor %d: indices out of range (index %u >= %llu "
+                     "vertices)",
+                     mesh_tag(mesh).c_str(), prim, pr.indices, idx_[i], (unsigned long long)n);
+    }
+
+    // --- triangle list in the primitive's own vertex numbering
+    uint64_t ntri = 0;
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+        ntri = ni / 3;
+        if (ni % 3 && !(warned & kWarnTrailing)) {
+            warned |= kWarnTrailing;
+            warn("%s primitive %d: %llu vertices is not a multiple of 3; ignoring the rest",
+                 mesh_tag(mesh).c_str(), prim, (unsigned long long)ni);
+        }
+    } else if (ni >= 3) {
+        ntri = ni - 2;
+    }
+    if (ntri == 0)
+        return;
+    if (ntri * 3 > kMaxIndices)
+        fail(PN_ERR_MEMORY, "%s primitive %d: %llu triangles exceed the limit",
+             mesh_tag(mesh).c_str(), prim, (unsigned long long)ntri);
+    auto src = [&](uint64_t i) -> uint32_t { return indexed ? idx_[i] : (uint32_t)i; };
+    tri_.resize(ntri * 3);
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+        for (uint64_t i = 0; i < ntri * 3; i++)
+            tri_[i] = src(i);
+    } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+        // glTF: triangle i is (v_i, v_{i+1+i%2}, v_{i+2-i%2}), keeping every other one's winding
+        for (uint64_t i = 0; i < ntri; i++) {
+            tri_[3 * i] = src(i);
+            tri_[3 * i + 1] = src(i + 1 + (i & 1));
+            tri_[3 * i + 2] = src(i + 2 - (i & 1));
+        }
+    } else { // fan: (v_{i+1}, v_{i+2}, v_0)
+        for (uint64_t i = 0; i < ntri; i++) {
+            tri_[3 * i] = src(i + 1);
+            tri_[3 * i + 1] = src(i + 2);
+            tri_[3 * i + 2] = src(0);
+        }
+    }
+    // A mirroring transform turns counter-clockwise into clockwise; swap to keep the front face.
+    if (xf.det < 0.0)
+        for (uint64_t i = 0; i < ntri; i++)
+            std::swap(tri_[3 * i + 1], tri_[3 * i + 2]);
+
+    const uint64_t out_verts = has_nrm ? n : ntri * 3;
+    if (vertices_.size() + out_verts > kMaxVertices || indices_.size() + ntri * 3 > kMaxIndices)
+        fail(PN_ERR_MEMORY, "scene too large: more than %llu vertices or %llu indices",
+             (unsigned long long)kMaxVertices, (unsigned long long)kMaxIndices);
+    const uint32_t material = material_for(mesh, pr.material);
+
+    // --- world-space vertices
+    const size_t base = vertices_.size();
+    vertices_.resize(base + out_verts);
+    pn_vertex *vout = vertices_.data() + base;
+    auto world_pos = [&](uint64_t i, float out[3]) {
+        const float *p = &pos_[i * 3];
+        for (int r = 0; r < 3; r++) {
+            double v = xf.a[r][0] * p[0] + xf.a[r][1] * p[1] + xf.a[r][2] * p[2] + xf.t[r];
+            out[r] = (float)v;
+            if (!std::isfinite(out[r]))
+                fail(PN_ERR_FORMAT,
+                     "%s primitive %d: vertex %llu is not finite after the node transform",
+                     mesh_tag(mesh).c_str(), prim, (unsigned long long)i);
+        }
+    };
+    auto set_uv = [&](pn_vertex &v, uint64_t i) {
+        float u = has_uv ? uv_[i * 2] : 0.0f, w = has_uv ? uv_[i * 2 + 1] : 0.0f;
+        v.uv[0] = std::isfinite(u) ? u : 0.0f;
+        v.uv[1] = std::isfinite(w) ? w : 0.0f;
+    };
+
+    const size_t ibase = indices_.size();
+    indices_.resize(ibase + ntri * 3);
+    uint32_t *iout = indices_.data() + ibase;
+    if (has_nrm) {
+        bad_normal_.assign(n, 0);
+        bool any_bad = false;
+        for (uint64_t i = 0; i < n; i++) {
+            pn_vertex &v = vout[i];
+            world_pos(i, v.pos);
+            const float *q = &nrm_[i * 3];
+            double nw[3];
+            for (int r = 0; r < 3; r++)
+                nw[r] = xf.normal[r][0] * q[0] + xf.normal[r][1] * q[1] + xf.normal[r][2] * q[2];
+            if (normalize3(nw)) {
+                set_normal(v, nw);
+            } else {
+                bad_normal_[i] = 1;
+                any_bad = true;
+                set_up_normal(v);
+            }
+            set_uv(v, i);
+        }
+        for (uint64_t k = 0; k < ntri * 3; k++)
+            iout[k] = (uint32_t)(base + tri_[k]);
+        if (any_bad) {
+            // Zero or NaN normals take the normal of the first triangle using the vertex.
+            for (uint64_t t = 0; t < ntri; t++) {
+                const uint32_t *c = &tri_[3 * t];
+                if (!bad_normal_[c[0]] && !bad_normal_[c[1]] && !bad_normal_[c[2]])
+                    continue;
+                double fn[3];
+                if (!face_normal(vout[c[0]].pos, vout[c[1]].pos, vout[c[2]].pos, fn))
+                    continue;
+                for (int j = 0; j < 3; j++)
+                    if (bad_normal_[c[j]] == 1) {
+                        bad_normal_[c[j]] = 2;
+                        set_normal(vout[c[j]], fn);
+                    }
+            }
+        }
+    } else {
+        // No normals: flat shading, three vertices of their own per triangle.
+        for (uint64_t t = 0; t < ntri; t++) {
+            pn_vertex *v = vout + 3 * t;
+            for (int j = 0; j < 3; j++) {
+                uint32_t s = tri_[3 * t + (uint64_t)j];
+                world_pos(s, v[j].pos);
+                set_uv(v[j], s);
+            }
+            double fn[3];
+            for (int j = 0; j < 3; j++) {
+                if (face_normal(v[0].pos, v[1].pos, v[2].pos, fn))
+                    set_normal(v[j], fn);
+                else
+                    set_up_normal(v[j]);
+            }
+            for (int j = 0; j < 3; j++)
+                iout[3 * t + (uint64_t)j] = (uint32_t)(base + 3 * t + (uint64_t)j);
+        }
+    }
+    draws_.push_back(pn_draw{(uint32_t)ibase, (uint32_t)(ntri * 3), material});
+}
+
+uint32_t Loader::material_for(int mesh, int material)
+{
+    if (material >= 0 && (size_t)material < m_.materials.size())
+        return (uint32_t)material;
+    uint8_t &warned = mesh_warned_[(size_t)mesh];
+    if (material != -1 && !(warned & kWarnMaterial)) {
+        warned |= kWarnMaterial;
+        warn("%s: material %d does not exist (%zu materials); using the default",
+             mesh_tag(mesh).c_str(), material, m_.materials.size());
+    }
+    default_material_used_ = true;
+    return (uint32_t)m_.materials.size();
+}
+
+void Loader::build_materials()
+{
+    materials_.reserve(m_.materials.size() + 1);
+    for (size_t i = 0; i < m_.materials.size(); i++) {
+        const tinygltf::PbrMetallicRoughness &pbr = m_.materials[i].pbrMetallicRoughness;
+        pn_material mat{{1.0f, 1.0f, 1.0f, 1.0f}, -1};
+        bool ok = pbr.baseColorFactor.size() == 4;
+        for (size_t c = 0; ok && c < 4; c++)
+            ok = std::isfinite(pbr.baseColorFactor[c]);
+        if (ok) {
+            for (size_t c = 0; c < 4; c++)
+                mat.base_color[c] = (float)pbr.baseColorFactor[c];
+        } else {
+            warn("material %zu: baseColorFactor is not 4 finite numbers; using (1,1,1,1)", i);
+        }
+        if (pbr.baseColorTexture.index != -1)
+            mat.texture = texture_for((int)i, pbr.baseColorTexture);
+        materials_.push_back(mat);
+    }
+}
+
+// The pn_scene texture for a material's baseColorTexture, decoding its image on first use.
+int32_t Loader::texture_for(int material, const tinygltf::TextureInfo &info)
+{
+    int ti = info.index;
+    if (ti < 0 || (size_t)ti >= m_.textures.size()) {
+        warn("material %d: texture %d does not exist (%zu textures); drawn untextured",
+             material, ti, m_.textures.size());
+        return -1;
+    }
+    if (info.texCoord != 0)
+        warn("material %d: baseColorTexture uses TEXCOORD_%d; only TEXCOORD_0 is loaded, "
+             "using it instead",
+             material, info.texCoord);
+    int ii = m_.textures[(size_t)ti].source;
+    if (ii < 0 || (size_t)ii >= m_.images.size()) {
+        warn("texture %d: no image source%s; drawn untextured", ti,
+             ii == -1 ? " (an image format extension?)" : "");
+        return -1;
+    }
+    int32_t &slot = image_texture_[(size_t)ii];
+    if (slot != -2)
+        return slot;
+    slot = -1;
+    const tinygltf::Image &img = m_.images[(size_t)ii];
+    const uint64_t w = img.width > 0 ? (uint64_t)img.width : 0;
+    const uint64_t h = img.height > 0 ? (uint64_t)img.height : 0;
+    const uint64_t comp = img.component >= 1 && img.component <= 4 ? (uint64_t)img.component : 0;
+    const uint64_t bytes = img.bits == 8 ? 1 : img.bits == 16 ? 2 : 0;
+    if (img.image.empty() || !w || !h || !comp || !bytes || w * h > (1ull << 28) ||
+        img.image.size() < w * h * comp * bytes) {
+        warn("image %d%s%s%s: not decoded (missing, unsupported or invalid); drawn untextured",
+             ii, img.uri.empty() ? "" : " ('", img.uri.substr(0, 64).c_str(),
+             img.uri.empty() ? "" : "')");
+        return -1;
+    }
+    uint8_t *rgba = static_cast<uint8_t *>(std::malloc(w * h * 4));
+    if (!rgba)
+        fail(PN_ERR_MEMORY, "image %d: out of memory for %llux%llu pixels", ii,
+             (unsigned long long)w, (unsigned long long)h);
+    const uint8_t *src = img.image.data();
+    const uint64_t px = w * h;
+    // 16-bit samples are native-endian uint16 from stb_image; keep the high byte.
+    auto sample = [&](uint64_t i, uint64_t c) -> uint8_t {
+        if (bytes == 1)
+            return src[i * comp + c];
+        uint16_t v;
+        std::memcpy(&v, src + (i * comp + c) * 2, 2);
+        return (uint8_t)(v >> 8);
+    };
+    for (uint64_t i = 0; i < px; i++) {
+        uint8_t *d = rgba + i * 4;
+        switch (comp) {
+        case 1: d[0] = d[1] = d[2] = sample(i, 0), d[3] = 255; break;
+        case 2: d[0] = d[1] = d[2] = sample(i, 0), d[3] = sample(i, 1); break;
+        case 3: d[0] = sample(i, 0), d[1] = sample(i, 1), d[2] = sample(i, 2), d[3] = 255; break;
+        default:
+            d[0] = sample(i, 0), d[1] = sample(i, 1), d[2] = sample(i, 2), d[3] = sample(i, 3);
+        }
+    }
+    try {
+        textures_.push_back(pn_texture{(uint32_t)w, (uint32_t)h, rgba});
+    } catch (...) {
+        std::free(rgba);
+        throw;
+    }
+    slot = (int32_t)(textures_.size() - 1);
+    return slot;
+}
+
+void free_arrays(pn_scene *s)
+{
+    std::free(s->vertices);
+    std::free(s->indices);
+    std::free(s->draws);
+    std::free(s->materials);
+    if (s->textures)
+        for (uint32_t i = 0; i < s->texture_count; i++)
+            std::free(s->textures[i].rgba);
+    std::free(s->textures);
+    std::memset(s, 0, sizeof *s);
+}
+
+template <typename T> T *dup_array(const std::vector<T> &v)
+{
+    if (v.empty())
+        return nullptr;
+    T *p = static_cast<T *>(std::malloc(v.size() * sizeof(T)));
+    if (p)
+        std::memcpy(p, v.data(), v.size() * sizeof(T));
+    return p;
+}
+
+// Moves the result into *out (malloc'd arrays). On failure nothing is left allocated.
+pn_result Loader::emit(pn_scene *out)
+{
+    if (default_material_used_)
+        materials_.push_back(pn_material{{1.0f, 1.0f, 1.0f, 1.0f}, -1});
+    std::memset(out, 0, sizeof *out);
+    std::snprintf(out->name, sizeof out->name, "%s", path_);
+    out->vertex_count = (uint32_t)vertices_.size();
+    out->index_count = (uint32_t)indices_.size();
+    out->vertices = vertices_.release();
+    out->indices = indices_.release();
+    out->draws = dup_array(draws_);
+    out->materials = dup_array(materials_);
+    out->draw_count = (uint32_t)draws_.size();
+    out->material_count = (uint32_t)materials_.size();
+    if (!textures_.empty()) {
+        out->textures = dup_array(textures_);
+        if (out->textures) {
+            // ownership of the pixels moves to *out
+            out->texture_count = (uint32_t)textures_.size();
+            textures_.clear();
+        }
+    }
+    if (!out->vertices || !out->indices || !out->draws || !out->materials ||
+        (!textures_.empty() && !out->textures)) {
+        free_arrays(out);
+        pn_error("%s: out of memory", path_);
+        return PN_ERR_MEMORY;
+    }
+    out->has_camera = has_camera_;
+    out->camera = camera_;
+
+    // Positions are known finite, so plain comparisons do (fmin/fmax are slow library calls).
+    const pn_vertex *v = out->vertices;
+    const uint32_t *idx = out->indices;
+    float bmin[3], bmax[3];
+    for (int c = 0; c < 3; c++)
+        bmin[c] = bmax[c] = v[idx[0]].pos[c];
+    for (uint32_t k = 1; k < out->index_count; k++) {
+        const float *p = v[idx[k]].pos;
+        for (int c = 0; c < 3; c++) {
+            bmin[c] = p[c] < bmin[c] ? p[c] : bmin[c];
+            bmax[c] = p[c] > bmax[c] ? p[c] : bmax[c];
+        }
+    }
+    for (int c = 0; c < 3; c++) {
+        out->bounds_min[c] = bmin[c];
+        out->bounds_max[c] = bmax[c];
+    }
+    return PN_OK;
+}
+
+pn_result load(const char *path, pn_scene *out)
+{
+    bool binary;
+    if (ends_with_ci(path, ".glb")) {
+        binary = true;
+    } else if (ends_with_ci(path, ".gltf")) {
+        binary = false;
+    } else {
+        pn_error("%s: not a glTF file (expected the extension .gltf or .glb)", path);
+        return PN_ERR_FORMAT;
+    }
+    // Tell an unreadable file (PN_ERR_IO) from a malformed one (PN_ERR_FORMAT) before tinygltf,
+    // which reports both the same way.
+    struct stat st;
+    if (stat(path, &st) != 0) {
+        pn_error("%s: cannot open: %s", path, std::strerror(errno));
+        return PN_ERR_IO;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        pn_error("%s: cannot read: not a regular file", path);
+        return PN_ERR_IO;
+    }
+    FILE *f = std::fopen(path, "rb");
+    if (!f) {
+        pn_error("%s: cannot open: %s", path, std::strerror(errno));
+        return PN_ERR_IO;
+    }
+    std::fclose(f);
+    if (st.st_size == 0) {
+        pn_error("%s: empty file", path);
+        return PN_ERR_FORMAT;
+    }
+    if ((uint64_t)st.st_size >= (1ull << 32)) {
+        pn_error("%s: file too large for glTF (4 GiB or more)", path);
+        return PN_ERR_FORMAT;
+    }
+
+    tinygltf::Model model;
+    tinygltf::TinyGLTF gltf;
+    gltf.SetImageLoader(load_image_lenient, &model);
+    std::string err, warn;
+    bool ok = binary ? gltf.LoadBinaryFromFile(&model, &err, &warn, path)
+                     : gltf.LoadASCIIFromFile(&model, &err, &warn, path);
+    if (!warn.empty()) {
+        size_t start = 0;
+        while (start < warn.size()) {
+            size_t end = warn.find('\n', start);
+            if (end == std::string::npos)
+                end = warn.size();
+            std::string line = one_line(warn.substr(start, end - start));
+            if (!line.empty())
+                pn_warn("%s: %s", path, line.c_str());
+            start = end + 1;
+        }
+    }
+    if (!ok) {
+        std::string msg = one_line(err);
+        pn_error("%s: %s", path, msg.empty() ? "tinygltf could not parse the file" : msg.c_str());
+        // The file itself was readable (checked above); a buffer it names that cannot be read is
+        // an I/O problem too (tinygltf's LoadExternalFile messages), anything else is the content.
+        if (err.find("File not found") != std::string::npos ||
+            err.find("File read error") != std::string::npos)
+            return PN_ERR_IO;
+        return PN_ERR_FORMAT;
+    }
+    Loader loader(path, model);
+    loader.run();
+    return loader.emit(out);
+}
+
+} // namespace
+
+extern "C" pn_result pn_gltf_load(const char *path, pn_scene *out)
+{
+    assert(path && out);
+    std::memset(out, 0, sizeof *out);
+    pn_result r;
+    try {
+        r = load(path, out);
+    } catch (const Failure &f) {
+        r = f.result; // already logged
+    } catch (const std::bad_alloc &) {
+        pn_error("%s: out of memory", path);
+        r = PN_ERR_MEMORY;
+    } catch (const std::exception &e) {
+        pn_error("%s: %s", path, one_line(e.what()).c_str());
+        r = PN_ERR_FORMAT;
+    } catch (...) {
+        pn_error("%s: unexpected error while loading", path);
+        r = PN_ERR_FORMAT;
+    }
+    if (r != PN_OK)
+        std::memset(out, 0, sizeof *out);
+    return r;
+}

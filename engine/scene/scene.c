@@ -1,0 +1,164 @@
+#include "scene/scene.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "core/log.h"
+
+static bool has_suffix(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && strcasecmp(s + n - m, suffix) == 0;
+}
+
+pn_result pn_scene_load(const char *source, pn_scene *out)
+{
+    memset(out, 0, sizeof *out);
+    pn_result r;
+    if (strncmp(source, "builtin:", 8) == 0)
+        r = pn_builtin_load(source + 8, out);
+    else if (has_suffix(source, ".gltf") || has_suffix(source, ".glb"))
+        r = pn_gltf_load(source, out);
+    else {
+        pn_error("%s: not a scene: expected a .gltf or .glb file or builtin:NAME", source);
+        return PN_ERR_INVALID;
+    }
+    if (r == PN_OK)
+        r = pn_scene_validate(out);
+    if (r != PN_OK)
+        pn_scene_destroy(out);
+    return r;
+}
+
+void pn_scene_destroy(pn_scene *s)
+{
+    for (uint32_t i = 0; i < s->texture_count; i++)
+        free(s->textures[i].rgba);
+    free(s->textures);
+    free(s->vertices);
+    free(s->indices);
+    free(s->draws);
+    free(s->materials);
+    memset(s, 0, sizeof *s);
+}
+
+void pn_scene_update_bounds(pn_scene *s)
+{
+    float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
+    for (uint32_t i = 0; i < s->index_count; i++) {
+        const float *p = s->vertices[s->indices[i]].pos;
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], p[k]);
+            hi[k] = fmaxf(hi[k], p[k]);
+        }
+    }
+    if (s->index_count == 0)
+        for (int k = 0; k < 3; k++)
+            lo[k] = hi[k] = 0.0f;
+    memcpy(s->bounds_min, lo, sizeof lo);
+    memcpy(s->bounds_max, hi, sizeof hi);
+}
+
+pn_result pn_scene_add_material(pn_scene *s, const float base_color[4], uint32_t *index)
+{
+    pn_material *m = realloc(s->materials, (s->material_count + 1) * sizeof *m);
+    if (!m)
+        return PN_ERR_MEMORY;
+    s->materials = m;
+    memcpy(m[s->material_count].base_color, base_color, 4 * sizeof(float));
+    m[s->material_count].texture = -1;
+    *index = s->material_count++;
+    return PN_OK;
+}
+
+pn_result pn_scene_add_mesh(pn_scene *s, const pn_vertex *v, uint32_t vn, const uint32_t *idx,
+                            uint32_t in, uint32_t material)
+{
+    if ((uint64_t)s->vertex_count + vn > UINT32_MAX || (uint64_t)s->index_count + in > UINT32_MAX)
+        return PN_ERR_MEMORY;
+    pn_vertex *nv = realloc(s->vertices, (size_t)(s->vertex_count + vn) * sizeof *nv);
+    if (!nv)
+        return PN_ERR_MEMORY;
+    s->vertices = nv;
+    uint32_t *ni = realloc(s->indices, (size_t)(s->index_count + in) * sizeof *ni);
+    if (!ni)
+        return PN_ERR_MEMORY;
+    s->indices = ni;
+    pn_draw *nd = realloc(s->draws, (s->draw_count + 1) * sizeof *nd);
+    if (!nd)
+        return PN_ERR_MEMORY;
+    s->draws = nd;
+
+    memcpy(nv + s->vertex_count, v, vn * sizeof *v);
+    for (uint32_t i = 0; i < in; i++)
+        ni[s->index_count + i] = idx[i] + s->vertex_count;
+    nd[s->draw_count++] = (pn_draw){.first_index = s->index_count, .index_count = in, .material = material};
+    s->vertex_count += vn;
+    s->index_count += in;
+    return PN_OK;
+}
+
+pn_result pn_scene_add_ground(pn_scene *s, float scale)
+{
+    const float *lo = s->bounds_min, *hi = s->bounds_max;
+    float extent = fmaxf(fmaxf(hi[0] - lo[0], hi[2] - lo[2]), hi[1] - lo[1]);
+    if (!(extent > 0.0f))
+        extent = 1.0f;
+    float half = 0.5f * scale * fmaxf(hi[0] - lo[0], hi[2] - lo[2]);
+    if (!(half > 0.0f))
+        half = 0.5f * scale * extent;
+    float cx = 0.5f * (lo[0] + hi[0]), cz = 0.5f * (lo[2] + hi[2]);
+    // The plane sits a hair under the lowest vertex so that bottom faces lying exactly on it do
+    // not z-fight with it: 2^-12 of the scene's size is above the 24-bit depth resolution at any
+    // framing distance and still far below a pixel's footprint, so contact shadows stay attached.
+    float y = lo[1] - extent * 0x1p-12f;
+    pn_vertex v[4];
+    const float corner[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    for (int i = 0; i < 4; i++)
+        v[i] = (pn_vertex){.pos = {cx + corner[i][0] * half, y, cz + corner[i][1] * half},
+                           .normal = {0, 1, 0},
+                           .uv = {0.5f + 0.5f * corner[i][0], 0.5f + 0.5f * corner[i][1]}};
+    // Counter-clockwise seen from above (+Y).
+    const uint32_t idx[6] = {0, 3, 2, 0, 2, 1};
+    uint32_t mat;
+    pn_result r = pn_scene_add_material(s, (const float[4]){0.75f, 0.75f, 0.75f, 1.0f}, &mat);
+    if (r == PN_OK)
+        r = pn_scene_add_mesh(s, v, 4, idx, 6, mat);
+    if (r == PN_OK)
+        pn_scene_update_bounds(s);
+    return r;
+}
+
+pn_result pn_scene_validate(const pn_scene *s)
+{
+    if (s->index_count < 3 || s->index_count % 3 != 0) {
+        pn_error("%s: no triangles", s->name);
+        return PN_ERR_FORMAT;
+    }
+    for (uint32_t i = 0; i < s->index_count; i++)
+        if (s->indices[i] >= s->vertex_count) {
+            pn_error("%s: index %u out of range (%u vertices)", s->name, s->indices[i], s->vertex_count);
+            return PN_ERR_FORMAT;
+        }
+    for (uint32_t i = 0; i < s->vertex_count; i++)
+        for (int k = 0; k < 3; k++)
+            if (!isfinite(s->vertices[i].pos[k]) || !isfinite(s->vertices[i].normal[k])) {
+                pn_error("%s: vertex %u has a non-finite position or normal", s->name, i);
+                return PN_ERR_FORMAT;
+            }
+    for (uint32_t i = 0; i < s->draw_count; i++)
+        if (s->draws[i].material >= s->material_count ||
+            (uint64_t)s->draws[i].first_index + s->draws[i].index_count > s->index_count) {
+            pn_error("%s: draw %u references a missing material or index range", s->name, i);
+            return PN_ERR_FORMAT;
+        }
+    for (uint32_t i = 0; i < s->material_count; i++)
+        if (s->materials[i].texture >= (int32_t)s->texture_count) {
+            pn_error("%s: material %u references missing texture %d", s->name, i, s->materials[i].texture);
+            return PN_ERR_FORMAT;
+        }
+    return PN_OK;
+}

@@ -1,0 +1,91 @@
+// The scene as every stage sees it: one indexed triangle list in world space, split into draws by
+// material, plus materials, decoded textures, an optional camera and the bounds.
+#pragma once
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/error.h"
+
+typedef struct pn_vertex {
+    float pos[3];    // world space
+    float normal[3]; // world space, unit length
+    float uv[2];     // TEXCOORD_0, or 0
+} pn_vertex;
+
+typedef struct pn_material {
+    float base_color[4]; // glTF baseColorFactor, linear (default 1,1,1,1)
+    int32_t texture;     // index into pn_scene.textures for baseColorTexture, or -1
+} pn_material;
+
+typedef struct pn_texture {
+    uint32_t width, height;
+    uint8_t *rgba; // width*height*4 bytes, sRGB-encoded as glTF stores base colour
+} pn_texture;
+
+// A contiguous range of the index buffer drawn with one material.
+typedef struct pn_draw {
+    uint32_t first_index;
+    uint32_t index_count;
+    uint32_t material;
+} pn_draw;
+
+typedef struct pn_camera {
+    float pos[3];
+    float target[3];
+    float up[3];
+    float yfov_deg; // vertical field of view
+} pn_camera;
+
+typedef struct pn_scene {
+    char name[256]; // the file path or "builtin:NAME"
+    pn_vertex *vertices;
+    uint32_t vertex_count;
+    uint32_t *indices; // triangle list, index_count = 3 * triangle count
+    uint32_t index_count;
+    pn_draw *draws;
+    uint32_t draw_count;
+    pn_material *materials;
+    uint32_t material_count;
+    pn_texture *textures;
+    uint32_t texture_count;
+    bool has_camera; // the file's first camera, if it had one
+    pn_camera camera;
+    float bounds_min[3], bounds_max[3]; // of all vertices that are referenced by a triangle
+} pn_scene;
+
+// Loads `source`: a path ending in .gltf or .glb, or "builtin:NAME". On failure logs one message
+// naming the source and the problem, leaves *out zeroed and returns an error.
+pn_result pn_scene_load(const char *source, pn_scene *out);
+
+// glTF 2.0 loader (scene/gltf.cpp, the project's only C++ file). Same contract as pn_scene_load.
+pn_result pn_gltf_load(const char *path, pn_scene *out);
+
+// Built-in scenes generated in code: "default" (the showcase), "plane" (one 2x2 quad at y=0 on
+// the XZ plane, centred at the origin, normal +Y; a receiver for tests). Returns PN_ERR_INVALID for
+// an unknown name.
+pn_result pn_builtin_load(const char *name, pn_scene *out);
+
+// Lists the built-in scene names, NULL-terminated.
+const char *const *pn_builtin_names(void);
+
+void pn_scene_destroy(pn_scene *scene);
+
+static inline uint32_t pn_scene_triangle_count(const pn_scene *s) { return s->index_count / 3; }
+
+// Recomputes bounds_min/max from the vertices referenced by indices.
+void pn_scene_update_bounds(pn_scene *scene);
+
+// Appends a material and returns its index. PN_ERR_MEMORY on allocation failure.
+pn_result pn_scene_add_material(pn_scene *scene, const float base_color[4], uint32_t *index);
+
+// Appends triangles (positions and normals given per vertex, already in world space) as one draw.
+pn_result pn_scene_add_mesh(pn_scene *scene, const pn_vertex *vertices, uint32_t vertex_count,
+                            const uint32_t *indices, uint32_t index_count, uint32_t material);
+
+// Adds the receiver plane the CLI's --ground asks for: a square on y = bounds_min.y - gap, centred
+// under the bounds, `scale` times their largest horizontal extent wide. Updates the bounds.
+pn_result pn_scene_add_ground(pn_scene *scene, float scale);
+
+// Validates what every stage relies on: finite positions, indices in range, at least one triangle.
+// Logs the problem with the scene name.
+pn_result pn_scene_validate(const pn_scene *scene);

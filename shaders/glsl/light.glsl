@@ -1,0 +1,35 @@
+// The rectangular one-sided Lambertian area light; mirrors pn_light_gpu in engine/gpu/renderer.c.
+struct Light {
+    vec4 corners[4]; // counter-clockwise seen from the emitting side (xyz)
+    vec4 normal;     // unit, the emitting side (xyz)
+    vec4 radiance;   // rgb
+};
+
+// Exact irradiance per unit radiance at p with unit normal n (Lambert's edge sum over the
+// polygon clipped to the receiver's upper hemisphere; zero behind the light).
+// Same algorithm as pn_light_irradiance on the CPU, in float.
+float light_irradiance(Light l, vec3 p, vec3 n)
+{
+    vec3 centre = 0.25 * (l.corners[0].xyz + l.corners[1].xyz + l.corners[2].xyz + l.corners[3].xyz);
+    if (dot(l.normal.xyz, p - centre) <= 0.0)
+        return 0.0;
+    vec3 poly[8];
+    int m = 0;
+    for (int i = 0; i < 4; i++) {
+        vec3 a = l.corners[i].xyz - p, b = l.corners[(i + 1) & 3].xyz - p;
+        float da = dot(n, a), db = dot(n, b);
+        if (da >= 0.0)
+            poly[m++] = a;
+        if ((da >= 0.0) != (db >= 0.0))
+            poly[m++] = a + (da / (da - db)) * (b - a);
+    }
+    float sum = 0.0;
+    for (int i = 0; i < m; i++) {
+        vec3 a = poly[i], b = poly[(i + 1) % m];
+        vec3 c = cross(a, b);
+        float cl = length(c);
+        if (cl > 0.0)
+            sum += atan(cl, dot(a, b)) * dot(c, n) / cl;
+    }
+    return 0.5 * abs(sum);
+}

@@ -1,0 +1,32 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Shading pass: outgoing radiance = albedo / pi * E * V, linear HDR; alpha = coverage.
+#include "light.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D img_albedo;
+layout(set = 0, binding = 3, r32f) uniform readonly image2D img_v;
+layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D img_out;
+
+layout(push_constant) uniform ShadePush { Light light; } pc;
+
+void main()
+{
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(px, imageSize(img_out))))
+        return;
+    vec4 p = imageLoad(img_p, px);
+    if (p.w <= 0.0) {
+        imageStore(img_out, px, vec4(0.0));
+        return;
+    }
+    vec3 n = imageLoad(img_n, px).xyz;
+    vec3 albedo = imageLoad(img_albedo, px).rgb;
+    float v = imageLoad(img_v, px).r;
+    float e = light_irradiance(pc.light, p.xyz, n);
+    const float INV_PI = 0.31830988618379067;
+    imageStore(img_out, px, vec4(albedo * INV_PI * e * v * pc.light.radiance.rgb, 1.0));
+}

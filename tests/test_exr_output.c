@@ -1,0 +1,133 @@
+// The render's EXR is right: read back with OpenEXRCore (through the engine's reader for the
+// pixels and directly for the attributes) and checked by Debian's exrheader; channel names and
+// attributes as documented; no NaN or Inf anywhere; the --json summary has the documented keys.
+#include <openexr.h>
+
+#include "io/exr.h"
+#include "test_util.h"
+
+static const char *const CHANNELS[] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
+                                       "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z"};
+static const char *const ATTRS[] = {"penumbra.scene", "penumbra.mode", "penumbra.triangles",
+                                    "penumbra.camera.pos", "penumbra.camera.target", "penumbra.camera.fov",
+                                    "penumbra.light.pos", "penumbra.light.normal", "penumbra.light.up",
+                                    "penumbra.light.width", "penumbra.light.height", "penumbra.light.radiance",
+                                    "penumbra.gpu_ms.gbuffer", "penumbra.gpu_ms.shadow", "penumbra.gpu_ms.shade"};
+#define COUNT(a) (int)(sizeof(a) / sizeof((a)[0]))
+
+static void check_attributes(const char *path)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    exr_context_t ctx;
+    CHECK(exr_start_read(&ctx, path, &init) == EXR_ERR_SUCCESS);
+    for (int i = 0; i < COUNT(ATTRS); i++) {
+        const exr_attribute_t *attr = NULL;
+        CHECK_MSG(exr_get_attribute_by_name(ctx, 0, ATTRS[i], &attr) == EXR_ERR_SUCCESS && attr, "attribute %s", ATTRS[i]);
+    }
+    const char *scene = NULL;
+    CHECK(exr_attr_get_string(ctx, 0, "penumbra.scene", NULL, &scene) == EXR_ERR_SUCCESS);
+    CHECK(scene && strcmp(scene, "builtin:default") == 0);
+    const char *gpu[3] = {"penumbra.gpu_ms.gbuffer", "penumbra.gpu_ms.shadow", "penumbra.gpu_ms.shade"};
+    for (int i = 0; i < 3; i++) {
+        float ms = -1;
+        CHECK(exr_attr_get_float(ctx, 0, gpu[i], &ms) == EXR_ERR_SUCCESS);
+        CHECK_MSG(ms > 0 && isfinite(ms), "%s = %g", gpu[i], ms);
+    }
+    int tris = 0;
+    CHECK(exr_attr_get_int(ctx, 0, "penumbra.triangles", &tris) == EXR_ERR_SUCCESS && tris > 100);
+    exr_finish(&ctx);
+}
+
+static void check_exrheader(const char *path)
+{
+    char cmd[1200], out[65536] = "";
+    snprintf(cmd, sizeof cmd, "exrheader '%s' 2>&1", path);
+    FILE *p = popen(cmd, "r");
+    CHECK(p != NULL);
+    if (!p)
+        return;
+    size_t n = fread(out, 1, sizeof out - 1, p);
+    out[n] = '\0';
+    CHECK_MSG(pclose(p) == 0, "exrheader failed:\n%s", out);
+    for (int i = 0; i < COUNT(CHANNELS); i++) {
+        char line[64];
+        snprintf(line, sizeof line, "    %s, 32-bit floating-point", CHANNELS[i]);
+        CHECK_MSG(strstr(out, line) != NULL, "exrheader does not list channel %s", CHANNELS[i]);
+    }
+    for (int i = 0; i < COUNT(ATTRS); i++)
+        CHECK_MSG(strstr(out, ATTRS[i]) != NULL, "exrheader does not list %s", ATTRS[i]);
+    CHECK(strstr(out, "dataWindow (type box2i): (0 0) - (199 119)") != NULL);
+}
+
+int main(void)
+{
+    const char *exr = pn_test_tmp("output_default.exr"), *png = pn_test_tmp("output_default.png");
+    const char *json = pn_test_tmp("output_default.json");
+    remove(exr);
+    char args[2048];
+    snprintf(args, sizeof args, "render builtin:default --size 200x120 --aovs --json -o %s --preview %s > %s", exr,
+             png, json);
+    CHECK(pn_test_run(args) == 0);
+
+    pn_exr_image img;
+    CHECK(pn_exr_read(exr, &img) == PN_OK);
+    CHECK(img.width == 200 && img.height == 120);
+    CHECK_MSG(img.channel_count == COUNT(CHANNELS), "%d channels", img.channel_count);
+    const float *ch[COUNT(CHANNELS)];
+    for (int i = 0; i < COUNT(CHANNELS); i++) {
+        ch[i] = pn_exr_image_channel(&img, CHANNELS[i]);
+        CHECK_MSG(ch[i] != NULL, "channel %s missing", CHANNELS[i]);
+        if (!ch[i])
+            return pn_test_result();
+    }
+    int px = img.width * img.height, covered = 0, nonfinite = 0, lit = 0;
+    for (int i = 0; i < px; i++) {
+        for (int c = 0; c < COUNT(CHANNELS); c++)
+            nonfinite += !isfinite(ch[c][i]);
+        float a = ch[3][i], v = ch[4][i];
+        CHECK_MSG(a == 0.0f || a == 1.0f, "A = %g at %d", a, i);
+        CHECK_MSG(v >= 0.0f && v <= 1.0f, "shadow.V = %g at %d", v, i);
+        if (a == 1.0f) {
+            covered++;
+            double nl = sqrt(ch[8][i] * ch[8][i] + ch[9][i] * ch[9][i] + ch[10][i] * ch[10][i]);
+            CHECK_MSG(fabs(nl - 1) < 1e-3, "|N| = %g at %d", nl, i);
+            CHECK_MSG(ch[14][i] > 0, "Z = %g at %d", ch[14][i], i);
+            CHECK_MSG(ch[0][i] >= 0 && ch[1][i] >= 0 && ch[2][i] >= 0, "negative radiance at %d", i);
+            lit += ch[0][i] > 0;
+        } else {
+            CHECK_MSG(ch[0][i] == 0 && ch[14][i] == 0, "background pixel %d not zero", i);
+        }
+    }
+    CHECK_MSG(nonfinite == 0, "%d non-finite values", nonfinite);
+    CHECK_MSG(covered > px / 4 && covered < px, "%d of %d pixels covered", covered, px);
+    CHECK_MSG(lit > covered / 2, "only %d of %d covered pixels lit", lit, covered);
+    pn_exr_image_free(&img);
+    check_attributes(exr);
+    check_exrheader(exr);
+
+    // Preview: a PNG of the same size (IHDR width/height, big-endian at bytes 16..23).
+    FILE *f = fopen(png, "rb");
+    unsigned char hdr[24] = {0};
+    CHECK(f && fread(hdr, 1, 24, f) == 24);
+    if (f)
+        fclose(f);
+    CHECK(memcmp(hdr + 1, "PNG", 3) == 0);
+    CHECK((hdr[16] << 24 | hdr[17] << 16 | hdr[18] << 8 | hdr[19]) == 200);
+    CHECK((hdr[20] << 24 | hdr[21] << 16 | hdr[22] << 8 | hdr[23]) == 120);
+
+    // --json: one object with the documented keys.
+    char js[4096] = "";
+    f = fopen(json, "r");
+    CHECK(f != NULL);
+    if (f) {
+        size_t n = fread(js, 1, sizeof js - 1, f);
+        js[n] = '\0';
+        fclose(f);
+    }
+    const char *keys[] = {"\"output\":", "\"width\": 200", "\"height\": 120", "\"triangles\":", "\"gpu_ms\": {",
+                          "\"gbuffer\":", "\"shadow\":", "\"shade\":"};
+    for (int i = 0; i < COUNT(keys); i++)
+        CHECK_MSG(strstr(js, keys[i]) != NULL, "JSON lacks %s: %s", keys[i], js);
+    CHECK(js[0] == '{' && strchr(js, '\n') == js + strlen(js) - 1);
+    return pn_test_result();
+}

@@ -1,0 +1,73 @@
+// Minimal test helpers shared by the C tests: checks that count failures, temp paths, running
+// the penumbra binary. Header-only so each test stays one file.
+#pragma once
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+
+static int pn_test_failures = 0;
+
+#define CHECK(cond)                                                                                \
+    do {                                                                                           \
+        if (!(cond)) {                                                                             \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);               \
+            pn_test_failures++;                                                                    \
+        }                                                                                          \
+    } while (0)
+
+#define CHECK_MSG(cond, ...)                                                                       \
+    do {                                                                                           \
+        if (!(cond)) {                                                                             \
+            fprintf(stderr, "%s:%d: CHECK failed: %s: ", __FILE__, __LINE__, #cond);                \
+            fprintf(stderr, __VA_ARGS__);                                                          \
+            fputc('\n', stderr);                                                                   \
+            pn_test_failures++;                                                                    \
+        }                                                                                          \
+    } while (0)
+
+#define TEST_SKIP(...)                                                                             \
+    do {                                                                                           \
+        fprintf(stderr, "SKIP: ");                                                                 \
+        fprintf(stderr, __VA_ARGS__);                                                              \
+        fputc('\n', stderr);                                                                       \
+        exit(77);                                                                                  \
+    } while (0)
+
+static inline int pn_test_result(void)
+{
+    if (pn_test_failures)
+        fprintf(stderr, "%d check(s) failed\n", pn_test_failures);
+    else
+        fprintf(stderr, "all checks passed\n");
+    return pn_test_failures ? 1 : 0;
+}
+
+static inline const char *pn_test_env(const char *name, const char *fallback)
+{
+    const char *v = getenv(name);
+    return v && *v ? v : fallback;
+}
+
+// A path inside the test's scratch folder (PN_TEST_TMP, else /tmp).
+static inline const char *pn_test_tmp(const char *file)
+{
+    static char buf[8][1024];
+    static int slot = 0;
+    char *b = buf[slot++ & 7];
+    snprintf(b, sizeof buf[0], "%s/%s", pn_test_env("PN_TEST_TMP", "/tmp"), file);
+    return b;
+}
+
+// Runs "$PN_BIN <args>" through the shell; returns the exit status (or -1).
+static inline int pn_test_run(const char *args)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "\"%s\" %s", pn_test_env("PN_BIN", "penumbra"), args);
+    fprintf(stderr, "+ penumbra %s\n", args);
+    int st = system(cmd);
+    if (st == -1 || !WIFEXITED(st))
+        return -1;
+    return WEXITSTATUS(st);
+}
