@@ -150,3 +150,23 @@ int pn_parse_choice(const char *opt, const char *s, const char *const *choices)
     pn_error("%s: expected one of %s, got '%s'", opt, list, s);
     return -1;
 }
+
+bool pn_parse_bytes(const char *opt, const char *s, uint64_t *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    double unit = 1048576.0;
+    if (end != s && (*end == 'K' || *end == 'k'))
+        unit = 1024.0, end++;
+    else if (end != s && (*end == 'M' || *end == 'm'))
+        unit = 1048576.0, end++;
+    else if (end != s && (*end == 'G' || *end == 'g'))
+        unit = 1073741824.0, end++;
+    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v) || v <= 0 || v * unit > 1e18) {
+        pn_error("%s: expected a positive size in MiB or with a K/M/G suffix (e.g. 512M, 2G), got '%s'", opt, s);
+        return false;
+    }
+    *out = (uint64_t)(v * unit);
+    return true;
+}

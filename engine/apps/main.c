@@ -14,6 +14,7 @@ static void print_help(void)
            "\n"
            "commands:\n"
            "  render [SCENE]   render a glTF 2.0 scene (.gltf/.glb) or builtin:NAME to an EXR\n"
+           "  build [SCENE]    build the N-tree and line spaces, upload the pools, report sizes and time\n"
            "  info             list the Vulkan devices and the limits that matter\n"
            "  help             this text; `penumbra render --help` for render's options\n"
            "\n"
@@ -36,12 +37,16 @@ int main(int argc, char **argv)
     if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
         if (argc > 2 && !strcmp(argv[2], "render"))
             pn_print_render_help();
+        else if (argc > 2 && !strcmp(argv[2], "build"))
+            pn_print_build_help();
         else
             print_help();
         return PN_EXIT_OK;
     }
     if (!strcmp(cmd, "render"))
         return pn_cmd_render(argc - 2, argv + 2);
+    if (!strcmp(cmd, "build"))
+        return pn_cmd_build(argc - 2, argv + 2);
     if (!strcmp(cmd, "info"))
         return pn_cmd_info(argc - 2, argv + 2);
     pn_error("unknown command '%s' (see penumbra --help)", cmd);

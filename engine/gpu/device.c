@@ -200,7 +200,9 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
     if (vr != VK_SUCCESS && vr != VK_INCOMPLETE)
         VK_CHECK(vr);
 
-    dev->subgroup = (VkPhysicalDeviceSubgroupProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+    dev->maintenance3 = (VkPhysicalDeviceMaintenance3Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+    dev->subgroup = (VkPhysicalDeviceSubgroupProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES,
+                                                         .pNext = &dev->maintenance3};
     VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->subgroup};
     vkGetPhysicalDeviceProperties2(dev->physical, &props2);
     dev->props = props2.properties;
@@ -230,6 +232,7 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
         .pNext = &f13,
         .hostQueryReset = VK_TRUE,
+        .bufferDeviceAddress = VK_TRUE, // the N-tree pools are reached by address (accel/pools.h)
     };
     VkPhysicalDeviceFeatures2 f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &f12};
     float priority = 1.0f;
@@ -332,4 +335,13 @@ uint32_t pn_gpu_memory_type(const pn_gpu_device *dev, uint32_t type_bits, VkMemo
         if ((type_bits & (1u << i)) && (dev->memory.memoryTypes[i].propertyFlags & flags) == flags)
             return i;
     return UINT32_MAX;
+}
+
+VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev)
+{
+    VkDeviceSize heap = 0;
+    for (uint32_t i = 0; i < dev->memory.memoryHeapCount; i++)
+        if ((dev->memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && dev->memory.memoryHeaps[i].size > heap)
+            heap = dev->memory.memoryHeaps[i].size;
+    return heap;
 }

@@ -16,6 +16,7 @@ typedef struct pn_gpu_device {
     VkPhysicalDevice physical;
     VkPhysicalDeviceProperties props;
     VkPhysicalDeviceSubgroupProperties subgroup;
+    VkPhysicalDeviceMaintenance3Properties maintenance3; // maxMemoryAllocationSize
     VkPhysicalDeviceMemoryProperties memory;
     VkDevice device;
     uint32_t queue_family;
@@ -37,6 +38,9 @@ void pn_gpu_device_destroy(pn_gpu_device *dev);
 // substring), else the best by type (discrete, integrated, virtual, CPU) among those with Vulkan
 // 1.3. Writes its index in the enumeration order; logs and fails if none fits.
 pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32_t *index);
+
+// Size of the largest device-local heap.
+VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev);
 
 // One-shot command buffers for uploads and single frames: begin, then submit and wait.
 pn_result pn_gpu_begin_once(pn_gpu_device *dev, VkCommandBuffer *cmd);

@@ -3,7 +3,7 @@
 #include <string.h>
 
 static pn_result allocate(pn_gpu_device *dev, VkMemoryRequirements req, VkMemoryPropertyFlags want,
-                          VkMemoryPropertyFlags fallback, VkDeviceMemory *out)
+                          VkMemoryPropertyFlags fallback, bool device_address, VkDeviceMemory *out)
 {
     uint32_t type = pn_gpu_memory_type(dev, req.memoryTypeBits, want);
     if (type == UINT32_MAX)
@@ -12,8 +12,13 @@ static pn_result allocate(pn_gpu_device *dev, VkMemoryRequirements req, VkMemory
         pn_error("no Vulkan memory type for an allocation of %llu bytes", (unsigned long long)req.size);
         return PN_ERR_VULKAN;
     }
+    VkMemoryAllocateFlagsInfo flags = {
+        .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO,
+        .flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT,
+    };
     VkMemoryAllocateInfo ai = {
         .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+        .pNext = device_address ? &flags : NULL,
         .allocationSize = req.size,
         .memoryTypeIndex = type,
     };
@@ -53,12 +58,17 @@ pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUs
         fallback = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
         break;
     }
-    pn_result r = allocate(dev, req, want, fallback, &out->memory);
+    bool address = (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) != 0;
+    pn_result r = allocate(dev, req, want, fallback, address, &out->memory);
     if (r != PN_OK) {
         pn_gpu_buffer_destroy(dev, out);
         return r;
     }
     VK_CHECK(vkBindBufferMemory(dev->device, out->buffer, out->memory, 0));
+    if (address) {
+        VkBufferDeviceAddressInfo ai = {.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = out->buffer};
+        out->address = vkGetBufferDeviceAddress(dev->device, &ai);
+    }
     if (memory != PN_GPU_DEVICE_LOCAL)
         VK_CHECK(vkMapMemory(dev->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
     return PN_OK;
@@ -125,7 +135,7 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
     VK_CHECK(vkCreateImage(dev->device, &ii, NULL, &out->image));
     VkMemoryRequirements req;
     vkGetImageMemoryRequirements(dev->device, out->image, &req);
-    pn_result r = allocate(dev, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, &out->memory);
+    pn_result r = allocate(dev, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, false, &out->memory);
     if (r != PN_OK) {
         pn_gpu_image_destroy(dev, out);
         return r;

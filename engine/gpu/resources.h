@@ -7,7 +7,8 @@ typedef struct pn_gpu_buffer {
     VkBuffer buffer;
     VkDeviceMemory memory;
     VkDeviceSize size;
-    void *mapped; // non-NULL for host-visible buffers (persistently mapped)
+    void *mapped;           // non-NULL for host-visible buffers (persistently mapped)
+    VkDeviceAddress address; // with VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT in the usage
 } pn_gpu_buffer;
 
 typedef enum pn_gpu_memory { PN_GPU_DEVICE_LOCAL, PN_GPU_HOST_UPLOAD, PN_GPU_HOST_READBACK } pn_gpu_memory;

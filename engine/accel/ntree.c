@@ -1,0 +1,526 @@
+#include "accel/ntree.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/timer.h"
+
+pn_pool_bytes pn_ntree_pool_bytes(int n, uint64_t s)
+{
+    pn_pool_bytes b;
+    b.tree = s * (uint64_t)(n * n * n) * sizeof(uint32_t);
+    b.node = s * 32; // pn_gpu_node, accel/pools.h
+    b.linespace = s * pn_ls_words64(n) * sizeof(uint64_t);
+    b.total = b.tree + b.node + b.linespace;
+    return b;
+}
+
+double pn_ntree_cell_size(const pn_ntree *t, int level) { return t->root_size / pow((double)t->n, level); }
+
+void pn_ntree_cell_box(const pn_ntree *t, int level, const uint64_t coord[3], double lo[3], double hi[3])
+{
+    double cs = pn_ntree_cell_size(t, level);
+    for (int k = 0; k < 3; k++) {
+        lo[k] = t->root_min[k] + (double)coord[k] * cs - t->slack;
+        hi[k] = t->root_min[k] + (double)(coord[k] + 1) * cs + t->slack;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Triangle-box overlap (Akenine-Moller 2001), closed: touching counts as overlapping.
+
+static bool axis_separates(const double v0[3], const double v1[3], const double v2[3], const double a[3],
+                           const double h[3])
+{
+    double p0 = v0[0] * a[0] + v0[1] * a[1] + v0[2] * a[2];
+    double p1 = v1[0] * a[0] + v1[1] * a[1] + v1[2] * a[2];
+    double p2 = v2[0] * a[0] + v2[1] * a[1] + v2[2] * a[2];
+    double mn = fmin(p0, fmin(p1, p2)), mx = fmax(p0, fmax(p1, p2));
+    double r = h[0] * fabs(a[0]) + h[1] * fabs(a[1]) + h[2] * fabs(a[2]);
+    return mn > r || mx < -r; // a zero axis gives 0 > 0: never separates
+}
+
+bool pn_tri_box_overlap(const double tv[3][3], const double lo[3], const double hi[3])
+{
+    double c[3], h[3], v[3][3];
+    for (int k = 0; k < 3; k++) {
+        c[k] = 0.5 * (lo[k] + hi[k]);
+        h[k] = 0.5 * (hi[k] - lo[k]);
+    }
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            v[i][k] = tv[i][k] - c[k];
+    // Box face normals: the triangle's bounds against the box.
+    for (int k = 0; k < 3; k++) {
+        double mn = fmin(v[0][k], fmin(v[1][k], v[2][k])), mx = fmax(v[0][k], fmax(v[1][k], v[2][k]));
+        if (mn > h[k] || mx < -h[k])
+            return false;
+    }
+    double e[3][3];
+    for (int k = 0; k < 3; k++) {
+        e[0][k] = v[1][k] - v[0][k];
+        e[1][k] = v[2][k] - v[1][k];
+        e[2][k] = v[0][k] - v[2][k];
+    }
+    // Edge x box axis: 9 axes.
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) {
+            double axis[3] = {0, 0, 0}, unit[3] = {0, 0, 0};
+            unit[k] = 1;
+            axis[0] = e[i][1] * unit[2] - e[i][2] * unit[1];
+            axis[1] = e[i][2] * unit[0] - e[i][0] * unit[2];
+            axis[2] = e[i][0] * unit[1] - e[i][1] * unit[0];
+            if (axis_separates(v[0], v[1], v[2], axis, h))
+                return false;
+        }
+    // The triangle's plane.
+    double nrm[3] = {e[0][1] * e[1][2] - e[0][2] * e[1][1], e[0][2] * e[1][0] - e[0][0] * e[1][2],
+                     e[0][0] * e[1][1] - e[0][1] * e[1][0]};
+    return !axis_separates(v[0], v[1], v[2], nrm, h);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Occupancy, level by level. Each level's triangle lists are cut into chunks tested in parallel;
+// then each node gathers its chunks' (child, triangle) pairs into per-child lists.
+
+enum { CHUNK = 2048 };
+
+typedef struct level_node {
+    const uint32_t *tris;
+    uint32_t count;
+    uint32_t node; // index into tree->nodes
+} level_node;
+
+typedef struct chunk {
+    uint32_t lnode; // index into the level's node array
+    uint32_t begin, end;
+    uint64_t *pairs; // (child << 32) | triangle
+    uint32_t pair_count, pair_cap;
+    bool failed;
+} chunk;
+
+typedef struct build_ctx {
+    pn_ntree *t;
+    const float (*tri)[9];     // triangle vertices
+    const float (*box)[6];     // triangle bounds lo xyz, hi xyz
+    level_node *lnodes;
+    chunk *chunks;
+    int level; // of the nodes being split
+    bool need_lists;
+    uint32_t **child_lists; // per level node: n^3 + 1 offsets followed by the triangle ids
+    atomic_bool failed;
+} build_ctx;
+
+static bool push_pair(chunk *ch, uint32_t child, uint32_t tri)
+{
+    if (ch->pair_count == ch->pair_cap) {
+        uint32_t cap = ch->pair_cap ? ch->pair_cap * 2 : 4096;
+        uint64_t *p = realloc(ch->pairs, cap * sizeof *p);
+        if (!p)
+            return false;
+        ch->pairs = p;
+        ch->pair_cap = cap;
+    }
+    ch->pairs[ch->pair_count++] = (uint64_t)child << 32 | tri;
+    return true;
+}
+
+static void split_chunks(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    build_ctx *b = ctx;
+    pn_ntree *t = b->t;
+    int n = t->n;
+    double cs = pn_ntree_cell_size(t, b->level + 1);
+    for (uint64_t ci = begin; ci < end; ci++) {
+        chunk *ch = &b->chunks[ci];
+        const level_node *ln = &b->lnodes[ch->lnode];
+        const pn_ntree_node *node = &t->nodes[ln->node];
+        uint64_t base[3];
+        double origin[3];
+        for (int k = 0; k < 3; k++) {
+            base[k] = (uint64_t)node->coord[k] * (uint64_t)n;
+            origin[k] = t->root_min[k] + (double)base[k] * cs;
+        }
+        for (uint32_t i = ch->begin; i < ch->end && !ch->failed; i++) {
+            uint32_t tri = ln->tris[i];
+            const float *bb = b->box[tri];
+            int r0[3], r1[3];
+            bool single = true;
+            for (int k = 0; k < 3; k++) {
+                // Candidate children from the bounds, widened by the slack; the SAT decides.
+                double a = floor(((double)bb[k] - t->slack - origin[k]) / cs);
+                double z = floor(((double)bb[3 + k] + t->slack - origin[k]) / cs);
+                single = single && a == z && a >= 0 && a < n;
+                r0[k] = a < 0 ? 0 : a > n - 1 ? n - 1 : (int)a;
+                r1[k] = z < 0 ? 0 : z > n - 1 ? n - 1 : (int)z;
+            }
+            if (single) { // bounds (grown by the slack) inside one child: it overlaps that child
+                if (!push_pair(ch, (uint32_t)((r0[2] * n + r0[1]) * n + r0[0]), tri))
+                    ch->failed = true;
+                continue;
+            }
+            double v[3][3];
+            for (int j = 0; j < 3; j++)
+                for (int k = 0; k < 3; k++)
+                    v[j][k] = b->tri[tri][3 * j + k];
+            for (int z = r0[2]; z <= r1[2]; z++)
+                for (int y = r0[1]; y <= r1[1]; y++)
+                    for (int x = r0[0]; x <= r1[0]; x++) {
+                        uint64_t cc[3] = {base[0] + (uint64_t)x, base[1] + (uint64_t)y, base[2] + (uint64_t)z};
+                        double lo[3], hi[3];
+                        pn_ntree_cell_box(t, b->level + 1, cc, lo, hi);
+                        if (pn_tri_box_overlap((const double(*)[3])v, lo, hi) &&
+                            !push_pair(ch, (uint32_t)((z * n + y) * n + x), tri))
+                            ch->failed = true;
+                    }
+        }
+        if (ch->failed)
+            atomic_store(&b->failed, true);
+    }
+}
+
+typedef struct node_chunks {
+    uint32_t first, count; // range in the chunk array
+} node_chunks;
+
+typedef struct gather_ctx {
+    build_ctx *b;
+    const node_chunks *nc;
+} gather_ctx;
+
+static void gather_nodes(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    gather_ctx *g = ctx;
+    build_ctx *b = g->b;
+    pn_ntree *t = b->t;
+    uint32_t n3 = (uint32_t)(t->n * t->n * t->n);
+    for (uint64_t li = begin; li < end; li++) {
+        const node_chunks *nc = &g->nc[li];
+        uint32_t node = b->lnodes[li].node;
+        uint32_t *entries = t->children + (size_t)node * n3;
+        // Count per child (entries double as counters until the level is numbered).
+        uint64_t total = 0;
+        for (uint32_t c = nc->first; c < nc->first + nc->count; c++)
+            for (uint32_t i = 0; i < b->chunks[c].pair_count; i++) {
+                entries[b->chunks[c].pairs[i] >> 32]++;
+                total++;
+            }
+        if (!b->need_lists)
+            continue;
+        uint32_t *list = malloc((n3 + 1 + total) * sizeof *list);
+        if (!list) {
+            atomic_store(&b->failed, true);
+            continue;
+        }
+        uint32_t *offset = list, *ids = list + n3 + 1;
+        offset[0] = 0;
+        for (uint32_t c = 0; c < n3; c++)
+            offset[c + 1] = offset[c] + entries[c];
+        uint32_t *fill = calloc(n3, sizeof *fill);
+        if (!fill) {
+            free(list);
+            atomic_store(&b->failed, true);
+            continue;
+        }
+        for (uint32_t c = nc->first; c < nc->first + nc->count; c++)
+            for (uint32_t i = 0; i < b->chunks[c].pair_count; i++) {
+                uint64_t p = b->chunks[c].pairs[i];
+                uint32_t child = (uint32_t)(p >> 32);
+                ids[offset[child] + fill[child]++] = (uint32_t)p;
+            }
+        free(fill);
+        b->child_lists[li] = list;
+    }
+}
+
+static void refuse(const pn_ntree_desc *desc, uint64_t subdivided, bool partial)
+{
+    pn_pool_bytes pb = pn_ntree_pool_bytes(desc->n, subdivided);
+    char hint[128];
+    if (desc->d > 1)
+        snprintf(hint, sizeof hint, "--tree %d,%d or --tree %d,%d", desc->n > 2 ? desc->n - 1 : 2, desc->d,
+                 desc->n, desc->d - 1);
+    else
+        snprintf(hint, sizeof hint, "--tree %d,%d", desc->n > 2 ? desc->n - 1 : 2, desc->d);
+    pn_error("LS(%d,%d) needs %s%.1f MiB of pools (%llu subdivided nodes x %.1f KiB of line space), over the "
+             "limit of %.1f MiB (--max-memory); try a smaller N or d, e.g. %s",
+             desc->n, desc->d, partial ? "at least " : "", (double)pb.total / 1048576.0,
+             (unsigned long long)subdivided, (double)pn_ls_words64(desc->n) * 8 / 1024.0,
+             (double)desc->max_bytes / 1048576.0, hint);
+}
+
+// Copies the triangles into flat arrays (vertices, bounds) for the build's inner loops.
+static pn_result gather_triangles(const pn_scene *s, float (**tri)[9], float (**box)[6])
+{
+    uint32_t n = pn_scene_triangle_count(s);
+    *tri = malloc((size_t)n * sizeof **tri);
+    *box = malloc((size_t)n * sizeof **box);
+    if (!*tri || !*box)
+        return PN_ERR_MEMORY;
+    for (uint32_t i = 0; i < n; i++) {
+        float *v = (*tri)[i], *b = (*box)[i];
+        for (int j = 0; j < 3; j++)
+            memcpy(v + 3 * j, s->vertices[s->indices[3 * i + j]].pos, 3 * sizeof(float));
+        for (int k = 0; k < 3; k++) {
+            b[k] = fminf(v[k], fminf(v[3 + k], v[6 + k]));
+            b[3 + k] = fmaxf(v[k], fmaxf(v[3 + k], v[6 + k]));
+        }
+    }
+    return PN_OK;
+}
+
+static void root_box(const pn_scene *s, pn_ntree *t)
+{
+    float mag = 0, ext = 0;
+    for (int k = 0; k < 3; k++) {
+        mag = fmaxf(mag, fmaxf(fabsf(s->bounds_min[k]), fabsf(s->bounds_max[k])));
+        ext = fmaxf(ext, s->bounds_max[k] - s->bounds_min[k]);
+    }
+    // Positions are floats, and the GPU computes cell boundaries in float: near magnitude `mag`
+    // both are only known to one float ulp there. Four ulps of padding keep every triangle strictly
+    // inside the root, and four ulps of slack on every cell make the occupancy conservative against
+    // that rounding: a triangle within rounding distance of a cell counts as touching it.
+    double ulp = (double)nextafterf(mag, INFINITY) - (double)mag;
+    t->slack = 4 * ulp;
+    t->root_size = (double)ext + 2 * t->slack;
+    for (int k = 0; k < 3; k++)
+        t->root_min[k] = 0.5 * ((double)s->bounds_min[k] + (double)s->bounds_max[k]) - 0.5 * t->root_size;
+}
+
+static pn_result grow_nodes(pn_ntree *t, uint32_t needed, uint32_t *cap)
+{
+    if (needed <= *cap)
+        return PN_OK;
+    uint32_t nc = *cap ? *cap : 64;
+    while (nc < needed)
+        nc = nc > UINT32_MAX / 2 ? UINT32_MAX - 2 : nc * 2;
+    size_t n3 = (size_t)(t->n * t->n * t->n);
+    pn_ntree_node *nodes = realloc(t->nodes, nc * sizeof *nodes);
+    if (!nodes)
+        return PN_ERR_MEMORY;
+    t->nodes = nodes;
+    uint32_t *ch = realloc(t->children, nc * n3 * sizeof *ch);
+    if (!ch)
+        return PN_ERR_MEMORY;
+    memset(ch + (size_t)*cap * n3, 0, (nc - *cap) * n3 * sizeof *ch);
+    t->children = ch;
+    *cap = nc;
+    return PN_OK;
+}
+
+static void free_lists(uint32_t **lists, uint32_t count)
+{
+    for (uint32_t i = 0; lists && i < count; i++)
+        free(lists[i]);
+    free(lists);
+}
+
+static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree *t)
+{
+    float(*tri)[9] = NULL, (*box)[6] = NULL;
+    pn_result r = gather_triangles(s, &tri, &box);
+    uint32_t cap = 0, n3 = (uint32_t)(t->n * t->n * t->n);
+    uint32_t *all = NULL;
+    level_node *lnodes = NULL;
+    uint32_t **parent_lists = NULL, parent_count = 0, lcount = 1;
+    if (r == PN_OK)
+        r = grow_nodes(t, 1, &cap);
+    if (r == PN_OK && !(all = malloc((size_t)t->triangles * sizeof *all)))
+        r = PN_ERR_MEMORY;
+    if (r == PN_OK && !(lnodes = malloc(sizeof *lnodes)))
+        r = PN_ERR_MEMORY;
+    if (r == PN_OK) {
+        for (uint32_t i = 0; i < t->triangles; i++)
+            all[i] = i;
+        t->nodes[0] = (pn_ntree_node){0, {0, 0, 0}};
+        t->node_count = 1;
+        t->filled_per_level[0] = 1;
+        lnodes[0] = (level_node){all, t->triangles, 0};
+    }
+    for (int level = 0; r == PN_OK && level < t->d; level++) {
+        // Chunks of every node's list.
+        uint64_t nchunks = 0;
+        for (uint32_t i = 0; i < lcount; i++)
+            nchunks += (lnodes[i].count + CHUNK - 1) / CHUNK;
+        chunk *chunks = calloc(nchunks ? nchunks : 1, sizeof *chunks);
+        node_chunks *nc = calloc(lcount, sizeof *nc);
+        uint32_t **lists = calloc(lcount, sizeof *lists);
+        if (!chunks || !nc || !lists) {
+            free(chunks), free(nc), free(lists);
+            r = PN_ERR_MEMORY;
+            break;
+        }
+        uint64_t c = 0;
+        for (uint32_t i = 0; i < lcount; i++) {
+            nc[i].first = (uint32_t)c;
+            for (uint32_t b = 0; b < lnodes[i].count; b += CHUNK) {
+                chunks[c++] = (chunk){.lnode = i, .begin = b, .end = b + CHUNK < lnodes[i].count ? b + CHUNK : lnodes[i].count};
+                nc[i].count++;
+            }
+        }
+        build_ctx b = {.t = t, .tri = (const float(*)[9])tri, .box = (const float(*)[6])box, .lnodes = lnodes,
+                       .chunks = chunks, .level = level, .need_lists = level + 1 < t->d, .child_lists = lists};
+        atomic_init(&b.failed, false);
+        pn_parallel_for(nchunks, 1, split_chunks, &b);
+        gather_ctx g = {&b, nc};
+        pn_parallel_for(lcount, 1, gather_nodes, &g);
+        for (uint64_t i = 0; i < nchunks; i++)
+            free(chunks[i].pairs);
+        free(chunks);
+        free(nc);
+        if (atomic_load(&b.failed)) {
+            free_lists(lists, lcount);
+            r = PN_ERR_MEMORY;
+            break;
+        }
+        // Number the filled children breadth-first; those above the last level become nodes.
+        uint64_t filled = 0;
+        for (uint32_t i = 0; i < lcount; i++)
+            for (uint32_t k = 0; k < n3; k++)
+                filled += t->children[(size_t)lnodes[i].node * n3 + k] != 0;
+        t->filled_per_level[level + 1] = filled;
+        bool last = level + 1 == t->d;
+        uint64_t subdivided = t->node_count + (last ? 0 : filled);
+        if (desc->max_bytes && pn_ntree_pool_bytes(t->n, subdivided).total > desc->max_bytes) {
+            refuse(desc, subdivided, !last);
+            free_lists(lists, lcount);
+            r = PN_ERR_MEMORY;
+            break;
+        }
+        if (subdivided > UINT32_MAX - 2 || (!last && (r = grow_nodes(t, (uint32_t)subdivided, &cap)) != PN_OK)) {
+            free_lists(lists, lcount);
+            r = PN_ERR_MEMORY;
+            break;
+        }
+        level_node *next = last ? NULL : malloc((filled ? filled : 1) * sizeof *next);
+        if (!last && !next) {
+            free_lists(lists, lcount);
+            r = PN_ERR_MEMORY;
+            break;
+        }
+        uint32_t nn = 0;
+        for (uint32_t i = 0; i < lcount; i++) {
+            const pn_ntree_node parent = t->nodes[lnodes[i].node];
+            uint32_t *entries = t->children + (size_t)lnodes[i].node * n3;
+            for (uint32_t k = 0; k < n3; k++) {
+                if (!entries[k])
+                    continue;
+                if (last) {
+                    entries[k] = PN_CELL_FILLED;
+                    continue;
+                }
+                uint32_t idx = t->node_count++;
+                uint32_t xyz[3] = {k % (uint32_t)t->n, k / (uint32_t)t->n % (uint32_t)t->n, k / (uint32_t)(t->n * t->n)};
+                t->nodes[idx].level = (uint32_t)level + 1;
+                for (int a = 0; a < 3; a++)
+                    t->nodes[idx].coord[a] = parent.coord[a] * (uint32_t)t->n + xyz[a];
+                entries[k] = PN_CELL_NODE(idx);
+                const uint32_t *off = lists[i];
+                next[nn++] = (level_node){off + n3 + 1 + off[k], off[k + 1] - off[k], idx};
+            }
+        }
+        // The lists of the level above were only referenced by this level's nodes.
+        free_lists(parent_lists, parent_count);
+        free(all);
+        all = NULL;
+        parent_lists = lists;
+        parent_count = lcount;
+        free(lnodes);
+        lnodes = next;
+        lcount = nn;
+    }
+    free_lists(parent_lists, parent_count);
+    free(all);
+    free(lnodes);
+    free(tri);
+    free(box);
+    return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Line spaces: OR of the shaft masks of each node's filled children.
+
+typedef struct ls_ctx {
+    pn_ntree *t;
+    const pn_ls_masks *masks;
+    atomic_uint_fast64_t set_bits;
+} ls_ctx;
+
+static void build_linespaces(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    ls_ctx *c = ctx;
+    pn_ntree *t = c->t;
+    uint32_t n3 = (uint32_t)(t->n * t->n * t->n), w = t->words64;
+    uint64_t bits = 0;
+    for (uint64_t i = begin; i < end; i++) {
+        uint64_t *ls = t->linespaces + i * w;
+        const uint32_t *entries = t->children + i * n3;
+        for (uint32_t k = 0; k < n3; k++) {
+            if (entries[k] == PN_CELL_EMPTY)
+                continue;
+            const uint64_t *m = c->masks->bits + (size_t)k * w;
+            for (uint32_t j = 0; j < w; j++)
+                ls[j] |= m[j];
+        }
+        for (uint32_t j = 0; j < w; j++)
+            bits += (uint64_t)__builtin_popcountll(ls[j]);
+    }
+    atomic_fetch_add(&c->set_bits, bits);
+}
+
+pn_result pn_ntree_build(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree *t)
+{
+    memset(t, 0, sizeof *t);
+    if (desc->n < 2 || desc->n > 16 || desc->d < 1 || desc->d > PN_NTREE_MAX_DEPTH) {
+        pn_error("N-tree: N = %d, d = %d outside N in [2, 16], d in [1, %d]", desc->n, desc->d, PN_NTREE_MAX_DEPTH);
+        return PN_ERR_INVALID;
+    }
+    uint64_t t0 = pn_time_ns();
+    t->n = desc->n;
+    t->d = desc->d;
+    t->triangles = pn_scene_triangle_count(s);
+    t->words64 = pn_ls_words64(t->n);
+    root_box(s, t);
+
+    pn_result r = build_occupancy(s, desc, t);
+    t->occupancy_ms = pn_ms_since(t0);
+    pn_ls_masks masks = {0};
+    if (r == PN_OK) {
+        uint64_t t1 = pn_time_ns();
+        r = pn_ls_masks_create(t->n, &masks);
+        t->masks_ms = pn_ms_since(t1);
+    }
+    if (r == PN_OK && !(t->linespaces = calloc((size_t)t->node_count * t->words64, sizeof(uint64_t))))
+        r = PN_ERR_MEMORY;
+    if (r == PN_OK) {
+        uint64_t t2 = pn_time_ns();
+        ls_ctx c = {.t = t, .masks = &masks};
+        atomic_init(&c.set_bits, 0);
+        pn_parallel_for(t->node_count, 16, build_linespaces, &c);
+        t->set_bits = atomic_load(&c.set_bits);
+        t->linespace_ms = pn_ms_since(t2);
+    }
+    pn_ls_masks_destroy(&masks);
+    if (r != PN_OK) {
+        if (r == PN_ERR_MEMORY && t->node_count && !desc->max_bytes)
+            pn_error("N-tree LS(%d,%d): out of memory", desc->n, desc->d);
+        pn_ntree_destroy(t);
+        return r;
+    }
+    t->build_ms = pn_ms_since(t0);
+    return PN_OK;
+}
+
+void pn_ntree_destroy(pn_ntree *t)
+{
+    free(t->nodes);
+    free(t->children);
+    free(t->linespaces);
+    memset(t, 0, sizeof *t);
+}

@@ -1,0 +1,66 @@
+// The N-tree: a recursive grid over the scene's triangles. The root box (the scene bounds made
+// cubic) is split into N^3 children; a child that holds geometry is split again, down to depth d.
+// Children at level d are leaves, filled or empty. Every subdivided node gets a line space.
+#pragma once
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "accel/linespace.h"
+#include "core/error.h"
+#include "scene/scene.h"
+
+#define PN_NTREE_MAX_DEPTH 6
+
+// Child entries of the tree (also the GPU tree pool's encoding).
+#define PN_CELL_EMPTY 0u
+#define PN_CELL_FILLED 1u                 // a filled leaf
+#define PN_CELL_NODE(i) ((uint32_t)(i) + 2u) // a subdivided child: node index i
+
+typedef struct pn_ntree_desc {
+    int n, d;           // branching factor 2..16, depth 1..6
+    uint64_t max_bytes; // refuse a tree whose pools would exceed this; 0 = no limit
+} pn_ntree_desc;
+
+typedef struct pn_ntree_node {
+    uint32_t level;    // root = 0
+    uint32_t coord[3]; // cell coordinates at its level: box = root_min + coord * cell_size(level)
+} pn_ntree_node;
+
+// Bytes of the GPU pools for `subdivided` nodes (see accel/pools.h for their layout).
+typedef struct pn_pool_bytes {
+    uint64_t tree, node, linespace, total;
+} pn_pool_bytes;
+
+typedef struct pn_ntree {
+    int n, d;
+    double root_min[3];
+    double root_size; // edge of the cubic root box
+    double slack;     // every cell is grown by this for the occupancy test (see ntree.c)
+    uint32_t triangles;
+    uint32_t node_count;  // subdivided nodes, breadth-first, root = 0
+    pn_ntree_node *nodes; // node_count
+    uint32_t *children;   // node_count * n^3 child entries, child c = (z*n + y)*n + x
+    uint32_t words64;     // 64-bit words per line space
+    uint64_t *linespaces; // node_count * words64
+    uint64_t filled_per_level[PN_NTREE_MAX_DEPTH + 1]; // filled cells at level 0..d
+    uint64_t set_bits;                                 // over all line spaces
+    double occupancy_ms, masks_ms, linespace_ms, build_ms;
+} pn_ntree;
+
+pn_pool_bytes pn_ntree_pool_bytes(int n, uint64_t subdivided_nodes);
+
+// Builds the tree over the scene's triangles on all cores. PN_ERR_INVALID for N or d out of range;
+// PN_ERR_MEMORY (with a logged estimate and a suggestion) when the pools would exceed max_bytes.
+pn_result pn_ntree_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_ntree *out);
+void pn_ntree_destroy(pn_ntree *tree);
+
+// Edge length of a cell at `level` (root = level 0).
+double pn_ntree_cell_size(const pn_ntree *t, int level);
+
+// The closed box of the cell with integer coordinates `coord` at `level`, grown by t->slack.
+// The build and the tests' oracle share it so that both see exactly the same boxes.
+void pn_ntree_cell_box(const pn_ntree *t, int level, const uint64_t coord[3], double lo[3], double hi[3]);
+
+// Exact separating-axis test of a triangle against the closed box [lo, hi] (Akenine-Moller), in
+// double precision; degenerate triangles (segments, points) are handled by skipping zero axes.
+bool pn_tri_box_overlap(const double v[3][3], const double lo[3], const double hi[3]);

@@ -1,0 +1,51 @@
+// The N-tree's GPU pools (after Crassin's octree pools), declared once here and once in
+// shaders/glsl/pools.glsl; tests/test_pools.c checks that both agree on sizes and offsets.
+//
+//   tree pool:      uint32 entries, N^3 per subdivided node (its children group, child
+//                   c = (z*N + y)*N + x): PN_CELL_EMPTY, PN_CELL_FILLED (a filled leaf) or
+//                   PN_CELL_NODE(i) (subdivided child i). Node i's group starts at i * N^3.
+//   node pool:      one pn_gpu_node per subdivided node, breadth-first, root = 0.
+//   line-space pool: node i's line space is 32-bit words [i * W, (i+1) * W), W = 2 * pn_ls_words64(N);
+//                   bit layout in accel/linespace.h.
+// Pools are reached through buffer device addresses, so none is bound by the 128 MiB
+// maxStorageBufferRange of lavapipe; a pool larger than the device's maxMemoryAllocationSize is
+// refused (never truncated).
+#pragma once
+#include <stdint.h>
+
+#include "accel/ntree.h"
+
+typedef struct pn_gpu_node {
+    float min[3];          // box corner; the box is a cube
+    float size;            // edge length
+    uint32_t children;     // index of its first entry in the tree pool
+    uint32_t level;        // root = 0
+    uint32_t linespace;    // index of its first word in the line-space pool
+    uint32_t parent;       // node index, or UINT32_MAX for the root
+} pn_gpu_node;             // std430: 32 bytes, 16-byte aligned
+
+// Everything a shader needs to walk the pools (mirrors TreeInfo in pools.glsl).
+typedef struct pn_gpu_tree_info {
+    float root_min[3];
+    float root_size;
+    uint32_t n, d;
+    uint32_t ls_words;   // 32-bit words per line space
+    uint32_t node_count;
+    uint64_t node_pool;  // buffer device addresses
+    uint64_t tree_pool;
+    uint64_t ls_pool;
+    uint64_t pad;
+} pn_gpu_tree_info;      // 64 bytes
+
+// The pools as plain bytes, ready to upload. `tree` and `linespace` point into the tree (no copy);
+// `nodes` is allocated here.
+typedef struct pn_pools {
+    pn_gpu_node *nodes;
+    const uint32_t *tree;
+    const uint32_t *linespace;
+    pn_pool_bytes bytes;
+    pn_gpu_tree_info info; // addresses left 0 until uploaded
+} pn_pools;
+
+pn_result pn_pools_pack(const pn_ntree *tree, pn_pools *out);
+void pn_pools_destroy(pn_pools *pools);

@@ -1,0 +1,138 @@
+// penumbra build: builds the N-tree and its line spaces over a scene, uploads the pools and reports
+// their size, occupancy and build time.
+#include <stdio.h>
+#include <string.h>
+
+#include "accel/pools.h"
+#include "apps/args.h"
+#include "apps/commands.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "gpu/pools.h"
+#include "io/json.h"
+
+void pn_print_build_help(void)
+{
+    printf("usage: penumbra build [SCENE] [options]\n"
+           "  Builds the N-tree with line spaces over SCENE (glTF or builtin:NAME, default builtin:default),\n"
+           "  uploads its pools to the GPU and reports per-level node counts, pool bytes, the share of set\n"
+           "  line-space bits and the build time.\n"
+           "  --tree N,d         branching factor 2..16, depth 1..6 (default 7,3)\n"
+           "  --max-memory SIZE  refuse a tree whose pools exceed SIZE (MiB, or K/M/G suffix);\n"
+           "                     default: half the device's largest memory heap\n"
+           "  --ground, --no-ground   include the receiver plane render adds (default: on)\n"
+           "  --no-upload        build on the CPU only (no Vulkan device needed; default limit 1G)\n"
+           "  --json             print one JSON object instead of the table\n"
+           "  PN_THREADS=K       build threads (default: all cores)\n");
+}
+
+int pn_cmd_build(int argc, char **argv)
+{
+    const char *source = NULL;
+    int n = 7, d = 3;
+    uint64_t max_bytes = 0;
+    bool json = false, ground = true, upload = true;
+    pn_args a = {argc, argv, 0};
+    while (a.i < argc) {
+        const char *v = NULL, *arg = argv[a.i];
+        bool err = false, ok = true;
+        if (pn_args_flag(&a, "--help") || pn_args_flag(&a, "-h")) {
+            pn_print_build_help();
+            return PN_EXIT_OK;
+        } else if (pn_args_value(&a, "--tree", &v, &err)) {
+            ok = v && pn_parse_tree("--tree", v, &n, &d);
+        } else if (pn_args_value(&a, "--max-memory", &v, &err)) {
+            ok = v && pn_parse_bytes("--max-memory", v, &max_bytes);
+        } else if (pn_args_flag(&a, "--json")) {
+            json = true;
+        } else if (pn_args_flag(&a, "--ground")) {
+            ground = true;
+        } else if (pn_args_flag(&a, "--no-ground")) {
+            ground = false;
+        } else if (pn_args_flag(&a, "--no-upload")) {
+            upload = false;
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            pn_error("build: unknown option '%s' (see penumbra build --help)", arg);
+            return PN_EXIT_USAGE;
+        } else if (!source) {
+            source = arg;
+            a.i++;
+        } else {
+            pn_error("build: more than one scene given ('%s' and '%s')", source, arg);
+            return PN_EXIT_USAGE;
+        }
+        if (err || !ok)
+            return PN_EXIT_USAGE;
+    }
+    if (!source)
+        source = "builtin:default";
+
+    pn_scene scene;
+    if (pn_scene_load(source, &scene) != PN_OK)
+        return PN_EXIT_FAILURE;
+    if (ground && pn_scene_add_ground(&scene, 6.0f) != PN_OK) {
+        pn_error("%s: out of memory adding the ground plane", scene.name);
+        pn_scene_destroy(&scene);
+        return PN_EXIT_FAILURE;
+    }
+    pn_gpu_device dev = {0};
+    pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
+    if (upload && pn_gpu_device_create(&desc, &dev) != PN_OK) {
+        pn_scene_destroy(&scene);
+        return PN_EXIT_FAILURE;
+    }
+    if (!max_bytes) // default: half the device's memory, leaving room for the frame's images
+        max_bytes = upload ? pn_gpu_device_heap(&dev) / 2 : (1ull << 30);
+
+    int rc = PN_EXIT_FAILURE;
+    pn_ntree tree;
+    pn_pools pools = {0};
+    pn_gpu_pools gpu = {0};
+    if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes}, &tree) == PN_OK) {
+        if (pn_pools_pack(&tree, &pools) == PN_OK && (!upload || pn_gpu_pools_create(&dev, &pools, &gpu) == PN_OK))
+            rc = PN_EXIT_OK;
+        double share = tree.node_count ? (double)tree.set_bits / ((double)tree.node_count * pn_ls_bits(n)) : 0;
+        if (rc == PN_EXIT_OK && json) {
+            printf("{\"scene\": ");
+            pn_json_string(stdout, scene.name);
+            printf(", \"n\": %d, \"d\": %d, \"triangles\": %u, \"threads\": %u, \"filled_per_level\": [", n, d,
+                   tree.triangles, pn_parallel_threads());
+            for (int l = 0; l <= d; l++)
+                printf("%s%llu", l ? ", " : "", (unsigned long long)tree.filled_per_level[l]);
+            printf("], \"nodes_per_level\": [");
+            for (int l = 0; l < d; l++)
+                printf("%s%llu", l ? ", " : "", (unsigned long long)tree.filled_per_level[l]);
+            printf("], \"subdivided_nodes\": %u, \"pool_bytes\": {\"tree\": %llu, \"node\": %llu, \"linespace\": %llu, "
+                   "\"total\": %llu}, \"set_bit_share\": %.6f, \"build_ms\": %.3f, \"occupancy_ms\": %.3f, "
+                   "\"masks_ms\": %.3f, \"linespace_ms\": %.3f, \"uploaded\": %s}\n",
+                   tree.node_count, (unsigned long long)pools.bytes.tree, (unsigned long long)pools.bytes.node,
+                   (unsigned long long)pools.bytes.linespace, (unsigned long long)pools.bytes.total, share,
+                   tree.build_ms, tree.occupancy_ms, tree.masks_ms, tree.linespace_ms, upload ? "true" : "false");
+        } else if (rc == PN_EXIT_OK) {
+            printf("%s: %u triangles, LS(%d,%d), %u threads\n", scene.name, tree.triangles, n, d, pn_parallel_threads());
+            printf("  level  filled cells  subdivided\n");
+            for (int l = 0; l <= d; l++)
+                printf("  %5d  %12llu  %10llu\n", l, (unsigned long long)tree.filled_per_level[l],
+                       (unsigned long long)(l < d ? tree.filled_per_level[l] : 0));
+            printf("  subdivided nodes: %u\n", tree.node_count);
+            printf("  pools: tree %.2f MiB, node %.2f MiB, line space %.2f MiB, total %.2f MiB%s\n",
+                   pools.bytes.tree / 1048576.0, pools.bytes.node / 1048576.0, pools.bytes.linespace / 1048576.0,
+                   pools.bytes.total / 1048576.0, upload ? " (uploaded)" : "");
+            printf("  set line-space bits: %.2f%%\n", 100 * share);
+            printf("  build: %.1f ms (occupancy %.1f, shaft masks %.1f, line spaces %.1f)\n", tree.build_ms,
+                   tree.occupancy_ms, tree.masks_ms, tree.linespace_ms);
+        }
+        pn_gpu_pools_destroy(&dev, &gpu);
+        pn_pools_destroy(&pools);
+        pn_ntree_destroy(&tree);
+    }
+    pn_scene_destroy(&scene);
+    if (upload) {
+        pn_gpu_device_destroy(&dev);
+        if (dev.validation_messages) {
+            pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);
+            return PN_EXIT_VALIDATION;
+        }
+    }
+    return rc;
+}
