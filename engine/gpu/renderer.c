@@ -179,25 +179,6 @@ static pn_result pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, 
     return PN_OK;
 }
 
-static pn_result compute_pipeline(pn_gpu_device *dev, const uint32_t *code, size_t size, VkPipelineLayout layout,
-                                  VkPipeline *out)
-{
-    VkShaderModule module;
-    PN_TRY(shader_module(dev, code, size, &module));
-    VkComputePipelineCreateInfo ci = {
-        .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                  .stage = VK_SHADER_STAGE_COMPUTE_BIT,
-                  .module = module,
-                  .pName = "main"},
-        .layout = layout,
-    };
-    VkResult vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, out);
-    vkDestroyShaderModule(dev->device, module, NULL);
-    VK_CHECK(vr);
-    return PN_OK;
-}
-
 static pn_result gbuffer_pipeline(pn_renderer *r)
 {
     pn_gpu_device *dev = r->dev;
@@ -300,16 +281,6 @@ static pn_result gbuffer_pipeline(pn_renderer *r)
     return PN_OK;
 }
 
-static VkDescriptorSetLayoutBinding storage_image(uint32_t binding)
-{
-    return (VkDescriptorSetLayoutBinding){
-        .binding = binding,
-        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-        .descriptorCount = 1,
-        .stageFlags = VK_SHADER_STAGE_COMPUTE_BIT,
-    };
-}
-
 static pn_result create_pipelines(pn_renderer *r)
 {
     pn_gpu_device *dev = r->dev;
@@ -321,43 +292,55 @@ static pn_result create_pipelines(pn_renderer *r)
          .stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT},
     };
     PN_TRY(set_layout(dev, gb, 2, &r->gbuffer_set_layout));
-    VkDescriptorSetLayoutBinding sh[3] = {storage_image(0), storage_image(1), storage_image(2)};
-    PN_TRY(set_layout(dev, sh, 3, &r->shadow_set_layout));
-    VkDescriptorSetLayoutBinding sd[5] = {storage_image(0), storage_image(1), storage_image(2), storage_image(3), storage_image(4)};
-    PN_TRY(set_layout(dev, sd, 5, &r->shade_set_layout));
-
     PN_TRY(pipeline_layout(dev, r->gbuffer_set_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
                            sizeof(pn_gbuffer_push), &r->gbuffer_layout));
-    PN_TRY(pipeline_layout(dev, r->shadow_set_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, &r->shadow_layout));
-    PN_TRY(pipeline_layout(dev, r->shade_set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(pn_light_gpu), &r->shade_layout));
-
     PN_TRY(gbuffer_pipeline(r));
-    PN_TRY(compute_pipeline(dev, pn_spv_shadow_none_comp, sizeof pn_spv_shadow_none_comp, r->shadow_layout,
-                            &r->shadow_pipeline));
-    PN_TRY(compute_pipeline(dev, pn_spv_shade_comp, sizeof pn_spv_shade_comp, r->shade_layout, &r->shade_pipeline));
 
-    VkDescriptorPoolSize sizes[3] = {
+    const VkDescriptorSetLayoutBinding img[5] = {
+        {.binding = 0, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+        {.binding = 1, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+        {.binding = 2, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+        {.binding = 3, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+        {.binding = 4, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+    };
+    PN_TRY(pn_gpu_compute_create(dev,
+                                 &(pn_gpu_compute_desc){.spirv = pn_spv_shadow_none_comp,
+                                                        .spirv_size = sizeof pn_spv_shadow_none_comp,
+                                                        .bindings = img,
+                                                        .binding_count = 3},
+                                 &r->shadow));
+    PN_TRY(pn_gpu_compute_create(dev,
+                                 &(pn_gpu_compute_desc){.spirv = pn_spv_shade_comp,
+                                                        .spirv_size = sizeof pn_spv_shade_comp,
+                                                        .bindings = img,
+                                                        .binding_count = 5,
+                                                        .push_size = sizeof(pn_light_gpu)},
+                                 &r->shade));
+    const pn_gpu_image *shadow_imgs[3] = {&r->p, &r->n, &r->v};
+    for (uint32_t i = 0; i < 3; i++)
+        pn_gpu_compute_write_image(dev, &r->shadow, i, shadow_imgs[i]->view);
+    const pn_gpu_image *shade_imgs[5] = {&r->p, &r->n, &r->albedo, &r->v, &r->radiance};
+    for (uint32_t i = 0; i < 5; i++)
+        pn_gpu_compute_write_image(dev, &r->shade, i, shade_imgs[i]->view);
+
+    VkDescriptorPoolSize sizes[2] = {
         {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1},
         {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, r->texture_count},
-        {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 8},
     };
     VkDescriptorPoolCreateInfo pi = {
         .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-        .maxSets = 3,
-        .poolSizeCount = 3,
+        .maxSets = 1,
+        .poolSizeCount = 2,
         .pPoolSizes = sizes,
     };
     VK_CHECK(vkCreateDescriptorPool(dev->device, &pi, NULL, &r->descriptor_pool));
-    VkDescriptorSetLayout layouts[3] = {r->gbuffer_set_layout, r->shadow_set_layout, r->shade_set_layout};
-    VkDescriptorSet sets[3];
     VkDescriptorSetAllocateInfo ai = {
         .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
         .descriptorPool = r->descriptor_pool,
-        .descriptorSetCount = 3,
-        .pSetLayouts = layouts,
+        .descriptorSetCount = 1,
+        .pSetLayouts = &r->gbuffer_set_layout,
     };
-    VK_CHECK(vkAllocateDescriptorSets(dev->device, &ai, sets));
-    r->gbuffer_set = sets[0], r->shadow_set = sets[1], r->shade_set = sets[2];
+    VK_CHECK(vkAllocateDescriptorSets(dev->device, &ai, &r->gbuffer_set));
 
     VkDescriptorImageInfo *tex = calloc(r->texture_count, sizeof *tex);
     if (!tex)
@@ -365,26 +348,13 @@ static pn_result create_pipelines(pn_renderer *r)
     for (uint32_t i = 0; i < r->texture_count; i++)
         tex[i] = (VkDescriptorImageInfo){r->sampler, r->textures[i].view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     VkDescriptorBufferInfo mat = {r->materials.buffer, 0, VK_WHOLE_SIZE};
-    const pn_gpu_image *shadow_imgs[3] = {&r->p, &r->n, &r->v};
-    const pn_gpu_image *shade_imgs[5] = {&r->p, &r->n, &r->albedo, &r->v, &r->radiance};
-    VkDescriptorImageInfo img[8];
-    VkWriteDescriptorSet w[10];
+    VkWriteDescriptorSet w[2];
     uint32_t nw = 0;
     w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = r->gbuffer_set, .dstBinding = 0,
                                      .descriptorCount = 1, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, .pBufferInfo = &mat};
     w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, .dstSet = r->gbuffer_set, .dstBinding = 1,
                                      .descriptorCount = r->texture_count,
                                      .descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, .pImageInfo = tex};
-    for (uint32_t i = 0; i < 8; i++) {
-        const pn_gpu_image *src = i < 3 ? shadow_imgs[i] : shade_imgs[i - 3];
-        img[i] = (VkDescriptorImageInfo){VK_NULL_HANDLE, src->view, VK_IMAGE_LAYOUT_GENERAL};
-        w[nw++] = (VkWriteDescriptorSet){.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
-                                         .dstSet = i < 3 ? r->shadow_set : r->shade_set,
-                                         .dstBinding = i < 3 ? i : i - 3,
-                                         .descriptorCount = 1,
-                                         .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-                                         .pImageInfo = &img[i]};
-    }
     vkUpdateDescriptorSets(dev->device, nw, w, 0, NULL);
     free(tex);
     return PN_OK;
@@ -432,17 +402,14 @@ void pn_renderer_destroy(pn_renderer *r)
         vkFreeCommandBuffers(d, dev->cmd_pool, 1, &r->cmd);
     if (r->timestamps)
         vkDestroyQueryPool(d, r->timestamps, NULL);
-    VkPipeline pipes[3] = {r->gbuffer_pipeline, r->shadow_pipeline, r->shade_pipeline};
-    VkPipelineLayout pls[3] = {r->gbuffer_layout, r->shadow_layout, r->shade_layout};
-    VkDescriptorSetLayout sls[3] = {r->gbuffer_set_layout, r->shadow_set_layout, r->shade_set_layout};
-    for (int i = 0; i < 3; i++) {
-        if (pipes[i])
-            vkDestroyPipeline(d, pipes[i], NULL);
-        if (pls[i])
-            vkDestroyPipelineLayout(d, pls[i], NULL);
-        if (sls[i])
-            vkDestroyDescriptorSetLayout(d, sls[i], NULL);
-    }
+    pn_gpu_compute_destroy(dev, &r->shadow);
+    pn_gpu_compute_destroy(dev, &r->shade);
+    if (r->gbuffer_pipeline)
+        vkDestroyPipeline(d, r->gbuffer_pipeline, NULL);
+    if (r->gbuffer_layout)
+        vkDestroyPipelineLayout(d, r->gbuffer_layout, NULL);
+    if (r->gbuffer_set_layout)
+        vkDestroyDescriptorSetLayout(d, r->gbuffer_set_layout, NULL);
     if (r->descriptor_pool)
         vkDestroyDescriptorPool(d, r->descriptor_pool, NULL);
     pn_gpu_image *imgs[6] = {&r->p, &r->n, &r->albedo, &r->depth, &r->v, &r->radiance};
@@ -590,19 +557,14 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_image_barrier(&r->albedo, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, GENERAL, GENERAL),
     };
     pn_gpu_cmd_barrier(cmd, NULL, 3, to_compute);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->shadow_pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->shadow_layout, 0, 1, &r->shadow_set, 0, NULL);
-    vkCmdDispatch(cmd, gx, gy, 1);
+    pn_gpu_compute_dispatch(cmd, &r->shadow, 0, NULL, gx, gy, 1);
     vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_SHADOW);
 
     // --- shade: reads P, N, albedo, V; writes radiance
     VkImageMemoryBarrier2 v_ready =
         pn_gpu_image_barrier(&r->v, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, GENERAL, GENERAL);
     pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->shade_pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->shade_layout, 0, 1, &r->shade_set, 0, NULL);
-    vkCmdPushConstants(cmd, r->shade_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof *light, light);
-    vkCmdDispatch(cmd, gx, gy, 1);
+    pn_gpu_compute_dispatch(cmd, &r->shade, sizeof *light, light, gx, gy, 1);
     vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_SHADE);
 
     // --- readback

@@ -1,6 +1,7 @@
 // One frame of penumbra: G-buffer raster pass, shadow compute pass, shading compute pass,
 // readback. Shared by render, demo and bench.
 #pragma once
+#include "gpu/compute.h"
 #include "gpu/resources.h"
 #include "scene/scene.h"
 #include "scene/view.h"
@@ -35,10 +36,11 @@ typedef struct pn_renderer {
     pn_gpu_buffer readback;
 
     VkDescriptorPool descriptor_pool;
-    VkDescriptorSetLayout gbuffer_set_layout, shadow_set_layout, shade_set_layout;
-    VkDescriptorSet gbuffer_set, shadow_set, shade_set;
-    VkPipelineLayout gbuffer_layout, shadow_layout, shade_layout;
-    VkPipeline gbuffer_pipeline, shadow_pipeline, shade_pipeline;
+    VkDescriptorSetLayout gbuffer_set_layout;
+    VkDescriptorSet gbuffer_set;
+    VkPipelineLayout gbuffer_layout;
+    VkPipeline gbuffer_pipeline;
+    pn_gpu_compute shadow, shade;
     VkQueryPool timestamps;
     VkCommandBuffer cmd;
 } pn_renderer;

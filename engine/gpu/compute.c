@@ -1,0 +1,136 @@
+#include "gpu/compute.h"
+
+#include <string.h>
+
+pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out)
+{
+    memset(out, 0, sizeof *out);
+    VkDescriptorSetLayoutBinding b[16];
+    VkDescriptorPoolSize sizes[16];
+    if (desc->binding_count > 16)
+        return PN_ERR_INVALID;
+    for (uint32_t i = 0; i < desc->binding_count; i++) {
+        b[i] = desc->bindings[i];
+        if (!b[i].stageFlags)
+            b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+        if (!b[i].descriptorCount)
+            b[i].descriptorCount = 1;
+        sizes[i] = (VkDescriptorPoolSize){b[i].descriptorType, b[i].descriptorCount};
+    }
+    pn_result r = PN_ERR_VULKAN;
+    VkShaderModule module = VK_NULL_HANDLE;
+    VkDescriptorSetLayoutCreateInfo sl = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+        .bindingCount = desc->binding_count,
+        .pBindings = b,
+    };
+    VkPushConstantRange range = {.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT, .size = desc->push_size};
+    VkShaderModuleCreateInfo mi = {
+        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+        .codeSize = desc->spirv_size,
+        .pCode = desc->spirv,
+    };
+    VkResult vr = vkCreateDescriptorSetLayout(dev->device, &sl, NULL, &out->set_layout);
+    if (vr == VK_SUCCESS) {
+        VkPipelineLayoutCreateInfo pl = {
+            .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+            .setLayoutCount = 1,
+            .pSetLayouts = &out->set_layout,
+            .pushConstantRangeCount = desc->push_size ? 1 : 0,
+            .pPushConstantRanges = &range,
+        };
+        vr = vkCreatePipelineLayout(dev->device, &pl, NULL, &out->layout);
+    }
+    if (vr == VK_SUCCESS)
+        vr = vkCreateShaderModule(dev->device, &mi, NULL, &module);
+    if (vr == VK_SUCCESS) {
+        VkComputePipelineCreateInfo ci = {
+            .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+            .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                      .stage = VK_SHADER_STAGE_COMPUTE_BIT,
+                      .module = module,
+                      .pName = "main",
+                      .pSpecializationInfo = desc->spec},
+            .layout = out->layout,
+        };
+        vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, &out->pipeline);
+        vkDestroyShaderModule(dev->device, module, NULL);
+    }
+    if (vr == VK_SUCCESS && desc->binding_count) {
+        VkDescriptorPoolCreateInfo pi = {
+            .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+            .maxSets = 1,
+            .poolSizeCount = desc->binding_count,
+            .pPoolSizes = sizes,
+        };
+        vr = vkCreateDescriptorPool(dev->device, &pi, NULL, &out->pool);
+        if (vr == VK_SUCCESS) {
+            VkDescriptorSetAllocateInfo ai = {
+                .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+                .descriptorPool = out->pool,
+                .descriptorSetCount = 1,
+                .pSetLayouts = &out->set_layout,
+            };
+            vr = vkAllocateDescriptorSets(dev->device, &ai, &out->set);
+        }
+    }
+    if (vr == VK_SUCCESS)
+        r = PN_OK;
+    else
+        pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
+    if (r != PN_OK)
+        pn_gpu_compute_destroy(dev, out);
+    return r;
+}
+
+void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c)
+{
+    if (c->pipeline)
+        vkDestroyPipeline(dev->device, c->pipeline, NULL);
+    if (c->layout)
+        vkDestroyPipelineLayout(dev->device, c->layout, NULL);
+    if (c->pool)
+        vkDestroyDescriptorPool(dev->device, c->pool, NULL);
+    if (c->set_layout)
+        vkDestroyDescriptorSetLayout(dev->device, c->set_layout, NULL);
+    memset(c, 0, sizeof *c);
+}
+
+void pn_gpu_compute_write_image(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkImageView view)
+{
+    VkDescriptorImageInfo info = {VK_NULL_HANDLE, view, VK_IMAGE_LAYOUT_GENERAL};
+    VkWriteDescriptorSet w = {
+        .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+        .dstSet = c->set,
+        .dstBinding = binding,
+        .descriptorCount = 1,
+        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
+        .pImageInfo = &info,
+    };
+    vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
+}
+
+void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer)
+{
+    VkDescriptorBufferInfo info = {buffer, 0, VK_WHOLE_SIZE};
+    VkWriteDescriptorSet w = {
+        .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+        .dstSet = c->set,
+        .dstBinding = binding,
+        .descriptorCount = 1,
+        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+        .pBufferInfo = &info,
+    };
+    vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
+}
+
+void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
+                             uint32_t x, uint32_t y, uint32_t z)
+{
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline);
+    if (c->set)
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 1, &c->set, 0, NULL);
+    if (push_size)
+        vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size, push);
+    vkCmdDispatch(cmd, x, y, z);
+}

@@ -1,0 +1,32 @@
+// A compute pipeline with its own descriptor set: what every compute pass (shadow, shade, tests'
+// probes) needs, created from one description.
+#pragma once
+#include "gpu/device.h"
+
+typedef struct pn_gpu_compute_desc {
+    const uint32_t *spirv;
+    size_t spirv_size; // bytes
+    const VkDescriptorSetLayoutBinding *bindings; // set 0; stageFlags may be left 0 (compute)
+    uint32_t binding_count;
+    uint32_t push_size; // bytes of push constants, 0 for none
+    const VkSpecializationInfo *spec;
+} pn_gpu_compute_desc;
+
+typedef struct pn_gpu_compute {
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout layout;
+    VkPipeline pipeline;
+    VkDescriptorPool pool;
+    VkDescriptorSet set; // allocated, not written: see pn_gpu_compute_write_*
+} pn_gpu_compute;
+
+pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out);
+void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c);
+
+// Points binding `binding` of the set at a storage image (GENERAL layout) or a storage buffer.
+void pn_gpu_compute_write_image(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkImageView view);
+void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer);
+
+// Binds pipeline and set, pushes `push` (push_size bytes, may be NULL) and dispatches.
+void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
+                             uint32_t x, uint32_t y, uint32_t z);
