@@ -1,7 +1,6 @@
 // The N-tree's GPU pools; mirrors engine/accel/pools.h (tests/test_pools.c checks the two agree)
 // and the line-space index mapping of engine/accel/linespace.h.
 #extension GL_EXT_buffer_reference : require
-#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 
 struct Node {
     vec3 min;       // box corner; the box is a cube
@@ -27,7 +26,7 @@ struct TreeInfo {
     NodePool node_pool;
     TreePool tree_pool;
     LinespacePool ls_pool;
-    uint64_t pad;
+    uvec2 pad;      // keeps the struct at 64 bytes without needing 64-bit integers
 };
 
 const uint CELL_EMPTY = 0u;
