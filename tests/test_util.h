@@ -2,6 +2,7 @@
 // the penumbra binary. Header-only so each test stays one file.
 #pragma once
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

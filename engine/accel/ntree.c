@@ -154,7 +154,7 @@ static void split_chunks(void *ctx, uint64_t begin, uint64_t end, unsigned threa
             bool single = true;
             for (int k = 0; k < 3; k++) {
                 // Candidate children from the bounds, widened by the slack; the SAT decides.
-                double a = floor(((double)bb[k] - t->slack - origin[k]) / cs);
+                double a = ceil(((double)bb[k] - t->slack - origin[k]) / cs) - 1;
                 double z = floor(((double)bb[3 + k] + t->slack - origin[k]) / cs);
                 single = single && a == z && a >= 0 && a < n;
                 r0[k] = a < 0 ? 0 : a > n - 1 ? n - 1 : (int)a;

@@ -8,13 +8,16 @@
 #include "apps/commands.h"
 #include "core/log.h"
 #include "core/timer.h"
+#include "accel/pools.h"
 #include "gpu/renderer.h"
 #include "io/exr.h"
 #include "io/file.h"
 #include "io/json.h"
 #include "io/png.h"
 
+// Index = pn_shadow_mode for those implemented.
 static const char *const MODES[] = {"none", "linespace", "hybrid", "exact-ls", "exact", NULL};
+enum { MODES_IMPLEMENTED = 2 };
 static const char *const TRAVERSALS[] = {"packet", "ray", NULL};
 static const char *const SAMPLERS[] = {"grid", "stratified", NULL};
 
@@ -28,6 +31,7 @@ typedef struct render_opts {
     bool ground, aovs, json;
     long long seed, spp;
     int mode, traversal, sampler, tree_n, tree_d;
+    uint64_t max_bytes;
     float exposure;
 } render_opts;
 
@@ -56,16 +60,23 @@ void pn_print_render_help(void)
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
            "  --seed S              fixes every random choice (default 1)\n"
            "shadows:\n"
-           "  --mode none|linespace|hybrid|exact-ls|exact   (this build implements none: V = 1)\n"
+           "  --mode M              linespace (default): line-space visibility, the paper's method;\n"
+           "                        none: unshadowed (V = 1); hybrid, exact-ls, exact: not in this build yet\n"
            "  --tree N,d            N-tree branching factor 2..16 and depth 1..6 (default 7,3)\n"
-           "  --spp S               shadow rays per pixel 1..4096 (default 25)\n"
-           "  --traversal packet|ray   --sampler grid|stratified\n");
+           "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
+           "                        default: half the device's largest memory heap)\n"
+           "  --spp S               shadow rays per pixel 1..4096 (default 25), a grid of U x V = S\n"
+           "  --traversal packet|ray   the pixel's rays walk the tree together or one by one\n"
+           "                        (default packet)\n"
+           "  --sampler grid|stratified   the paper's uniform grid, or jittered strata with a\n"
+           "                        per-pixel rotated low-discrepancy set (default stratified)\n");
 }
 
 static int parse(int argc, char **argv, render_opts *o)
 {
     *o = (render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 25, .tree_n = 7, .tree_d = 3,
-                       .exposure = 1.0f, .fov = 45.0f};
+                       .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE, .traversal = PN_TRAVERSAL_PACKET,
+                       .sampler = PN_SAMPLER_STRATIFIED};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL;
@@ -120,6 +131,8 @@ static int parse(int argc, char **argv, render_opts *o)
             ok = v && pn_parse_int_range("--spp", v, 1, 4096, &o->spp);
         } else if (pn_args_value(&a, "--tree", &v, &err)) {
             ok = v && pn_parse_tree("--tree", v, &o->tree_n, &o->tree_d);
+        } else if (pn_args_value(&a, "--max-memory", &v, &err)) {
+            ok = v && pn_parse_bytes("--max-memory", v, &o->max_bytes);
         } else if (pn_args_value(&a, "--mode", &v, &err)) {
             ok = v && (o->mode = pn_parse_choice("--mode", v, MODES)) >= 0;
         } else if (pn_args_value(&a, "--traversal", &v, &err)) {
@@ -141,8 +154,8 @@ static int parse(int argc, char **argv, render_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
-    if (o->mode != 0) {
-        pn_error("--mode %s: not implemented in this build yet (available: none)", MODES[o->mode]);
+    if (o->mode >= MODES_IMPLEMENTED) {
+        pn_error("--mode %s: not implemented in this build yet (available: linespace, none)", MODES[o->mode]);
         return PN_EXIT_USAGE;
     }
     return PN_EXIT_OK;
@@ -241,9 +254,19 @@ static bool setup_view(const render_opts *o, const pn_scene *s, pn_camera *cam, 
     return true;
 }
 
+typedef struct render_stats {
+    pn_frame_times times;
+    uint64_t covered;    // pixels holding geometry
+    double rays_per_s;   // shadow rays (covered pixels x spp) per second of the shadow pass
+    double build_ms;     // N-tree and line spaces
+    pn_pool_bytes pools; // zero without a tree
+    uint32_t subdivided;
+} render_stats;
+
 static pn_result write_outputs(const render_opts *o, const char *output, const pn_scene *s, const pn_camera *cam,
-                               const pn_light *light, const pn_frame_times *t, const pn_frame_images *img)
+                               const pn_light *light, const render_stats *st, const pn_frame_images *img)
 {
+    const pn_frame_times *t = &st->times;
     size_t px = (size_t)o->width * o->height;
     const int planes = 15;
     float *buf = malloc(px * planes * sizeof(float));
@@ -293,6 +316,13 @@ static pn_result write_outputs(const render_opts *o, const char *output, const p
         F1("penumbra.gpu_ms.gbuffer", t->gbuffer_ms),
         F1("penumbra.gpu_ms.shadow", t->shadow_ms),
         F1("penumbra.gpu_ms.shade", t->shade_ms),
+        {.name = "penumbra.traversal", .type = PN_EXR_ATTR_STRING, .s = TRAVERSALS[o->traversal]},
+        {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = SAMPLERS[o->sampler]},
+        {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
+        {.name = "penumbra.tree.n", .type = PN_EXR_ATTR_INT, .i = o->mode == PN_SHADOW_LINESPACE ? o->tree_n : 0},
+        {.name = "penumbra.tree.d", .type = PN_EXR_ATTR_INT, .i = o->mode == PN_SHADOW_LINESPACE ? o->tree_d : 0},
+        F1("penumbra.build_ms", st->build_ms),
+        F1("penumbra.shadow_rays_per_s", st->rays_per_s),
     };
 #undef V3
 #undef F1
@@ -310,6 +340,103 @@ static pn_result write_outputs(const render_opts *o, const char *output, const p
     r = pn_png_write_rgb8(o->preview, (int)o->width, (int)o->height, rgb);
     free(rgb);
     return r;
+}
+
+
+// Builds what the shadow mode needs, renders one frame and writes the outputs.
+static int render_frame(const render_opts *o, const char *output, pn_gpu_device *dev, const pn_scene *scene,
+                        const pn_camera *cam, const pn_light *light, render_stats *st)
+{
+    pn_ntree tree = {0};
+    pn_pools pools = {0};
+    pn_gpu_pools gpu_pools = {0};
+    pn_renderer renderer;
+    pn_renderer_desc rd = {
+        .width = o->width,
+        .height = o->height,
+        .mode = (pn_shadow_mode)o->mode,
+        .traversal = (pn_traversal)o->traversal,
+        .sampler = (pn_sampler)o->sampler,
+        .spp = (uint32_t)o->spp,
+        .seed = (uint32_t)o->seed,
+    };
+    int rc = PN_EXIT_FAILURE;
+    if (o->mode == PN_SHADOW_LINESPACE) {
+        uint64_t max_bytes = o->max_bytes ? o->max_bytes : pn_gpu_device_heap(dev) / 2;
+        if (pn_ntree_build(scene, &(pn_ntree_desc){.n = o->tree_n, .d = o->tree_d, .max_bytes = max_bytes}, &tree) != PN_OK)
+            return PN_EXIT_FAILURE;
+        st->build_ms = tree.build_ms;
+        st->subdivided = tree.node_count;
+        rd.leaf_size = pn_ntree_cell_size(&tree, tree.d);
+        if (pn_pools_pack(&tree, &pools) != PN_OK || pn_gpu_pools_create(dev, &pools, &gpu_pools) != PN_OK)
+            goto done;
+        st->pools = pools.bytes;
+        rd.pools = &gpu_pools;
+    }
+    if (pn_renderer_create(dev, scene, &rd, &renderer) != PN_OK)
+        goto done;
+    pn_frame_images img;
+    if (pn_renderer_render(&renderer, cam, light, &st->times) == PN_OK) {
+        pn_renderer_images(&renderer, &img);
+        size_t px = (size_t)o->width * o->height;
+        for (size_t i = 0; i < px; i++)
+            st->covered += img.radiance[4 * i + 3] > 0;
+        if (st->times.shadow_ms > 0)
+            st->rays_per_s = (double)st->covered * (double)o->spp / (st->times.shadow_ms * 1e-3);
+        if (write_outputs(o, output, scene, cam, light, st, &img) == PN_OK)
+            rc = PN_EXIT_OK;
+    }
+    pn_renderer_destroy(&renderer);
+done:
+    pn_gpu_pools_destroy(dev, &gpu_pools);
+    pn_pools_destroy(&pools);
+    pn_ntree_destroy(&tree);
+    return rc;
+}
+
+static void print_summary(const render_opts *o, const char *output, const pn_scene *scene, const render_stats *st,
+                          double load_ms, unsigned validation_messages)
+{
+    const pn_frame_times *t = &st->times;
+    bool tree = o->mode == PN_SHADOW_LINESPACE;
+    if (o->json) {
+        printf("{\"output\": ");
+        pn_json_string(stdout, output);
+        printf(", \"preview\": ");
+        if (o->preview)
+            pn_json_string(stdout, o->preview);
+        else
+            printf("null");
+        printf(", \"scene\": ");
+        pn_json_string(stdout, scene->name);
+        printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"traversal\": \"%s\", "
+               "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, ",
+               o->width, o->height, pn_scene_triangle_count(scene), MODES[o->mode], TRAVERSALS[o->traversal],
+               SAMPLERS[o->sampler], o->spp, o->seed);
+        if (tree)
+            printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
+                   "\"node\": %llu, \"linespace\": %llu, \"total\": %llu}, ",
+                   o->tree_n, o->tree_d, st->subdivided, st->build_ms, (unsigned long long)st->pools.tree,
+                   (unsigned long long)st->pools.node, (unsigned long long)st->pools.linespace,
+                   (unsigned long long)st->pools.total);
+        else
+            printf("\"tree\": null, \"build_ms\": 0, \"pool_bytes\": null, ");
+        printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
+               "\"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",
+               load_ms, t->gbuffer_ms, t->shadow_ms, t->shade_ms, (unsigned long long)st->covered, st->rays_per_s,
+               validation_messages);
+        return;
+    }
+    printf("%s: %u triangles, %ux%u, mode %s", scene->name, pn_scene_triangle_count(scene), o->width, o->height,
+           MODES[o->mode]);
+    if (tree)
+        printf(" LS(%d,%d) %s/%s %lld spp", o->tree_n, o->tree_d, TRAVERSALS[o->traversal], SAMPLERS[o->sampler], o->spp);
+    printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
+    if (tree)
+        printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms\n", st->subdivided,
+               st->pools.total / 1048576.0, st->build_ms);
+    printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,
+           t->shadow_ms, t->shade_ms, st->rays_per_s, load_ms);
 }
 
 int pn_cmd_render(int argc, char **argv)
@@ -347,45 +474,14 @@ int pn_cmd_render(int argc, char **argv)
 
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
-    pn_renderer renderer;
-    pn_frame_times times = {0};
-    pn_frame_images img;
+    render_stats st = {0};
     int exit_code = PN_EXIT_FAILURE;
     if (pn_gpu_device_create(&desc, &dev) == PN_OK) {
-        if (pn_renderer_create(&dev, &scene, o.width, o.height, &renderer) == PN_OK) {
-            if (pn_renderer_render(&renderer, &cam, &light, &times) == PN_OK) {
-                pn_renderer_images(&renderer, &img);
-                if (write_outputs(&o, output, &scene, &cam, &light, &times, &img) == PN_OK)
-                    exit_code = PN_EXIT_OK;
-            }
-            pn_renderer_destroy(&renderer);
-        }
+        exit_code = render_frame(&o, output, &dev, &scene, &cam, &light, &st);
         pn_gpu_device_destroy(&dev);
     }
-    if (exit_code == PN_EXIT_OK) {
-        if (o.json) {
-            printf("{\"output\": ");
-            pn_json_string(stdout, output);
-            printf(", \"preview\": ");
-            if (o.preview)
-                pn_json_string(stdout, o.preview);
-            else
-                printf("null");
-            printf(", \"scene\": ");
-            pn_json_string(stdout, scene.name);
-            printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"spp\": %lld, "
-                   "\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
-                   "\"validation_messages\": %u}\n",
-                   o.width, o.height, pn_scene_triangle_count(&scene), MODES[o.mode], o.spp, load_ms,
-                   times.gbuffer_ms, times.shadow_ms, times.shade_ms, dev.validation_messages);
-        } else {
-            printf("%s: %u triangles, %ux%u, mode %s -> %s%s%s | load %.1f ms | gpu ms: gbuffer %.3f, shadow "
-                   "%.3f, shade %.3f\n",
-                   scene.name, pn_scene_triangle_count(&scene), o.width, o.height, MODES[o.mode], output,
-                   o.preview ? ", " : "", o.preview ? o.preview : "", load_ms, times.gbuffer_ms, times.shadow_ms,
-                   times.shade_ms);
-        }
-    }
+    if (exit_code == PN_EXIT_OK)
+        print_summary(&o, output, &scene, &st, load_ms, dev.validation_messages);
     pn_scene_destroy(&scene);
     if (dev.validation_messages) {
         pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);

@@ -110,7 +110,7 @@ void pn_gpu_compute_write_image(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t 
     vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
 }
 
-void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer)
+static void write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer, VkDescriptorType type)
 {
     VkDescriptorBufferInfo info = {buffer, 0, VK_WHOLE_SIZE};
     VkWriteDescriptorSet w = {
@@ -118,10 +118,20 @@ void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t
         .dstSet = c->set,
         .dstBinding = binding,
         .descriptorCount = 1,
-        .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+        .descriptorType = type,
         .pBufferInfo = &info,
     };
     vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
+}
+
+void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer)
+{
+    write_buffer(dev, c, binding, buffer, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
+}
+
+void pn_gpu_compute_write_uniform(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer)
+{
+    write_buffer(dev, c, binding, buffer, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
 }
 
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,

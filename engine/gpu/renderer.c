@@ -9,6 +9,7 @@
 #include "gbuffer_frag.h"
 #include "gbuffer_vert.h"
 #include "shade_comp.h"
+#include "shadow_linespace_comp.h"
 #include "shadow_none_comp.h"
 
 // Mirrors GBufferPush in shaders/glsl/gbuffer.glsl.
@@ -25,6 +26,31 @@ typedef struct pn_light_gpu {
     float normal[4];
     float radiance[4];
 } pn_light_gpu;
+
+// Mirrors ShadowParams in shaders/glsl/shadow_common.glsl (std140).
+typedef struct pn_shadow_params {
+    pn_gpu_tree_info tree;
+    float corners[4][4];
+    float light_normal[4];
+    uint32_t spp, grid_u, grid_v, sampler, seed;
+    float leaf_size;
+    uint32_t pad[2];
+} pn_shadow_params;
+
+void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
+{
+    uint32_t u = 1;
+    for (uint32_t i = 1; i * i <= spp; i++)
+        if (spp % i == 0)
+            u = i;
+    *grid_u = u;
+    *grid_v = spp / u;
+}
+
+// Mirrors the Chunk push constants of shaders/glsl/shadow_common.glsl.
+typedef struct pn_shadow_chunk {
+    uint32_t sample_begin, sample_end, first, last;
+} pn_shadow_chunk;
 
 enum { TS_START, TS_GBUFFER, TS_SHADOW, TS_SHADE, TS_COUNT };
 
@@ -114,6 +140,7 @@ static pn_result create_targets(pn_renderer *r)
         {&r->depth, FMT_DEPTH, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT},
         {&r->v, VK_FORMAT_R32_SFLOAT, comp, 0},
         {&r->radiance, FMT_RGBA32F, comp, 0},
+        {&r->counts, VK_FORMAT_R32G32_UINT, VK_IMAGE_USAGE_STORAGE_BIT, 0},
     };
     for (size_t i = 0; i < sizeof t / sizeof t[0]; i++)
         PN_TRY(pn_gpu_image_create(dev,
@@ -303,12 +330,30 @@ static pn_result create_pipelines(pn_renderer *r)
         {.binding = 3, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
         {.binding = 4, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
     };
+    // Every shadow shader sees the same set: P, N, V and the parameters.
+    const VkDescriptorSetLayoutBinding shadow_bindings[6] = {
+        img[0], img[1], img[2], {.binding = 3, .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER}, img[4],
+        {.binding = 5, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}};
+    int32_t traversal = (int32_t)r->desc.traversal;
+    VkSpecializationMapEntry entry = {.constantID = 0, .offset = 0, .size = sizeof traversal};
+    VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = sizeof traversal, .pData = &traversal};
+    bool ls = r->desc.mode == PN_SHADOW_LINESPACE;
     PN_TRY(pn_gpu_compute_create(dev,
-                                 &(pn_gpu_compute_desc){.spirv = pn_spv_shadow_none_comp,
-                                                        .spirv_size = sizeof pn_spv_shadow_none_comp,
-                                                        .bindings = img,
-                                                        .binding_count = 3},
+                                 &(pn_gpu_compute_desc){.spirv = ls ? pn_spv_shadow_linespace_comp : pn_spv_shadow_none_comp,
+                                                        .spirv_size = ls ? sizeof pn_spv_shadow_linespace_comp
+                                                                         : sizeof pn_spv_shadow_none_comp,
+                                                        .bindings = shadow_bindings,
+                                                        .binding_count = 6,
+                                                        .push_size = sizeof(pn_shadow_chunk),
+                                                        .spec = ls ? &spec : NULL},
                                  &r->shadow));
+    PN_TRY(pn_gpu_buffer_create(dev, sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
+                                &r->shadow_params));
+    pn_gpu_compute_write_uniform(dev, &r->shadow, 3, r->shadow_params.buffer);
+    PN_TRY(pn_gpu_buffer_create(dev, sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
+                                &r->shadow_status));
+    pn_gpu_compute_write_image(dev, &r->shadow, 4, r->counts.view);
+    pn_gpu_compute_write_buffer(dev, &r->shadow, 5, r->shadow_status.buffer);
     PN_TRY(pn_gpu_compute_create(dev,
                                  &(pn_gpu_compute_desc){.spirv = pn_spv_shade_comp,
                                                         .spirv_size = sizeof pn_spv_shade_comp,
@@ -362,13 +407,26 @@ static pn_result create_pipelines(pn_renderer *r)
 
 // ---------------------------------------------------------------------------------------------
 
-pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, uint32_t width, uint32_t height,
+pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn_renderer_desc *desc,
                              pn_renderer *out)
 {
     memset(out, 0, sizeof *out);
     out->dev = dev;
+    out->desc = *desc;
+    uint32_t width = desc->width, height = desc->height;
     out->width = width;
     out->height = height;
+    if (desc->mode == PN_SHADOW_LINESPACE && !desc->pools) {
+        pn_error("line-space shadows need the N-tree's pools");
+        return PN_ERR_INVALID;
+    }
+    // Samples per shadow dispatch: small enough that a pixel's loops stay far below llvmpipe's
+    // budget of 65535 iterations (a ray takes a few hundred), halved when that is not enough.
+    out->chunk = 16;
+    if (desc->spp == 0 && desc->mode != PN_SHADOW_NONE) {
+        pn_error("spp must be at least 1");
+        return PN_ERR_INVALID;
+    }
     const VkPhysicalDeviceLimits *lim = &dev->props.limits;
     if (width == 0 || height == 0 || width > lim->maxImageDimension2D || height > lim->maxImageDimension2D) {
         pn_error("image size %ux%u outside the device's 1..%u", width, height, lim->maxImageDimension2D);
@@ -412,10 +470,12 @@ void pn_renderer_destroy(pn_renderer *r)
         vkDestroyDescriptorSetLayout(d, r->gbuffer_set_layout, NULL);
     if (r->descriptor_pool)
         vkDestroyDescriptorPool(d, r->descriptor_pool, NULL);
-    pn_gpu_image *imgs[6] = {&r->p, &r->n, &r->albedo, &r->depth, &r->v, &r->radiance};
-    for (int i = 0; i < 6; i++)
+    pn_gpu_image *imgs[7] = {&r->p, &r->n, &r->albedo, &r->depth, &r->v, &r->radiance, &r->counts};
+    for (int i = 0; i < 7; i++)
         pn_gpu_image_destroy(dev, imgs[i]);
     pn_gpu_buffer_destroy(dev, &r->readback);
+    pn_gpu_buffer_destroy(dev, &r->shadow_params);
+    pn_gpu_buffer_destroy(dev, &r->shadow_status);
     for (uint32_t i = 0; r->textures && i < r->texture_count; i++)
         pn_gpu_image_destroy(dev, &r->textures[i]);
     free(r->textures);
@@ -493,7 +553,7 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
     vkCmdResetQueryPool(cmd, r->timestamps, 0, TS_COUNT);
     // Every target is fully rewritten each frame: discard old contents (UNDEFINED) after all of the
     // previous frame's work on them.
-    VkImageMemoryBarrier2 start[6] = {
+    VkImageMemoryBarrier2 start[7] = {
         pn_gpu_image_barrier(&r->p, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, UNDEF, GENERAL),
         pn_gpu_image_barrier(&r->n, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, UNDEF, GENERAL),
         pn_gpu_image_barrier(&r->albedo, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, UNDEF, GENERAL),
@@ -502,8 +562,10 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
                              VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL),
         pn_gpu_image_barrier(&r->v, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, UNDEF, GENERAL),
         pn_gpu_image_barrier(&r->radiance, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, UNDEF, GENERAL),
+        pn_gpu_image_barrier(&r->counts, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE,
+                             VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, UNDEF, GENERAL),
     };
-    pn_gpu_cmd_barrier(cmd, NULL, 6, start);
+    pn_gpu_cmd_barrier(cmd, NULL, 7, start);
     vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_START);
 
     // --- G-buffer
@@ -557,7 +619,22 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_image_barrier(&r->albedo, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, GENERAL, GENERAL),
     };
     pn_gpu_cmd_barrier(cmd, NULL, 3, to_compute);
-    pn_gpu_compute_dispatch(cmd, &r->shadow, 0, NULL, gx, gy, 1);
+    // In chunks of light samples (see Chunk in shadow_common.glsl); each reads the counts the previous
+    // one wrote.
+    uint32_t spp = r->desc.mode == PN_SHADOW_NONE ? 1 : r->desc.spp;
+    for (uint32_t begin = 0; begin < spp; begin += r->chunk) {
+        pn_shadow_chunk ch = {begin, begin + r->chunk < spp ? begin + r->chunk : spp, begin == 0, begin + r->chunk >= spp};
+        if (begin > 0)
+            pn_gpu_cmd_barrier(cmd,
+                               &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                                   .srcStageMask = COMPUTE,
+                                                   .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                                   .dstStageMask = COMPUTE,
+                                                   .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                                                                    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT},
+                               0, NULL);
+        pn_gpu_compute_dispatch(cmd, &r->shadow, sizeof ch, &ch, gx, gy, 1);
+    }
     vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_SHADOW);
 
     // --- shade: reads P, N, albedo, V; writes radiance
@@ -607,16 +684,42 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     camera_matrices(r, camera, &cam);
     pn_light_gpu l;
     light_to_gpu(light, &l);
+    pn_shadow_params sp = {0};
+    if (r->desc.pools)
+        sp.tree = r->desc.pools->info;
+    memcpy(sp.corners, l.corners, sizeof sp.corners);
+    memcpy(sp.light_normal, l.normal, sizeof sp.light_normal);
+    sp.spp = r->desc.spp ? r->desc.spp : 1;
+    pn_sample_grid(sp.spp, &sp.grid_u, &sp.grid_v);
+    sp.sampler = (uint32_t)r->desc.sampler;
+    sp.seed = r->desc.seed;
+    sp.leaf_size = (float)r->desc.leaf_size;
+    // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite it.
+    memcpy(r->shadow_params.mapped, &sp, sizeof sp);
 
-    VK_CHECK(vkResetCommandBuffer(r->cmd, 0));
-    VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-                                   .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
-    VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-    record_frame(r, r->cmd, &cam, &l);
-    VK_CHECK(vkEndCommandBuffer(r->cmd));
-    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
-    VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
-    VK_CHECK(vkQueueWaitIdle(dev->queue));
+    for (;;) {
+        *(volatile uint32_t *)r->shadow_status.mapped = 0;
+        VK_CHECK(vkResetCommandBuffer(r->cmd, 0));
+        VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                       .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
+        VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
+        record_frame(r, r->cmd, &cam, &l);
+        VK_CHECK(vkEndCommandBuffer(r->cmd));
+        VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
+        VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
+        VK_CHECK(vkQueueWaitIdle(dev->queue));
+        if (*(volatile uint32_t *)r->shadow_status.mapped == 0)
+            break;
+        // A dispatch ran out of llvmpipe's loop budget: its counts are incomplete, so the frame is
+        // rendered again with half the samples per dispatch.
+        if (r->chunk == 1) {
+            pn_error("a single shadow ray's traversal exceeds the device's shader loop budget; "
+                     "try a smaller N or d");
+            return PN_ERR_UNSUPPORTED;
+        }
+        r->chunk /= 2;
+        pn_debug("shadow pass cut short: retrying with %u samples per dispatch", r->chunk);
+    }
 
     uint64_t ts[TS_COUNT];
     VK_CHECK(vkGetQueryPoolResults(dev->device, r->timestamps, 0, TS_COUNT, sizeof ts, ts, sizeof ts[0],

@@ -2,9 +2,33 @@
 // readback. Shared by render, demo and bench.
 #pragma once
 #include "gpu/compute.h"
+#include "gpu/pools.h"
 #include "gpu/resources.h"
 #include "scene/scene.h"
 #include "scene/view.h"
+
+typedef enum pn_shadow_mode {
+    PN_SHADOW_NONE = 0,      // V = 1: unshadowed
+    PN_SHADOW_LINESPACE = 1, // line-space visibility (shaders/glsl/shadow_linespace.comp)
+} pn_shadow_mode;
+
+typedef enum pn_traversal { PN_TRAVERSAL_PACKET = 0, PN_TRAVERSAL_RAY = 1 } pn_traversal;
+typedef enum pn_sampler { PN_SAMPLER_GRID = 0, PN_SAMPLER_STRATIFIED = 1 } pn_sampler;
+
+typedef struct pn_renderer_desc {
+    uint32_t width, height;
+    pn_shadow_mode mode;
+    pn_traversal traversal;
+    pn_sampler sampler;
+    uint32_t spp;  // shadow rays per pixel
+    uint32_t seed; // fixes the stratified jitter
+    const pn_gpu_pools *pools; // the uploaded N-tree, for PN_SHADOW_LINESPACE
+    double leaf_size;          // edge of a leaf cell of that tree, world units
+} pn_renderer_desc;
+
+// The light-sample grid for spp rays: grid_u * grid_v == spp with grid_u the largest divisor of
+// spp not above its square root (a square grid when spp is a square).
+void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v);
 
 typedef struct pn_frame_times {
     double gbuffer_ms, shadow_ms, shade_ms; // GPU time per pass, from timestamp queries
@@ -23,6 +47,11 @@ typedef struct pn_frame_images {
 typedef struct pn_renderer {
     pn_gpu_device *dev;
     uint32_t width, height;
+    pn_renderer_desc desc;
+    pn_gpu_buffer shadow_params; // uniform buffer of the shadow pass
+    pn_gpu_buffer shadow_status; // host-visible flag: a shadow dispatch ran out of llvmpipe's loop budget
+    pn_gpu_image counts;         // (visible, valid) sample counts between shadow chunks
+    uint32_t chunk;              // light samples per shadow dispatch (halved when a dispatch is cut short)
     float scene_min[3], scene_max[3]; // for the clip planes
 
     pn_gpu_buffer vertices, indices, materials;
@@ -45,8 +74,8 @@ typedef struct pn_renderer {
     VkCommandBuffer cmd;
 } pn_renderer;
 
-// Uploads the scene and creates targets and pipelines for width x height.
-pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, uint32_t width, uint32_t height,
+// Uploads the scene and creates targets and pipelines as `desc` says.
+pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn_renderer_desc *desc,
                              pn_renderer *out);
 void pn_renderer_destroy(pn_renderer *r);
 

@@ -188,7 +188,33 @@ static pn_result build_plane(pn_scene *s)
     return r;
 }
 
-static const char *const g_names[] = {"default", "plane", NULL};
+// The analytic penumbra: a 4x4 receiver at y = 0 and a 0.5x0.5 occluder at y = 0.5, both squares
+// centred on the y axis, facing up. Under a parallel square light the visible fraction at every
+// receiver point is a closed-form area overlap (tests/test_linespace_shadow.c).
+static pn_result build_penumbra(pn_scene *s)
+{
+    mesh_builder *b = calloc(1, sizeof *b);
+    if (!b)
+        return PN_ERR_MEMORY;
+    const float n[3] = {0, 1, 0};
+    const float size[2] = {2.0f, 0.25f}, height[2] = {0.0f, 0.5f};
+    const float grey[2] = {0.5f, 0.8f};
+    pn_result r = PN_OK;
+    for (int i = 0; i < 2 && r == PN_OK; i++) {
+        pose p = {{0, height[i], 0}};
+        float h = size[i];
+        emit(b, &p, (float[3]){-h, 0, h}, n, 0, 0);
+        emit(b, &p, (float[3]){h, 0, h}, n, 1, 0);
+        emit(b, &p, (float[3]){h, 0, -h}, n, 1, 1);
+        emit(b, &p, (float[3]){-h, 0, -h}, n, 0, 1);
+        quad(b, 0);
+        r = flush(s, b, grey[i], grey[i], grey[i]);
+    }
+    free(b);
+    return r;
+}
+
+static const char *const g_names[] = {"default", "plane", "penumbra", NULL};
 
 const char *const *pn_builtin_names(void) { return g_names; }
 
@@ -201,8 +227,10 @@ pn_result pn_builtin_load(const char *name, pn_scene *out)
         r = build_default(out);
     else if (strcmp(name, "plane") == 0)
         r = build_plane(out);
+    else if (strcmp(name, "penumbra") == 0)
+        r = build_penumbra(out);
     else {
-        pn_error("builtin:%s: no such built-in scene (have: default, plane)", name);
+        pn_error("builtin:%s: no such built-in scene (have: default, plane, penumbra)", name);
         return PN_ERR_INVALID;
     }
     if (r != PN_OK) {

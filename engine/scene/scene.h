@@ -61,7 +61,8 @@ pn_result pn_scene_load(const char *source, pn_scene *out);
 pn_result pn_gltf_load(const char *path, pn_scene *out);
 
 // Built-in scenes generated in code: "default" (the showcase), "plane" (one 2x2 quad at y=0 on
-// the XZ plane, centred at the origin, normal +Y; a receiver for tests). Returns PN_ERR_INVALID for
+// the XZ plane, centred at the origin, normal +Y; a receiver for tests), "penumbra" (a 4x4
+// receiver at y=0 under a 0.5x0.5 occluder at y=0.5, both centred on the y axis). Returns PN_ERR_INVALID for
 // an unknown name.
 pn_result pn_builtin_load(const char *name, pn_scene *out);
 

@@ -1,0 +1,71 @@
+// Shared by the shadow shaders: parameters, light samples and the surface offset.
+// ShadowParams mirrors pn_shadow_params in engine/gpu/renderer.c.
+#include "pools.glsl"
+
+layout(set = 0, binding = 3, std140) uniform ShadowParams {
+    TreeInfo tree;      // 64 bytes
+    vec4 corners[4];    // light corners, counter-clockwise seen from the emitting side
+    vec4 light_normal;  // xyz: emitting side
+    uint spp;           // rays per pixel = grid_u * grid_v
+    uint grid_u;        // samples across the light's width
+    uint grid_v;        // samples across its height
+    uint sampler_kind;  // 0 grid, 1 stratified
+    uint seed;
+    float leaf_size;    // edge of a leaf cell (level d), world units
+    uint pad0, pad1;
+} params;
+
+// The shadow pass runs in chunks of light samples, one dispatch each, accumulating counts: llvmpipe
+// (Mesa 22.3) gives every shader invocation a budget of 65535 loop iterations summed over all its
+// loops and silently ends every loop once it is spent, so a pixel's whole traversal cannot run in
+// one dispatch. A shader that finds its loops cut short sets `status.truncated`; the host then
+// renders the frame again with smaller chunks (engine/gpu/renderer.c), so a result is never wrong.
+layout(push_constant) uniform Chunk {
+    uint sample_begin; // light samples [sample_begin, sample_end) in this dispatch
+    uint sample_end;
+    uint first;        // 1: counts start at zero
+    uint last;         // 1: write V = visible / valid
+} chunk;
+
+layout(set = 0, binding = 4, rg32ui) uniform uimage2D img_counts; // (visible, valid) so far
+layout(std430, set = 0, binding = 5) buffer Status { uint truncated; } status;
+
+const uint SAMPLER_GRID = 0u;
+const uint SAMPLER_STRATIFIED = 1u;
+
+// PCG hash (O'Neill): decorrelates pixels and seeds.
+uint pcg(uint v)
+{
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+// Light sample k of this pixel as (s, t) in [0,1)^2 over the light's width and height.
+// Grid: the centres of a grid_u x grid_v grid, the paper's uniform grid (bilinear interpolation of the
+// corner directions is the same point). Stratified: one jittered point per grid cell; the jitters are
+// the R2 low-discrepancy sequence (additive recurrence with the plastic constant) rotated per pixel
+// (Cranley-Patterson), so neighbouring pixels use different jitters and banding becomes fine noise.
+vec2 light_sample(uint k, uvec2 pixel)
+{
+    uint i = k % params.grid_u, j = k / params.grid_u;
+    vec2 jitter = vec2(0.5);
+    if (params.sampler_kind == SAMPLER_STRATIFIED) {
+        uint h = pcg(pixel.x + pcg(pixel.y + pcg(params.seed)));
+        vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+        const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
+        jitter = fract(rotation + alpha * float(k + 1u));
+    }
+    return (vec2(i, j) + jitter) / vec2(params.grid_u, params.grid_v);
+}
+
+vec3 light_point(vec2 st)
+{
+    // Corners 0..3 at (s,t) = (0,0), (1,0), (1,1), (0,1): bilinear = exact point on the parallelogram.
+    vec3 a = mix(params.corners[0].xyz, params.corners[1].xyz, st.x);
+    vec3 b = mix(params.corners[3].xyz, params.corners[2].xyz, st.x);
+    return mix(a, b, st.y);
+}
+
+// Upper bound of the spacing of floats near |x| (one ulp).
+float ulp_bound(float x) { return max(abs(x), 1e-30) * 1.1920929e-7; }
