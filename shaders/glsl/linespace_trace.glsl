@@ -61,18 +61,24 @@ bool ls_slabs(Local l, float n, out float t_in, out float t_out)
     return hit && t_in <= t_out;
 }
 
-// Is boundary point p (node-local) within eps of face `face`?
-bool ls_on_face(vec3 p, float n, float eps, uint face)
-{
-    uint k = face >> 1u;
-    return (face & 1u) == 0u ? p[k] <= eps : p[k] >= n - eps;
-}
-
 // The patch cells (along one face axis) that coordinate x may belong to.
 uvec2 ls_cell_range(float x, float n, float eps)
 {
     float hi = n - 1.0;
     return uvec2(clamp(floor(x - eps), 0.0, hi), clamp(floor(x + eps), 0.0, hi));
+}
+
+// Faces (bit f for face f) that boundary point p lies on, within eps.
+uint ls_face_mask(vec3 p, float n, float eps)
+{
+    uint m = 0u;
+    m |= p.x <= eps ? 1u : 0u;
+    m |= p.x >= n - eps ? 2u : 0u;
+    m |= p.y <= eps ? 4u : 0u;
+    m |= p.y >= n - eps ? 8u : 0u;
+    m |= p.z <= eps ? 16u : 0u;
+    m |= p.z >= n - eps ? 32u : 0u;
+    return m;
 }
 
 // 1: some pair of patches (on different faces) holding the entry and the exit point has its bit set;
@@ -81,25 +87,39 @@ int ls_any_bit(TreeInfo t, Node node, vec3 pa, vec3 pb, float eps)
 {
     uint n = t.n;
     float fn = float(n);
-    bool pair = false, bit = false;
-    for (uint fa = 0u; fa < 6u; fa++) {
-        uint ka = fa >> 1u;
+    uint ma = ls_face_mask(pa, fn, eps), mb = ls_face_mask(pb, fn, eps);
+    int result = -1;
+    if (bitCount(ma) == 1 && bitCount(mb) == 1 && ma != mb) {
+        // The common case, without loops: each point on one face, away from its patch edges.
+        uint fa = uint(findLSB(ma)), fb = uint(findLSB(mb));
+        uint ka = fa >> 1u, kb = fb >> 1u;
         uvec2 ua = ls_cell_range(pa[(ka + 1u) % 3u], fn, eps), va = ls_cell_range(pa[(ka + 2u) % 3u], fn, eps);
-        bool on_a = ls_on_face(pa, fn, eps, fa);
-        for (uint fb = 0u; fb < 6u; fb++) {
-            if (on_a && fb != fa && ls_on_face(pb, fn, eps, fb)) {
-                pair = true;
-                uint kb = fb >> 1u;
-                uvec2 ub = ls_cell_range(pb[(kb + 1u) % 3u], fn, eps), vb = ls_cell_range(pb[(kb + 2u) % 3u], fn, eps);
-                for (uint a_u = ua.x; a_u <= ua.y; a_u++)
-                    for (uint a_v = va.x; a_v <= va.y; a_v++)
-                        for (uint b_u = ub.x; b_u <= ub.y; b_u++)
-                            for (uint b_v = vb.x; b_v <= vb.y; b_v++)
-                                bit = bit || ls_bit(t, node, ls_shaft(n, ls_patch(n, fa, a_u, a_v), ls_patch(n, fb, b_u, b_v)));
+        uvec2 ub = ls_cell_range(pb[(kb + 1u) % 3u], fn, eps), vb = ls_cell_range(pb[(kb + 2u) % 3u], fn, eps);
+        if (ua.x == ua.y && va.x == va.y && ub.x == ub.y && vb.x == vb.y)
+            result = ls_bit(t, node, ls_shaft(n, ls_patch(n, fa, ua.x, va.x), ls_patch(n, fb, ub.x, vb.x))) ? 1 : 0;
+    }
+    if (result < 0) {
+        // Near an edge or a patch boundary: every candidate pair of patches.
+        bool pair = false, bit = false;
+        for (uint fa = 0u; fa < 6u; fa++) {
+            uint ka = fa >> 1u;
+            uvec2 ua = ls_cell_range(pa[(ka + 1u) % 3u], fn, eps), va = ls_cell_range(pa[(ka + 2u) % 3u], fn, eps);
+            for (uint fb = 0u; fb < 6u; fb++) {
+                if ((ma & (1u << fa)) != 0u && (mb & (1u << fb)) != 0u && fb != fa) {
+                    pair = true;
+                    uint kb = fb >> 1u;
+                    uvec2 ub = ls_cell_range(pb[(kb + 1u) % 3u], fn, eps), vb = ls_cell_range(pb[(kb + 2u) % 3u], fn, eps);
+                    for (uint a_u = ua.x; a_u <= ua.y; a_u++)
+                        for (uint a_v = va.x; a_v <= va.y; a_v++)
+                            for (uint b_u = ub.x; b_u <= ub.y; b_u++)
+                                for (uint b_v = vb.x; b_v <= vb.y; b_v++)
+                                    bit = bit || ls_bit(t, node, ls_shaft(n, ls_patch(n, fa, a_u, a_v), ls_patch(n, fb, b_u, b_v)));
+                }
             }
         }
+        result = bit ? 1 : (pair ? 0 : -1);
     }
-    return bit ? 1 : (pair ? 0 : -1);
+    return result;
 }
 
 // What the segment o + t*d (t in [0,1]) does at subdivided node `node`.
