@@ -275,12 +275,39 @@ static pn_result gather_triangles(const pn_scene *s, float (**tri)[9], float (**
     return PN_OK;
 }
 
-static void root_box(const pn_scene *s, pn_ntree *t)
+// Can triangle v block a segment between two points of the scene, or between one and the light?
+// Not if its plane has the scene's bounds and the light on one closed side: such a segment then
+// stays in that closed half-space and meets the plane at most where it starts, on the plane.
+static bool can_block(const float v[9], const float lo[3], const float hi[3], const float (*light)[3])
+{
+    double e0[3], e1[3], n[3];
+    for (int k = 0; k < 3; k++) {
+        e0[k] = (double)v[3 + k] - v[k];
+        e1[k] = (double)v[6 + k] - v[k];
+    }
+    n[0] = e0[1] * e1[2] - e0[2] * e1[1];
+    n[1] = e0[2] * e1[0] - e0[0] * e1[2];
+    n[2] = e0[0] * e1[1] - e0[1] * e1[0];
+    if (n[0] == 0 && n[1] == 0 && n[2] == 0)
+        return true; // degenerate: no plane to argue with
+    bool below = false, above = false;
+    for (int i = 0; i < 12; i++) {
+        double x[3];
+        for (int k = 0; k < 3; k++)
+            x[k] = i < 8 ? ((i >> k) & 1 ? hi[k] : lo[k]) : light[i - 8][k];
+        double side = n[0] * (x[0] - v[0]) + n[1] * (x[1] - v[1]) + n[2] * (x[2] - v[2]);
+        below = below || side < 0;
+        above = above || side > 0;
+    }
+    return below && above;
+}
+
+static void root_box(const float lo[3], const float hi[3], pn_ntree *t)
 {
     float mag = 0, ext = 0;
     for (int k = 0; k < 3; k++) {
-        mag = fmaxf(mag, fmaxf(fabsf(s->bounds_min[k]), fabsf(s->bounds_max[k])));
-        ext = fmaxf(ext, s->bounds_max[k] - s->bounds_min[k]);
+        mag = fmaxf(mag, fmaxf(fabsf(lo[k]), fabsf(hi[k])));
+        ext = fmaxf(ext, hi[k] - lo[k]);
     }
     // Positions are floats, and the GPU computes cell boundaries in float: near magnitude `mag`
     // both are only known to one float ulp there. Four ulps of padding keep every triangle strictly
@@ -290,7 +317,7 @@ static void root_box(const pn_scene *s, pn_ntree *t)
     t->slack = 4 * ulp;
     t->root_size = (double)ext + 2 * t->slack;
     for (int k = 0; k < 3; k++)
-        t->root_min[k] = 0.5 * ((double)s->bounds_min[k] + (double)s->bounds_max[k]) - 0.5 * t->root_size;
+        t->root_min[k] = 0.5 * ((double)lo[k] + (double)hi[k]) - 0.5 * t->root_size;
 }
 
 static pn_result grow_nodes(pn_ntree *t, uint32_t needed, uint32_t *cap)
@@ -331,13 +358,29 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
     uint32_t **parent_lists = NULL, parent_count = 0, lcount = 1;
     if (r == PN_OK)
         r = grow_nodes(t, 1, &cap);
-    if (r == PN_OK && !(all = malloc((size_t)t->triangles * sizeof *all)))
+    uint32_t total = pn_scene_triangle_count(s);
+    if (r == PN_OK && !(all = malloc((size_t)(total ? total : 1) * sizeof *all)))
         r = PN_ERR_MEMORY;
     if (r == PN_OK && !(lnodes = malloc(sizeof *lnodes)))
         r = PN_ERR_MEMORY;
     if (r == PN_OK) {
-        for (uint32_t i = 0; i < t->triangles; i++)
-            all[i] = i;
+        // The triangles that can block a shadow ray, and the root box around them.
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        t->triangles = 0;
+        for (uint32_t i = 0; i < total; i++) {
+            if (desc->cull_light && !can_block(tri[i], s->bounds_min, s->bounds_max, desc->cull_light))
+                continue;
+            all[t->triangles++] = i;
+            for (int k = 0; k < 3; k++) {
+                lo[k] = fminf(lo[k], box[i][k]);
+                hi[k] = fmaxf(hi[k], box[i][3 + k]);
+            }
+        }
+        t->culled = total - t->triangles;
+        if (t->triangles == 0) // nothing can cast a shadow: an empty tree over the scene
+            for (int k = 0; k < 3; k++)
+                lo[k] = s->bounds_min[k], hi[k] = s->bounds_max[k];
+        root_box(lo, hi, t);
         t->nodes[0] = (pn_ntree_node){0, {0, 0, 0}};
         t->node_count = 1;
         t->filled_per_level[0] = 1;
@@ -484,9 +527,7 @@ pn_result pn_ntree_build(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree 
     uint64_t t0 = pn_time_ns();
     t->n = desc->n;
     t->d = desc->d;
-    t->triangles = pn_scene_triangle_count(s);
     t->words64 = pn_ls_words64(t->n);
-    root_box(s, t);
 
     pn_result r = build_occupancy(s, desc, t);
     t->occupancy_ms = pn_ms_since(t0);

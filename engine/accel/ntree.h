@@ -19,6 +19,10 @@
 typedef struct pn_ntree_desc {
     int n, d;           // branching factor 2..16, depth 1..6
     uint64_t max_bytes; // refuse a tree whose pools would exceed this; 0 = no limit
+    // With the light's corners: leave out triangles that cannot block any shadow ray, i.e. those
+    // whose plane has the whole scene and the light on one closed side (a ground plane under
+    // everything, the outer walls of a room lit from inside). NULL keeps every triangle.
+    const float (*cull_light)[3];
 } pn_ntree_desc;
 
 typedef struct pn_ntree_node {
@@ -36,7 +40,8 @@ typedef struct pn_ntree {
     double root_min[3];
     double root_size; // edge of the cubic root box
     double slack;     // every cell is grown by this for the occupancy test (see ntree.c)
-    uint32_t triangles;
+    uint32_t triangles;   // in the tree
+    uint32_t culled;      // left out: they cannot block a shadow ray (pn_ntree_desc.cull_light)
     uint32_t node_count;  // subdivided nodes, breadth-first, root = 0
     pn_ntree_node *nodes; // node_count
     uint32_t *children;   // node_count * n^3 child entries, child c = (z*n + y)*n + x

@@ -9,6 +9,7 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "gpu/pools.h"
+#include "scene/view.h"
 #include "io/json.h"
 
 void pn_print_build_help(void)
@@ -21,6 +22,7 @@ void pn_print_build_help(void)
            "  --max-memory SIZE  refuse a tree whose pools exceed SIZE (MiB, or K/M/G suffix);\n"
            "                     default: half the device's largest memory heap\n"
            "  --ground, --no-ground   include the receiver plane render adds (default: on)\n"
+           "  --no-cull          keep triangles that cannot block a ray to the default light\n"
            "  --no-upload        build on the CPU only (no Vulkan device needed; default limit 1G)\n"
            "  --json             print one JSON object instead of the table\n"
            "  PN_THREADS=K       build threads (default: all cores)\n");
@@ -31,7 +33,7 @@ int pn_cmd_build(int argc, char **argv)
     const char *source = NULL;
     int n = 7, d = 3;
     uint64_t max_bytes = 0;
-    bool json = false, ground = true, upload = true;
+    bool json = false, ground = true, upload = true, cull = true;
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL, *arg = argv[a.i];
@@ -49,6 +51,8 @@ int pn_cmd_build(int argc, char **argv)
             ground = true;
         } else if (pn_args_flag(&a, "--no-ground")) {
             ground = false;
+        } else if (pn_args_flag(&a, "--no-cull")) {
+            cull = false;
         } else if (pn_args_flag(&a, "--no-upload")) {
             upload = false;
         } else if (arg[0] == '-' && arg[1] != '\0') {
@@ -70,6 +74,12 @@ int pn_cmd_build(int argc, char **argv)
     pn_scene scene;
     if (pn_scene_load(source, &scene) != PN_OK)
         return PN_EXIT_FAILURE;
+    // The same tree render builds with its default light: triangles that cannot block a ray to it
+    // (a ground plane under everything) are left out.
+    pn_light light;
+    float corners[4][3];
+    pn_light_default(scene.bounds_min, scene.bounds_max, &light);
+    pn_light_corners(&light, corners);
     if (ground && pn_scene_add_ground(&scene, 6.0f) != PN_OK) {
         pn_error("%s: out of memory adding the ground plane", scene.name);
         pn_scene_destroy(&scene);
@@ -88,15 +98,15 @@ int pn_cmd_build(int argc, char **argv)
     pn_ntree tree;
     pn_pools pools = {0};
     pn_gpu_pools gpu = {0};
-    if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes}, &tree) == PN_OK) {
+    if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes, .cull_light = cull ? (const float(*)[3])corners : NULL}, &tree) == PN_OK) {
         if (pn_pools_pack(&tree, &pools) == PN_OK && (!upload || pn_gpu_pools_create(&dev, &pools, &gpu) == PN_OK))
             rc = PN_EXIT_OK;
         double share = tree.node_count ? (double)tree.set_bits / ((double)tree.node_count * pn_ls_bits(n)) : 0;
         if (rc == PN_EXIT_OK && json) {
             printf("{\"scene\": ");
             pn_json_string(stdout, scene.name);
-            printf(", \"n\": %d, \"d\": %d, \"triangles\": %u, \"threads\": %u, \"filled_per_level\": [", n, d,
-                   tree.triangles, pn_parallel_threads());
+            printf(", \"n\": %d, \"d\": %d, \"triangles\": %u, \"culled_triangles\": %u, \"threads\": %u, \"filled_per_level\": [", n, d,
+                   tree.triangles, tree.culled, pn_parallel_threads());
             for (int l = 0; l <= d; l++)
                 printf("%s%llu", l ? ", " : "", (unsigned long long)tree.filled_per_level[l]);
             printf("], \"nodes_per_level\": [");
@@ -109,7 +119,9 @@ int pn_cmd_build(int argc, char **argv)
                    (unsigned long long)pools.bytes.linespace, (unsigned long long)pools.bytes.total, share,
                    tree.build_ms, tree.occupancy_ms, tree.masks_ms, tree.linespace_ms, upload ? "true" : "false");
         } else if (rc == PN_EXIT_OK) {
-            printf("%s: %u triangles, LS(%d,%d), %u threads\n", scene.name, tree.triangles, n, d, pn_parallel_threads());
+            printf("%s: %u triangles in the tree (%u left out: they cannot block a ray to the default light), "
+                   "LS(%d,%d), %u threads\n",
+                   scene.name, tree.triangles, tree.culled, n, d, pn_parallel_threads());
             printf("  level  filled cells  subdivided\n");
             for (int l = 0; l <= d; l++)
                 printf("  %5d  %12llu  %10llu\n", l, (unsigned long long)tree.filled_per_level[l],

@@ -66,8 +66,8 @@ void pn_print_render_help(void)
            "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
            "                        default: half the device's largest memory heap)\n"
            "  --spp S               shadow rays per pixel 1..4096 (default 25), a grid of U x V = S\n"
-           "  --traversal packet|ray   the pixel's rays walk the tree together or one by one\n"
-           "                        (default packet)\n"
+           "  --traversal ray|packet   each ray walks the tree alone (3D-DDA per level, default:\n"
+           "                        faster on lavapipe) or the pixel's rays walk it together\n"
            "  --sampler grid|stratified   the paper's uniform grid, or jittered strata with a\n"
            "                        per-pixel rotated low-discrepancy set (default stratified)\n");
 }
@@ -75,7 +75,7 @@ void pn_print_render_help(void)
 static int parse(int argc, char **argv, render_opts *o)
 {
     *o = (render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 25, .tree_n = 7, .tree_d = 3,
-                       .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE, .traversal = PN_TRAVERSAL_PACKET,
+                       .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE, .traversal = PN_TRAVERSAL_RAY,
                        .sampler = PN_SAMPLER_STRATIFIED};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
@@ -261,6 +261,7 @@ typedef struct render_stats {
     double build_ms;     // N-tree and line spaces
     pn_pool_bytes pools; // zero without a tree
     uint32_t subdivided;
+    uint32_t culled; // triangles left out of the tree
 } render_stats;
 
 static pn_result write_outputs(const render_opts *o, const char *output, const pn_scene *s, const pn_camera *cam,
@@ -363,10 +364,14 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     int rc = PN_EXIT_FAILURE;
     if (o->mode == PN_SHADOW_LINESPACE) {
         uint64_t max_bytes = o->max_bytes ? o->max_bytes : pn_gpu_device_heap(dev) / 2;
-        if (pn_ntree_build(scene, &(pn_ntree_desc){.n = o->tree_n, .d = o->tree_d, .max_bytes = max_bytes}, &tree) != PN_OK)
+        float corners[4][3];
+        pn_light_corners(light, corners);
+        pn_ntree_desc td = {.n = o->tree_n, .d = o->tree_d, .max_bytes = max_bytes, .cull_light = (const float(*)[3])corners};
+        if (pn_ntree_build(scene, &td, &tree) != PN_OK)
             return PN_EXIT_FAILURE;
         st->build_ms = tree.build_ms;
         st->subdivided = tree.node_count;
+        st->culled = tree.culled;
         rd.leaf_size = pn_ntree_cell_size(&tree, tree.d);
         if (pn_pools_pack(&tree, &pools) != PN_OK || pn_gpu_pools_create(dev, &pools, &gpu_pools) != PN_OK)
             goto done;
@@ -414,9 +419,9 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                o->width, o->height, pn_scene_triangle_count(scene), MODES[o->mode], TRAVERSALS[o->traversal],
                SAMPLERS[o->sampler], o->spp, o->seed);
         if (tree)
-            printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
+            printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
                    "\"node\": %llu, \"linespace\": %llu, \"total\": %llu}, ",
-                   o->tree_n, o->tree_d, st->subdivided, st->build_ms, (unsigned long long)st->pools.tree,
+                   o->tree_n, o->tree_d, st->subdivided, st->culled, st->build_ms, (unsigned long long)st->pools.tree,
                    (unsigned long long)st->pools.node, (unsigned long long)st->pools.linespace,
                    (unsigned long long)st->pools.total);
         else
@@ -433,8 +438,9 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(" LS(%d,%d) %s/%s %lld spp", o->tree_n, o->tree_d, TRAVERSALS[o->traversal], SAMPLERS[o->sampler], o->spp);
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
     if (tree)
-        printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms\n", st->subdivided,
-               st->pools.total / 1048576.0, st->build_ms);
+        printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
+               "(they cannot block a shadow ray)\n",
+               st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled);
     printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,
            t->shadow_ms, t->shade_ms, st->rays_per_s, load_ms);
 }

@@ -34,7 +34,8 @@ typedef struct pn_shadow_params {
     float light_normal[4];
     uint32_t spp, grid_u, grid_v, sampler, seed;
     float leaf_size;
-    uint32_t pad[2];
+    uint32_t canary; // 2, see budget_spent in shadow_common.glsl
+    uint32_t pad;
 } pn_shadow_params;
 
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
@@ -694,6 +695,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     sp.sampler = (uint32_t)r->desc.sampler;
     sp.seed = r->desc.seed;
     sp.leaf_size = (float)r->desc.leaf_size;
+    sp.canary = 2;
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite it.
     memcpy(r->shadow_params.mapped, &sp, sizeof sp);
 
@@ -718,7 +720,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
             return PN_ERR_UNSUPPORTED;
         }
         r->chunk /= 2;
-        pn_debug("shadow pass cut short: retrying with %u samples per dispatch", r->chunk);
+        pn_info("shadow pass cut short by the shader loop budget: retrying with %u samples per dispatch", r->chunk);
     }
 
     uint64_t ts[TS_COUNT];

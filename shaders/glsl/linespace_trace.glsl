@@ -122,16 +122,17 @@ int ls_any_bit(TreeInfo t, Node node, vec3 pa, vec3 pb, float eps)
     return result;
 }
 
-// What the segment o + t*d (t in [0,1]) does at subdivided node `node`.
-int ls_classify(TreeInfo t, Node node, vec3 o, vec3 d)
+// What the ray o + t*d, t in [t_start, 1], does at subdivided node `node`. The rays of a pixel share
+// o (the surface point) and differ in d and t_start (where each has risen clear of the surface).
+int ls_classify(TreeInfo t, Node node, vec3 o, vec3 d, float t_start)
 {
     float n = float(t.n);
     Local l = ls_local(node, n, o, d);
     float t_in, t_out;
     bool last = node.level + 1u == t.d;
     int result = LS_SKIP;
-    if (ls_slabs(l, n, t_in, t_out) && t_in <= 1.0 && t_out >= 0.0) {
-        if (t_in <= 0.0 || t_out >= 1.0) { // starts or ends inside
+    if (ls_slabs(l, n, t_in, t_out) && t_in <= 1.0 && t_out >= t_start) {
+        if (t_in <= t_start || t_out >= 1.0) { // starts or ends inside
             result = last ? LS_SKIP : LS_DESCEND;
         } else {
             vec3 pa = clamp(l.o + t_in * l.d, vec3(0.0), vec3(n));

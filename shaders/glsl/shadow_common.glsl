@@ -12,7 +12,8 @@ layout(set = 0, binding = 3, std140) uniform ShadowParams {
     uint sampler_kind;  // 0 grid, 1 stratified
     uint seed;
     float leaf_size;    // edge of a leaf cell (level d), world units
-    uint pad0, pad1;
+    uint canary;        // 2: the iteration count of the loop-budget canary (see budget_spent)
+    uint pad1;
 } params;
 
 // The shadow pass runs in chunks of light samples, one dispatch each, accumulating counts: llvmpipe
@@ -26,6 +27,16 @@ layout(push_constant) uniform Chunk {
     uint first;        // 1: counts start at zero
     uint last;         // 1: write V = visible / valid
 } chunk;
+
+// True if this invocation's loop budget ran out: a loop of `canary` (= 2) iterations, a bound the
+// compiler cannot see, completes only while budget is left. Call it after all other loops.
+bool budget_spent()
+{
+    uint iterations = 0u;
+    for (uint j = 0u; j < params.canary; j++)
+        iterations++;
+    return iterations != params.canary;
+}
 
 layout(set = 0, binding = 4, rg32ui) uniform uimage2D img_counts; // (visible, valid) so far
 layout(std430, set = 0, binding = 5) buffer Status { uint truncated; } status;
