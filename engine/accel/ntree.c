@@ -348,6 +348,29 @@ static void free_lists(uint32_t **lists, uint32_t count)
     free(lists);
 }
 
+// The triangle lists of the last-level nodes (this level's nodes), in node order.
+static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t lcount)
+{
+    t->cand_offset = calloc((size_t)t->node_count + 1, sizeof *t->cand_offset);
+    uint64_t total = 0;
+    for (uint32_t i = 0; i < lcount; i++)
+        total += lnodes[i].count;
+    if (total > UINT32_MAX)
+        return PN_ERR_MEMORY;
+    t->cand_tris = malloc((size_t)(total ? total : 1) * sizeof *t->cand_tris);
+    if (!t->cand_offset || !t->cand_tris)
+        return PN_ERR_MEMORY;
+    // Nodes of one level are numbered consecutively, so per-node counts then a prefix sum.
+    for (uint32_t i = 0; i < lcount; i++)
+        t->cand_offset[lnodes[i].node + 1] = lnodes[i].count;
+    for (uint32_t i = 0; i < t->node_count; i++)
+        t->cand_offset[i + 1] += t->cand_offset[i];
+    for (uint32_t i = 0; i < lcount; i++)
+        memcpy(t->cand_tris + t->cand_offset[lnodes[i].node], lnodes[i].tris, lnodes[i].count * sizeof(uint32_t));
+    t->cand_count = total;
+    return PN_OK;
+}
+
 static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree *t)
 {
     float(*tri)[9] = NULL, (*box)[6] = NULL;
@@ -420,6 +443,10 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
         if (atomic_load(&b.failed)) {
             free_lists(lists, lcount);
             r = PN_ERR_MEMORY;
+            break;
+        }
+        if (desc->keep_candidates && level + 1 == t->d && (r = keep_candidates(t, lnodes, lcount)) != PN_OK) {
+            free_lists(lists, lcount);
             break;
         }
         // Number the filled children breadth-first; those above the last level become nodes.
@@ -563,5 +590,7 @@ void pn_ntree_destroy(pn_ntree *t)
     free(t->nodes);
     free(t->children);
     free(t->linespaces);
+    free(t->cand_offset);
+    free(t->cand_tris);
     memset(t, 0, sizeof *t);
 }

@@ -23,6 +23,9 @@ typedef struct pn_ntree_desc {
     // whose plane has the whole scene and the light on one closed side (a ground plane under
     // everything, the outer walls of a room lit from inside). NULL keeps every triangle.
     const float (*cull_light)[3];
+    // Keep each last-level node's triangles (the paper's candidate lists), for the modes that test
+    // triangles exactly where the line space cannot decide (hybrid, exact-ls).
+    bool keep_candidates;
 } pn_ntree_desc;
 
 typedef struct pn_ntree_node {
@@ -49,6 +52,11 @@ typedef struct pn_ntree {
     uint64_t *linespaces; // node_count * words64
     uint64_t filled_per_level[PN_NTREE_MAX_DEPTH + 1]; // filled cells at level 0..d
     uint64_t set_bits;                                 // over all line spaces
+    // With keep_candidates: node i's triangles (scene triangle ids) are
+    // cand_tris[cand_offset[i] .. cand_offset[i + 1]); empty for nodes above the last level.
+    uint32_t *cand_offset; // node_count + 1
+    uint32_t *cand_tris;
+    uint64_t cand_count;
     double occupancy_ms, masks_ms, linespace_ms, build_ms;
 } pn_ntree;
 

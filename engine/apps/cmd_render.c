@@ -8,6 +8,7 @@
 #include "apps/commands.h"
 #include "core/log.h"
 #include "core/timer.h"
+#include "accel/bvh.h"
 #include "accel/pools.h"
 #include "gpu/renderer.h"
 #include "io/exr.h"
@@ -17,12 +18,15 @@
 
 // Index = pn_shadow_mode for those implemented.
 static const char *const MODES[] = {"none", "linespace", "hybrid", "exact-ls", "exact", NULL};
-enum { MODES_IMPLEMENTED = 2 };
+static const bool MODE_IMPLEMENTED[] = {true, true, false, false, true};
+
+// Modes that walk the N-tree.
+static bool uses_tree(int mode) { return mode >= PN_SHADOW_LINESPACE && mode <= PN_SHADOW_EXACT_LS; }
 static const char *const TRAVERSALS[] = {"packet", "ray", NULL};
 static const char *const SAMPLERS[] = {"grid", "stratified", NULL};
 
 typedef struct render_opts {
-    const char *scene, *output, *preview;
+    const char *scene, *output, *preview, *ray_dump;
     uint32_t width, height;
     bool has_cam_pos, has_cam_target, has_fov;
     float cam_pos[3], cam_target[3], fov;
@@ -48,6 +52,9 @@ void pn_print_render_help(void)
            "  --exposure E          preview exposure multiplier (default 1)\n"
            "  --size WxH            image size (default 1280x720)\n"
            "  --json                print one JSON object instead of the summary line\n"
+           "  --ray-dump FILE       every shadow ray (origin, light sample, valid, blocked) as binary,\n"
+           "                        for checks against an independent tracer (modes exact, hybrid,\n"
+           "                        exact-ls); format in engine/apps/cmd_render.c\n"
            "camera (default: the file's first camera, else framing the scene's bounds):\n"
            "  --camera-pos X,Y,Z --camera-target X,Y,Z --fov DEG (vertical, default 45)\n"
            "light (one-sided rectangular Lambertian emitter; default above the scene, facing down):\n"
@@ -87,6 +94,8 @@ static int parse(int argc, char **argv, render_opts *o)
             return -1;
         } else if (pn_args_value(&a, "-o", &v, &err) || pn_args_value(&a, "--output", &v, &err)) {
             o->output = v;
+        } else if (pn_args_value(&a, "--ray-dump", &v, &err)) {
+            o->ray_dump = v;
         } else if (pn_args_value(&a, "--preview", &v, &err)) {
             o->preview = v;
         } else if (pn_args_value(&a, "--size", &v, &err)) {
@@ -154,8 +163,12 @@ static int parse(int argc, char **argv, render_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
-    if (o->mode >= MODES_IMPLEMENTED) {
-        pn_error("--mode %s: not implemented in this build yet (available: linespace, none)", MODES[o->mode]);
+    if (o->ray_dump && (o->mode == PN_SHADOW_NONE || o->mode == PN_SHADOW_LINESPACE)) {
+        pn_error("--ray-dump: only the modes exact, hybrid and exact-ls keep their rays");
+        return PN_EXIT_USAGE;
+    }
+    if (!MODE_IMPLEMENTED[o->mode]) {
+        pn_error("--mode %s: not implemented in this build yet (available: linespace, exact, none)", MODES[o->mode]);
         return PN_EXIT_USAGE;
     }
     return PN_EXIT_OK;
@@ -262,6 +275,7 @@ typedef struct render_stats {
     pn_pool_bytes pools; // zero without a tree
     uint32_t subdivided;
     uint32_t culled; // triangles left out of the tree
+    uint64_t exact_bytes; // triangle pools of the exact tests (triangles, BVH, candidate lists)
 } render_stats;
 
 static pn_result write_outputs(const render_opts *o, const char *output, const pn_scene *s, const pn_camera *cam,
@@ -320,8 +334,8 @@ static pn_result write_outputs(const render_opts *o, const char *output, const p
         {.name = "penumbra.traversal", .type = PN_EXR_ATTR_STRING, .s = TRAVERSALS[o->traversal]},
         {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = SAMPLERS[o->sampler]},
         {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
-        {.name = "penumbra.tree.n", .type = PN_EXR_ATTR_INT, .i = o->mode == PN_SHADOW_LINESPACE ? o->tree_n : 0},
-        {.name = "penumbra.tree.d", .type = PN_EXR_ATTR_INT, .i = o->mode == PN_SHADOW_LINESPACE ? o->tree_d : 0},
+        {.name = "penumbra.tree.n", .type = PN_EXR_ATTR_INT, .i = uses_tree(o->mode) ? o->tree_n : 0},
+        {.name = "penumbra.tree.d", .type = PN_EXR_ATTR_INT, .i = uses_tree(o->mode) ? o->tree_d : 0},
         F1("penumbra.build_ms", st->build_ms),
         F1("penumbra.shadow_rays_per_s", st->rays_per_s),
     };
@@ -344,6 +358,29 @@ static pn_result write_outputs(const render_opts *o, const char *output, const p
 }
 
 
+// --ray-dump file: "PNRAYS1" and a zero byte, then uint32 width, height, spp, 0, then the floats
+// of pn_renderer_ray_dump (little-endian): per pixel 4 (origin xyz, 1 where geometry is), then per
+// pixel and sample 4 (light point xyz, flags as uint32 bits: 1 valid, 2 blocked).
+static pn_result write_ray_dump(const render_opts *o, const pn_renderer *r)
+{
+    uint64_t floats;
+    const float *data = pn_renderer_ray_dump(r, &floats);
+    char tmp[4096];
+    if (!data || pn_file_tmp_path(o->ray_dump, tmp, sizeof tmp) != PN_OK)
+        return PN_ERR_INVALID;
+    FILE *f = fopen(tmp, "wb");
+    uint32_t header[6] = {0x41524e50u, 0x00315359u, o->width, o->height, (uint32_t)o->spp, 0}; // "PNRAYS1\0"
+    bool ok = f && fwrite(header, sizeof header, 1, f) == 1 && fwrite(data, sizeof(float), floats, f) == floats;
+    if (f && fclose(f) != 0)
+        ok = false;
+    if (!ok) {
+        pn_error("%s: cannot write the ray dump", o->ray_dump);
+        pn_file_discard(tmp);
+        return PN_ERR_IO;
+    }
+    return pn_file_commit(tmp, o->ray_dump);
+}
+
 // Builds what the shadow mode needs, renders one frame and writes the outputs.
 static int render_frame(const render_opts *o, const char *output, pn_gpu_device *dev, const pn_scene *scene,
                         const pn_camera *cam, const pn_light *light, render_stats *st)
@@ -351,6 +388,8 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     pn_ntree tree = {0};
     pn_pools pools = {0};
     pn_gpu_pools gpu_pools = {0};
+    pn_bvh bvh = {0};
+    pn_gpu_exact_pools exact = {0};
     pn_renderer renderer;
     pn_renderer_desc rd = {
         .width = o->width,
@@ -360,13 +399,15 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
         .sampler = (pn_sampler)o->sampler,
         .spp = (uint32_t)o->spp,
         .seed = (uint32_t)o->seed,
+        .dump_rays = o->ray_dump != NULL,
     };
     int rc = PN_EXIT_FAILURE;
-    if (o->mode == PN_SHADOW_LINESPACE) {
+    if (uses_tree(o->mode)) {
         uint64_t max_bytes = o->max_bytes ? o->max_bytes : pn_gpu_device_heap(dev) / 2;
         float corners[4][3];
         pn_light_corners(light, corners);
-        pn_ntree_desc td = {.n = o->tree_n, .d = o->tree_d, .max_bytes = max_bytes, .cull_light = (const float(*)[3])corners};
+        pn_ntree_desc td = {.n = o->tree_n, .d = o->tree_d, .max_bytes = max_bytes, .cull_light = (const float(*)[3])corners,
+                            .keep_candidates = o->mode != PN_SHADOW_LINESPACE};
         if (pn_ntree_build(scene, &td, &tree) != PN_OK)
             return PN_EXIT_FAILURE;
         st->build_ms = tree.build_ms;
@@ -378,6 +419,19 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
         st->pools = pools.bytes;
         rd.pools = &gpu_pools;
     }
+    if (o->mode == PN_SHADOW_EXACT) {
+        if (pn_bvh_build(scene, &bvh) != PN_OK) {
+            pn_error("%s: out of memory building the BVH", scene->name);
+            goto done;
+        }
+        st->build_ms += bvh.build_ms;
+    }
+    if (o->mode >= PN_SHADOW_HYBRID) {
+        if (pn_gpu_exact_pools_create(dev, scene, o->mode == PN_SHADOW_EXACT ? &bvh : NULL, &tree, &exact) != PN_OK)
+            goto done;
+        st->exact_bytes = exact.bytes;
+        rd.exact = &exact;
+    }
     if (pn_renderer_create(dev, scene, &rd, &renderer) != PN_OK)
         goto done;
     pn_frame_images img;
@@ -388,11 +442,14 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
             st->covered += img.radiance[4 * i + 3] > 0;
         if (st->times.shadow_ms > 0)
             st->rays_per_s = (double)st->covered * (double)o->spp / (st->times.shadow_ms * 1e-3);
-        if (write_outputs(o, output, scene, cam, light, st, &img) == PN_OK)
+        if (write_outputs(o, output, scene, cam, light, st, &img) == PN_OK &&
+            (!o->ray_dump || write_ray_dump(o, &renderer) == PN_OK))
             rc = PN_EXIT_OK;
     }
     pn_renderer_destroy(&renderer);
 done:
+    pn_gpu_exact_pools_destroy(dev, &exact);
+    pn_bvh_destroy(&bvh);
     pn_gpu_pools_destroy(dev, &gpu_pools);
     pn_pools_destroy(&pools);
     pn_ntree_destroy(&tree);
@@ -403,7 +460,7 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                           double load_ms, unsigned validation_messages)
 {
     const pn_frame_times *t = &st->times;
-    bool tree = o->mode == PN_SHADOW_LINESPACE;
+    bool tree = uses_tree(o->mode);
     if (o->json) {
         printf("{\"output\": ");
         pn_json_string(stdout, output);
@@ -425,7 +482,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                    (unsigned long long)st->pools.node, (unsigned long long)st->pools.linespace,
                    (unsigned long long)st->pools.total);
         else
-            printf("\"tree\": null, \"build_ms\": 0, \"pool_bytes\": null, ");
+            printf("\"tree\": null, \"build_ms\": %.3f, \"pool_bytes\": null, ", st->build_ms);
+        printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);
         printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
                "\"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",
                load_ms, t->gbuffer_ms, t->shadow_ms, t->shade_ms, (unsigned long long)st->covered, st->rays_per_s,
@@ -435,12 +493,16 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
     printf("%s: %u triangles, %ux%u, mode %s", scene->name, pn_scene_triangle_count(scene), o->width, o->height,
            MODES[o->mode]);
     if (tree)
-        printf(" LS(%d,%d) %s/%s %lld spp", o->tree_n, o->tree_d, TRAVERSALS[o->traversal], SAMPLERS[o->sampler], o->spp);
+        printf(" LS(%d,%d) %s", o->tree_n, o->tree_d, TRAVERSALS[o->traversal]);
+    if (o->mode != PN_SHADOW_NONE)
+        printf(" %s %lld spp", SAMPLERS[o->sampler], o->spp);
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
     if (tree)
         printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
                "(they cannot block a shadow ray)\n",
                st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled);
+    if (o->mode == PN_SHADOW_EXACT)
+        printf("  BVH built in %.1f ms; triangle and BVH pools %.1f MiB\n", st->build_ms, st->exact_bytes / 1048576.0);
     printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,
            t->shadow_ms, t->shade_ms, st->rays_per_s, load_ms);
 }
@@ -457,7 +519,8 @@ int pn_cmd_render(int argc, char **argv)
         default_output(o.scene, default_out, sizeof default_out);
         output = default_out;
     }
-    if (!output_writable(output) || (o.preview && !output_writable(o.preview)))
+    if (!output_writable(output) || (o.preview && !output_writable(o.preview)) ||
+        (o.ray_dump && !output_writable(o.ray_dump)))
         return PN_EXIT_FAILURE;
 
     uint64_t t0 = pn_time_ns();

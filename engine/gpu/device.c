@@ -234,7 +234,15 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         .hostQueryReset = VK_TRUE,
         .bufferDeviceAddress = VK_TRUE, // the N-tree pools are reached by address (accel/pools.h)
     };
+    VkPhysicalDeviceFeatures supported;
+    vkGetPhysicalDeviceFeatures(dev->physical, &supported);
     VkPhysicalDeviceFeatures2 f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &f12};
+    // The watertight triangle test recomputes its edge functions in double when they round to zero.
+    if (!supported.shaderFloat64) {
+        pn_error("%s lacks shaderFloat64, which the exact triangle test needs", dev->props.deviceName);
+        return PN_ERR_VULKAN;
+    }
+    f.features.shaderFloat64 = VK_TRUE;
     float priority = 1.0f;
     VkDeviceQueueCreateInfo qi = {
         .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,

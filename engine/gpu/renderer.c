@@ -9,6 +9,7 @@
 #include "gbuffer_frag.h"
 #include "gbuffer_vert.h"
 #include "shade_comp.h"
+#include "shadow_exact_comp.h"
 #include "shadow_linespace_comp.h"
 #include "shadow_none_comp.h"
 
@@ -36,6 +37,9 @@ typedef struct pn_shadow_params {
     float leaf_size;
     uint32_t canary; // 2, see budget_spent in shadow_common.glsl
     uint32_t pad;
+    uint64_t tris, bvh, bvh_tris, cand_offset, cand_tris; // buffer device addresses
+    uint64_t dump;
+    uint32_t dump_rays, pad2;
 } pn_shadow_params;
 
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
@@ -339,10 +343,18 @@ static pn_result create_pipelines(pn_renderer *r)
     VkSpecializationMapEntry entry = {.constantID = 0, .offset = 0, .size = sizeof traversal};
     VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = sizeof traversal, .pData = &traversal};
     bool ls = r->desc.mode == PN_SHADOW_LINESPACE;
+    const uint32_t *spirv = pn_spv_shadow_none_comp;
+    size_t spirv_size = sizeof pn_spv_shadow_none_comp;
+    if (ls) {
+        spirv = pn_spv_shadow_linespace_comp;
+        spirv_size = sizeof pn_spv_shadow_linespace_comp;
+    } else if (r->desc.mode == PN_SHADOW_EXACT) {
+        spirv = pn_spv_shadow_exact_comp;
+        spirv_size = sizeof pn_spv_shadow_exact_comp;
+    }
     PN_TRY(pn_gpu_compute_create(dev,
-                                 &(pn_gpu_compute_desc){.spirv = ls ? pn_spv_shadow_linespace_comp : pn_spv_shadow_none_comp,
-                                                        .spirv_size = ls ? sizeof pn_spv_shadow_linespace_comp
-                                                                         : sizeof pn_spv_shadow_none_comp,
+                                 &(pn_gpu_compute_desc){.spirv = spirv,
+                                                        .spirv_size = spirv_size,
                                                         .bindings = shadow_bindings,
                                                         .binding_count = 6,
                                                         .push_size = sizeof(pn_shadow_chunk),
@@ -351,6 +363,13 @@ static pn_result create_pipelines(pn_renderer *r)
     PN_TRY(pn_gpu_buffer_create(dev, sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                 &r->shadow_params));
     pn_gpu_compute_write_uniform(dev, &r->shadow, 3, r->shadow_params.buffer);
+    if (r->desc.dump_rays) {
+        uint64_t px = (uint64_t)r->width * r->height;
+        PN_TRY(pn_gpu_buffer_create(dev, px * (1 + r->desc.spp) * 16,
+                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT,
+                                    PN_GPU_HOST_READBACK, &r->ray_dump));
+        memset(r->ray_dump.mapped, 0, px * (1 + r->desc.spp) * 16);
+    }
     PN_TRY(pn_gpu_buffer_create(dev, sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
                                 &r->shadow_status));
     pn_gpu_compute_write_image(dev, &r->shadow, 4, r->counts.view);
@@ -417,8 +436,12 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     uint32_t width = desc->width, height = desc->height;
     out->width = width;
     out->height = height;
-    if (desc->mode == PN_SHADOW_LINESPACE && !desc->pools) {
+    if (desc->mode >= PN_SHADOW_LINESPACE && desc->mode <= PN_SHADOW_EXACT_LS && !desc->pools) {
         pn_error("line-space shadows need the N-tree's pools");
+        return PN_ERR_INVALID;
+    }
+    if (desc->mode >= PN_SHADOW_HYBRID && !desc->exact) {
+        pn_error("exact shadow tests need the triangle pools");
         return PN_ERR_INVALID;
     }
     // Samples per shadow dispatch: small enough that a pixel's loops stay far below llvmpipe's
@@ -477,6 +500,7 @@ void pn_renderer_destroy(pn_renderer *r)
     pn_gpu_buffer_destroy(dev, &r->readback);
     pn_gpu_buffer_destroy(dev, &r->shadow_params);
     pn_gpu_buffer_destroy(dev, &r->shadow_status);
+    pn_gpu_buffer_destroy(dev, &r->ray_dump);
     for (uint32_t i = 0; r->textures && i < r->texture_count; i++)
         pn_gpu_image_destroy(dev, &r->textures[i]);
     free(r->textures);
@@ -670,8 +694,9 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){
                            .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
-                           .srcStageMask = COPY,
-                           .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                           // The copies, the shadow pass's status flag and ray dump: all read by the host.
+                           .srcStageMask = COPY | COMPUTE,
+                           .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                            .dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT,
                            .dstAccessMask = VK_ACCESS_2_HOST_READ_BIT,
                        },
@@ -696,6 +721,16 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     sp.seed = r->desc.seed;
     sp.leaf_size = (float)r->desc.leaf_size;
     sp.canary = 2;
+    if (r->desc.exact) {
+        const pn_gpu_exact_pools *e = r->desc.exact;
+        sp.tris = e->tris.address;
+        sp.bvh = e->bvh_nodes.address;
+        sp.bvh_tris = e->bvh_tris.address;
+        sp.cand_offset = e->cand_offset.address;
+        sp.cand_tris = e->cand_tris.address;
+    }
+    sp.dump = r->ray_dump.address;
+    sp.dump_rays = r->desc.dump_rays;
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite it.
     memcpy(r->shadow_params.mapped, &sp, sizeof sp);
 
@@ -742,4 +777,10 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->albedo = out->n + 4 * px;
     out->v = out->albedo + 4 * px;
     out->radiance = out->v + px;
+}
+
+const float *pn_renderer_ray_dump(const pn_renderer *r, uint64_t *floats)
+{
+    *floats = r->ray_dump.mapped ? (uint64_t)r->width * r->height * (1 + r->desc.spp) * 4 : 0;
+    return r->ray_dump.mapped;
 }

@@ -2,6 +2,7 @@
 // readback. Shared by render, demo and bench.
 #pragma once
 #include "gpu/compute.h"
+#include "gpu/exact_pools.h"
 #include "gpu/pools.h"
 #include "gpu/resources.h"
 #include "scene/scene.h"
@@ -10,6 +11,9 @@
 typedef enum pn_shadow_mode {
     PN_SHADOW_NONE = 0,      // V = 1: unshadowed
     PN_SHADOW_LINESPACE = 1, // line-space visibility (shaders/glsl/shadow_linespace.comp)
+    PN_SHADOW_HYBRID = 2,    // line spaces, and the triangles exactly where the ray starts and ends
+    PN_SHADOW_EXACT_LS = 3,  // line spaces skip empty space; set shafts test their triangles exactly
+    PN_SHADOW_EXACT = 4,     // BVH and watertight triangle tests (shaders/glsl/shadow_exact.comp)
 } pn_shadow_mode;
 
 typedef enum pn_traversal { PN_TRAVERSAL_PACKET = 0, PN_TRAVERSAL_RAY = 1 } pn_traversal;
@@ -22,8 +26,10 @@ typedef struct pn_renderer_desc {
     pn_sampler sampler;
     uint32_t spp;  // shadow rays per pixel
     uint32_t seed; // fixes the stratified jitter
-    const pn_gpu_pools *pools; // the uploaded N-tree, for PN_SHADOW_LINESPACE
+    const pn_gpu_pools *pools; // the uploaded N-tree, for the line-space modes
     double leaf_size;          // edge of a leaf cell of that tree, world units
+    const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for the exact tests
+    bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
 } pn_renderer_desc;
 
 // The light-sample grid for spp rays: grid_u * grid_v == spp with grid_u the largest divisor of
@@ -49,6 +55,7 @@ typedef struct pn_renderer {
     uint32_t width, height;
     pn_renderer_desc desc;
     pn_gpu_buffer shadow_params; // uniform buffer of the shadow pass
+    pn_gpu_buffer ray_dump;      // with desc.dump_rays
     pn_gpu_buffer shadow_status; // host-visible flag: a shadow dispatch ran out of llvmpipe's loop budget
     pn_gpu_image counts;         // (visible, valid) sample counts between shadow chunks
     uint32_t chunk;              // light samples per shadow dispatch (halved when a dispatch is cut short)
@@ -84,3 +91,8 @@ void pn_renderer_destroy(pn_renderer *r);
 pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
+
+// With desc.dump_rays, after a frame: per pixel, the ray origin (xyz; w = 1 where geometry is),
+// then per pixel and light sample the sample point (xyz) and flags in w's bits (bit 0: valid, the
+// sample carries light; bit 1: blocked). NULL without dump_rays. Modes exact, hybrid and exact-ls.
+const float *pn_renderer_ray_dump(const pn_renderer *r, uint64_t *floats);

@@ -2,6 +2,21 @@
 // ShadowParams mirrors pn_shadow_params in engine/gpu/renderer.c.
 #include "pools.glsl"
 
+struct BvhNodeData {
+    vec3 min;
+    uint first;
+    vec3 max;
+    uint count;
+};
+
+// Triangle and BVH pools for the exact tests (engine/accel/bvh.h), reached by address.
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer TriPool { vec4 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer BvhPool { BvhNodeData nodes[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer IndexPool { uint ids[]; };
+// Per pixel: origin (xyz) and 1 where geometry is; then per pixel and sample: the light point (xyz)
+// and flags (bit 0 valid, bit 1 blocked) as float bits. Mirrors pn_ray_dump in renderer.h.
+layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer RayDump { vec4 v[]; };
+
 layout(set = 0, binding = 3, std140) uniform ShadowParams {
     TreeInfo tree;      // 64 bytes
     vec4 corners[4];    // light corners, counter-clockwise seen from the emitting side
@@ -14,6 +29,14 @@ layout(set = 0, binding = 3, std140) uniform ShadowParams {
     float leaf_size;    // edge of a leaf cell (level d), world units
     uint canary;        // 2: the iteration count of the loop-budget canary (see budget_spent)
     uint pad1;
+    TriPool tris;          // 3 vec4 per triangle, scene order
+    BvhPool bvh;           // exact mode
+    IndexPool bvh_tris;    // triangle ids in BVH leaf order
+    IndexPool cand_offset; // per N-tree node: first candidate (node_count + 1 entries)
+    IndexPool cand_tris;   // candidate triangle ids
+    RayDump dump;          // with dump_rays: every ray, for tests against an independent tracer
+    uint dump_rays;
+    uint pad2;
 } params;
 
 // The shadow pass runs in chunks of light samples, one dispatch each, accumulating counts: llvmpipe
@@ -80,3 +103,4 @@ vec3 light_point(vec2 st)
 
 // Upper bound of the spacing of floats near |x| (one ulp).
 float ulp_bound(float x) { return max(abs(x), 1e-30) * 1.1920929e-7; }
+

@@ -1,0 +1,306 @@
+#include "accel/bvh.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/timer.h"
+
+enum {
+    BINS = 16,       // SAH bins per axis
+    LEAF_MAX = 4,    // triangles per leaf at most, unless they cannot be split
+    MAX_DEPTH = 60,  // the GPU stack holds this many entries (exact.glsl)
+    PARALLEL_MIN = 16384, // subtrees larger than this are built as separate tasks
+};
+
+typedef struct aabb {
+    float lo[3], hi[3];
+} aabb;
+
+static void aabb_empty(aabb *b)
+{
+    for (int k = 0; k < 3; k++)
+        b->lo[k] = FLT_MAX, b->hi[k] = -FLT_MAX;
+}
+
+static void aabb_grow(aabb *b, const aabb *o)
+{
+    for (int k = 0; k < 3; k++) {
+        b->lo[k] = fminf(b->lo[k], o->lo[k]);
+        b->hi[k] = fmaxf(b->hi[k], o->hi[k]);
+    }
+}
+
+static float aabb_area(const aabb *b)
+{
+    float e[3];
+    for (int k = 0; k < 3; k++)
+        e[k] = fmaxf(b->hi[k] - b->lo[k], 0.0f);
+    return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+}
+
+// Build state. Nodes are allocated from a shared counter; subtrees may be built by other threads.
+typedef struct builder {
+    const aabb *tri_box;
+    const float (*centroid)[3];
+    uint32_t *ids; // permuted in place
+    pn_bvh_node *nodes;
+    atomic_uint node_count;
+    uint32_t capacity;
+    atomic_uint depth;
+} builder;
+
+typedef struct task {
+    uint32_t node, begin, end, depth;
+} task;
+
+static uint32_t alloc_nodes(builder *b, uint32_t n) { return atomic_fetch_add(&b->node_count, n); }
+
+static void node_bounds(const builder *b, uint32_t begin, uint32_t end, aabb *box, aabb *cbox)
+{
+    aabb_empty(box);
+    aabb_empty(cbox);
+    for (uint32_t i = begin; i < end; i++) {
+        uint32_t t = b->ids[i];
+        aabb_grow(box, &b->tri_box[t]);
+        for (int k = 0; k < 3; k++) {
+            cbox->lo[k] = fminf(cbox->lo[k], b->centroid[t][k]);
+            cbox->hi[k] = fmaxf(cbox->hi[k], b->centroid[t][k]);
+        }
+    }
+}
+
+// Splits [begin, end) by binned SAH over centroids; returns the split index, or `begin` when a leaf
+// is cheaper (or nothing separates the centroids).
+static uint32_t sah_split(builder *b, uint32_t begin, uint32_t end, const aabb *box, const aabb *cbox)
+{
+    uint32_t n = end - begin;
+    float best_cost = (float)n * aabb_area(box); // the leaf's cost
+    int best_axis = -1, best_bin = 0;
+    for (int k = 0; k < 3; k++) {
+        float lo = cbox->lo[k], ext = cbox->hi[k] - lo;
+        if (!(ext > 0))
+            continue;
+        aabb bins[BINS];
+        uint32_t count[BINS] = {0};
+        for (int i = 0; i < BINS; i++)
+            aabb_empty(&bins[i]);
+        float scale = BINS / ext;
+        for (uint32_t i = begin; i < end; i++) {
+            uint32_t t = b->ids[i];
+            int bin = (int)((b->centroid[t][k] - lo) * scale);
+            bin = bin < 0 ? 0 : bin >= BINS ? BINS - 1 : bin;
+            count[bin]++;
+            aabb_grow(&bins[bin], &b->tri_box[t]);
+        }
+        // Sweep: cost of splitting after bin i = N_left * A_left + N_right * A_right.
+        float right_area[BINS];
+        uint32_t right_count[BINS];
+        aabb acc;
+        aabb_empty(&acc);
+        uint32_t c = 0;
+        for (int i = BINS - 1; i > 0; i--) {
+            aabb_grow(&acc, &bins[i]);
+            c += count[i];
+            right_area[i] = aabb_area(&acc);
+            right_count[i] = c;
+        }
+        aabb_empty(&acc);
+        c = 0;
+        for (int i = 0; i < BINS - 1; i++) {
+            aabb_grow(&acc, &bins[i]);
+            c += count[i];
+            if (c == 0 || right_count[i + 1] == 0)
+                continue;
+            // The traversal step costs about one triangle test: both are a few dozen flops.
+            float cost = aabb_area(box) + (float)c * aabb_area(&acc) + (float)right_count[i + 1] * right_area[i + 1];
+            if (cost < best_cost) {
+                best_cost = cost;
+                best_axis = k;
+                best_bin = i;
+            }
+        }
+    }
+    if (best_axis < 0) {
+        if (n <= LEAF_MAX)
+            return begin;
+        // No good SAH split of a big set: split at the median of the widest centroid axis.
+        int k = 0;
+        for (int a = 1; a < 3; a++)
+            if (cbox->hi[a] - cbox->lo[a] > cbox->hi[k] - cbox->lo[k])
+                k = a;
+        if (!(cbox->hi[k] > cbox->lo[k]))
+            return begin + n / 2; // identical centroids: any split
+        best_axis = k;
+        best_bin = BINS / 2 - 1;
+    }
+    float lo = cbox->lo[best_axis], scale = BINS / (cbox->hi[best_axis] - lo);
+    uint32_t i = begin, j = end;
+    while (i < j) {
+        uint32_t t = b->ids[i];
+        int bin = (int)((b->centroid[t][best_axis] - lo) * scale);
+        bin = bin < 0 ? 0 : bin >= BINS ? BINS - 1 : bin;
+        if (bin <= best_bin) {
+            i++;
+        } else {
+            b->ids[i] = b->ids[--j];
+            b->ids[j] = t;
+        }
+    }
+    if (i == begin || i == end) // all on one side: a leaf, or halves when it is too big
+        return n <= LEAF_MAX ? begin : begin + n / 2;
+    return i;
+}
+
+// Builds the subtree of task t; pushes subtrees bigger than PARALLEL_MIN to `spill` when given.
+static void build_subtree(builder *b, task t, task *spill, uint32_t *spill_count, uint32_t spill_cap)
+{
+    task stack[2 * MAX_DEPTH + 8];
+    int sp = 0;
+    stack[sp++] = t;
+    while (sp > 0) {
+        task cur = stack[--sp];
+        aabb box, cbox;
+        node_bounds(b, cur.begin, cur.end, &box, &cbox);
+        pn_bvh_node *node = &b->nodes[cur.node];
+        memcpy(node->min, box.lo, sizeof node->min);
+        memcpy(node->max, box.hi, sizeof node->max);
+        uint32_t n = cur.end - cur.begin;
+        uint32_t split = cur.depth + 1 >= MAX_DEPTH ? cur.begin : sah_split(b, cur.begin, cur.end, &box, &cbox);
+        if (split == cur.begin) { // leaf (also when the depth limit is reached)
+            node->first = cur.begin;
+            node->count = n;
+            uint32_t d = cur.depth + 1, old = atomic_load(&b->depth);
+            while (d > old && !atomic_compare_exchange_weak(&b->depth, &old, d))
+                ;
+            continue;
+        }
+        uint32_t child = alloc_nodes(b, 2);
+        node->first = child;
+        node->count = 0;
+        task l = {child, cur.begin, split, cur.depth + 1}, r = {child + 1, split, cur.end, cur.depth + 1};
+        task kids[2] = {l, r};
+        // Top phase (spill given): the children become tasks for the parallel phase.
+        for (int i = 0; i < 2; i++) {
+            if (spill && *spill_count < spill_cap)
+                spill[(*spill_count)++] = kids[i];
+            else
+                stack[sp++] = kids[i];
+        }
+        if (spill && sp == 0)
+            return;
+    }
+}
+
+typedef struct par_ctx {
+    builder *b;
+    const task *tasks;
+} par_ctx;
+
+static void build_tasks(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    par_ctx *p = ctx;
+    for (uint64_t i = begin; i < end; i++)
+        build_subtree(p->b, p->tasks[i], NULL, NULL, 0);
+}
+
+pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
+{
+    memset(out, 0, sizeof *out);
+    uint64_t t0 = pn_time_ns();
+    uint32_t n = pn_scene_triangle_count(s);
+    aabb *tri_box = malloc((size_t)n * sizeof *tri_box);
+    float(*centroid)[3] = malloc((size_t)n * sizeof *centroid);
+    out->tri_index = malloc((size_t)(n ? n : 1) * sizeof *out->tri_index);
+    // A binary tree with leaves of at least one triangle has fewer than 2n nodes.
+    uint32_t capacity = 2 * (n ? n : 1);
+    out->nodes = malloc((size_t)capacity * sizeof *out->nodes);
+    if (!tri_box || !centroid || !out->tri_index || !out->nodes) {
+        free(tri_box), free(centroid);
+        pn_bvh_destroy(out);
+        return PN_ERR_MEMORY;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        aabb_empty(&tri_box[i]);
+        for (int j = 0; j < 3; j++) {
+            const float *p = s->vertices[s->indices[3 * i + j]].pos;
+            for (int k = 0; k < 3; k++) {
+                tri_box[i].lo[k] = fminf(tri_box[i].lo[k], p[k]);
+                tri_box[i].hi[k] = fmaxf(tri_box[i].hi[k], p[k]);
+            }
+        }
+        for (int k = 0; k < 3; k++)
+            centroid[i][k] = 0.5f * (tri_box[i].lo[k] + tri_box[i].hi[k]);
+        out->tri_index[i] = i;
+    }
+    builder b = {.tri_box = tri_box, .centroid = (const float(*)[3])centroid, .ids = out->tri_index,
+                 .nodes = out->nodes, .capacity = capacity};
+    atomic_init(&b.node_count, 1);
+    atomic_init(&b.depth, 0);
+    // Top levels one at a time on this thread until there are enough independent subtrees, then
+    // the subtrees on all threads.
+    enum { TASKS = 4096 };
+    task *tasks = malloc(2 * TASKS * sizeof *tasks);
+    if (!tasks) {
+        free(tri_box), free(centroid);
+        pn_bvh_destroy(out);
+        return PN_ERR_MEMORY;
+    }
+    task *cur = tasks, *next = tasks + TASKS;
+    uint32_t ncur = 1, nnext;
+    cur[0] = (task){0, 0, n, 0};
+    unsigned threads = pn_parallel_threads();
+    while (ncur < 8 * threads && ncur < TASKS / 2) {
+        nnext = 0;
+        bool split_any = false;
+        for (uint32_t i = 0; i < ncur; i++) {
+            uint32_t before = nnext;
+            if (cur[i].end - cur[i].begin > PARALLEL_MIN) {
+                build_subtree(&b, cur[i], next, &nnext, TASKS);
+                split_any = split_any || nnext != before;
+            } else {
+                next[nnext++] = cur[i];
+            }
+        }
+        task *t = cur;
+        cur = next;
+        next = t;
+        ncur = nnext;
+        if (!split_any)
+            break;
+    }
+    par_ctx p = {&b, cur};
+    pn_parallel_for(ncur, 1, build_tasks, &p);
+    free(tasks);
+    free(tri_box);
+    free(centroid);
+    out->node_count = atomic_load(&b.node_count);
+    out->triangles = n;
+    out->depth = atomic_load(&b.depth);
+    out->build_ms = pn_ms_since(t0);
+    return PN_OK;
+}
+
+void pn_bvh_destroy(pn_bvh *bvh)
+{
+    free(bvh->nodes);
+    free(bvh->tri_index);
+    memset(bvh, 0, sizeof *bvh);
+}
+
+pn_result pn_triangle_pool(const pn_scene *s, float **out, uint64_t *bytes)
+{
+    uint32_t n = pn_scene_triangle_count(s);
+    *bytes = (uint64_t)(n ? n : 1) * 12 * sizeof(float);
+    *out = calloc(1, *bytes);
+    if (!*out)
+        return PN_ERR_MEMORY;
+    for (uint32_t i = 0; i < n; i++)
+        for (int j = 0; j < 3; j++)
+            memcpy(*out + 12 * i + 4 * j, s->vertices[s->indices[3 * i + j]].pos, 3 * sizeof(float));
+    return PN_OK;
+}

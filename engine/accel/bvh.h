@@ -1,0 +1,34 @@
+// A bounding volume hierarchy over the scene's triangles for exact shadow rays: built on the CPU
+// with binned SAH, flattened depth-first for the GPU (after Aila and Laine's GPU traversal).
+#pragma once
+#include <stdint.h>
+
+#include "core/error.h"
+#include "scene/scene.h"
+
+// One node, 32 bytes, mirrored by BvhNode in shaders/glsl/exact.glsl.
+//   count == 0: interior; its children are nodes first and first + 1.
+//   count > 0:  leaf; triangles tri_index[first .. first + count).
+typedef struct pn_bvh_node {
+    float min[3];
+    uint32_t first;
+    float max[3];
+    uint32_t count;
+} pn_bvh_node;
+
+typedef struct pn_bvh {
+    pn_bvh_node *nodes;
+    uint32_t node_count;
+    uint32_t *tri_index; // triangle ids (scene order) in leaf order
+    uint32_t triangles;
+    uint32_t depth;      // longest root-to-leaf path, in nodes
+    double build_ms;
+} pn_bvh;
+
+// Builds over all of the scene's triangles, multi-threaded. Degenerate triangles are kept (a
+// segment or a point can still be grazed) and never break the build.
+pn_result pn_bvh_build(const pn_scene *scene, pn_bvh *out);
+void pn_bvh_destroy(pn_bvh *bvh);
+
+// Triangle vertices in scene order, 3 x vec4 (w = 0) per triangle: the GPU's triangle pool.
+pn_result pn_triangle_pool(const pn_scene *scene, float **out, uint64_t *bytes);

@@ -1,0 +1,26 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Exact soft shadows (--mode exact): every shadow ray is traced through the BVH with the watertight
+// triangle test; any hit blocks it. The ground truth of every error figure, and the baseline the
+// paper compared against (Aila and Laine style GPU traversal).
+#include "shadow_common.glsl"
+#include "shadow_frame.glsl"
+#include "exact.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+void main()
+{
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    vec3 p, nrm;
+    if (!shadow_pixel(px, p, nrm))
+        return;
+    float rise;
+    vec3 o = shadow_origin(p, nrm, rise);
+    uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
+    uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i);
+    uint blocked = 0u;
+    for (uint j = 0u; j < count; j++)
+        blocked |= (valid_rays & (1u << j)) != 0u && bvh_blocked(o, dir[j], 0.0, 1.0) ? (1u << j) : 0u;
+    shadow_finish(px, o, count, valid_rays, blocked, i < count);
+}

@@ -1,0 +1,84 @@
+// The skeleton of a shadow shader: the pixel, its chunk of rays, the counts. Include after
+// shadow_common.glsl.
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = 2, r32f) uniform writeonly image2D img_v;
+
+const uint MAX_CHUNK = 32u; // rays of one dispatch (renderer.c keeps chunks at most this big)
+
+// The chunk's rays: all start at the pixel's origin o; ray i ends at o + dir[i] (a light sample),
+// and rises clear of its own surface at t_rise[i] (see shadow_origin).
+vec3 dir[MAX_CHUNK];
+float t_rise[MAX_CHUNK];
+bool truncated = false; // set when llvmpipe's loop budget ended a loop early
+
+// Surface offsets against self-shadowing.
+// 1. Float precision: the G-buffer position is interpolated in float, so it is only known to a few
+//    ulps of its magnitude; lifting the origin by 8 ulps along the normal puts it on the lit side of
+//    its own triangle. Every mode starts its rays there.
+// 2. Cell size (line-space modes): a shaft entered through a patch touches every cell within one
+//    leaf (edge s) of the ray (its cross-section is one patch wide and cells are closed), and the
+//    surface's own filled leaves reach one leaf beyond the surface. So no shaft of a node the ray
+//    enters sees the surface it starts on once the ray is more than 3s away from the tangent plane
+//    in the max norm, i.e. once n.(x - p) > 3 s |n|_1: at t_rise along the ray (not a shift along the
+//    normal, which would move the penumbrae).
+vec3 shadow_origin(vec3 p, vec3 nrm, out float rise)
+{
+    float mag = max(max(abs(p.x), abs(p.y)), abs(p.z));
+    rise = 3.0 * params.leaf_size * (abs(nrm.x) + abs(nrm.y) + abs(nrm.z));
+    return p + nrm * (8.0 * ulp_bound(mag));
+}
+
+// Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry
+// light: above the receiver's horizon and in front of the one-sided light). `i` ends at the ray
+// count unless the loop budget ran out.
+uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i)
+{
+    uint valid_rays = 0u;
+    for (i = 0u; i < count; i++) {
+        vec3 q = light_point(light_sample(chunk.sample_begin + i, pixel));
+        vec3 d = q - o;
+        float dn = dot(d, nrm);
+        bool valid = dn > 0.0 && dot(params.light_normal.xyz, -d) > 0.0;
+        valid_rays |= valid ? (1u << i) : 0u;
+        dir[i] = d;
+        t_rise[i] = valid ? rise / dn : 2.0;
+    }
+    return valid_rays;
+}
+
+// Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid.
+void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
+{
+    if (params.dump_rays != 0u) {
+        ivec2 size = imageSize(img_v);
+        uint pixel = uint(px.y * size.x + px.x), pixels = uint(size.x * size.y);
+        params.dump.v[pixel] = vec4(o, 1.0);
+        for (uint i = 0u; i < count; i++) {
+            uint flags = ((valid_rays >> i) & 1u) | (((blocked >> i) & 1u) << 1u);
+            params.dump.v[pixels + pixel * params.spp + chunk.sample_begin + i] = vec4(o + dir[i], uintBitsToFloat(flags));
+        }
+    }
+    uvec2 counts = chunk.first != 0u ? uvec2(0u) : imageLoad(img_counts, px).xy; // (visible, valid)
+    counts.x += uint(bitCount(valid_rays & ~blocked));
+    counts.y += uint(bitCount(valid_rays));
+    if (cut_short || truncated || budget_spent())
+        atomicOr(status.truncated, 1u);
+    if (chunk.last != 0u)
+        imageStore(img_v, px, vec4(counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0));
+    else
+        imageStore(img_counts, px, uvec4(counts, 0u, 0u));
+}
+
+// Background pixels: V = 0. Returns false for them.
+bool shadow_pixel(ivec2 px, out vec3 p, out vec3 nrm)
+{
+    bool inside = all(lessThan(px, imageSize(img_v)));
+    vec4 pw = inside ? imageLoad(img_p, px) : vec4(0.0);
+    p = pw.xyz;
+    nrm = inside ? imageLoad(img_n, px).xyz : vec3(0.0, 1.0, 0.0);
+    if (inside && pw.w <= 0.0 && chunk.last != 0u)
+        imageStore(img_v, px, vec4(0.0));
+    return inside && pw.w > 0.0;
+}
