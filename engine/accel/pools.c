@@ -3,9 +3,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/log.h"
+
 pn_result pn_pools_pack(const pn_ntree *t, pn_pools *out)
 {
     memset(out, 0, sizeof *out);
+    // Pool offsets are 32-bit words on the GPU; a tree whose pools pass 16 GiB cannot be addressed.
+    if ((uint64_t)t->node_count * (uint64_t)(t->n * t->n * t->n) > UINT32_MAX ||
+        (uint64_t)t->node_count * 2 * t->words64 > UINT32_MAX) {
+        pn_error("LS(%d,%d) with %u subdivided nodes exceeds the pools' 32-bit offsets; try a smaller N or d", t->n,
+                 t->d, t->node_count);
+        return PN_ERR_MEMORY;
+    }
     out->nodes = malloc((t->node_count ? t->node_count : 1) * sizeof *out->nodes);
     if (!out->nodes)
         return PN_ERR_MEMORY;
