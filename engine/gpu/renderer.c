@@ -444,9 +444,11 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("exact shadow tests need the triangle pools");
         return PN_ERR_INVALID;
     }
-    // Samples per shadow dispatch: small enough that a pixel's loops stay far below llvmpipe's
-    // budget of 65535 iterations (a ray takes a few hundred), halved when that is not enough.
-    out->chunk = 16;
+    // Samples per shadow dispatch: small enough that a pixel's loops stay below llvmpipe's budget
+    // of 65535 iterations (a ray takes tens), halved when that is not enough. 32 (the shader's
+    // MAX_CHUNK) runs 25 spp in one dispatch; the per-ray walk balances its lanes better the more
+    // rays each has, and the packet walk does fewer walks.
+    out->chunk = 32;
     if (desc->spp == 0 && desc->mode != PN_SHADOW_NONE) {
         pn_error("spp must be at least 1");
         return PN_ERR_INVALID;

@@ -30,16 +30,18 @@ struct Local {
     float eps;
 };
 
-Local ls_local(Node node, float n, vec3 o, vec3 d)
+Local ls_local_box(vec3 node_min, float node_size, float n, vec3 o, vec3 d)
 {
-    float s = n / node.size;
+    float s = n / node_size;
     Local l;
-    l.o = (o - node.min) * s;
+    l.o = (o - node_min) * s;
     l.d = d * s;
-    float mag = max(max(max(abs(o.x), abs(o.y)), abs(o.z)), max(max(abs(node.min.x), abs(node.min.y)), abs(node.min.z)));
-    l.eps = 4.0 * (ulp_bound(mag + node.size) * s + ulp_bound(n));
+    float mag = max(max(max(abs(o.x), abs(o.y)), abs(o.z)), max(max(abs(node_min.x), abs(node_min.y)), abs(node_min.z)));
+    l.eps = 4.0 * (ulp_bound(mag + node_size) * s + ulp_bound(n));
     return l;
 }
+
+Local ls_local(Node node, float n, vec3 o, vec3 d) { return ls_local_box(node.min, node.size, n, o, d); }
 
 // Entry and exit parameters of the line o + t*d through the box [-eps, N+eps]^3; false if it misses.
 // Every function here has a single exit and no break/continue: Mesa 22.3's llvmpipe miscompiles
@@ -81,66 +83,96 @@ uint ls_face_mask(vec3 p, float n, float eps)
     return m;
 }
 
-// 1: some pair of patches (on different faces) holding the entry and the exit point has its bit set;
-// 0: none has; -1: no pair on different faces (the segment lies in a face plane).
-int ls_any_bit(TreeInfo t, Node node, vec3 pa, vec3 pb, float eps)
+// Component k of p (k < 3), without dynamic vector indexing (which llvmpipe turns into branches).
+float ls_comp(vec3 p, uint k) { return k == 0u ? p.x : (k == 1u ? p.y : p.z); }
+
+// Shaft bit of patch (fa, ua, va) and patch (fb, ub, vb), fa != fb: ls_shaft without its integer
+// divisions (llvmpipe splits a vector division into one scalar division per lane), since the faces
+// are known here. Shafts are symmetric: the patch on the lower face comes first.
+bool ls_bit_faces(TreeInfo t, uint ls, uint fa, uint ua, uint va, uint fb, uint ub, uint vb)
 {
-    uint n = t.n;
-    float fn = float(n);
-    uint ma = ls_face_mask(pa, fn, eps), mb = ls_face_mask(pb, fn, eps);
-    int result = -1;
-    if (bitCount(ma) == 1 && bitCount(mb) == 1 && ma != mb) {
-        // The common case, without loops: each point on one face, away from its patch edges.
-        uint fa = uint(findLSB(ma)), fb = uint(findLSB(mb));
-        uint ka = fa >> 1u, kb = fb >> 1u;
-        uvec2 ua = ls_cell_range(pa[(ka + 1u) % 3u], fn, eps), va = ls_cell_range(pa[(ka + 2u) % 3u], fn, eps);
-        uvec2 ub = ls_cell_range(pb[(kb + 1u) % 3u], fn, eps), vb = ls_cell_range(pb[(kb + 2u) % 3u], fn, eps);
-        if (ua.x == ua.y && va.x == va.y && ub.x == ub.y && vb.x == vb.y)
-            result = ls_bit(t, node, ls_shaft(n, ls_patch(n, fa, ua.x, va.x), ls_patch(n, fb, ub.x, vb.x))) ? 1 : 0;
-    }
-    if (result < 0) {
-        // Near an edge or a patch boundary: every candidate pair of patches.
-        bool pair = false, bit = false;
-        for (uint fa = 0u; fa < 6u; fa++) {
-            uint ka = fa >> 1u;
-            uvec2 ua = ls_cell_range(pa[(ka + 1u) % 3u], fn, eps), va = ls_cell_range(pa[(ka + 2u) % 3u], fn, eps);
-            for (uint fb = 0u; fb < 6u; fb++) {
-                if ((ma & (1u << fa)) != 0u && (mb & (1u << fb)) != 0u && fb != fa) {
-                    pair = true;
-                    uint kb = fb >> 1u;
-                    uvec2 ub = ls_cell_range(pb[(kb + 1u) % 3u], fn, eps), vb = ls_cell_range(pb[(kb + 2u) % 3u], fn, eps);
-                    for (uint a_u = ua.x; a_u <= ua.y; a_u++)
-                        for (uint a_v = va.x; a_v <= va.y; a_v++)
-                            for (uint b_u = ub.x; b_u <= ub.y; b_u++)
-                                for (uint b_v = vb.x; b_v <= vb.y; b_v++)
-                                    bit = bit || ls_bit(t, node, ls_shaft(n, ls_patch(n, fa, a_u, a_v), ls_patch(n, fb, b_u, b_v)));
-                }
-            }
-        }
-        result = bit ? 1 : (pair ? 0 : -1);
-    }
-    return result;
+    uint n = t.n, n2 = n * n;
+    bool swap = fb < fa;
+    uint pa = va * n + ua, pb = vb * n + ub;
+    uint bit = ls_face_pair(swap ? fb : fa, swap ? fa : fb) * n2 * n2 + (swap ? pb : pa) * n2 + (swap ? pa : pb);
+    return ((t.ls_pool.words[ls + (bit >> 5)] >> (bit & 31u)) & 1u) != 0u;
 }
 
-// What the ray o + t*d, t in [t_start, 1], does at subdivided node `node`. The rays of a pixel share
-// o (the surface point) and differ in d and t_start (where each has risen clear of the surface).
-int ls_classify(TreeInfo t, Node node, vec3 o, vec3 d, float t_start)
+// 1: some pair of patches (on different faces) holding the entry and the exit point has its bit set
+// in the line space starting at word `ls`;
+// 0: none has; -1: no pair on different faces (the segment lies in a face plane).
+// One flat loop over the candidate pairs (usually exactly one: each point on one face, away from
+// patch edges): llvmpipe runs every loop body at least once per call, masked, and charges each
+// iteration against the invocation's loop budget, so a nest of loops for the rare case would cost
+// every call several iterations. The candidates: faces fa of pa (set bits of ra, lowest first),
+// faces fb != fa of pb (set bits of rb), and in each face pair every combination of the patch cells
+// the two points may belong to, counted by the odometer `o` (offsets of a_u, a_v, b_u, b_v in their
+// ranges). Stops at the first set bit, which decides the result.
+int ls_any_bit(TreeInfo t, uint ls, vec3 pa, vec3 pb, float eps)
+{
+    float fn = float(t.n);
+    uint ma = ls_face_mask(pa, fn, eps), mb = ls_face_mask(pb, fn, eps);
+    bool pair = false, bit = false;
+    uint ra = ma;
+    uint rb = mb & ~(ra & (0u - ra));
+    uvec4 o = uvec4(0u);
+    while (ra != 0u && !bit) {
+        uint fa = uint(findLSB(ra)), fb = uint(findLSB(rb));
+        uint ka = fa >> 1u, kb = min(fb, 5u) >> 1u;
+        uvec2 ua = ls_cell_range(ls_comp(pa, (ka + 1u) % 3u), fn, eps), va = ls_cell_range(ls_comp(pa, (ka + 2u) % 3u), fn, eps);
+        uvec2 ub = ls_cell_range(ls_comp(pb, (kb + 1u) % 3u), fn, eps), vb = ls_cell_range(ls_comp(pb, (kb + 2u) % 3u), fn, eps);
+        uvec4 lo = uvec4(ua.x, va.x, ub.x, vb.x), span = uvec4(ua.y, va.y, ub.y, vb.y) - lo;
+        if (rb != 0u) {
+            pair = true;
+            uvec4 c = lo + o;
+            bit = ls_bit_faces(t, ls, fa, c.x, c.y, fb, c.z, c.w);
+        }
+        // Next combination (b_v fastest), then the next face pair.
+        bool c3 = o.w >= span.w, c2 = c3 && o.z >= span.z, c1 = c2 && o.y >= span.y, c0 = c1 && o.x >= span.x;
+        o.w = c3 ? 0u : o.w + 1u;
+        o.z = c3 ? (c2 ? 0u : o.z + 1u) : o.z;
+        o.y = c2 ? (c1 ? 0u : o.y + 1u) : o.y;
+        o.x = c1 ? (c0 ? 0u : o.x + 1u) : o.x;
+        if (c0 || rb == 0u) {
+            o = uvec4(0u);
+            rb &= rb - 1u;
+            if (rb == 0u) {
+                ra &= ra - 1u;
+                rb = mb & ~(ra & (0u - ra));
+            }
+        }
+    }
+    return bit ? 1 : (pair ? 0 : -1);
+}
+
+// What the ray o + t*d, t in [t_start, 1], does at a subdivided node on `level` whose line space
+// starts at word `ls`, given its node-local form l and ls_slabs' result (hit, t_in, t_out): the
+// per-ray traversal computes those once per node and reuses them to set up the node's DDA. The rays of a pixel share o (the surface point) and differ
+// in d and t_start (where each has risen clear of the surface).
+int ls_classify_local(TreeInfo t, uint level, uint ls, Local l, bool hit, float t_in, float t_out, float t_start)
 {
     float n = float(t.n);
-    Local l = ls_local(node, n, o, d);
-    float t_in, t_out;
-    bool last = node.level + 1u == t.d;
+    bool last = level + 1u == t.d;
     int result = LS_SKIP;
-    if (ls_slabs(l, n, t_in, t_out) && t_in <= 1.0 && t_out >= t_start) {
+    if (hit && t_in <= 1.0 && t_out >= t_start) {
         if (t_in <= t_start || t_out >= 1.0) { // starts or ends inside
             result = last ? LS_SKIP : LS_DESCEND;
         } else {
             vec3 pa = clamp(l.o + t_in * l.d, vec3(0.0), vec3(n));
             vec3 pb = clamp(l.o + t_out * l.d, vec3(0.0), vec3(n));
-            int bit = ls_any_bit(t, node, pa, pb, l.eps);
+            int bit = ls_any_bit(t, ls, pa, pb, l.eps);
             // In a face plane (bit < 0): walk the children instead.
             result = bit == 0 ? LS_SKIP : (bit < 0 || !last ? LS_DESCEND : LS_BLOCKED);
         }
     }
     return result;
+}
+
+int ls_classify(TreeInfo t, Node node, vec3 o, vec3 d, float t_start)
+{
+    float n = float(t.n);
+    Local l = ls_local(node, n, o, d);
+    float t_in, t_out;
+    bool hit = ls_slabs(l, n, t_in, t_out);
+    return ls_classify_local(t, node.level, node.linespace, l, hit, t_in, t_out, t_start);
 }
