@@ -339,10 +339,12 @@ static pn_result create_pipelines(pn_renderer *r)
     const VkDescriptorSetLayoutBinding shadow_bindings[6] = {
         img[0], img[1], img[2], {.binding = 3, .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER}, img[4],
         {.binding = 5, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}};
-    int32_t traversal = (int32_t)r->desc.traversal;
-    VkSpecializationMapEntry entry = {.constantID = 0, .offset = 0, .size = sizeof traversal};
-    VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = sizeof traversal, .pData = &traversal};
-    bool ls = r->desc.mode == PN_SHADOW_LINESPACE;
+    // Specialisation of shadow_linespace.comp: TRAVERSAL (id 0) and MODE (id 1: 0 linespace,
+    // 1 hybrid, 2 exact-ls).
+    int32_t spec_data[2] = {(int32_t)r->desc.traversal, (int32_t)r->desc.mode - PN_SHADOW_LINESPACE};
+    VkSpecializationMapEntry entries[2] = {{.constantID = 0, .offset = 0, .size = 4}, {.constantID = 1, .offset = 4, .size = 4}};
+    VkSpecializationInfo spec = {.mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof spec_data, .pData = spec_data};
+    bool ls = r->desc.mode >= PN_SHADOW_LINESPACE && r->desc.mode <= PN_SHADOW_EXACT_LS;
     const uint32_t *spirv = pn_spv_shadow_none_comp;
     size_t spirv_size = sizeof pn_spv_shadow_none_comp;
     if (ls) {

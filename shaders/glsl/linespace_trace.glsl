@@ -8,11 +8,12 @@
 //
 // Start node: a ray that starts inside a node has no entry patch. Above the last level it descends;
 // the last-level node that holds the origin is skipped, as in the paper (its geometry casts no
-// shadow on the ray: that is the method's loss of contact shadows, which hybrid mode repairs).
+// shadow on the ray: that is the method's loss of contact shadows, which hybrid mode repairs by
+// testing that node's triangles exactly).
 // End node: a shaft bit covers the whole line through a node, so a ray that ends inside a node (a
 // light inside the scene's bounds) would be blocked by geometry beyond the light. The same rule
 // applies: above the last level it descends, and the last-level node that holds the light sample
-// is skipped.
+// is skipped (tested exactly in hybrid and exact-ls).
 //
 // Rounding: positions are floats. A point within `eps` of a patch edge or node face is treated as
 // lying on it, and every patch it may belong to is looked up (any set bit counts), so rounding can
@@ -22,6 +23,7 @@
 const int LS_SKIP = 0;
 const int LS_BLOCKED = 1;
 const int LS_DESCEND = 2;
+const int LS_INSIDE = 3; // a last-level node where the ray starts or ends: its line space cannot decide
 
 // Node-local coordinates: the node spans [0, N]^3; the segment is o + t*d, t in [0, 1].
 struct Local {
@@ -147,16 +149,19 @@ int ls_any_bit(TreeInfo t, uint ls, vec3 pa, vec3 pb, float eps)
 
 // What the ray o + t*d, t in [t_start, 1], does at a subdivided node on `level` whose line space
 // starts at word `ls`, given its node-local form l and ls_slabs' result (hit, t_in, t_out): the
-// per-ray traversal computes those once per node and reuses them to set up the node's DDA. The rays of a pixel share o (the surface point) and differ
-// in d and t_start (where each has risen clear of the surface).
-int ls_classify_local(TreeInfo t, uint level, uint ls, Local l, bool hit, float t_in, float t_out, float t_start)
+// per-ray traversal computes those once per node and reuses them to set up the node's DDA. The
+// rays of a pixel share o (the surface point) and differ in d, t_start and t_trust: the line space
+// answers only for nodes the ray enters after t_trust (where it has risen clear of its surface);
+// a last-level node entered before, or holding the ray's end, is LS_INSIDE.
+int ls_classify_local(TreeInfo t, uint level, uint ls, Local l, bool hit, float t_in, float t_out, float t_start,
+                      float t_trust)
 {
     float n = float(t.n);
     bool last = level + 1u == t.d;
     int result = LS_SKIP;
     if (hit && t_in <= 1.0 && t_out >= t_start) {
-        if (t_in <= t_start || t_out >= 1.0) { // starts or ends inside
-            result = last ? LS_SKIP : LS_DESCEND;
+        if (t_in <= t_trust || t_out >= 1.0) { // starts (or has not risen clear) or ends inside
+            result = last ? LS_INSIDE : LS_DESCEND;
         } else {
             vec3 pa = clamp(l.o + t_in * l.d, vec3(0.0), vec3(n));
             vec3 pb = clamp(l.o + t_out * l.d, vec3(0.0), vec3(n));
@@ -168,11 +173,11 @@ int ls_classify_local(TreeInfo t, uint level, uint ls, Local l, bool hit, float 
     return result;
 }
 
-int ls_classify(TreeInfo t, Node node, vec3 o, vec3 d, float t_start)
+int ls_classify(TreeInfo t, Node node, vec3 o, vec3 d, float t_start, float t_trust)
 {
     float n = float(t.n);
     Local l = ls_local(node, n, o, d);
     float t_in, t_out;
     bool hit = ls_slabs(l, n, t_in, t_out);
-    return ls_classify_local(t, node.level, node.linespace, l, hit, t_in, t_out, t_start);
+    return ls_classify_local(t, node.level, node.linespace, l, hit, t_in, t_out, t_start, t_trust);
 }

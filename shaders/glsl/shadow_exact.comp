@@ -18,7 +18,8 @@ void main()
     float rise;
     vec3 o = shadow_origin(p, nrm, rise);
     uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
-    uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i);
+    vec2 st_lo, st_hi;
+    uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
     for (uint j = 0u; j < count; j++)
         blocked |= (valid_rays & (1u << j)) != 0u && bvh_blocked(o, dir[j], 0.0, 1.0) ? (1u << j) : 0u;

@@ -32,18 +32,24 @@ vec3 shadow_origin(vec3 p, vec3 nrm, out float rise)
 
 // Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry
 // light: above the receiver's horizon and in front of the one-sided light). `i` ends at the ray
-// count unless the loop budget ran out.
-uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i)
+// count unless the loop budget ran out. st_lo, st_hi: the box, in the light's (s, t), of the valid
+// samples that rise clear before the light (empty, lo > hi, if none does).
+uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i, out vec2 st_lo, out vec2 st_hi)
 {
     uint valid_rays = 0u;
+    st_lo = vec2(1.0);
+    st_hi = vec2(0.0);
     for (i = 0u; i < count; i++) {
-        vec3 q = light_point(light_sample(chunk.sample_begin + i, pixel));
-        vec3 d = q - o;
+        vec2 st = light_sample(chunk.sample_begin + i, pixel);
+        vec3 d = light_point(st) - o;
         float dn = dot(d, nrm);
         bool valid = dn > 0.0 && dot(params.light_normal.xyz, -d) > 0.0;
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
+        bool rises = valid && t_rise[i] < 1.0;
+        st_lo = rises ? min(st_lo, st) : st_lo;
+        st_hi = rises ? max(st_hi, st) : st_hi;
     }
     return valid_rays;
 }

@@ -12,25 +12,36 @@
 // Control flow is kept structured (no break, continue or early return in loops): Mesa 22.3's
 // llvmpipe charges every loop iteration against one budget per invocation (see Chunk in
 // shadow_common.glsl), and structured loops keep that count predictable.
+//
+// MODE 0 (linespace): the paper's method; a ray starts where it has risen clear of its surface
+// (t_rise, shadow_frame.glsl) and the last-level nodes where it starts or ends are skipped.
+// MODE 1 (hybrid): the same, but the ray starts at its origin, and the last-level nodes the line
+// space cannot decide (entered before t_rise, or holding the ray's end) have their triangles tested
+// exactly. MODE 2 (exact-ls): line spaces only skip empty space; wherever a last-level shaft is set,
+// or a node holds the ray's start or end, its triangles are tested exactly: the result is exact.
 #include "shadow_common.glsl"
+#include "shadow_frame.glsl"
+#include "exact.glsl"
 #include "linespace_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const int TRAVERSAL = 0;
-
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D img_p;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D img_n;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D img_v;
+layout(constant_id = 1) const int MODE = 0;
 
 const int MAX_DEPTH = 6;
-const uint MAX_CHUNK = 32u; // rays of one dispatch (renderer.c keeps chunks at most this big)
 
-bool truncated = false; // set when llvmpipe's loop budget ended a loop early
+// Where ray i's segment starts, and from where the line space may answer for it (see MODE).
+float ray_start(uint i) { return MODE == 0 ? t_rise[i] : 0.0; }
+float ray_trust(uint i) { return MODE == 2 ? 0.0 : t_rise[i]; }
 
-// The rays of a dispatch: all start at o (the pixel's surface point); ray i ends at o + dir[i] and
-// starts counting at t_begin[i] (where it has risen clear of the surface).
-vec3 dir[MAX_CHUNK];
-float t_begin[MAX_CHUNK];
+// Resolves a last-level verdict per mode: a set shaft (LS_BLOCKED) blocks, except in exact-ls where
+// it sends the ray to the node's triangles; LS_INSIDE is skipped by the paper's rule, and tested
+// exactly in hybrid and exact-ls.
+bool ls_resolve(int c, uint node, vec3 o, vec3 d)
+{
+    bool exact = (MODE == 2 && c == LS_BLOCKED) || (MODE != 0 && c == LS_INSIDE);
+    return exact ? candidates_blocked(node, wray(o, d), 0.0, 1.0) : c == LS_BLOCKED;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Per-ray traversal
@@ -82,7 +93,7 @@ uint dda_step(TreeInfo t, int n, uint n3, inout Dda f)
     return entry;
 }
 
-// The chunk's rays `rays` (bits into dir[], t_begin[]) from o: the bits of those that are blocked.
+// The chunk's rays `rays` (bits into dir[]) from o: the bits of those that are blocked.
 uint rays_blocked(TreeInfo t, vec3 o, uint rays)
 {
     int n = int(t.n);
@@ -91,7 +102,7 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
     NodeBoxes boxes = NodeBoxes(t.node_pool);
     uint result = 0u, pending = rays, ray = 0u;
     vec3 d = vec3(0.0);
-    float t_start = 0.0;
+    float t_start = 0.0, t_trust = 0.0;
     int depth = -1; // of the current node; -1: no ray in flight
     Dda f = Dda(0u, ivec3(0), ivec3(0), vec3(0.0), vec3(0.0), 0.0, true);
     // The stack: s<i> holds the DDA of the ancestor at depth i (a node at depth MAX_DEPTH - 1 is
@@ -105,7 +116,8 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             ray = uint(findLSB(pending));
             pending &= pending - 1u;
             d = dir[ray];
-            t_start = t_begin[ray];
+            t_start = ray_start(ray);
+            t_trust = ray_trust(ray);
             visit = true;
         } else if (f.done) {
             depth--; // this node is done: back to its parent
@@ -120,8 +132,10 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
                 entry = dda_step(t, n, n3, f);
             if (entry == CELL_EMPTY && !f.done)
                 entry = dda_step(t, n, n3, f);
-            // A filled leaf is reached only by rays walking a last-level node's children.
-            blocked = entry == CELL_FILLED;
+            // A filled leaf is reached only by rays walking a last-level node's children (in a face
+            // plane): the line space cannot tell, so it blocks, or in exact-ls the node's
+            // triangles decide.
+            blocked = entry == CELL_FILLED && (MODE != 2 || candidates_blocked(f.node, wray(o, d), 0.0, 1.0));
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -131,8 +145,8 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             Local l = ls_local_box(vec3(xy, zs.x), zs.y, fn, o, d);
             float t_in, t_out;
             bool hit = ls_slabs(l, fn, t_in, t_out);
-            int c = ls_classify_local(t, uint(depth + 1), next * t.ls_words, l, hit, t_in, t_out, t_start);
-            blocked = blocked || c == LS_BLOCKED;
+            int c = ls_classify_local(t, uint(depth + 1), next * t.ls_words, l, hit, t_in, t_out, t_start, t_trust);
+            blocked = blocked || ((c == LS_BLOCKED || c == LS_INSIDE) && ls_resolve(c, next, o, d));
             if (c == LS_DESCEND && depth + 1 < MAX_DEPTH) {
                 s0 = depth == 0 ? f : s0;
                 s1 = depth == 1 ? f : s1;
@@ -235,8 +249,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
     // Loops over rays visit the set bits only: every iteration counts against llvmpipe's budget.
     for (uint left = rays; left != 0u; left &= left - 1u) {
         uint i = uint(findLSB(left));
-        int r = ls_classify(t, root, o, dir[i], t_begin[i]);
-        blocked |= r == LS_BLOCKED ? (1u << i) : 0u;
+        int r = ls_classify(t, root, o, dir[i], ray_start(i), ray_trust(i));
+        blocked |= (r == LS_BLOCKED || r == LS_INSIDE) && ls_resolve(r, 0u, o, dir[i]) ? (1u << i) : 0u;
         descend |= r == LS_DESCEND ? (1u << i) : 0u;
     }
     // The top frame lives in registers, its ancestors in p<i> for depth i: separate variables with
@@ -305,7 +319,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     Local l = ls_local_box(node_min, zs.y, fn, o, dir[i]);
                     l.o -= vec3(cell);
                     float t_in, t_out;
-                    bool hit = ls_slabs(l, 1.0, t_in, t_out) && t_in <= 1.0 && t_out >= t_begin[i];
+                    bool hit = ls_slabs(l, 1.0, t_in, t_out) && t_in <= 1.0 && t_out >= ray_start(i);
+                    hit = hit && (MODE != 2 || candidates_blocked(f.node, wray(o, dir[i]), 0.0, 1.0));
                     blocked |= hit ? (1u << i) : 0u;
                 }
             } else if (entry != CELL_EMPTY && live != 0u) {
@@ -319,8 +334,9 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     float t_in, t_out;
                     bool hit = ls_slabs(l, fn, t_in, t_out);
                     // The child's level is depth + 1, its line space at index * ls_words (pools.h).
-                    int r = ls_classify_local(t, uint(depth + 1), child_index * t.ls_words, l, hit, t_in, t_out, t_begin[i]);
-                    blocked |= r == LS_BLOCKED ? (1u << i) : 0u;
+                    int r = ls_classify_local(t, uint(depth + 1), child_index * t.ls_words, l, hit, t_in, t_out,
+                                              ray_start(i), ray_trust(i));
+                    blocked |= (r == LS_BLOCKED || r == LS_INSIDE) && ls_resolve(r, child_index, o, dir[i]) ? (1u << i) : 0u;
                     down |= r == LS_DESCEND ? (1u << i) : 0u;
                 }
                 if (down != 0u && depth + 1 < MAX_DEPTH) {
@@ -346,69 +362,35 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
 void main()
 {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(px, imageSize(img_v))))
+    vec3 p, nrm;
+    if (!shadow_pixel(px, p, nrm))
         return;
-    vec4 p = imageLoad(img_p, px);
-    if (p.w <= 0.0) {
-        if (chunk.last != 0u)
-            imageStore(img_v, px, vec4(0.0));
-        return;
-    }
-    vec3 nrm = imageLoad(img_n, px).xyz;
-    // Surface offsets against self-shadowing.
-    // 1. Float precision: the G-buffer position is interpolated in float, so it is only known to a
-    //    few ulps of its magnitude; lifting the origin by 8 ulps along the normal puts it on the lit
-    //    side of its own triangle.
-    // 2. Cell size: a shaft entered through a patch touches every cell within one leaf (edge s) of
-    //    the ray (its cross-section is one patch wide and cells are closed), and the surface's own
-    //    filled leaves reach one leaf beyond the surface. So no shaft of a node the ray enters sees
-    //    the surface it starts on once the ray is more than 3s away from the tangent plane in the
-    //    max norm, i.e. once n.(x - p) > 3 s |n|_1. The ray starts there, at t_start along itself
-    //    (not moved along the normal, which would shift the penumbrae); the node holding that point
-    //    is the start node of the paper's rule. A ray that never rises that far before reaching the
-    //    light passes within a few leaves of the surface only: it counts as unblocked.
-    float mag = max(max(abs(p.x), abs(p.y)), abs(p.z));
-    vec3 o = p.xyz + nrm * (8.0 * ulp_bound(mag));
-    float rise = 3.0 * params.leaf_size * (abs(nrm.x) + abs(nrm.y) + abs(nrm.z));
+    float rise;
+    vec3 o = shadow_origin(p, nrm, rise);
     TreeInfo t = params.tree;
-    uvec2 counts = chunk.first != 0u ? uvec2(0u) : imageLoad(img_counts, px).xy; // (visible, valid)
-    uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK);
-    // The chunk's rays: those that carry light and rise clear of the surface before the light.
-    uint valid_rays = 0u, traced = 0u, i = 0u;
-    vec2 st_lo = vec2(1.0), st_hi = vec2(0.0); // the traced samples' box on the light, in (s, t)
-    for (; i < count; i++) {
-        vec2 st = light_sample(chunk.sample_begin + i, uvec2(px));
-        vec3 q = light_point(st);
-        vec3 d = q - o;
-        float dn = dot(d, nrm);
-        // Samples behind the receiver or behind the one-sided light carry no light: not counted.
-        bool valid = dn > 0.0 && dot(params.light_normal.xyz, -d) > 0.0;
-        valid_rays |= valid ? (1u << i) : 0u;
-        dir[i] = d;
-        t_begin[i] = valid ? rise / dn : 2.0;
-        bool trace = valid && t_begin[i] < 1.0;
-        traced |= trace ? (1u << i) : 0u;
-        st_lo = trace ? min(st_lo, st) : st_lo;
-        st_hi = trace ? max(st_hi, st) : st_hi;
-    }
+    uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
+    vec2 st_lo, st_hi;
+    uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
+    // The rays to trace: the valid ones; in linespace mode only those that rise clear of their
+    // surface before reaching the light (the others pass within a few leaves of it: unblocked).
+    uint traced = valid_rays;
+    for (uint j = 0u; MODE == 0 && j < count; j++)
+        traced &= t_rise[j] < 1.0 ? ~0u : ~(1u << j);
     uint blocked = 0u;
     if (TRAVERSAL == 0) {
         // The packet's bounding pyramid: over the part of the light that holds this chunk's traced
         // samples rather than the whole light (the light is a parallelogram, so its (s, t) box is
         // one); its footprints have fewer cells to visit, the rays and their decisions are the same.
+        // Modes that trace every valid ray use the whole light.
+        if (MODE != 0) {
+            st_lo = vec2(0.0);
+            st_hi = vec2(1.0);
+        }
         vec3 corners[4] = vec3[4](light_point(st_lo), light_point(vec2(st_hi.x, st_lo.y)), light_point(st_hi),
                                   light_point(vec2(st_lo.x, st_hi.y)));
         blocked = traced != 0u ? packet_blocked(t, o, corners, count, traced) : 0u;
     } else {
         blocked = rays_blocked(t, o, traced);
     }
-    // Valid rays that are not blocked are visible (including those that never rise clear).
-    counts.x += uint(bitCount(valid_rays & ~blocked));
-    counts.y += uint(bitCount(valid_rays));
-    if (truncated || i < count || budget_spent())
-        atomicOr(status.truncated, 1u);
-    if (chunk.last != 0u)
-        imageStore(img_v, px, vec4(counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0));
-    else
-        imageStore(img_counts, px, uvec4(counts, 0u, 0u));
+    shadow_finish(px, o, count, valid_rays, blocked, i < count);
 }
