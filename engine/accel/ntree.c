@@ -348,25 +348,31 @@ static void free_lists(uint32_t **lists, uint32_t count)
     free(lists);
 }
 
-// The triangle lists of the last-level nodes (this level's nodes), in node order.
-static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t lcount)
+// The triangle lists of the leaves of the last-level nodes (this level's nodes, whose per-child
+// lists the gather has just built), in node and child order.
+static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t lcount, uint32_t **lists)
 {
-    t->cand_offset = calloc((size_t)t->node_count + 1, sizeof *t->cand_offset);
-    uint64_t total = 0;
+    uint64_t n3 = (uint64_t)t->n * t->n * t->n, entries = (uint64_t)lcount * n3 + 1, total = 0;
     for (uint32_t i = 0; i < lcount; i++)
-        total += lnodes[i].count;
-    if (total > UINT32_MAX)
+        total += lists[i][n3];
+    if (total > UINT32_MAX || entries > UINT32_MAX)
         return PN_ERR_MEMORY;
+    t->cand_first_node = lcount ? lnodes[0].node : 0;
+    t->cand_offsets = (uint32_t)entries;
+    t->cand_offset = malloc(entries * sizeof *t->cand_offset);
     t->cand_tris = malloc((size_t)(total ? total : 1) * sizeof *t->cand_tris);
     if (!t->cand_offset || !t->cand_tris)
         return PN_ERR_MEMORY;
-    // Nodes of one level are numbered consecutively, so per-node counts then a prefix sum.
-    for (uint32_t i = 0; i < lcount; i++)
-        t->cand_offset[lnodes[i].node + 1] = lnodes[i].count;
-    for (uint32_t i = 0; i < t->node_count; i++)
-        t->cand_offset[i + 1] += t->cand_offset[i];
-    for (uint32_t i = 0; i < lcount; i++)
-        memcpy(t->cand_tris + t->cand_offset[lnodes[i].node], lnodes[i].tris, lnodes[i].count * sizeof(uint32_t));
+    uint32_t at = 0;
+    for (uint32_t i = 0; i < lcount; i++) {
+        // Nodes of one level are numbered consecutively, in the order of lnodes.
+        const uint32_t *off = lists[i], *ids = lists[i] + n3 + 1;
+        for (uint64_t c = 0; c < n3; c++)
+            t->cand_offset[i * n3 + c] = at + off[c];
+        memcpy(t->cand_tris + at, ids, off[n3] * sizeof(uint32_t));
+        at += off[n3];
+    }
+    t->cand_offset[entries - 1] = at;
     t->cand_count = total;
     return PN_OK;
 }
@@ -431,7 +437,7 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             }
         }
         build_ctx b = {.t = t, .tri = (const float(*)[9])tri, .box = (const float(*)[6])box, .lnodes = lnodes,
-                       .chunks = chunks, .level = level, .need_lists = level + 1 < t->d, .child_lists = lists};
+                       .chunks = chunks, .level = level, .need_lists = level + 1 < t->d || desc->keep_candidates, .child_lists = lists};
         atomic_init(&b.failed, false);
         pn_parallel_for(nchunks, 1, split_chunks, &b);
         gather_ctx g = {&b, nc};
@@ -445,7 +451,7 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             r = PN_ERR_MEMORY;
             break;
         }
-        if (desc->keep_candidates && level + 1 == t->d && (r = keep_candidates(t, lnodes, lcount)) != PN_OK) {
+        if (desc->keep_candidates && level + 1 == t->d && (r = keep_candidates(t, lnodes, lcount, lists)) != PN_OK) {
             free_lists(lists, lcount);
             break;
         }

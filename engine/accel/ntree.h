@@ -52,9 +52,12 @@ typedef struct pn_ntree {
     uint64_t *linespaces; // node_count * words64
     uint64_t filled_per_level[PN_NTREE_MAX_DEPTH + 1]; // filled cells at level 0..d
     uint64_t set_bits;                                 // over all line spaces
-    // With keep_candidates: node i's triangles (scene triangle ids) are
-    // cand_tris[cand_offset[i] .. cand_offset[i + 1]); empty for nodes above the last level.
-    uint32_t *cand_offset; // node_count + 1
+    // With keep_candidates: the triangles (scene ids) of every leaf of the last-level nodes, which
+    // are numbered consecutively from cand_first_node. Leaf c of last-level node i has
+    // cand_tris[cand_offset[k] .. cand_offset[k + 1]), k = (i - cand_first_node) * n^3 + c.
+    uint32_t cand_first_node;
+    uint32_t *cand_offset; // (last-level nodes) * n^3 + 1
+    uint32_t cand_offsets; // entries of cand_offset
     uint32_t *cand_tris;
     uint64_t cand_count;
     double occupancy_ms, masks_ms, linespace_ms, build_ms;

@@ -434,6 +434,7 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
             goto done;
         st->exact_bytes = exact.bytes;
         rd.exact = &exact;
+        rd.cand_first_node = tree.cand_first_node;
     }
     if (pn_renderer_create(dev, scene, &rd, &renderer) != PN_OK)
         goto done;

@@ -35,7 +35,7 @@ pn_result pn_gpu_exact_pools_create(pn_gpu_device *dev, const pn_scene *scene, c
         r = upload(dev, bvh ? bvh->tri_index : NULL, bvh ? (uint64_t)bvh->triangles * 4 : 0, &out->bvh_tris, &out->bytes);
     bool cands = tree && tree->cand_offset;
     if (r == PN_OK)
-        r = upload(dev, cands ? tree->cand_offset : NULL, cands ? ((uint64_t)tree->node_count + 1) * 4 : 0,
+        r = upload(dev, cands ? tree->cand_offset : NULL, cands ? (uint64_t)tree->cand_offsets * 4 : 0,
                    &out->cand_offset, &out->bytes);
     if (r == PN_OK)
         r = upload(dev, cands ? tree->cand_tris : NULL, cands ? tree->cand_count * 4 : 0, &out->cand_tris, &out->bytes);

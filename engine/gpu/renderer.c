@@ -39,7 +39,7 @@ typedef struct pn_shadow_params {
     uint32_t pad;
     uint64_t tris, bvh, bvh_tris, cand_offset, cand_tris; // buffer device addresses
     uint64_t dump;
-    uint32_t dump_rays, pad2;
+    uint32_t dump_rays, cand_first;
 } pn_shadow_params;
 
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
@@ -734,6 +734,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
         sp.cand_tris = e->cand_tris.address;
     }
     sp.dump = r->ray_dump.address;
+    sp.cand_first = r->desc.cand_first_node;
     sp.dump_rays = r->desc.dump_rays;
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite it.
     memcpy(r->shadow_params.mapped, &sp, sizeof sp);

@@ -29,6 +29,7 @@ typedef struct pn_renderer_desc {
     const pn_gpu_pools *pools; // the uploaded N-tree, for the line-space modes
     double leaf_size;          // edge of a leaf cell of that tree, world units
     const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for the exact tests
+    uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
     bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
 } pn_renderer_desc;
 

@@ -111,10 +111,11 @@ bool bvh_blocked(vec3 o, vec3 d, float t_min, float t_max)
     return hit;
 }
 
-// Any hit among the triangles of last-level N-tree node `node` (its candidate list).
-bool candidates_blocked(uint node, WRay r, float t_min, float t_max)
+// Any hit among the triangles of leaf `cell` (child index) of last-level N-tree node `node`.
+bool leaf_blocked(uint node, uint cell, uint n3, WRay r, float t_min, float t_max)
 {
-    uint begin = params.cand_offset.ids[node], end = params.cand_offset.ids[node + 1u];
+    uint k = (node - params.cand_first) * n3 + cell;
+    uint begin = params.cand_offset.ids[k], end = params.cand_offset.ids[k + 1u];
     bool hit = false;
     for (uint i = begin; i < end; i++)
         hit = hit || tri_hit(r, params.cand_tris.ids[i], t_min, t_max);

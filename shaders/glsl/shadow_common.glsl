@@ -32,11 +32,11 @@ layout(set = 0, binding = 3, std140) uniform ShadowParams {
     TriPool tris;          // 3 vec4 per triangle, scene order
     BvhPool bvh;           // exact mode
     IndexPool bvh_tris;    // triangle ids in BVH leaf order
-    IndexPool cand_offset; // per N-tree node: first candidate (node_count + 1 entries)
+    IndexPool cand_offset; // per leaf of the last-level N-tree nodes: first candidate (ntree.h)
     IndexPool cand_tris;   // candidate triangle ids
     RayDump dump;          // with dump_rays: every ray, for tests against an independent tracer
     uint dump_rays;
-    uint pad2;
+    uint cand_first;       // the first last-level node (they are numbered consecutively)
 } params;
 
 // The shadow pass runs in chunks of light samples, one dispatch each, accumulating counts: llvmpipe

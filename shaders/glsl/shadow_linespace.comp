@@ -34,14 +34,12 @@ const int MAX_DEPTH = 6;
 float ray_start(uint i) { return MODE == 0 ? t_rise[i] : 0.0; }
 float ray_trust(uint i) { return MODE == 2 ? 0.0 : t_rise[i]; }
 
-// Resolves a last-level verdict per mode: a set shaft (LS_BLOCKED) blocks, except in exact-ls where
-// it sends the ray to the node's triangles; LS_INSIDE is skipped by the paper's rule, and tested
-// exactly in hybrid and exact-ls.
-bool ls_resolve(int c, uint node, vec3 o, vec3 d)
-{
-    bool exact = (MODE == 2 && c == LS_BLOCKED) || (MODE != 0 && c == LS_INSIDE);
-    return exact ? candidates_blocked(node, wray(o, d), 0.0, 1.0) : c == LS_BLOCKED;
-}
+// A last-level verdict per mode. LS_BLOCKED blocks, except in exact-ls where the ray walks the
+// node's leaves instead; LS_INSIDE is skipped by the paper's rule, and walked in hybrid and
+// exact-ls. A walked last-level node tests the triangles of each filled leaf the ray crosses
+// (leaf_blocked): in those modes a filled leaf decides exactly.
+bool ls_blocks(int c) { return c == LS_BLOCKED && MODE != 2; }
+bool ls_walks(int c) { return c == LS_DESCEND || (MODE != 0 && c == LS_INSIDE) || (MODE == 2 && c == LS_BLOCKED); }
 
 // ---------------------------------------------------------------------------------------------
 // Per-ray traversal
@@ -81,9 +79,10 @@ struct Dda {
 
 // The tree entry of the DDA's current cell, then the DDA advanced to the next cell. Branch-free (no
 // dynamic component index, which llvmpipe turns into divergent branches).
-uint dda_step(TreeInfo t, int n, uint n3, inout Dda f)
+uint dda_step(TreeInfo t, int n, uint n3, inout Dda f, out uint child)
 {
-    uint entry = t.tree_pool.entries[f.node * n3 + uint((f.cell.z * n + f.cell.y) * n + f.cell.x)];
+    child = uint((f.cell.z * n + f.cell.y) * n + f.cell.x);
+    uint entry = t.tree_pool.entries[f.node * n3 + child];
     bool mx = f.t_max.x <= f.t_max.y && f.t_max.x <= f.t_max.z, my = !mx && f.t_max.y <= f.t_max.z;
     bvec3 m = bvec3(mx, my, !mx && !my);
     float t_cell = min(f.t_max.x, min(f.t_max.y, f.t_max.z)); // where the next cell starts
@@ -127,15 +126,17 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             // the same iteration, which saves the rest of an iteration's cost (above all the node
             // and line-space loads) for the common empty cells. Written out, not as a loop, so that
             // it costs no loop budget (measured on lavapipe: 3 beats 2 and 4).
-            uint entry = dda_step(t, n, n3, f);
+            uint child;
+            uint entry = dda_step(t, n, n3, f, child);
             if (entry == CELL_EMPTY && !f.done)
-                entry = dda_step(t, n, n3, f);
+                entry = dda_step(t, n, n3, f, child);
             if (entry == CELL_EMPTY && !f.done)
-                entry = dda_step(t, n, n3, f);
-            // A filled leaf is reached only by rays walking a last-level node's children (in a face
-            // plane): the line space cannot tell, so it blocks, or in exact-ls the node's
-            // triangles decide.
-            blocked = entry == CELL_FILLED && (MODE != 2 || candidates_blocked(f.node, wray(o, d), 0.0, 1.0));
+                entry = dda_step(t, n, n3, f, child);
+            // A filled leaf, reached by a ray walking a last-level node's children: in linespace mode
+            // (where only rays in a face plane walk them) it blocks, in the others its triangles
+            // decide. The DDA has moved on: the leaf is the cell it left.
+            if (entry == CELL_FILLED)
+                blocked = MODE == 0 || leaf_blocked(f.node, child, n3, wray(o, d), 0.0, 1.0);
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -146,8 +147,8 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             float t_in, t_out;
             bool hit = ls_slabs(l, fn, t_in, t_out);
             int c = ls_classify_local(t, uint(depth + 1), next * t.ls_words, l, hit, t_in, t_out, t_start, t_trust);
-            blocked = blocked || ((c == LS_BLOCKED || c == LS_INSIDE) && ls_resolve(c, next, o, d));
-            if (c == LS_DESCEND && depth + 1 < MAX_DEPTH) {
+            blocked = blocked || ls_blocks(c);
+            if (ls_walks(c) && depth + 1 < MAX_DEPTH) {
                 s0 = depth == 0 ? f : s0;
                 s1 = depth == 1 ? f : s1;
                 s2 = depth == 2 ? f : s2;
@@ -250,8 +251,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
     for (uint left = rays; left != 0u; left &= left - 1u) {
         uint i = uint(findLSB(left));
         int r = ls_classify(t, root, o, dir[i], ray_start(i), ray_trust(i));
-        blocked |= (r == LS_BLOCKED || r == LS_INSIDE) && ls_resolve(r, 0u, o, dir[i]) ? (1u << i) : 0u;
-        descend |= r == LS_DESCEND ? (1u << i) : 0u;
+        blocked |= ls_blocks(r) ? (1u << i) : 0u;
+        descend |= ls_walks(r) ? (1u << i) : 0u;
     }
     // The top frame lives in registers, its ancestors in p<i> for depth i: separate variables with
     // constant indices, updated by selects (a per-lane indexed array costs a scalar access per lane
@@ -320,7 +321,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     l.o -= vec3(cell);
                     float t_in, t_out;
                     bool hit = ls_slabs(l, 1.0, t_in, t_out) && t_in <= 1.0 && t_out >= ray_start(i);
-                    hit = hit && (MODE != 2 || candidates_blocked(f.node, wray(o, dir[i]), 0.0, 1.0));
+                    hit = hit && (MODE == 0 || leaf_blocked(f.node, uint((cell.z * n + cell.y) * n + cell.x), n3,
+                                                            wray(o, dir[i]), 0.0, 1.0));
                     blocked |= hit ? (1u << i) : 0u;
                 }
             } else if (entry != CELL_EMPTY && live != 0u) {
@@ -336,8 +338,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     // The child's level is depth + 1, its line space at index * ls_words (pools.h).
                     int r = ls_classify_local(t, uint(depth + 1), child_index * t.ls_words, l, hit, t_in, t_out,
                                               ray_start(i), ray_trust(i));
-                    blocked |= (r == LS_BLOCKED || r == LS_INSIDE) && ls_resolve(r, child_index, o, dir[i]) ? (1u << i) : 0u;
-                    down |= r == LS_DESCEND ? (1u << i) : 0u;
+                    blocked |= ls_blocks(r) ? (1u << i) : 0u;
+                    down |= ls_walks(r) ? (1u << i) : 0u;
                 }
                 if (down != 0u && depth + 1 < MAX_DEPTH) {
                     p0 = depth == 0 ? f : p0;
