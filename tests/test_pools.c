@@ -73,6 +73,9 @@ static void probe(pn_gpu_device *dev, const pn_ntree *tree, const char *what)
             g->linespace, g->parent, pools.tree[g->children + (i * 7) % n3],
             pools.linespace[g->linespace + (i * 13) % info->ls_words], bit,
             pn_ls_get(tree->linespaces + (size_t)i * tree->words64, bit)};
+        // shadow_linespace.comp loads only a node's box and relies on these two layout facts (pools.h).
+        CHECK_MSG(g->children == i * n3 && g->linespace == i * info->ls_words, "node %u: children %u, line space %u", i,
+                  g->children, g->linespace);
         for (int k = 0; k < PER_NODE; k++)
             if (o[k] != want[k] && bad++ < 10)
                 fprintf(stderr, "%s: node %u field %d: GPU read %u, C wrote %u\n", what, i, k, o[k], want[k]);
