@@ -6,6 +6,7 @@
 
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/metrics.h"
 #include "core/log.h"
 #include "io/exr.h"
 #include "io/json.h"
@@ -29,12 +30,6 @@ void pn_print_diff_help(void)
            "  --fail K=V[,K=V]    exit 1 when a metric exceeds its threshold; K in mae, rmse, p99, max,\n"
            "                      over005, over02 (e.g. --fail mae=0.01,p99=0.1)\n"
            "  exit codes: 0 within thresholds, 1 a threshold exceeded, 2 bad arguments or inputs\n");
-}
-
-static int cmp_float(const void *a, const void *b)
-{
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
 }
 
 static bool parse_fail(const char *s, double thresholds[6], bool set[6])
@@ -117,42 +112,22 @@ int pn_cmd_diff(int argc, char **argv)
                  img[1].width, img[1].height);
         goto done;
     }
-    size_t px = (size_t)img[0].width * img[0].height, n = 0;
-    float *err = malloc(px * sizeof *err), *plane = calloc(px, sizeof *plane);
-    if (!err || !plane) {
-        free(err), free(plane);
+    size_t px = (size_t)img[0].width * img[0].height;
+    uint8_t *mask = malloc(px ? px : 1);
+    float *plane = malloc((px ? px : 1) * sizeof *plane);
+    pn_error_metrics em;
+    bool ok = mask && plane;
+    for (size_t i = 0; ok && i < px; i++)
+        mask[i] = (!alpha[0] || alpha[0][i] == 1.0f) && (!alpha[1] || alpha[1][i] == 1.0f);
+    ok = ok && pn_error_compare(ch[0], ch[1], mask, px, plane, &em);
+    free(mask);
+    if (!ok) {
+        free(plane);
         pn_error("diff: out of memory");
         goto done;
     }
-    double sum = 0, sum2 = 0, mx = 0;
-    size_t over005 = 0, over02 = 0;
-    for (size_t i = 0; i < px; i++) {
-        bool geometry = (!alpha[0] || alpha[0][i] == 1.0f) && (!alpha[1] || alpha[1][i] == 1.0f);
-        if (!geometry)
-            continue;
-        float e = fabsf(ch[0][i] - ch[1][i]);
-        if (!isfinite(e)) // a NaN or Inf in either is as far off as it gets
-            e = INFINITY;
-        plane[i] = e;
-        err[n++] = e;
-        sum += e;
-        sum2 += (double)e * e;
-        mx = e > mx ? e : mx;
-        over005 += e > 0.05f;
-        over02 += e > 0.2f;
-    }
-    double m[6] = {0};
-    if (n) {
-        qsort(err, n, sizeof *err, cmp_float);
-        size_t rank = (size_t)ceil(0.99 * (double)n); // nearest-rank percentile
-        m[0] = sum / (double)n;
-        m[1] = sqrt(sum2 / (double)n);
-        m[2] = err[rank ? rank - 1 : 0];
-        m[3] = mx;
-        m[4] = (double)over005 / (double)n;
-        m[5] = (double)over02 / (double)n;
-    }
-    free(err);
+    size_t n = em.pixels;
+    double m[6] = {em.mae, em.rmse, em.p99, em.max, em.over005, em.over02};
     rc = DIFF_OK;
     for (int k = 0; k < 6; k++)
         if (set[k] && !(m[k] <= thresholds[k]))

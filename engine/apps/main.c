@@ -16,6 +16,7 @@ static void print_help(void)
            "  render [SCENE]   render a glTF 2.0 scene (.gltf/.glb) or builtin:NAME to an EXR\n"
            "  build [SCENE]    build the N-tree and line spaces, upload the pools, report sizes and time\n"
            "  diff A.exr B.exr compare two renders: MAE, RMSE, p99, max, shares off by > 0.05 and 0.2\n"
+           "  bench            measure speed and error of modes and trees side by side (and Embree)\n"
            "  info             list the Vulkan devices and the limits that matter\n"
            "  help             this text; `penumbra render --help` for render's options\n"
            "\n"
@@ -42,12 +43,16 @@ int main(int argc, char **argv)
             pn_print_build_help();
         else if (argc > 2 && !strcmp(argv[2], "diff"))
             pn_print_diff_help();
+        else if (argc > 2 && !strcmp(argv[2], "bench"))
+            pn_print_bench_help();
         else
             print_help();
         return PN_EXIT_OK;
     }
     if (!strcmp(cmd, "render"))
         return pn_cmd_render(argc - 2, argv + 2);
+    if (!strcmp(cmd, "bench"))
+        return pn_cmd_bench(argc - 2, argv + 2);
     if (!strcmp(cmd, "diff"))
         return pn_cmd_diff(argc - 2, argv + 2);
     if (!strcmp(cmd, "build"))

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# penumbra bench end to end on a small matrix: it writes the CSV, JSON and plot; exact-ls, which
+# is exact by construction, measures zero error against exact; line-space rows measure an error
+# above zero (the method over-occludes); every row has a positive time and an Embree ratio.
+set -u
+BIN=${PN_BIN:?PN_BIN not set}
+OUT=${PN_TEST_TMP:-/tmp}/bench_smoke
+rm -rf "$OUT"
+"$BIN" bench --scenes builtin:default --size 64x48 --spp 9 --trees 5,2:6,3 --repeat 2 --warmup 1 --out "$OUT" \
+  || { echo "FAIL: bench exited $?"; exit 1; }
+fail=0
+for f in bench.csv bench.json builtin_default_64x48_9spp.dat builtin_default_64x48_9spp.png; do
+  [ -s "$OUT/$f" ] || { echo "FAIL: $f missing"; fail=1; }
+done
+python3 - "$OUT/bench.json" <<'PY' || fail=1
+import json, sys
+j = json.load(open(sys.argv[1]))
+ctx, rows = j["context"], j["results"]
+assert ctx["device"] and ctx["threads"] >= 1, ctx
+modes = {r["mode"] for r in rows}
+assert modes == {"exact", "exact-ls", "hybrid", "linespace"}, modes
+assert len(rows) == 1 + 3 * 2, len(rows)  # exact, and three tree modes x two trees
+for r in rows:
+    assert r["gpu_ms"]["shadow"] > 0 and r["shadow_rays_per_s"] > 0 and r["vs_embree"] > 0, r
+    if r["mode"] in ("exact", "exact-ls"):
+        assert r["error"]["max"] == 0, r
+    if r["mode"] == "linespace":
+        assert r["error"]["mae"] > 0, r
+print("bench rows ok:", len(rows))
+PY
+exit $fail
