@@ -410,6 +410,24 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             for (int k = 0; k < 3; k++)
                 lo[k] = s->bounds_min[k], hi[k] = s->bounds_max[k];
         root_box(lo, hi, t);
+        // The leaves must be resolved by float positions: the GPU walks the tree in float, and a
+        // leaf a few ulps wide (a small scene far from the origin, or a deep tree) cannot be told
+        // from its neighbours. 16 ulps per leaf keeps the traversal's rounding allowance (4 ulps,
+        // see linespace_trace.glsl) a quarter of a leaf.
+        // (Geometry without extent, a point, gets a root of padding only: nothing to resolve.)
+        float mag = 0, ext = 0;
+        for (int k = 0; k < 3; k++) {
+            mag = fmaxf(mag, fmaxf(fabsf(lo[k]), fabsf(hi[k])));
+            ext = fmaxf(ext, hi[k] - lo[k]);
+        }
+        double ulp = (double)nextafterf(mag, INFINITY) - (double)mag;
+        double leaf = t->root_size / pow(t->n, t->d);
+        if (t->triangles && ext > 0 && leaf < 16 * ulp) {
+            pn_error("%s: LS(%d,%d) leaves would be %.3g wide, only %.1f float steps at %.3g from the origin; use a "
+                     "smaller N or d, or move the scene towards the origin",
+                     s->name, t->n, t->d, leaf, leaf / ulp, (double)mag);
+            r = PN_ERR_UNSUPPORTED;
+        }
         t->nodes[0] = (pn_ntree_node){0, {0, 0, 0}};
         t->node_count = 1;
         t->filled_per_level[0] = 1;

@@ -149,6 +149,26 @@ pn_result pn_scene_validate(const pn_scene *s)
                 pn_error("%s: vertex %u has a non-finite position or normal", s->name, i);
                 return PN_ERR_FORMAT;
             }
+    // Float positions must resolve the scene: far from the origin a small scene collapses onto a few
+    // representable points. Below 256 float steps across (8 bits) shadows and the G-buffer would be
+    // noise, so such input is refused rather than rendered wrong.
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, mag = 0, ext = 0;
+    for (uint32_t i = 0; i < s->vertex_count; i++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], s->vertices[i].pos[k]);
+            hi[k] = fmaxf(hi[k], s->vertices[i].pos[k]);
+        }
+    for (int k = 0; k < 3 && s->vertex_count; k++) {
+        mag = fmaxf(mag, fmaxf(fabsf(lo[k]), fabsf(hi[k])));
+        ext = fmaxf(ext, hi[k] - lo[k]);
+    }
+    float ulp = nextafterf(mag, INFINITY) - mag;
+    if (ext > 0 && ext < 256 * ulp) {
+        pn_error("%s: the scene is %.3g across at %.3g from the origin, only %.0f float steps: move it towards "
+                 "the origin",
+                 s->name, (double)ext, (double)mag, (double)(ext / ulp));
+        return PN_ERR_UNSUPPORTED;
+    }
     for (uint32_t i = 0; i < s->draw_count; i++)
         if (s->draws[i].material >= s->material_count ||
             (uint64_t)s->draws[i].first_index + s->draws[i].index_count > s->index_count) {
