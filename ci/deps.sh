@@ -12,6 +12,8 @@ PACKAGES=(
   libembree-dev
   xvfb xauth openimageio-tools gnuplot-nox
   assimp-testmodels
+  python3
+  clang-14 clang libclang-rt-14-dev llvm-14
 )
 
 missing=()

@@ -6,8 +6,10 @@ int pn_cmd_info(int argc, char **argv);
 int pn_cmd_build(int argc, char **argv);
 int pn_cmd_diff(int argc, char **argv);
 int pn_cmd_bench(int argc, char **argv);
+int pn_cmd_demo(int argc, char **argv);
 
 void pn_print_render_help(void);
 void pn_print_build_help(void);
 void pn_print_diff_help(void);
 void pn_print_bench_help(void);
+void pn_print_demo_help(void);

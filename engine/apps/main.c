@@ -17,6 +17,7 @@ static void print_help(void)
            "  build [SCENE]    build the N-tree and line spaces, upload the pools, report sizes and time\n"
            "  diff A.exr B.exr compare two renders: MAE, RMSE, p99, max, shares off by > 0.05 and 0.2\n"
            "  bench            measure speed and error of modes and trees side by side (and Embree)\n"
+           "  demo [SCENE]     the same passes in a window, every frame, with live controls\n"
            "  info             list the Vulkan devices and the limits that matter\n"
            "  help             this text; `penumbra render --help` for render's options\n"
            "\n"
@@ -45,6 +46,8 @@ int main(int argc, char **argv)
             pn_print_diff_help();
         else if (argc > 2 && !strcmp(argv[2], "bench"))
             pn_print_bench_help();
+        else if (argc > 2 && !strcmp(argv[2], "demo"))
+            pn_print_demo_help();
         else
             print_help();
         return PN_EXIT_OK;
@@ -55,6 +58,8 @@ int main(int argc, char **argv)
         return pn_cmd_bench(argc - 2, argv + 2);
     if (!strcmp(cmd, "diff"))
         return pn_cmd_diff(argc - 2, argv + 2);
+    if (!strcmp(cmd, "demo"))
+        return pn_cmd_demo(argc - 2, argv + 2);
     if (!strcmp(cmd, "build"))
         return pn_cmd_build(argc - 2, argv + 2);
     if (!strcmp(cmd, "info"))

@@ -4,45 +4,94 @@
 
 #include "core/log.h"
 
-static bool uses_tree(pn_shadow_mode m) { return m >= PN_SHADOW_LINESPACE && m <= PN_SHADOW_EXACT_LS; }
+pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_desc *desc, pn_shadow_accel *out)
+{
+    memset(out, 0, sizeof *out);
+    out->desc = *desc;
+    pn_result r = PN_OK;
+    if (desc->tree) {
+        float corners[4][3];
+        pn_light_corners(desc->light, corners);
+        pn_ntree_desc td = {.n = desc->tree_n,
+                            .d = desc->tree_d,
+                            .max_bytes = desc->max_bytes,
+                            .cull_light = (const float(*)[3])corners,
+                            .keep_candidates = desc->candidates};
+        r = pn_ntree_build(scene, &td, &out->tree);
+        if (r == PN_OK) {
+            out->build_ms += out->tree.build_ms;
+            r = pn_pools_pack(&out->tree, &out->pools);
+        }
+    }
+    if (r == PN_OK && desc->reuse_bvh) {
+        out->exact_bvh = desc->reuse_bvh;
+    } else if (r == PN_OK && desc->bvh) {
+        r = pn_bvh_build(scene, &out->bvh);
+        if (r != PN_OK)
+            pn_error("%s: out of memory building the BVH", scene->name);
+        out->build_ms += out->bvh.build_ms;
+        out->exact_bvh = &out->bvh;
+    }
+    if (r != PN_OK)
+        pn_shadow_accel_destroy(NULL, out);
+    return r;
+}
+
+pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_shadow_accel *a)
+{
+    if (a->desc.tree)
+        PN_TRY(pn_gpu_pools_create(dev, &a->pools, &a->gpu_pools));
+    if (a->desc.exact_pools)
+        PN_TRY(pn_gpu_exact_pools_create(dev, scene, a->exact_bvh, &a->tree, &a->exact));
+    return PN_OK;
+}
+
+void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
+{
+    rd->pools = a->desc.tree ? &a->gpu_pools : NULL;
+    rd->leaf_size = a->desc.tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : 0;
+    rd->exact = a->desc.exact_pools ? &a->exact : NULL;
+    rd->cand_first_node = a->tree.cand_first_node;
+}
+
+uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a) { return a->pools.bytes.total + a->exact.bytes; }
+
+void pn_shadow_accel_destroy(pn_gpu_device *dev, pn_shadow_accel *a)
+{
+    if (dev) {
+        pn_gpu_exact_pools_destroy(dev, &a->exact);
+        pn_gpu_pools_destroy(dev, &a->gpu_pools);
+    }
+    pn_bvh_destroy(&a->bvh);
+    pn_pools_destroy(&a->pools);
+    pn_ntree_destroy(&a->tree);
+    memset(a, 0, sizeof *a);
+}
 
 pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
                           pn_setup *s)
 {
     memset(s, 0, sizeof *s);
+    pn_shadow_mode mode = desc->frame.mode;
+    pn_shadow_accel_desc ad = {
+        .tree = pn_mode_uses_tree(mode),
+        .tree_n = desc->tree_n,
+        .tree_d = desc->tree_d,
+        .max_bytes = desc->max_bytes ? desc->max_bytes : pn_gpu_device_heap(dev) / 2,
+        .light = light,
+        .candidates = mode != PN_SHADOW_LINESPACE,
+        .bvh = mode == PN_SHADOW_EXACT,
+        .exact_pools = mode >= PN_SHADOW_HYBRID,
+    };
+    pn_result r = pn_shadow_accel_build(scene, &ad, &s->accel);
+    if (r != PN_OK)
+        return r;
+    s->build_ms = s->accel.build_ms;
+    s->pool_bytes = s->accel.pools.bytes;
+    r = pn_shadow_accel_upload(dev, scene, &s->accel);
+    s->exact_bytes = s->accel.exact.bytes;
     pn_renderer_desc rd = desc->frame;
-    pn_result r = PN_OK;
-    if (uses_tree(rd.mode)) {
-        float corners[4][3];
-        pn_light_corners(light, corners);
-        pn_ntree_desc td = {.n = desc->tree_n,
-                            .d = desc->tree_d,
-                            .max_bytes = desc->max_bytes ? desc->max_bytes : pn_gpu_device_heap(dev) / 2,
-                            .cull_light = (const float(*)[3])corners,
-                            .keep_candidates = rd.mode != PN_SHADOW_LINESPACE};
-        r = pn_ntree_build(scene, &td, &s->tree);
-        if (r == PN_OK) {
-            s->build_ms = s->tree.build_ms;
-            rd.leaf_size = pn_ntree_cell_size(&s->tree, s->tree.d);
-            rd.cand_first_node = s->tree.cand_first_node;
-            r = pn_pools_pack(&s->tree, &s->pools);
-        }
-        if (r == PN_OK)
-            r = pn_gpu_pools_create(dev, &s->pools, &s->gpu_pools);
-        s->pool_bytes = s->pools.bytes;
-        rd.pools = &s->gpu_pools;
-    }
-    if (r == PN_OK && rd.mode == PN_SHADOW_EXACT) {
-        r = pn_bvh_build(scene, &s->bvh);
-        if (r != PN_OK)
-            pn_error("%s: out of memory building the BVH", scene->name);
-        s->build_ms = s->bvh.build_ms;
-    }
-    if (r == PN_OK && rd.mode >= PN_SHADOW_HYBRID) {
-        r = pn_gpu_exact_pools_create(dev, scene, rd.mode == PN_SHADOW_EXACT ? &s->bvh : NULL, &s->tree, &s->exact);
-        s->exact_bytes = s->exact.bytes;
-        rd.exact = &s->exact;
-    }
+    pn_shadow_accel_bind(&s->accel, &rd);
     if (r == PN_OK)
         r = pn_renderer_create(dev, scene, &rd, &s->renderer);
     if (r != PN_OK)
@@ -53,10 +102,6 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
 void pn_setup_destroy(pn_gpu_device *dev, pn_setup *s)
 {
     pn_renderer_destroy(&s->renderer);
-    pn_gpu_exact_pools_destroy(dev, &s->exact);
-    pn_bvh_destroy(&s->bvh);
-    pn_gpu_pools_destroy(dev, &s->gpu_pools);
-    pn_pools_destroy(&s->pools);
-    pn_ntree_destroy(&s->tree);
+    pn_shadow_accel_destroy(dev, &s->accel);
     memset(s, 0, sizeof *s);
 }

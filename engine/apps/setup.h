@@ -1,10 +1,58 @@
 // Everything one shadow configuration needs on the GPU, built from a scene: the N-tree and its pools
 // (line-space modes), the BVH (exact), the triangle pools (exact tests) and the renderer. Shared by
-// the bench; render and demo build the same pieces.
+// render, bench and demo.
 #pragma once
 #include "accel/bvh.h"
 #include "accel/pools.h"
+#include "gpu/exact_pools.h"
+#include "gpu/pools.h"
 #include "gpu/renderer.h"
+#include "scene/view.h"
+
+// Modes that walk the N-tree (linespace, hybrid, exact-ls).
+static inline bool pn_mode_uses_tree(pn_shadow_mode m) { return m >= PN_SHADOW_LINESPACE && m <= PN_SHADOW_EXACT_LS; }
+
+// ---------------------------------------------------------------------------------------------
+// The acceleration structures of the shadow modes, built in two steps so that the CPU part can run
+// on a worker thread while the device keeps rendering (the demo rebuilds trees that way):
+// pn_shadow_accel_build touches no Vulkan object; pn_shadow_accel_upload uses the queue, so it runs
+// on the thread that renders.
+
+typedef struct pn_shadow_accel_desc {
+    bool tree;              // the N-tree and its pools (modes linespace, hybrid, exact-ls)
+    int tree_n, tree_d;
+    uint64_t max_bytes;     // refuse a tree whose pools exceed this (0: no limit)
+    const pn_light *light;  // the tree leaves out triangles that cannot block a ray to it
+    bool candidates;        // keep the tree's per-leaf triangle lists (hybrid, exact-ls)
+    bool bvh;               // build a BVH (exact mode)...
+    const pn_bvh *reuse_bvh; // ...or put this one in the exact pools (not owned; must outlive the accel)
+    bool exact_pools;       // upload triangles, BVH and candidate lists (hybrid, exact-ls, exact)
+} pn_shadow_accel_desc;
+
+typedef struct pn_shadow_accel {
+    pn_shadow_accel_desc desc;
+    pn_ntree tree;             // zero without desc.tree
+    pn_pools pools;
+    pn_bvh bvh;                // with desc.bvh
+    const pn_bvh *exact_bvh;   // the BVH of the exact pools: &bvh, desc.reuse_bvh or NULL
+    double build_ms;           // N-tree with line spaces, and BVH
+    pn_gpu_pools gpu_pools;    // after upload, with desc.tree
+    pn_gpu_exact_pools exact;  // after upload, with desc.exact_pools
+} pn_shadow_accel;
+
+// CPU part: tree, pools and BVH. Thread-safe (no Vulkan). Logs and leaves *out zeroed on failure.
+pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_desc *desc, pn_shadow_accel *out);
+// GPU part: uploads what was built. On failure the CPU part stays; destroy frees both.
+pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_shadow_accel *a);
+// Points a renderer description at the uploaded pools (pools, leaf size, exact pools, candidates).
+void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd);
+// Bytes of the GPU pools: N-tree pools plus exact pools.
+uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a);
+// `dev` may be NULL when nothing was uploaded.
+void pn_shadow_accel_destroy(pn_gpu_device *dev, pn_shadow_accel *a);
+
+// ---------------------------------------------------------------------------------------------
+// Accel and renderer in one call, for one frame configuration.
 
 typedef struct pn_setup_desc {
     pn_renderer_desc frame; // size, mode, traversal, sampler, spp, seed, dump_rays (pools filled in here)
@@ -13,11 +61,7 @@ typedef struct pn_setup_desc {
 } pn_setup_desc;
 
 typedef struct pn_setup {
-    pn_ntree tree;
-    pn_pools pools;
-    pn_gpu_pools gpu_pools;
-    pn_bvh bvh;
-    pn_gpu_exact_pools exact;
+    pn_shadow_accel accel;
     pn_renderer renderer;
     double build_ms;          // N-tree with line spaces, or BVH
     pn_pool_bytes pool_bytes; // of the N-tree (zero without one)

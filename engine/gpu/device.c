@@ -130,7 +130,21 @@ static bool layer_available(const char *name)
 static pn_result create_instance(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
 {
     const char *layers[] = {"VK_LAYER_KHRONOS_validation"};
-    const char *exts[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    // Debug utils with validation, then the window system's surface extensions when presenting.
+    enum { MAX_EXTS = 16 };
+    const char *exts[MAX_EXTS];
+    uint32_t ext_count = 0;
+    if (desc->validation)
+        exts[ext_count++] = VK_EXT_DEBUG_UTILS_EXTENSION_NAME;
+    if (desc->present) {
+        if (desc->instance_extension_count > MAX_EXTS - 1) {
+            pn_error("the window system asks for %u Vulkan instance extensions, at most %d are supported",
+                     desc->instance_extension_count, MAX_EXTS - 1);
+            return PN_ERR_UNSUPPORTED;
+        }
+        for (uint32_t i = 0; i < desc->instance_extension_count; i++)
+            exts[ext_count++] = desc->instance_extensions[i];
+    }
     if (desc->validation && !layer_available(layers[0])) {
         pn_error("PN_VALIDATION is set but VK_LAYER_KHRONOS_validation is not installed "
                  "(Debian package vulkan-validationlayers; ci/deps.sh installs it)");
@@ -164,13 +178,13 @@ static pn_result create_instance(const pn_gpu_device_desc *desc, pn_gpu_device *
         .pApplicationInfo = &app,
         .enabledLayerCount = desc->validation ? 1 : 0,
         .ppEnabledLayerNames = layers,
-        .enabledExtensionCount = desc->validation ? 1 : 0,
+        .enabledExtensionCount = ext_count,
         .ppEnabledExtensionNames = exts,
     };
     VkResult r = vkCreateInstance(&info, NULL, &dev->instance);
     if (r != VK_SUCCESS) {
-        pn_error("cannot create a Vulkan 1.3 instance: %s (is libvulkan1 with a driver installed?)",
-                 pn_vk_result_str(r));
+        pn_error("cannot create a Vulkan 1.3 instance%s: %s (is libvulkan1 with a driver installed?)",
+                 desc->present ? " with the window system's surface extensions" : "", pn_vk_result_str(r));
         return PN_ERR_VULKAN;
     }
     if (desc->validation) {
@@ -183,6 +197,22 @@ static pn_result create_instance(const pn_gpu_device_desc *desc, pn_gpu_device *
         }
         VK_CHECK(create(dev->instance, &messenger_info, NULL, &dev->messenger));
     }
+    return PN_OK;
+}
+
+static pn_result device_extension_available(VkPhysicalDevice physical, const char *name, bool *found)
+{
+    uint32_t n = 0;
+    VK_CHECK(vkEnumerateDeviceExtensionProperties(physical, NULL, &n, NULL));
+    VkExtensionProperties *props = calloc(n ? n : 1, sizeof *props);
+    if (!props)
+        return PN_ERR_MEMORY;
+    VkResult r = vkEnumerateDeviceExtensionProperties(physical, NULL, &n, props);
+    *found = false;
+    for (uint32_t i = 0; r == VK_SUCCESS && i < n && !*found; i++)
+        *found = strcmp(props[i].extensionName, name) == 0;
+    free(props);
+    VK_CHECK(r);
     return PN_OK;
 }
 
@@ -215,12 +245,27 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
     vkGetPhysicalDeviceQueueFamilyProperties(dev->physical, &qn, qf);
     dev->queue_family = UINT32_MAX;
     const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+    // One queue does everything, presenting included: frames are short and submitted one at a time.
     for (uint32_t i = 0; i < qn && dev->queue_family == UINT32_MAX; i++)
-        if ((qf[i].queueFlags & need) == need && qf[i].timestampValidBits > 0)
+        if ((qf[i].queueFlags & need) == need && qf[i].timestampValidBits > 0 &&
+            (!desc->present || !desc->can_present || desc->can_present(dev->instance, dev->physical, i)))
             dev->queue_family = i;
     if (dev->queue_family == UINT32_MAX) {
-        pn_error("%s has no queue with graphics, compute and timestamps", dev->props.deviceName);
+        if (desc->present)
+            pn_error("%s has no queue with graphics, compute, timestamps and presentation to this window "
+                     "(PN_DEVICE picks another device)", dev->props.deviceName);
+        else
+            pn_error("%s has no queue with graphics, compute and timestamps", dev->props.deviceName);
         return PN_ERR_VULKAN;
+    }
+    const char *device_exts[] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    if (desc->present) {
+        bool swapchain = false;
+        PN_TRY(device_extension_available(dev->physical, device_exts[0], &swapchain));
+        if (!swapchain) {
+            pn_error("%s lacks %s, which presenting to a window needs", dev->props.deviceName, device_exts[0]);
+            return PN_ERR_VULKAN;
+        }
     }
 
     VkPhysicalDeviceVulkan13Features f13 = {
@@ -255,6 +300,8 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         .pNext = &f,
         .queueCreateInfoCount = 1,
         .pQueueCreateInfos = &qi,
+        .enabledExtensionCount = desc->present ? 1 : 0,
+        .ppEnabledExtensionNames = device_exts,
     };
     VK_CHECK(vkCreateDevice(dev->physical, &di, NULL, &dev->device));
     vkGetDeviceQueue(dev->device, dev->queue_family, 0, &dev->queue);
@@ -271,6 +318,7 @@ pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *de
 {
     memset(dev, 0, sizeof *dev);
     dev->validation = desc->validation;
+    dev->present = desc->present;
     pn_result r = create_instance(desc, dev);
     if (r == PN_OK)
         r = create_device(desc, dev);

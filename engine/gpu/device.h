@@ -5,9 +5,21 @@
 
 #include "gpu/vk.h"
 
+// Asks the window system whether a queue family of a device can present to it; the signature of
+// glfwGetPhysicalDevicePresentationSupport, so that GLFW's function can be passed as is.
+typedef int (*pn_gpu_present_query)(VkInstance instance, VkPhysicalDevice physical, uint32_t queue_family);
+
 typedef struct pn_gpu_device_desc {
     bool validation;      // Khronos validation layer + synchronization validation
     const char *selector; // NULL: best device; else an index ("1") or a name substring
+    // Presenting to a window (penumbra demo). False: offscreen only, nothing below is used.
+    // True: also enables `instance_extensions` (the window system's surface extensions, e.g.
+    // from glfwGetRequiredInstanceExtensions) and VK_KHR_swapchain, and the queue family must be
+    // one that `can_present` accepts (NULL: any).
+    bool present;
+    const char *const *instance_extensions;
+    uint32_t instance_extension_count;
+    pn_gpu_present_query can_present;
 } pn_gpu_device_desc;
 
 typedef struct pn_gpu_device {
@@ -23,6 +35,7 @@ typedef struct pn_gpu_device {
     VkQueue queue;
     VkCommandPool cmd_pool;
     bool validation;
+    bool present;                 // VK_KHR_swapchain enabled, the queue can present (desc.present)
     unsigned validation_messages; // warnings and errors reported by the layer so far
 } pn_gpu_device;
 

@@ -784,6 +784,8 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->radiance = out->v + px;
 }
 
+void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
+
 const float *pn_renderer_ray_dump(const pn_renderer *r, uint64_t *floats)
 {
     *floats = r->ray_dump.mapped ? (uint64_t)r->width * r->height * (1 + r->desc.spp) * 4 : 0;

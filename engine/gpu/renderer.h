@@ -93,6 +93,10 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
 
+// Changes the stratified sampler's seed from the next pn_renderer_render on: the demo's progressive
+// refinement takes new light samples every frame without recreating the renderer.
+void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
+
 // With desc.dump_rays, after a frame: per pixel, the ray origin (xyz; w = 1 where geometry is),
 // then per pixel and light sample the sample point (xyz) and flags in w's bits (bit 0: valid, the
 // sample carries light; bit 1: blocked). NULL without dump_rays. Modes exact, hybrid and exact-ls.

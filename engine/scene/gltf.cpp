@@ -7,7 +7,9 @@
 // is validated here first, in 64-bit arithmetic, against counts a hostile file may make up.
 #include <tiny_gltf.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cassert>
 #include <cerrno>
@@ -455,6 +457,10 @@ private:
     std::vector<uint8_t> camera_warned_;
     bool warned_skin_ = false;
 
+    // What was skipped, to say why a scene ends up without triangles.
+    uint64_t mesh_instances_ = 0, skipped_points_lines_ = 0, skipped_no_position_ = 0,
+             skipped_empty_ = 0;
+
     // scratch, reused across primitives
     std::vector<float> pos_, nrm_, uv_;
     std::vector<uint32_t> idx_, tri_;
@@ -721,8 +727,25 @@ void Loader::run()
     image_texture_.assign(m_.images.size(), -2);
     build_materials();
     traverse();
-    if (indices_.empty())
-        fail(PN_ERR_FORMAT, "no triangles in the scene");
+    if (indices_.empty()) {
+        std::string why;
+        if (m_.meshes.empty()) {
+            why = "the file has no meshes";
+        } else if (mesh_instances_ == 0) {
+            why = "no node of the scene references a mesh";
+        } else {
+            auto add = [&](uint64_t n, const char *what) {
+                if (n)
+                    why += (why.empty() ? "" : ", ") + std::to_string(n) + what;
+            };
+            add(skipped_points_lines_, " point or line primitive(s) skipped");
+            add(skipped_no_position_, " primitive(s) without POSITION skipped");
+            add(skipped_empty_, " primitive(s) with fewer than 3 vertices");
+            if (why.empty())
+                why = "its meshes have no primitives";
+        }
+        fail(PN_ERR_FORMAT, "no triangles in the scene (%s)", why.c_str());
+    }
 }
 
 // Depth-first, pre-order, children in file order, with an explicit stack so that a deep (or
@@ -782,6 +805,7 @@ void Loader::traverse()
             if (n.mesh < 0 || (size_t)n.mesh >= m_.meshes.size())
                 fail(PN_ERR_FORMAT, "node %d: mesh %d does not exist (%zu meshes)", it.node,
                      n.mesh, m_.meshes.size());
+            mesh_instances_++;
             instance_mesh(n.mesh, world);
         }
         for (size_t i = n.children.size(); i-- > 0;)
@@ -850,6 +874,7 @@ void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
         fail(PN_ERR_FORMAT, "%s primitive %d: mode %d is not a glTF primitive mode",
              mesh_tag(mesh).c_str(), prim, pr.mode);
     if (mode < TINYGLTF_MODE_TRIANGLES) {
+        skipped_points_lines_++;
         if (!(warned & kWarnNonTriangles)) {
             warned |= kWarnNonTriangles;
             warn("%s: point and line primitives are skipped", mesh_tag(mesh).c_str());
@@ -862,6 +887,7 @@ void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
     };
     int a_pos = attr("POSITION"), a_nrm = attr("NORMAL"), a_uv = attr("TEXCOORD_0");
     if (a_pos == -1) {
+        skipped_no_position_++;
         if (!(warned & kWarnNoPosition)) {
             warned |= kWarnNoPosition;
             warn("%s primitive %d: no POSITION attribute; skipped", mesh_tag(mesh).c_str(), prim);
@@ -926,8 +952,10 @@ void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
     } else if (ni >= 3) {
         ntri = ni - 2;
     }
-    if (ntri == 0)
+    if (ntri == 0) {
+        skipped_empty_++;
         return;
+    }
     if (ntri * 3 > kMaxIndices)
         fail(PN_ERR_MEMORY, "%s primitive %d: %llu triangles exceed the limit",
              mesh_tag(mesh).c_str(), prim, (unsigned long long)ntri);
@@ -1224,6 +1252,141 @@ pn_result Loader::emit(pn_scene *out)
     return PN_OK;
 }
 
+// --- reading files: the scene and the buffers and images it references. tinygltf's own reader
+// fopen()s whatever a URI names, which blocks forever on a FIFO and reads devices without end;
+// these callbacks read regular files only, below the 4 GiB that glTF can address.
+
+// Reads a whole regular file. On failure sets *why (no path in it) and returns false.
+bool read_regular_file(const char *path, std::vector<unsigned char> *out, std::string *why)
+{
+    // O_NONBLOCK: opening a FIFO must not wait for a writer (fstat rejects it right after).
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        *why = std::string("cannot open: ") + std::strerror(errno);
+        return false;
+    }
+    struct stat st;
+    bool ok = false;
+    if (fstat(fd, &st) != 0) {
+        *why = std::string("cannot read: ") + std::strerror(errno);
+    } else if (!S_ISREG(st.st_mode)) {
+        *why = "cannot read: not a regular file";
+    } else if (st.st_size == 0) {
+        *why = "empty file";
+    } else if ((uint64_t)st.st_size >= (1ull << 32)) {
+        *why = "file too large for glTF (4 GiB or more)";
+    } else {
+        out->resize((size_t)st.st_size);
+        size_t got = 0;
+        while (got < out->size()) {
+            ssize_t n = read(fd, out->data() + got, out->size() - got);
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n <= 0) {
+                // n == 0: the file shrank while being read
+                *why = std::string("cannot read: ") + (n < 0 ? std::strerror(errno) : "file changed size");
+                break;
+            }
+            got += (size_t)n;
+        }
+        ok = got == out->size();
+    }
+    close(fd);
+    if (!ok)
+        out->clear();
+    return ok;
+}
+
+bool fs_file_exists(const std::string &path, void *)
+{
+    struct stat st;
+    return stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+// No ~ or $VAR expansion: a URI is a path relative to the file, nothing else.
+std::string fs_expand(const std::string &path, void *) { return path; }
+
+bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::string &path, void *)
+{
+    std::string why;
+    if (read_regular_file(path.c_str(), out, &why))
+        return true;
+    if (err)
+        *err += why;
+    return false;
+}
+
+bool fs_write(std::string *err, const std::string &, const std::vector<unsigned char> &, void *)
+{
+    if (err)
+        *err += "penumbra never writes glTF";
+    return false;
+}
+
+inline uint32_t le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+// The binary glTF header and JSON chunk header, checked before tinygltf so that a truncated or
+// foreign file gets a message saying what is wrong (tinygltf says "Invalid glTF binary" for all
+// of these, and never looks at the version). Returns the problem, or "" when there is none.
+std::string glb_header_problem(const std::vector<unsigned char> &b)
+{
+    const uint64_t size = b.size();
+    if (size < 12)
+        return "truncated: " + std::to_string(size) + " bytes is shorter than the 12-byte binary glTF header";
+    if (std::memcmp(b.data(), "glTF", 4) != 0)
+        return "not a binary glTF file (it does not start with 'glTF')";
+    const uint32_t version = le32(&b[4]), length = le32(&b[8]);
+    if (version != 2)
+        return "binary glTF version " + std::to_string(version) + " is not supported (2 required)";
+    if (length > size)
+        return "truncated: the header declares " + std::to_string(length) + " bytes but the file has " +
+               std::to_string(size);
+    if (length < 20)
+        return "the header declares " + std::to_string(length) + " bytes, too few for a JSON chunk";
+    const uint32_t json_len = le32(&b[12]), json_type = le32(&b[16]);
+    if (json_type != 0x4E4F534Au) // "JSON"
+        return "the first chunk is not JSON";
+    if (json_len == 0 || 20ull + json_len > length)
+        return "the JSON chunk (" + std::to_string(json_len) + " bytes) does not fit in the file's " +
+               std::to_string(length) + " bytes (truncated?)";
+    return std::string();
+}
+
+// When tinygltf rejects a file, a likelier cause than its message: a required extension this
+// loader cannot decode (tinygltf then trips over the accessors the extension replaces) or a
+// glTF 1.0 file (tinygltf wants asset.version to be a string). A plain text scan, since the JSON
+// did not parse into a model: it only ever picks the message, never accepts a file.
+std::string parse_failure_hint(const char *json, size_t n)
+{
+    const std::string text(json, n);
+    size_t req = text.find("\"extensionsRequired\"");
+    if (req != std::string::npos) {
+        size_t open = text.find('[', req), close = text.find(']', req);
+        if (open != std::string::npos && close != std::string::npos && open < close) {
+            const std::string list = text.substr(open, close - open);
+            static const char *const kUndecodable[][2] = {
+                {"KHR_draco_mesh_compression", "Draco-compressed meshes"},
+                {"EXT_meshopt_compression", "meshoptimizer-compressed buffers"},
+                {"KHR_mesh_quantization", "quantized vertex attributes"},
+            };
+            for (const auto &e : kUndecodable)
+                if (list.find(std::string("\"") + e[0] + "\"") != std::string::npos)
+                    return std::string("requires extension ") + e[0] + " (" + e[1] + "), which is not supported";
+        }
+    }
+    size_t asset = text.find("\"asset\"");
+    size_t ver = asset == std::string::npos ? asset : text.find("\"version\"", asset);
+    if (ver != std::string::npos && ver - asset < 512) {
+        size_t v = text.find_first_not_of(" \t\r\n:", ver + 9);
+        if (v != std::string::npos && (text.compare(v, 1, "1") == 0 || text.compare(v, 3, "\"1.") == 0))
+            return "glTF version 1 is not supported (2.x required)";
+    }
+    return std::string();
+}
+
 pn_result load(const char *path, pn_scene *out)
 {
     bool binary;
@@ -1235,38 +1398,38 @@ pn_result load(const char *path, pn_scene *out)
         pn_error("%s: not a glTF file (expected the extension .gltf or .glb)", path);
         return PN_ERR_FORMAT;
     }
-    // Tell an unreadable file (PN_ERR_IO) from a malformed one (PN_ERR_FORMAT) before tinygltf,
-    // which reports both the same way.
-    struct stat st;
-    if (stat(path, &st) != 0) {
-        pn_error("%s: cannot open: %s", path, std::strerror(errno));
-        return PN_ERR_IO;
+    // The file is read here rather than by tinygltf, to tell an unreadable file (PN_ERR_IO) from a
+    // malformed one (PN_ERR_FORMAT), which tinygltf reports the same way.
+    std::vector<unsigned char> bytes;
+    std::string why;
+    if (!read_regular_file(path, &bytes, &why)) {
+        pn_error("%s: %s", path, why.c_str());
+        return why.compare(0, 6, "cannot") == 0 ? PN_ERR_IO : PN_ERR_FORMAT;
     }
-    if (!S_ISREG(st.st_mode)) {
-        pn_error("%s: cannot read: not a regular file", path);
-        return PN_ERR_IO;
+    const char *json = reinterpret_cast<const char *>(bytes.data());
+    size_t json_len = bytes.size();
+    if (binary) {
+        std::string problem = glb_header_problem(bytes);
+        if (!problem.empty()) {
+            pn_error("%s: %s", path, problem.c_str());
+            return PN_ERR_FORMAT;
+        }
+        json += 20;
+        json_len = le32(&bytes[12]);
     }
-    FILE *f = std::fopen(path, "rb");
-    if (!f) {
-        pn_error("%s: cannot open: %s", path, std::strerror(errno));
-        return PN_ERR_IO;
-    }
-    std::fclose(f);
-    if (st.st_size == 0) {
-        pn_error("%s: empty file", path);
-        return PN_ERR_FORMAT;
-    }
-    if ((uint64_t)st.st_size >= (1ull << 32)) {
-        pn_error("%s: file too large for glTF (4 GiB or more)", path);
-        return PN_ERR_FORMAT;
-    }
+    // URIs resolve against the file's folder, as tinygltf's own *FromFile functions do.
+    const char *slash = std::strrchr(path, '/');
+    const std::string base_dir = slash ? std::string(path, slash == path ? 1 : (size_t)(slash - path)) : "";
 
     tinygltf::Model model;
     tinygltf::TinyGLTF gltf;
     gltf.SetImageLoader(load_image_lenient, &model);
+    gltf.SetFsCallbacks(tinygltf::FsCallbacks{fs_file_exists, fs_expand, fs_read, fs_write, nullptr});
     std::string err, warn;
-    bool ok = binary ? gltf.LoadBinaryFromFile(&model, &err, &warn, path)
-                     : gltf.LoadASCIIFromFile(&model, &err, &warn, path);
+    bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
+                                                 (unsigned int)bytes.size(), base_dir)
+                     : gltf.LoadASCIIFromString(&model, &err, &warn, json, (unsigned int)json_len,
+                                                base_dir);
     if (!warn.empty()) {
         size_t start = 0;
         while (start < warn.size()) {
@@ -1281,7 +1444,11 @@ pn_result load(const char *path, pn_scene *out)
     }
     if (!ok) {
         std::string msg = one_line(err);
-        pn_error("%s: %s", path, msg.empty() ? "tinygltf could not parse the file" : msg.c_str());
+        std::string hint = parse_failure_hint(json, json_len);
+        if (!hint.empty())
+            pn_error("%s: %s (tinygltf: %s)", path, hint.c_str(), msg.empty() ? "parse error" : msg.c_str());
+        else
+            pn_error("%s: %s", path, msg.empty() ? "tinygltf could not parse the file" : msg.c_str());
         // The file itself was readable (checked above); a buffer it names that cannot be read is
         // an I/O problem too (tinygltf's LoadExternalFile messages), anything else is the content.
         if (err.find("File not found") != std::string::npos ||

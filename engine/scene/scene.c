@@ -162,6 +162,14 @@ pn_result pn_scene_validate(const pn_scene *s)
         mag = fmaxf(mag, fmaxf(fabsf(lo[k]), fabsf(hi[k])));
         ext = fmaxf(ext, hi[k] - lo[k]);
     }
+    // Every stage squares distances in float (framing, the light, the tree, shading): beyond 1e18
+    // from the origin, 3 * (2e18)^2 no longer fits below FLT_MAX and they overflow to infinity.
+    if (mag > 1e18f) {
+        pn_error("%s: positions reach %.3g from the origin; beyond 1e18 float arithmetic overflows: scale the "
+                 "scene down",
+                 s->name, (double)mag);
+        return PN_ERR_UNSUPPORTED;
+    }
     float ulp = nextafterf(mag, INFINITY) - mag;
     if (ext > 0 && ext < 256 * ulp) {
         pn_error("%s: the scene is %.3g across at %.3g from the origin, only %.0f float steps: move it towards "

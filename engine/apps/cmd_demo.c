@@ -1,0 +1,633 @@
+// penumbra demo: render's passes in a window, every frame, with the knobs live.
+//
+// One frame: script events and window input -> (swapchain and renderers recreated if the size or
+// a parameter changed; a finished background tree swapped in) -> pn_renderer_render (and the exact
+// renderer in the error view) -> accumulate -> compose on the CPU (tone map or view, cell overlay)
+// -> copy into the acquired swapchain image with the overlay text -> present.
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "apps/commands.h"
+#include "apps/demo.h"
+#include "apps/metrics.h"
+#include "apps/render_output.h"
+#include "core/timer.h"
+#include "io/png.h"
+
+typedef struct demo_opts {
+    pn_render_opts r;
+    const char *scene, *screenshot, *script, *save_prefix;
+    long long frames; // 0: until the window closes
+    long long accumulate_max;
+    bool accumulate, hud, vsync;
+} demo_opts;
+
+void pn_print_demo_help(void)
+{
+    printf("usage: penumbra demo [SCENE] [options]\n"
+           "  Opens a window and runs render's passes every frame, with the camera, light and shadow\n"
+           "  parameters under live control. SCENE as for render (default builtin:default).\n"
+           "window and run:\n"
+           "  --size WxH            initial window size (default 800x450)\n"
+           "  --frames N            exit after N frames (default: when the window closes)\n"
+           "  --screenshot FILE     save the last frame as PNG (the image as shown, without the text)\n"
+           "  --script FILE         replay key presses and camera moves (format below)\n"
+           "  --no-accumulate       every frame stands alone (default: while nothing changes, frames\n"
+           "                        take new stratified light samples and are averaged)\n"
+           "  --accumulate-max N    frames averaged before the image is held (default 256)\n"
+           "  --no-hud              start without the figures (I toggles them)\n"
+           "  --no-vsync            present without waiting for the display when the surface allows\n"
+           "  --save-prefix P       P saves P-NNNN.exr (every parameter in the header) and P-NNNN.png\n"
+           "                        (default penumbra-demo)\n"
+           "  --exposure E          tone-mapping exposure multiplier (default 1)\n"
+           "  --spp S               as below, but 9 by default: accumulation adds samples over frames\n");
+    pn_render_opts_print_help();
+    char controls[4096];
+    pn_demo_controls_text(controls, sizeof controls);
+    printf("controls:\n%s", controls);
+    printf("script (--script FILE): one event per line, applied before frame N (0 the first) renders;\n"
+           "'#' starts a comment:\n"
+           "  frame N key [shift+]KEY   a key as above (letters, digits, ',-./;=[]', left, right, up,\n"
+           "                            down, pageup, pagedown, escape, space)\n"
+           "  frame N orbit YAW PITCH   turn the camera around its target, degrees (+ right, + up)\n"
+           "  frame N pan X Y           move the scene on screen by X, Y view heights (y down)\n"
+           "  frame N zoom F            multiply the distance to the target by F\n"
+           "  frame N resize W H        resize the window\n"
+           "  frame N screenshot FILE   save frame N (without the text) as PNG\n"
+           "The frame counter counts presented frames. PN_VALIDATION=1 makes any validation message\n"
+           "an exit code of 3, as for render.\n");
+}
+
+static int parse(int argc, char **argv, demo_opts *o)
+{
+    *o = (demo_opts){.r = pn_render_opts_default(), .accumulate = true, .accumulate_max = 256, .hud = true,
+                     .vsync = true, .save_prefix = "penumbra-demo"};
+    // Render's defaults but a smaller window and fewer rays per frame: accumulation adds samples.
+    o->r.width = 800, o->r.height = 450, o->r.spp = 9;
+    pn_args a = {argc, argv, 0};
+    while (a.i < argc) {
+        const char *v = NULL, *arg = argv[a.i];
+        bool err = false, ok = true;
+        if (pn_args_flag(&a, "--help") || pn_args_flag(&a, "-h")) {
+            pn_print_demo_help();
+            return -1;
+        } else if (pn_args_value(&a, "--frames", &v, &err)) {
+            ok = v && pn_parse_int_range("--frames", v, 1, 1ll << 40, &o->frames);
+        } else if (pn_args_value(&a, "--screenshot", &v, &err)) {
+            o->screenshot = v;
+        } else if (pn_args_value(&a, "--script", &v, &err)) {
+            o->script = v;
+        } else if (pn_args_value(&a, "--save-prefix", &v, &err)) {
+            o->save_prefix = v;
+        } else if (pn_args_value(&a, "--accumulate-max", &v, &err)) {
+            ok = v && pn_parse_int_range("--accumulate-max", v, 1, 1 << 20, &o->accumulate_max);
+        } else if (pn_args_flag(&a, "--no-accumulate")) {
+            o->accumulate = false;
+        } else if (pn_args_flag(&a, "--no-hud")) {
+            o->hud = false;
+        } else if (pn_args_flag(&a, "--no-vsync")) {
+            o->vsync = false;
+        } else if (pn_render_opts_parse(&a, &o->r, &err)) {
+            // a shared option
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            pn_error("demo: unknown option '%s' (see penumbra demo --help)", arg);
+            return PN_EXIT_USAGE;
+        } else if (!o->scene) {
+            o->scene = arg;
+            a.i++;
+        } else {
+            pn_error("demo: more than one scene given ('%s' and '%s')", o->scene, arg);
+            return PN_EXIT_USAGE;
+        }
+        if (err || !ok)
+            return PN_EXIT_USAGE;
+    }
+    if (!o->scene)
+        o->scene = "builtin:default";
+    if (o->r.mode == PN_SHADOW_NONE) {
+        pn_error("demo: --mode none casts no shadows to look at; pick linespace, hybrid, exact-ls or exact");
+        return PN_EXIT_USAGE;
+    }
+    return PN_EXIT_OK;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Window input: GLFW callbacks find the demo through the window's user pointer.
+
+static void on_key(GLFWwindow *window, int key, int scancode, int action, int mods)
+{
+    if (action == GLFW_PRESS || action == GLFW_REPEAT)
+        pn_demo_key(glfwGetWindowUserPointer(window), key, mods, action == GLFW_REPEAT);
+}
+
+static void on_button(GLFWwindow *window, int button, int action, int mods)
+{
+    pn_demo *d = glfwGetWindowUserPointer(window);
+    if (action == GLFW_RELEASE) {
+        d->drag = 0;
+        return;
+    }
+    glfwGetCursorPos(window, &d->mouse_x, &d->mouse_y);
+    d->drag = button == GLFW_MOUSE_BUTTON_LEFT && !(mods & GLFW_MOD_SHIFT) ? 1 : 2;
+}
+
+static void on_cursor(GLFWwindow *window, double x, double y)
+{
+    pn_demo *d = glfwGetWindowUserPointer(window);
+    double dx = x - d->mouse_x, dy = y - d->mouse_y;
+    d->mouse_x = x, d->mouse_y = y;
+    if (d->drag == 1)
+        pn_demo_orbit(d, (float)(-0.3 * dx), (float)(0.3 * dy)); // the scene follows the mouse
+    else if (d->drag == 2 && d->image.height > 0)
+        pn_demo_pan(d, (float)(dx / d->image.height), (float)(dy / d->image.height));
+}
+
+static void on_scroll(GLFWwindow *window, double x, double y)
+{
+    pn_demo_zoom(glfwGetWindowUserPointer(window), powf(0.9f, (float)y));
+}
+
+static void on_glfw_error(int code, const char *message) { pn_warn("GLFW: %s", message); }
+
+// ---------------------------------------------------------------------------------------------
+// Trees and renderers
+
+static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
+{
+    // Every tree keeps its candidate lists and carries the shared BVH, so that switching modes never
+    // needs a rebuild; with the same light it is the tree render builds (culling included).
+    return (pn_shadow_accel_desc){
+        .tree = true,
+        .tree_n = n,
+        .tree_d = depth,
+        .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_heap(&d->dev) / 2,
+        .light = &d->light,
+        .candidates = true,
+        .reuse_bvh = &d->bvh,
+        .exact_pools = true,
+    };
+}
+
+static pn_result create_renderers(pn_demo *d)
+{
+    pn_renderer_destroy(&d->renderer);
+    pn_renderer_destroy(&d->exact);
+    uint64_t t0 = pn_time_ns();
+    pn_renderer_desc rd = {
+        .width = d->swapchain.extent.width,
+        .height = d->swapchain.extent.height,
+        .mode = (pn_shadow_mode)d->opts.mode,
+        .traversal = (pn_traversal)d->opts.traversal,
+        .sampler = (pn_sampler)d->opts.sampler,
+        .spp = (uint32_t)d->opts.spp,
+        .seed = (uint32_t)d->opts.seed,
+    };
+    pn_shadow_accel_bind(&d->accel, &rd);
+    PN_TRY(pn_renderer_create(&d->dev, &d->scene, &rd, &d->renderer));
+    if (d->view == PN_DEMO_ERROR && rd.mode != PN_SHADOW_EXACT) {
+        rd.mode = PN_SHADOW_EXACT;
+        PN_TRY(pn_renderer_create(&d->dev, &d->scene, &rd, &d->exact));
+    }
+    d->renderer_ms = pn_ms_since(t0);
+    d->renderer_dirty = false;
+    d->restart = true;
+    return PN_OK;
+}
+
+// Swaps in a finished rebuild and starts the next one when the wanted tree differs.
+static pn_result update_tree(pn_demo *d)
+{
+    pn_shadow_accel fresh;
+    pn_result status;
+    if (pn_demo_builder_poll(&d->builder, &fresh, &status)) {
+        if (status == PN_OK)
+            status = pn_shadow_accel_upload(&d->dev, &d->scene, &fresh);
+        if (status == PN_OK) {
+            // The renderers point at the old pools: they go first.
+            pn_renderer_destroy(&d->renderer);
+            pn_renderer_destroy(&d->exact);
+            pn_shadow_accel_destroy(&d->dev, &d->accel);
+            d->accel = fresh;
+            d->opts.tree_n = d->accel.tree.n, d->opts.tree_d = d->accel.tree.d;
+            pn_info("demo: tree LS(%d,%d) swapped in: built in %.0f ms on a worker thread, %.1f MB of pools",
+                    d->accel.tree.n, d->accel.tree.d, d->accel.build_ms,
+                    pn_shadow_accel_gpu_bytes(&d->accel) / 1048576.0);
+            d->build_message[0] = '\0';
+            d->renderer_dirty = true;
+        } else {
+            snprintf(d->build_message, sizeof d->build_message, "tree LS(%d,%d) failed: %s; still LS(%d,%d)",
+                     d->builder.desc.tree_n, d->builder.desc.tree_d, pn_result_str(status), d->accel.tree.n,
+                     d->accel.tree.d);
+            pn_shadow_accel_destroy(&d->dev, &fresh);
+            d->want_n = d->accel.tree.n, d->want_d = d->accel.tree.d; // no retry loop
+        }
+    }
+    bool idle = atomic_load(&d->builder.state) == PN_DEMO_BUILD_IDLE;
+    if (idle && (d->want_n != d->accel.tree.n || d->want_d != d->accel.tree.d || d->want_rebuild)) {
+        pn_shadow_accel_desc desc = tree_desc(d, d->want_n, d->want_d);
+        PN_TRY(pn_demo_builder_start(&d->builder, &d->scene, &desc));
+        d->want_rebuild = false;
+    }
+    if (atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE)
+        snprintf(d->build_message, sizeof d->build_message,
+                 "tree LS(%d,%d): building on the CPU, %.1f s; drawing with LS(%d,%d)", d->builder.desc.tree_n,
+                 d->builder.desc.tree_d, pn_demo_builder_elapsed(&d->builder), d->accel.tree.n, d->accel.tree.d);
+    return PN_OK;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frames
+
+// Frames to average before holding the image. The grid sampler and a fixed seed repeat the same
+// samples, so their first frame is final.
+static uint32_t accumulate_limit(const pn_demo *d)
+{
+    if (!d->accumulate)
+        return UINT32_MAX; // every frame renders anew (live timings), each on its own
+    return d->opts.sampler == PN_SAMPLER_GRID ? 1 : d->accumulate_max;
+}
+
+static pn_result render(pn_demo *d)
+{
+    if (d->restart || !d->accumulate)
+        d->image.frames = 0;
+    d->restart = false;
+    // A new seed per accumulated frame: new stratified light samples (frame 0 uses --seed, as render).
+    uint32_t seed = (uint32_t)d->opts.seed + d->image.frames;
+    pn_renderer_set_seed(&d->renderer, seed);
+    pn_demo_stats *s = &d->stats;
+    PN_TRY(pn_renderer_render(&d->renderer, &d->camera, &d->light, &s->times));
+    pn_frame_images frame;
+    pn_renderer_images(&d->renderer, &frame);
+    const float *v_exact = NULL;
+    if (d->view == PN_DEMO_ERROR) {
+        v_exact = frame.v; // exact mode: its own reference
+        if (d->exact.dev) {
+            pn_frame_times t;
+            pn_frame_images exact;
+            pn_renderer_set_seed(&d->exact, seed); // same samples: the error is the method's alone
+            PN_TRY(pn_renderer_render(&d->exact, &d->camera, &d->light, &t));
+            pn_renderer_images(&d->exact, &exact);
+            v_exact = exact.v;
+            s->exact_shadow_ms = t.shadow_ms;
+        }
+    }
+    pn_demo_image_add(&d->image, &frame, v_exact);
+
+    size_t px = (size_t)d->image.width * d->image.height, covered = 0;
+    uint8_t *mask = d->view == PN_DEMO_ERROR ? malloc(px) : NULL;
+    for (size_t i = 0; i < px; i++) {
+        bool geometry = frame.p[4 * i + 3] > 0;
+        covered += geometry;
+        if (mask)
+            mask[i] = geometry;
+    }
+    s->rays_per_s = s->times.shadow_ms > 0 ? (double)covered * (double)d->opts.spp / (s->times.shadow_ms * 1e-3) : 0;
+    pn_error_metrics m;
+    if (mask && pn_error_compare(d->image.v, d->image.vx, mask, px, NULL, &m))
+        s->error_mae = m.mae, s->error_p99 = m.p99, s->error_max = m.max;
+    free(mask);
+    return PN_OK;
+}
+
+static pn_result write_png(pn_demo *d, const char *path)
+{
+    const pn_demo_image *img = &d->image;
+    size_t px = (size_t)img->width * img->height;
+    for (size_t i = 0; i < px; i++)
+        memcpy(img->rgb + 3 * i, img->rgba + 4 * i, 3);
+    return pn_png_write_rgb8(path, (int)img->width, (int)img->height, img->rgb);
+}
+
+// P: the frame as EXR (radiance and V averaged over the accumulated frames, G-buffer AOVs, every
+// parameter in the header) and as PNG (the view as shown, without text).
+static void save_frame(pn_demo *d)
+{
+    char exr[1100], png[1100];
+    d->saved++;
+    snprintf(exr, sizeof exr, "%s-%04u.exr", d->save_prefix, d->saved);
+    snprintf(png, sizeof png, "%s-%04u.png", d->save_prefix, d->saved);
+    pn_frame_images frame;
+    pn_renderer_images(&d->renderer, &frame);
+    frame.radiance = d->image.rad;
+    frame.v = d->image.v;
+    pn_render_record rec = {.opts = &d->opts, .scene = &d->scene, .camera = &d->camera, .light = &d->light,
+                            .times = d->stats.times, .build_ms = d->accel.build_ms, .rays_per_s = d->stats.rays_per_s};
+    static const char *const VIEWS[] = {"shaded", "visibility", "error"};
+    const pn_exr_attr extra[] = {
+        {.name = "penumbra.demo.accumulated_frames", .type = PN_EXR_ATTR_INT, .i = (int32_t)d->image.frames},
+        {.name = "penumbra.demo.seeds", .type = PN_EXR_ATTR_STRING,
+         .s = d->image.frames > 1 ? "seed .. seed + accumulated_frames - 1, one per frame" : "seed"},
+        {.name = "penumbra.demo.view", .type = PN_EXR_ATTR_STRING, .s = VIEWS[d->view]},
+        {.name = "penumbra.demo.cells_overlay", .type = PN_EXR_ATTR_INT, .i = d->cells},
+        {.name = "penumbra.exposure", .type = PN_EXR_ATTR_FLOAT, .f = {d->opts.exposure}},
+        {.name = "penumbra.pool_bytes", .type = PN_EXR_ATTR_FLOAT, .f = {(float)pn_shadow_accel_gpu_bytes(&d->accel)}},
+    };
+    d->opts.width = d->image.width, d->opts.height = d->image.height;
+    if (pn_render_write_exr(exr, &rec, &frame, true, extra, (int)(sizeof extra / sizeof extra[0])) == PN_OK &&
+        write_png(d, png) == PN_OK)
+        pn_info("saved %s and %s", exr, png);
+}
+
+// Copies the composed frame into the staging memory in the swapchain's byte order, draws the text.
+static void fill_staging(pn_demo *d)
+{
+    uint8_t *dst = d->swapchain.staging.mapped;
+    const uint8_t *src = d->image.rgba;
+    size_t px = (size_t)d->image.width * d->image.height;
+    if (d->swapchain.bgra)
+        for (size_t i = 0; i < px; i++) {
+            dst[4 * i + 0] = src[4 * i + 2];
+            dst[4 * i + 1] = src[4 * i + 1];
+            dst[4 * i + 2] = src[4 * i + 0];
+            dst[4 * i + 3] = 255;
+        }
+    else
+        memcpy(dst, src, px * 4);
+    pn_demo_draw_overlay(d, dst, d->swapchain.bgra);
+}
+
+static void record_stats(pn_demo *d)
+{
+    if (d->history_count == d->history_cap) {
+        size_t cap = d->history_cap ? 2 * d->history_cap : 256;
+        pn_demo_stats *grown = realloc(d->history, cap * sizeof *grown);
+        if (!grown)
+            return; // the medians then leave out later frames; not worth failing the demo for
+        d->history = grown, d->history_cap = cap;
+    }
+    d->history[d->history_count++] = d->stats;
+}
+
+static int by_value(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+// Median of one field (a double at byte offset `field` of pn_demo_stats) over the rendered frames.
+static double median(const pn_demo *d, size_t field)
+{
+    double *v = malloc(d->history_count * sizeof *v);
+    if (!v || d->history_count == 0) {
+        free(v);
+        return 0;
+    }
+    for (size_t i = 0; i < d->history_count; i++)
+        memcpy(&v[i], (const char *)&d->history[i] + field, sizeof *v);
+    qsort(v, d->history_count, sizeof *v, by_value);
+    double m = v[d->history_count / 2];
+    free(v);
+    return m;
+}
+
+static void print_summary(const pn_demo *d, const demo_opts *o, uint32_t width, uint32_t height)
+{
+    printf("demo: %llu frames, the last %ux%u%s%s\n", (unsigned long long)d->frame, width, height,
+           o->screenshot ? " -> " : "", o->screenshot ? o->screenshot : "");
+    if (d->history_count == 0)
+        return;
+#define MED(f) median(d, offsetof(pn_demo_stats, f))
+    printf("  medians of %zu rendered frames: frame %.1f ms (render %.1f, compose %.1f, present %.1f); "
+           "gpu ms gbuffer %.2f, shadow %.2f, shade %.2f; %.3g shadow rays/s\n",
+           d->history_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
+           MED(times.shadow_ms), MED(times.shade_ms), MED(rays_per_s));
+#undef MED
+}
+
+// Applies the script's events for this frame; returns the path of a screenshot asked for, or NULL.
+static const char *apply_script(pn_demo *d, pn_demo_script *script)
+{
+    const char *shot = NULL;
+    for (; script->next < script->count && script->events[script->next].frame <= d->frame; script->next++) {
+        const pn_demo_event *e = &script->events[script->next];
+        switch (e->kind) {
+        case PN_DEMO_EVENT_KEY: pn_demo_key(d, e->key, e->mods, false); break;
+        case PN_DEMO_EVENT_ORBIT: pn_demo_orbit(d, e->a, e->b); break;
+        case PN_DEMO_EVENT_PAN: pn_demo_pan(d, e->a, e->b); break;
+        case PN_DEMO_EVENT_ZOOM: pn_demo_zoom(d, e->a); break;
+        case PN_DEMO_EVENT_RESIZE: glfwSetWindowSize(d->window, (int)e->a, (int)e->b); break;
+        case PN_DEMO_EVENT_SCREENSHOT: shot = e->path; break;
+        }
+    }
+    return shot;
+}
+
+// Brings the swapchain to the window's size (recreating it when `recreate` or the size differs),
+// then what depends on the size: the image buffers and the renderers.
+static pn_result fit_window(pn_demo *d, int width, int height, bool recreate)
+{
+    VkExtent2D e = d->swapchain.extent;
+    if (recreate || e.width != (uint32_t)width || e.height != (uint32_t)height)
+        PN_TRY(pn_swapchain_recreate(&d->swapchain, (uint32_t)width, (uint32_t)height));
+    e = d->swapchain.extent;
+    if (e.width == 0 || e.height == 0)
+        return PN_OK;
+    if (e.width != d->image.width || e.height != d->image.height) {
+        pn_demo_image_destroy(&d->image);
+        PN_TRY(pn_demo_image_create(e.width, e.height, &d->image));
+        d->opts.width = e.width, d->opts.height = e.height;
+        d->renderer_dirty = true;
+    }
+    return PN_OK;
+}
+
+static pn_result create_swapchain(pn_demo *d, bool vsync)
+{
+    VkSurfaceKHR surface;
+    VK_CHECK(glfwCreateWindowSurface(d->dev.instance, d->window, NULL, &surface));
+    int fw, fh;
+    glfwGetFramebufferSize(d->window, &fw, &fh);
+    pn_swapchain_desc sd = {.surface = surface, .width = (uint32_t)fw, .height = (uint32_t)fh, .vsync = vsync};
+    return pn_swapchain_create(&d->dev, &sd, &d->swapchain);
+}
+
+static int run(pn_demo *d, const demo_opts *o, pn_demo_script *script)
+{
+    glfwSetWindowUserPointer(d->window, d);
+    glfwSetKeyCallback(d->window, on_key);
+    glfwSetMouseButtonCallback(d->window, on_button);
+    glfwSetCursorPosCallback(d->window, on_cursor);
+    glfwSetScrollCallback(d->window, on_scroll);
+
+    uint32_t ext_count = 0;
+    const char **exts = glfwGetRequiredInstanceExtensions(&ext_count); // GLFW logs why when it fails
+    if (!exts) {
+        pn_error("demo: GLFW cannot use Vulkan with this window system (see GLFW's message above)");
+        return PN_EXIT_FAILURE;
+    }
+    pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
+    desc.present = true;
+    desc.instance_extensions = exts;
+    desc.instance_extension_count = ext_count;
+    desc.can_present = glfwGetPhysicalDevicePresentationSupport;
+    if (pn_gpu_device_create(&desc, &d->dev) != PN_OK)
+        return PN_EXIT_FAILURE;
+    if (create_swapchain(d, o->vsync) != PN_OK)
+        return PN_EXIT_FAILURE;
+
+    // The first tree is built before the first frame, as render builds it.
+    if (pn_bvh_build(&d->scene, &d->bvh) != PN_OK) {
+        pn_error("%s: out of memory building the BVH", d->scene.name);
+        return PN_EXIT_FAILURE;
+    }
+    pn_shadow_accel_desc td = tree_desc(d, d->opts.tree_n, d->opts.tree_d);
+    if (pn_shadow_accel_build(&d->scene, &td, &d->accel) != PN_OK ||
+        pn_shadow_accel_upload(&d->dev, &d->scene, &d->accel) != PN_OK)
+        return PN_EXIT_FAILURE;
+    d->want_n = d->opts.tree_n, d->want_d = d->opts.tree_d;
+
+    bool stale = false; // the swapchain must be recreated (out of date or suboptimal)
+    int fw, fh;
+    while (!d->quit && !glfwWindowShouldClose(d->window)) {
+        uint64_t t0 = pn_time_ns();
+        const char *shot = apply_script(d, script);
+        bool held = d->image.frames >= accumulate_limit(d) && !d->restart && !d->renderer_dirty;
+        bool building = atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE;
+        // Nothing to refine: wait for input instead of spinning (still wakes for the build's progress).
+        if (held && !building && !shot && !d->save && !o->frames)
+            glfwWaitEventsTimeout(0.1);
+        else
+            glfwPollEvents();
+
+        glfwGetFramebufferSize(d->window, &fw, &fh);
+        // Minimised: nothing to draw into (some window systems keep the size, so ask for both).
+        if (fw == 0 || fh == 0 || glfwGetWindowAttrib(d->window, GLFW_ICONIFIED)) {
+            glfwWaitEventsTimeout(0.1);
+            continue;
+        }
+        if (fit_window(d, fw, fh, stale) != PN_OK)
+            return PN_EXIT_FAILURE;
+        stale = false;
+        if (d->swapchain.extent.width == 0)
+            continue;
+        if (update_tree(d) != PN_OK)
+            return PN_EXIT_FAILURE;
+        if (d->renderer_dirty && create_renderers(d) != PN_OK)
+            return PN_EXIT_FAILURE;
+
+        uint64_t t1 = pn_time_ns();
+        held = d->image.frames >= accumulate_limit(d) && !d->restart;
+        if (!held) {
+            if (render(d) != PN_OK)
+                return PN_EXIT_FAILURE;
+            d->stats.render_ms = pn_ms_since(t1);
+            uint64_t t2 = pn_time_ns();
+            pn_demo_compose(d);
+            d->stats.compose_ms = pn_ms_since(t2);
+        }
+        if (shot)
+            write_png(d, shot);
+        if (d->save) {
+            save_frame(d);
+            d->save = false;
+        }
+
+        uint64_t t3 = pn_time_ns();
+        if (pn_swapchain_acquire(&d->swapchain, &stale) != PN_OK)
+            return PN_EXIT_FAILURE;
+        if (stale)
+            continue; // out of date: recreate, then draw this frame again
+        fill_staging(d);
+        if (pn_swapchain_present(&d->swapchain, &stale) != PN_OK)
+            return PN_EXIT_FAILURE;
+        d->stats.present_ms = pn_ms_since(t3);
+        if (!held) {
+            d->stats.frame_ms = pn_ms_since(t0);
+            record_stats(d);
+        }
+        char title[512];
+        pn_demo_title(d, title, sizeof title);
+        glfwSetWindowTitle(d->window, title);
+        d->frame++;
+        if (o->frames && d->frame >= (uint64_t)o->frames)
+            break;
+    }
+    if (o->screenshot && d->image.frames > 0 && write_png(d, o->screenshot) != PN_OK)
+        return PN_EXIT_FAILURE;
+    return PN_EXIT_OK;
+}
+
+int pn_cmd_demo(int argc, char **argv)
+{
+    demo_opts o;
+    int rc = parse(argc, argv, &o);
+    if (rc != PN_EXIT_OK)
+        return rc < 0 ? PN_EXIT_OK : rc;
+    if (o.screenshot && !pn_render_output_writable(o.screenshot))
+        return PN_EXIT_FAILURE;
+    pn_demo_script script = {0};
+    if (o.script && pn_demo_script_load(o.script, &script) != PN_OK)
+        return PN_EXIT_USAGE;
+
+    pn_demo d = {.opts = o.r, .accumulate = o.accumulate,
+                 .accumulate_max = (uint32_t)o.accumulate_max, .show_hud = o.hud, .save_prefix = o.save_prefix};
+    atomic_init(&d.builder.state, PN_DEMO_BUILD_IDLE);
+    if (pn_scene_load(o.scene, &d.scene) != PN_OK) {
+        pn_demo_script_destroy(&script);
+        return PN_EXIT_FAILURE;
+    }
+    // Camera and light frame the scene itself, as render's do; the ground plane comes after.
+    if (!pn_render_setup_view(&o.r, &d.scene, &d.camera, &d.light)) {
+        pn_scene_destroy(&d.scene);
+        pn_demo_script_destroy(&script);
+        return PN_EXIT_USAGE;
+    }
+    d.camera_home = d.camera, d.light_home = d.light;
+    float r2 = 0;
+    for (int k = 0; k < 3; k++) {
+        d.center[k] = 0.5f * (d.scene.bounds_min[k] + d.scene.bounds_max[k]);
+        float e = d.scene.bounds_max[k] - d.scene.bounds_min[k];
+        r2 += e * e;
+    }
+    d.radius = 0.5f * sqrtf(r2) > 0 ? 0.5f * sqrtf(r2) : 1.0f;
+    if (o.r.ground && pn_scene_add_ground(&d.scene, 6.0f) != PN_OK) {
+        pn_error("%s: out of memory adding the ground plane", d.scene.name);
+        pn_scene_destroy(&d.scene);
+        pn_demo_script_destroy(&script);
+        return PN_EXIT_FAILURE;
+    }
+
+    glfwSetErrorCallback(on_glfw_error);
+    int exit_code = PN_EXIT_FAILURE;
+    if (!glfwInit()) {
+        pn_error("demo: cannot open a window (no display? without one, run it under xvfb-run -a)");
+    } else {
+        glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
+        d.window = glfwCreateWindow((int)o.r.width, (int)o.r.height, "penumbra demo", NULL, NULL);
+        if (!d.window)
+            pn_error("demo: cannot create a %ux%u window", o.r.width, o.r.height);
+        else
+            exit_code = run(&d, &o, &script);
+    }
+
+    uint32_t last_width = d.image.width, last_height = d.image.height;
+    // Teardown in reverse: the worker, what uses the device, the swapchain and its surface (before
+    // the window they belong to), the device, the window.
+    pn_demo_builder_destroy(&d.builder);
+    pn_renderer_destroy(&d.renderer);
+    pn_renderer_destroy(&d.exact);
+    if (d.dev.device) {
+        pn_shadow_accel_destroy(&d.dev, &d.accel);
+        pn_swapchain_destroy(&d.swapchain);
+    }
+    pn_bvh_destroy(&d.bvh);
+    pn_demo_image_destroy(&d.image);
+    pn_gpu_device_destroy(&d.dev);
+    if (d.window)
+        glfwDestroyWindow(d.window);
+    glfwTerminate();
+    pn_scene_destroy(&d.scene);
+    pn_demo_script_destroy(&script);
+    if (exit_code == PN_EXIT_OK)
+        print_summary(&d, &o, last_width, last_height);
+    free(d.history);
+    if (d.dev.validation_messages) {
+        pn_error("the Vulkan validation layer reported %u message(s)", d.dev.validation_messages);
+        return PN_EXIT_VALIDATION;
+    }
+    return exit_code;
+}

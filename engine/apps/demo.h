@@ -1,0 +1,185 @@
+// penumbra demo: the state the demo's files share. One pn_demo lives on cmd_demo's stack; GLFW
+// callbacks reach it through glfwSetWindowUserPointer.
+//
+//   cmd_demo.c       options, window, the frame loop
+//   demo_controls.c  key bindings (one table for --help, the H overlay and the script), camera
+//                    and light moves
+//   demo_image.c     accumulation, views (shaded, visibility, error, N-tree cells), overlay text
+//   demo_builder.c   N-tree rebuilds on a worker thread
+//   demo_script.c    --script files
+#pragma once
+#define GLFW_INCLUDE_VULKAN
+#include <GLFW/glfw3.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+
+#include "apps/render_opts.h"
+#include "apps/setup.h"
+#include "gpu/swapchain.h"
+
+typedef enum pn_demo_view {
+    PN_DEMO_SHADED = 0,     // tone-mapped radiance
+    PN_DEMO_VISIBILITY = 1, // V alone, grey
+    PN_DEMO_ERROR = 2,      // |V - V_exact|, with an exact renderer beside the current one
+} pn_demo_view;
+
+// ---------------------------------------------------------------------------------------------
+// Accumulation and composition (demo_image.c)
+
+typedef struct pn_demo_image {
+    uint32_t width, height;
+    uint32_t frames;           // accumulated so far
+    float *sum_rad, *sum_v, *sum_vx; // running sums: radiance (rgba), V, exact V (error view)
+    float *rad, *v, *vx;       // their averages after pn_demo_image_add
+    float *p;                  // world positions of the last frame (rgba, w = 1 on geometry)
+    uint8_t *rgba;             // the composed frame without overlay text, row 0 at the top
+    uint8_t *rgb;              // scratch for the tone mapper and PNG output
+} pn_demo_image;
+
+pn_result pn_demo_image_create(uint32_t width, uint32_t height, pn_demo_image *out);
+void pn_demo_image_destroy(pn_demo_image *img);
+// Adds one frame (and the exact renderer's V when given) to the running averages.
+void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact);
+
+// ---------------------------------------------------------------------------------------------
+// N-tree builds on a worker thread (demo_builder.c). The worker only runs pn_shadow_accel_build
+// (CPU, no Vulkan); the frame loop uploads the result and swaps it in.
+
+typedef enum pn_demo_build_state { PN_DEMO_BUILD_IDLE, PN_DEMO_BUILD_RUNNING, PN_DEMO_BUILD_DONE } pn_demo_build_state;
+
+typedef struct pn_demo_builder {
+    pthread_t thread;
+    atomic_int state;          // pn_demo_build_state; DONE is set by the worker, IDLE by poll
+    const pn_scene *scene;
+    pn_shadow_accel_desc desc; // desc.light points to `light`
+    pn_light light;
+    pn_shadow_accel result;
+    pn_result status;
+    uint64_t start_ns;
+} pn_demo_builder;
+
+// Starts building `desc` (its light is copied). The builder must be idle.
+pn_result pn_demo_builder_start(pn_demo_builder *b, const pn_scene *scene, const pn_shadow_accel_desc *desc);
+// Non-blocking: when a build has finished, joins the worker, moves the result to *out (zeroed on
+// failure), stores its status and returns true.
+bool pn_demo_builder_poll(pn_demo_builder *b, pn_shadow_accel *out, pn_result *status);
+// Seconds since the running build started.
+double pn_demo_builder_elapsed(const pn_demo_builder *b);
+// Waits for a running build and discards it.
+void pn_demo_builder_destroy(pn_demo_builder *b);
+
+// ---------------------------------------------------------------------------------------------
+// Scripts (demo_script.c). One event per line, applied before frame FRAME (0 = the first) renders:
+//     frame FRAME key [shift+]KEY     a key press, KEY as in the controls (M, 1, -, left, pageup, ...)
+//     frame FRAME orbit YAW PITCH     turn the camera around its target, degrees
+//     frame FRAME pan X Y             move camera and target, in view heights at the target
+//     frame FRAME zoom F              distance to the target times F
+//     frame FRAME resize W H          resize the window
+//     frame FRAME screenshot FILE     save frame FRAME (without the overlay text) as PNG
+// '#' starts a comment; blank lines are ignored.
+
+typedef enum pn_demo_event_kind {
+    PN_DEMO_EVENT_KEY,
+    PN_DEMO_EVENT_ORBIT,
+    PN_DEMO_EVENT_PAN,
+    PN_DEMO_EVENT_ZOOM,
+    PN_DEMO_EVENT_RESIZE,
+    PN_DEMO_EVENT_SCREENSHOT,
+} pn_demo_event_kind;
+
+typedef struct pn_demo_event {
+    uint32_t frame;
+    uint32_t line; // in the file, for ordering events of one frame and for messages
+    pn_demo_event_kind kind;
+    int key, mods;   // KEY
+    float a, b;      // ORBIT, PAN, ZOOM (a), RESIZE (a x b)
+    char path[1024]; // SCREENSHOT
+} pn_demo_event;
+
+typedef struct pn_demo_script {
+    pn_demo_event *events; // sorted by frame, then line
+    uint32_t count, next;
+} pn_demo_script;
+
+// Parses the file; logs "FILE:LINE: problem" and fails on the first bad line.
+pn_result pn_demo_script_load(const char *path, pn_demo_script *out);
+void pn_demo_script_destroy(pn_demo_script *s);
+
+// ---------------------------------------------------------------------------------------------
+// The demo
+
+typedef struct pn_demo_stats {
+    pn_frame_times times;       // of the current mode's renderer
+    double exact_shadow_ms;     // of the exact renderer (error view)
+    double rays_per_s;          // shadow rays of the current renderer per second of its shadow pass
+    double frame_ms;            // wall time of the last rendered frame, input to present
+    double render_ms, compose_ms, present_ms;
+    double error_mae, error_p99, error_max; // error view, over pixels with geometry
+} pn_demo_stats;
+
+typedef struct pn_demo {
+    // What is shown: the render options (size, mode, traversal, sampler, spp, seed, tree, exposure)
+    // change live; camera and light are the moving parts.
+    pn_render_opts opts;
+    pn_scene scene;
+    pn_camera camera, camera_home;
+    pn_light light, light_home;
+    float center[3], radius; // the scene's bounding sphere (without the ground), for step sizes
+    pn_demo_view view;
+    bool cells;              // N-tree cell overlay
+    bool accumulate;         // progressive refinement while nothing changes
+    uint32_t accumulate_max; // frames, then the image is held
+    bool show_help, show_hud;
+
+    GLFWwindow *window;
+    pn_gpu_device dev;
+    pn_swapchain swapchain;
+    pn_bvh bvh;               // built once; the exact pools of every tree use it
+    pn_shadow_accel accel;    // the tree being drawn with
+    pn_demo_builder builder;
+    int want_n, want_d;       // the tree the user asked for
+    bool want_rebuild;        // the light moved and the tree's culling depends on it
+    char build_message[160];  // shown while a rebuild runs or after one failed
+    pn_renderer renderer;     // the current mode
+    pn_renderer exact;        // exact mode, for the error view (zeroed otherwise)
+    double renderer_ms;       // time the last renderer (re)creation took
+    pn_demo_image image;
+
+    // Set by the controls, consumed by the frame loop.
+    bool renderer_dirty;      // recreate the renderers (mode, traversal, sampler, spp, view)
+    bool restart;             // restart accumulation (camera, light, anything shown)
+    bool save;                // P: write EXR + PNG of this frame
+    bool quit;
+    uint32_t saved;           // P presses so far, numbers the files
+
+    // Mouse
+    int drag;                 // 0 none, 1 orbit, 2 pan
+    double mouse_x, mouse_y;
+
+    uint64_t frame;           // frames presented
+    pn_demo_stats stats;
+    pn_demo_stats *history;   // of every frame that rendered, for the medians printed at exit
+    size_t history_count, history_cap;
+    const char *save_prefix;  // P writes <prefix>-NNNN.exr/.png
+} pn_demo;
+
+// Controls (demo_controls.c)
+
+// A key press (GLFW key and modifiers), from the window or a script.
+void pn_demo_key(pn_demo *d, int key, int mods, bool repeat);
+void pn_demo_orbit(pn_demo *d, float yaw_deg, float pitch_deg);
+void pn_demo_pan(pn_demo *d, float x, float y); // view heights at the target's distance
+void pn_demo_zoom(pn_demo *d, float factor);
+// Parses a key name as scripts write it ("M", "shift+N", "-", "left", "pageup"); false if unknown.
+bool pn_demo_key_parse(const char *name, int *key, int *mods);
+// The controls, one per line, for --help and the H overlay. Writes at most n bytes.
+void pn_demo_controls_text(char *out, size_t n);
+
+// Composition (demo_image.c): the frame as shown, without text, into d->image.rgba.
+void pn_demo_compose(pn_demo *d);
+// The overlay text (figures, build progress, help) drawn into `pixels` (the swapchain's staging
+// memory, in its byte order).
+void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra);
+// The one-line summary used as the window title.
+void pn_demo_title(const pn_demo *d, char *out, size_t n);

@@ -1,0 +1,59 @@
+// N-tree rebuilds on a worker thread: the frame loop keeps drawing with the old tree until the new
+// one is built, then uploads it (Vulkan stays on the frame loop's thread).
+#include <string.h>
+
+#include "apps/demo.h"
+#include "core/timer.h"
+
+static void *build(void *arg)
+{
+    pn_demo_builder *b = arg;
+    b->status = pn_shadow_accel_build(b->scene, &b->desc, &b->result);
+    // Release: the result is complete before the frame loop sees DONE.
+    atomic_store_explicit(&b->state, PN_DEMO_BUILD_DONE, memory_order_release);
+    return NULL;
+}
+
+pn_result pn_demo_builder_start(pn_demo_builder *b, const pn_scene *scene, const pn_shadow_accel_desc *desc)
+{
+    if (atomic_load(&b->state) != PN_DEMO_BUILD_IDLE) {
+        pn_error("demo: a tree build is already running");
+        return PN_ERR_INVALID;
+    }
+    b->scene = scene;
+    b->desc = *desc;
+    b->light = *desc->light;
+    b->desc.light = &b->light; // the caller's light keeps moving while this one is built for
+    memset(&b->result, 0, sizeof b->result);
+    b->start_ns = pn_time_ns();
+    atomic_store(&b->state, PN_DEMO_BUILD_RUNNING);
+    if (pthread_create(&b->thread, NULL, build, b) != 0) {
+        atomic_store(&b->state, PN_DEMO_BUILD_IDLE);
+        pn_error("demo: cannot start the tree build thread");
+        return PN_ERR_MEMORY;
+    }
+    return PN_OK;
+}
+
+bool pn_demo_builder_poll(pn_demo_builder *b, pn_shadow_accel *out, pn_result *status)
+{
+    if (atomic_load_explicit(&b->state, memory_order_acquire) != PN_DEMO_BUILD_DONE)
+        return false;
+    pthread_join(b->thread, NULL);
+    *out = b->result;
+    *status = b->status;
+    memset(&b->result, 0, sizeof b->result);
+    atomic_store(&b->state, PN_DEMO_BUILD_IDLE);
+    return true;
+}
+
+double pn_demo_builder_elapsed(const pn_demo_builder *b) { return pn_ms_since(b->start_ns) * 1e-3; }
+
+void pn_demo_builder_destroy(pn_demo_builder *b)
+{
+    if (atomic_load(&b->state) != PN_DEMO_BUILD_IDLE) {
+        pthread_join(b->thread, NULL);
+        pn_shadow_accel_destroy(NULL, &b->result); // CPU only: never uploaded
+    }
+    memset(b, 0, sizeof *b);
+}

@@ -1,0 +1,335 @@
+// The demo's controls: one table of key bindings drives the keyboard, scripts, --help and the H
+// overlay; camera and light moves shared by mouse, keys and scripts.
+#include <cglm/cglm.h>
+#include <math.h>
+#include <string.h>
+#include <strings.h>
+
+#include "apps/demo.h"
+
+// ---------------------------------------------------------------------------------------------
+// Camera: orbit, pan and zoom around the target. Positive yaw moves the camera to its right,
+// positive pitch up; pan moves the scene by (x, y) view heights on screen (y down). The camera is
+// kept as pn_camera (no yaw/pitch state): untouched, it stays bit-identical to render's, so
+// screenshots of a fixed view compare.
+
+void pn_demo_orbit(pn_demo *d, float yaw_deg, float pitch_deg)
+{
+    pn_camera *c = &d->camera;
+    vec3 up, offset, right;
+    glm_vec3_normalize_to(c->up, up);
+    glm_vec3_sub(c->pos, c->target, offset);
+    glm_vec3_rotate(offset, glm_rad(yaw_deg), up);
+    glm_vec3_cross(up, offset, right);
+    if (glm_vec3_norm(right) > 0) {
+        vec3 pitched;
+        glm_vec3_copy(offset, pitched);
+        glm_vec3_rotate(pitched, -glm_rad(pitch_deg), right); // positive pitch: the camera rises
+        // Stop short of the poles, where the view direction would turn parallel to up.
+        float cosine = glm_vec3_dot(pitched, up) / glm_vec3_norm(pitched);
+        if (fabsf(cosine) < 0.996f)
+            glm_vec3_copy(pitched, offset);
+    }
+    glm_vec3_add(c->target, offset, c->pos);
+    d->restart = true;
+}
+
+void pn_demo_pan(pn_demo *d, float x, float y)
+{
+    pn_camera *c = &d->camera;
+    vec3 fwd, right, up, move;
+    glm_vec3_sub(c->target, c->pos, fwd);
+    float dist = glm_vec3_norm(fwd);
+    glm_vec3_normalize(fwd);
+    glm_vec3_crossn(fwd, c->up, right);
+    glm_vec3_cross(right, fwd, up);
+    // One view height at the target's distance: the scene under the cursor follows the mouse.
+    float h = 2.0f * dist * tanf(glm_rad(c->yfov_deg) * 0.5f);
+    glm_vec3_scale(right, -x * h, move);
+    glm_vec3_muladds(up, y * h, move);
+    glm_vec3_add(c->pos, move, c->pos);
+    glm_vec3_add(c->target, move, c->target);
+    d->restart = true;
+}
+
+void pn_demo_zoom(pn_demo *d, float factor)
+{
+    pn_camera *c = &d->camera;
+    vec3 offset;
+    glm_vec3_sub(c->pos, c->target, offset);
+    float dist = glm_vec3_norm(offset);
+    float min_dist = 1e-3f * d->radius;
+    if (dist * factor < min_dist)
+        factor = min_dist / dist;
+    glm_vec3_scale(offset, factor, offset);
+    glm_vec3_add(c->target, offset, c->pos);
+    d->restart = true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Light
+
+// The tree leaves out triangles that cannot block a ray to the light (pn_ntree_desc.cull_light):
+// after the light changes, such a triangle might block, so the tree is rebuilt for the new light.
+static void light_changed(pn_demo *d)
+{
+    d->restart = true;
+    if (d->accel.tree.culled > 0)
+        d->want_rebuild = true;
+}
+
+// Keeps the light facing the scene's centre (as render does for --light-pos) with a valid up.
+static void light_aim(pn_demo *d)
+{
+    pn_light *l = &d->light;
+    vec3 n;
+    glm_vec3_sub(d->center, l->pos, n);
+    if (glm_vec3_norm(n) > 1e-6f * d->radius) {
+        glm_vec3_normalize(n);
+        glm_vec3_copy(n, l->normal);
+    }
+    float t[3], b[3];
+    if (!pn_light_frame(l, t, b)) {
+        glm_vec3_copy((vec3){1, 0, 0}, l->up);
+        if (!pn_light_frame(l, t, b))
+            glm_vec3_copy((vec3){0, 0, 1}, l->up);
+    }
+}
+
+enum { MOVE_LEFT, MOVE_RIGHT, MOVE_AWAY, MOVE_NEAR, MOVE_UP, MOVE_DOWN };
+
+static void light_move(pn_demo *d, float dir)
+{
+    // Across the view: the camera's forward and right directions flattened onto the ground (+Y up).
+    vec3 world_up = {0, 1, 0}, fwd, right, move = {0, 0, 0};
+    glm_vec3_sub(d->camera.target, d->camera.pos, fwd);
+    fwd[1] = 0;
+    if (glm_vec3_norm(fwd) < 1e-6f)
+        glm_vec3_copy((vec3){0, 0, -1}, fwd);
+    glm_vec3_normalize(fwd);
+    glm_vec3_crossn(fwd, world_up, right);
+    float step = 0.1f * d->radius;
+    switch ((int)dir) {
+    case MOVE_LEFT: glm_vec3_scale(right, -step, move); break;
+    case MOVE_RIGHT: glm_vec3_scale(right, step, move); break;
+    case MOVE_AWAY: glm_vec3_scale(fwd, step, move); break;
+    case MOVE_NEAR: glm_vec3_scale(fwd, -step, move); break;
+    case MOVE_UP: move[1] = step; break;
+    case MOVE_DOWN: move[1] = -step; break;
+    }
+    glm_vec3_add(d->light.pos, move, d->light.pos);
+    light_aim(d);
+    light_changed(d);
+}
+
+static void light_width(pn_demo *d, float f)
+{
+    d->light.size[0] = glm_clamp(d->light.size[0] * f, 1e-3f * d->radius, 10.0f * d->radius);
+    light_changed(d);
+}
+
+static void light_height(pn_demo *d, float f)
+{
+    d->light.size[1] = glm_clamp(d->light.size[1] * f, 1e-3f * d->radius, 10.0f * d->radius);
+    light_changed(d);
+}
+
+static void light_rotate(pn_demo *d, float deg)
+{
+    vec3 up;
+    glm_vec3_copy(d->light.up, up);
+    glm_vec3_rotate(up, glm_rad(deg), d->light.normal);
+    glm_vec3_copy(up, d->light.up);
+    light_changed(d);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shadow parameters and views
+
+static const pn_shadow_mode CYCLE[] = {PN_SHADOW_LINESPACE, PN_SHADOW_HYBRID, PN_SHADOW_EXACT_LS, PN_SHADOW_EXACT};
+enum { CYCLE_COUNT = sizeof CYCLE / sizeof CYCLE[0] };
+
+static void set_mode(pn_demo *d, float mode)
+{
+    d->opts.mode = (int)mode;
+    d->renderer_dirty = d->restart = true;
+}
+
+static void next_mode(pn_demo *d, float step)
+{
+    int at = 0;
+    for (int i = 0; i < CYCLE_COUNT; i++)
+        if ((int)CYCLE[i] == d->opts.mode)
+            at = i;
+    set_mode(d, (float)CYCLE[(at + (int)step + CYCLE_COUNT) % CYCLE_COUNT]);
+}
+
+static void toggle_traversal(pn_demo *d, float unused)
+{
+    d->opts.traversal = d->opts.traversal == PN_TRAVERSAL_RAY ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY;
+    d->renderer_dirty = d->restart = true;
+}
+
+static void toggle_sampler(pn_demo *d, float unused)
+{
+    d->opts.sampler = d->opts.sampler == PN_SAMPLER_GRID ? PN_SAMPLER_STRATIFIED : PN_SAMPLER_GRID;
+    d->renderer_dirty = d->restart = true;
+}
+
+// Square counts: square sample grids over the light.
+static const int SPP_STEPS[] = {1, 4, 9, 16, 25, 36, 49, 64, 100, 144, 256};
+enum { SPP_STEP_COUNT = sizeof SPP_STEPS / sizeof SPP_STEPS[0] };
+
+static void step_spp(pn_demo *d, float dir)
+{
+    long long spp = d->opts.spp;
+    if (dir > 0) {
+        for (int i = 0; i < SPP_STEP_COUNT && spp == d->opts.spp; i++)
+            if (SPP_STEPS[i] > d->opts.spp)
+                spp = SPP_STEPS[i];
+    } else {
+        for (int i = SPP_STEP_COUNT - 1; i >= 0 && spp == d->opts.spp; i--)
+            if (SPP_STEPS[i] < d->opts.spp)
+                spp = SPP_STEPS[i];
+    }
+    if (spp != d->opts.spp) {
+        d->opts.spp = spp;
+        d->renderer_dirty = d->restart = true;
+    }
+}
+
+static int clamp_int(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+// The frame loop starts a rebuild when the wanted tree differs from the one drawn.
+static void step_tree_n(pn_demo *d, float dir) { d->want_n = clamp_int(d->want_n + (int)dir, 2, 16); }
+static void step_tree_d(pn_demo *d, float dir) { d->want_d = clamp_int(d->want_d + (int)dir, 1, PN_NTREE_MAX_DEPTH); }
+
+static void toggle_view(pn_demo *d, float view)
+{
+    d->view = d->view == (pn_demo_view)view ? PN_DEMO_SHADED : (pn_demo_view)view;
+    d->renderer_dirty = d->restart = true; // the error view adds (or drops) the exact renderer
+}
+
+static void toggle_cells(pn_demo *d, float unused) { d->cells = !d->cells, d->restart = true; }
+static void toggle_accumulate(pn_demo *d, float unused) { d->accumulate = !d->accumulate, d->restart = true; }
+static void toggle_help(pn_demo *d, float unused) { d->show_help = !d->show_help; }
+static void toggle_hud(pn_demo *d, float unused) { d->show_hud = !d->show_hud; }
+static void save(pn_demo *d, float unused) { d->save = true; }
+static void quit(pn_demo *d, float unused) { d->quit = true; }
+
+static void reset(pn_demo *d, float unused)
+{
+    d->camera = d->camera_home;
+    d->light = d->light_home;
+    light_changed(d);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The bindings
+
+typedef struct binding {
+    int key, mods;    // GLFW key and modifiers (0 or GLFW_MOD_SHIFT)
+    bool repeat;      // also while the key is held (moves and steps, not toggles)
+    void (*fn)(pn_demo *d, float arg);
+    float arg;
+    const char *keys; // the line in the help, on the first binding of a group; NULL otherwise
+    const char *help;
+} binding;
+
+#define SHIFT GLFW_MOD_SHIFT
+static const binding BINDINGS[] = {
+    {GLFW_KEY_LEFT, 0, true, light_move, MOVE_LEFT, "arrows", "move the light across the view"},
+    {GLFW_KEY_RIGHT, 0, true, light_move, MOVE_RIGHT},
+    {GLFW_KEY_UP, 0, true, light_move, MOVE_AWAY},
+    {GLFW_KEY_DOWN, 0, true, light_move, MOVE_NEAR},
+    {GLFW_KEY_PAGE_UP, 0, true, light_move, MOVE_UP, "pageup pagedown", "move the light up, down"},
+    {GLFW_KEY_PAGE_DOWN, 0, true, light_move, MOVE_DOWN},
+    {GLFW_KEY_LEFT_BRACKET, 0, true, light_width, 0.8f, "[ ]", "light width smaller, larger"},
+    {GLFW_KEY_RIGHT_BRACKET, 0, true, light_width, 1.25f},
+    {GLFW_KEY_SEMICOLON, 0, true, light_height, 0.8f, "; '", "light height smaller, larger"},
+    {GLFW_KEY_APOSTROPHE, 0, true, light_height, 1.25f},
+    {GLFW_KEY_COMMA, 0, true, light_rotate, -15.0f, ", .", "rotate the light about its normal"},
+    {GLFW_KEY_PERIOD, 0, true, light_rotate, 15.0f},
+    {GLFW_KEY_M, 0, false, next_mode, 1, "M shift+M", "next, previous mode"},
+    {GLFW_KEY_M, SHIFT, false, next_mode, -1},
+    {GLFW_KEY_1, 0, false, set_mode, PN_SHADOW_LINESPACE, "1 2 3 4", "linespace, hybrid, exact-ls, exact"},
+    {GLFW_KEY_2, 0, false, set_mode, PN_SHADOW_HYBRID},
+    {GLFW_KEY_3, 0, false, set_mode, PN_SHADOW_EXACT_LS},
+    {GLFW_KEY_4, 0, false, set_mode, PN_SHADOW_EXACT},
+    {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal packet / ray"},
+    {GLFW_KEY_G, 0, false, toggle_sampler, 0, "G", "sampler grid / stratified"},
+    {GLFW_KEY_MINUS, 0, true, step_spp, -1, "- =", "fewer, more shadow rays per pixel"},
+    {GLFW_KEY_EQUAL, 0, true, step_spp, 1},
+    {GLFW_KEY_N, 0, true, step_tree_n, 1, "N shift+N", "tree branching factor up, down"},
+    {GLFW_KEY_N, SHIFT, true, step_tree_n, -1},
+    {GLFW_KEY_D, 0, true, step_tree_d, 1, "D shift+D", "tree depth up, down (rebuilt in the background)"},
+    {GLFW_KEY_D, SHIFT, true, step_tree_d, -1},
+    {GLFW_KEY_V, 0, false, toggle_view, PN_DEMO_VISIBILITY, "V", "view the visibility term V alone"},
+    {GLFW_KEY_E, 0, false, toggle_view, PN_DEMO_ERROR, "E", "view the error |V - V_exact| (renders exact too)"},
+    {GLFW_KEY_C, 0, false, toggle_cells, 0, "C", "overlay the N-tree cells, coloured by level"},
+    {GLFW_KEY_A, 0, false, toggle_accumulate, 0, "A", "progressive accumulation on / off"},
+    {GLFW_KEY_R, 0, false, reset, 0, "R", "reset camera and light"},
+    {GLFW_KEY_P, 0, false, save, 0, "P", "save the frame as EXR and PNG"},
+    {GLFW_KEY_I, 0, false, toggle_hud, 0, "I", "figures on / off"},
+    {GLFW_KEY_H, 0, false, toggle_help, 0, "H", "this help"},
+    {GLFW_KEY_ESCAPE, 0, false, quit, 0, "escape Q", "quit"},
+    {GLFW_KEY_Q, 0, false, quit, 0},
+};
+#undef SHIFT
+enum { BINDING_COUNT = sizeof BINDINGS / sizeof BINDINGS[0] };
+
+void pn_demo_key(pn_demo *d, int key, int mods, bool repeat)
+{
+    mods &= GLFW_MOD_SHIFT; // other modifiers select nothing
+    for (int i = 0; i < BINDING_COUNT; i++) {
+        const binding *b = &BINDINGS[i];
+        if (b->key == key && b->mods == mods && (!repeat || b->repeat)) {
+            b->fn(d, b->arg);
+            return;
+        }
+    }
+}
+
+void pn_demo_controls_text(char *out, size_t n)
+{
+    size_t at = 0;
+    at += (size_t)snprintf(out, n,
+                           "mouse             left drag: orbit; right or middle drag: pan; wheel: zoom\n");
+    for (int i = 0; i < BINDING_COUNT && at < n; i++)
+        if (BINDINGS[i].keys)
+            at += (size_t)snprintf(out + at, n - at, "%-17s %s\n", BINDINGS[i].keys, BINDINGS[i].help);
+}
+
+static const struct {
+    const char *name;
+    int key;
+} NAMED_KEYS[] = {
+    {"left", GLFW_KEY_LEFT},         {"right", GLFW_KEY_RIGHT},         {"up", GLFW_KEY_UP},
+    {"down", GLFW_KEY_DOWN},         {"pageup", GLFW_KEY_PAGE_UP},      {"pagedown", GLFW_KEY_PAGE_DOWN},
+    {"escape", GLFW_KEY_ESCAPE},     {"space", GLFW_KEY_SPACE},
+};
+
+bool pn_demo_key_parse(const char *name, int *key, int *mods)
+{
+    *mods = 0;
+    if (strncasecmp(name, "shift+", 6) == 0) {
+        *mods = GLFW_MOD_SHIFT;
+        name += 6;
+    }
+    for (size_t i = 0; i < sizeof NAMED_KEYS / sizeof NAMED_KEYS[0]; i++)
+        if (strcasecmp(name, NAMED_KEYS[i].name) == 0) {
+            *key = NAMED_KEYS[i].key;
+            return true;
+        }
+    if (name[0] && !name[1]) {
+        // GLFW's codes of the printable keys are their US-layout ASCII characters (letters upper case).
+        char c = name[0];
+        if (c >= 'a' && c <= 'z')
+            c = (char)(c - 'a' + 'A');
+        if ((c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || strchr("',-./;=[\\]`", c)) {
+            *key = c;
+            return true;
+        }
+    }
+    return false;
+}

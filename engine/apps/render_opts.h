@@ -1,0 +1,45 @@
+// The options that describe a render, shared by `render` and `demo`: size, camera, light, shadow
+// mode and its parameters; and the camera and light they set up for a scene.
+#pragma once
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "apps/args.h"
+#include "scene/view.h"
+
+// Command-line names, NULL-terminated; the index is the enum value (pn_shadow_mode, ...).
+extern const char *const pn_mode_names[];
+extern const char *const pn_traversal_names[];
+extern const char *const pn_sampler_names[];
+
+// The parameters of one render. The has_* flags mark what the command line set explicitly; the
+// rest comes from the scene (pn_render_setup_view).
+typedef struct pn_render_opts {
+    uint32_t width, height;
+    bool has_cam_pos, has_cam_target, has_fov;
+    float cam_pos[3], cam_target[3], fov;
+    bool has_light_pos, has_light_normal, has_light_up, has_light_size, has_light_radiance;
+    pn_light light; // only the fields whose has_light_* flag is set
+    bool ground;
+    long long seed, spp;
+    int mode, traversal, sampler, tree_n, tree_d;
+    uint64_t max_bytes; // 0: half the device's largest heap
+    float exposure;     // of the tone-mapped PNG
+} pn_render_opts;
+
+// The defaults render documents: 1280x720, linespace, per-ray traversal, stratified, 25 spp,
+// LS(7,3), seed 1, ground on, exposure 1, 45 degree field of view.
+pn_render_opts pn_render_opts_default(void);
+
+// If argv[a->i] is one of the shared options (--size, --camera-*, --fov, --light-*, --ground,
+// --no-ground, --exposure, --seed, --spp, --tree, --max-memory, --mode, --traversal, --sampler),
+// consumes it and returns true; a bad value is logged and sets *err.
+bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
+
+// Prints the help of the camera, light, scene and shadow options (the sections both commands share).
+void pn_render_opts_print_help(void);
+
+// Camera and light from the scene's bounds (and camera), overridden by the options. Call before
+// the ground plane is added: the defaults frame the scene itself. Logs and returns false for a
+// degenerate camera or light.
+bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *light);

@@ -1,0 +1,118 @@
+// EXR and PNG output of a rendered frame, shared by render and demo.
+#include "apps/render_output.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "apps/setup.h"
+#include "core/log.h"
+#include "io/file.h"
+#include "io/png.h"
+
+bool pn_render_output_writable(const char *path)
+{
+    char tmp[4096];
+    if (pn_file_tmp_path(path, tmp, sizeof tmp) != PN_OK)
+        return false;
+    FILE *f = fopen(tmp, "wb");
+    if (!f) {
+        pn_error("%s: cannot write here", path);
+        return false;
+    }
+    fclose(f);
+    remove(tmp);
+    return true;
+}
+
+pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, const pn_frame_images *img, bool aovs,
+                              const pn_exr_attr *extra, int extra_count)
+{
+    const pn_render_opts *o = rec->opts;
+    const pn_frame_times *t = &rec->times;
+    const pn_camera *cam = rec->camera;
+    const pn_light *light = rec->light;
+    size_t px = (size_t)o->width * o->height;
+    enum { PLANES = 15 };
+    float *buf = malloc(px * PLANES * sizeof(float));
+    if (!buf) {
+        pn_error("%s: out of memory for the image", path);
+        return PN_ERR_MEMORY;
+    }
+    float *pl[PLANES];
+    for (int c = 0; c < PLANES; c++)
+        pl[c] = buf + (size_t)c * px;
+    // Planar channels from the interleaved RGBA readback.
+    for (size_t i = 0; i < px; i++) {
+        for (int c = 0; c < 4; c++)
+            pl[c][i] = img->radiance[4 * i + c];
+        pl[4][i] = img->v[i];
+        for (int c = 0; c < 3; c++) {
+            pl[5 + c][i] = img->p[4 * i + c];
+            pl[8 + c][i] = img->n[4 * i + c];
+            pl[11 + c][i] = img->albedo[4 * i + c];
+        }
+        pl[14][i] = img->n[4 * i + 3];
+    }
+    static const char *const names[PLANES] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
+                                              "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z"};
+    pn_exr_channel ch[PLANES];
+    for (int c = 0; c < PLANES; c++)
+        ch[c] = (pn_exr_channel){names[c], pl[c]};
+    bool tree = pn_mode_uses_tree((pn_shadow_mode)o->mode);
+#define V3(nm, v) {.name = nm, .type = PN_EXR_ATTR_V3F, .f = {(v)[0], (v)[1], (v)[2]}}
+#define F1(nm, v) {.name = nm, .type = PN_EXR_ATTR_FLOAT, .f = {(float)(v)}}
+    const pn_exr_attr attrs[] = {
+        {.name = "penumbra.scene", .type = PN_EXR_ATTR_STRING, .s = rec->scene->name},
+        {.name = "penumbra.mode", .type = PN_EXR_ATTR_STRING, .s = pn_mode_names[o->mode]},
+        {.name = "penumbra.triangles", .type = PN_EXR_ATTR_INT, .i = (int32_t)pn_scene_triangle_count(rec->scene)},
+        {.name = "penumbra.seed", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->seed},
+        {.name = "penumbra.width", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->width},
+        {.name = "penumbra.height", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->height},
+        V3("penumbra.camera.pos", cam->pos),
+        V3("penumbra.camera.target", cam->target),
+        V3("penumbra.camera.up", cam->up),
+        F1("penumbra.camera.fov", cam->yfov_deg),
+        V3("penumbra.light.pos", light->pos),
+        V3("penumbra.light.normal", light->normal),
+        V3("penumbra.light.up", light->up),
+        F1("penumbra.light.width", light->size[0]),
+        F1("penumbra.light.height", light->size[1]),
+        V3("penumbra.light.radiance", light->radiance),
+        F1("penumbra.gpu_ms.gbuffer", t->gbuffer_ms),
+        F1("penumbra.gpu_ms.shadow", t->shadow_ms),
+        F1("penumbra.gpu_ms.shade", t->shade_ms),
+        {.name = "penumbra.traversal", .type = PN_EXR_ATTR_STRING, .s = pn_traversal_names[o->traversal]},
+        {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = pn_sampler_names[o->sampler]},
+        {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
+        {.name = "penumbra.tree.n", .type = PN_EXR_ATTR_INT, .i = tree ? o->tree_n : 0},
+        {.name = "penumbra.tree.d", .type = PN_EXR_ATTR_INT, .i = tree ? o->tree_d : 0},
+        F1("penumbra.build_ms", rec->build_ms),
+        F1("penumbra.shadow_rays_per_s", rec->rays_per_s),
+    };
+#undef V3
+#undef F1
+    enum { BASE = sizeof attrs / sizeof attrs[0], MAX_EXTRA = 16 };
+    pn_exr_attr all[BASE + MAX_EXTRA];
+    if (extra_count > MAX_EXTRA)
+        extra_count = MAX_EXTRA;
+    memcpy(all, attrs, sizeof attrs);
+    if (extra_count > 0)
+        memcpy(all + BASE, extra, (size_t)extra_count * sizeof *extra);
+    pn_result r = pn_exr_write(path, (int)o->width, (int)o->height, ch, aovs ? PLANES : 5, all, BASE + extra_count);
+    free(buf);
+    return r;
+}
+
+pn_result pn_render_write_png(const char *path, const float *radiance, uint32_t width, uint32_t height, float exposure)
+{
+    uint8_t *rgb = malloc((size_t)width * height * 3);
+    if (!rgb) {
+        pn_error("%s: out of memory for the preview", path);
+        return PN_ERR_MEMORY;
+    }
+    pn_tonemap_srgb8(radiance, (int)width, (int)height, exposure, rgb);
+    pn_result r = pn_png_write_rgb8(path, (int)width, (int)height, rgb);
+    free(rgb);
+    return r;
+}
