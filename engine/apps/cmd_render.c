@@ -5,6 +5,7 @@
 
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/quality.h"
 #include "apps/render_opts.h"
 #include "apps/render_output.h"
 #include "apps/setup.h"
@@ -18,6 +19,8 @@ typedef struct render_opts {
     pn_render_opts r;
     const char *scene, *output, *preview, *ray_dump;
     bool aovs, json;
+    bool auto_quality; // --quality auto
+    double max_error;  // --max-error: its budget of MAE against exact
 } render_opts;
 
 void pn_print_render_help(void)
@@ -35,13 +38,18 @@ void pn_print_render_help(void)
            "  --json                print one JSON object instead of the summary line\n"
            "  --ray-dump FILE       every shadow ray (origin, light sample, valid, blocked) as binary,\n"
            "                        for checks against an independent tracer; format in\n"
-           "                        engine/apps/cmd_render.c\n");
+           "                        engine/apps/cmd_render.c\n"
+           "quality:\n"
+           "  --quality auto|manual auto: choose --mode and --tree from pilot renders against exact on\n"
+           "                        a quarter of the pixels: the fastest configuration whose mean absolute\n"
+           "                        error of V stays within --max-error (default manual)\n"
+           "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01)\n");
     pn_render_opts_print_help();
 }
 
 static int parse(int argc, char **argv, render_opts *o)
 {
-    *o = (render_opts){.r = pn_render_opts_default()};
+    *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL;
@@ -58,6 +66,16 @@ static int parse(int argc, char **argv, render_opts *o)
             o->preview = v;
         } else if (pn_args_flag(&a, "--aovs")) {
             o->aovs = true;
+        } else if (pn_args_value(&a, "--quality", &v, &err)) {
+            int q = v ? pn_parse_choice("--quality", v, (const char *const[]){"manual", "auto", NULL}) : -1;
+            if (q < 0)
+                return PN_EXIT_USAGE;
+            o->auto_quality = q == 1;
+        } else if (pn_args_value(&a, "--max-error", &v, &err)) {
+            float e;
+            if (!v || !pn_parse_float_range("--max-error", v, 0.0f, 1.0f, &e))
+                return PN_EXIT_USAGE;
+            o->max_error = e;
         } else if (pn_args_flag(&a, "--json")) {
             o->json = true;
         } else if (pn_render_opts_parse(&a, &o->r, &err)) {
@@ -104,6 +122,8 @@ typedef struct render_stats {
     uint32_t subdivided;
     uint32_t culled; // triangles left out of the tree
     uint64_t exact_bytes; // triangle pools of the exact tests (triangles, BVH, candidate lists)
+    bool quality_auto;          // --quality auto chose the mode and tree
+    pn_quality_choice quality;
 } render_stats;
 
 static pn_result write_outputs(const render_opts *o, const char *output, const pn_scene *s, const pn_camera *cam,
@@ -211,6 +231,11 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         else
             printf("\"tree\": null, \"build_ms\": %.3f, \"pool_bytes\": null, ", st->build_ms);
         printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);
+        if (st->quality_auto)
+            printf("\"quality\": {\"max_error\": %.6g, \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f, "
+                   "\"pilot_exact_ms\": %.4f, \"candidates\": %d, \"pilot\": [%u, %u]}, ",
+                   o->max_error, st->quality.pilot_mae, st->quality.pilot_ms, st->quality.exact_ms, st->quality.candidates,
+                   st->quality.pilot_width, st->quality.pilot_height);
         printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
                "\"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",
                load_ms, t->gbuffer_ms, t->shadow_ms, t->shade_ms, (unsigned long long)st->covered, st->rays_per_s,
@@ -272,8 +297,30 @@ int pn_cmd_render(int argc, char **argv)
     pn_gpu_device dev;
     render_stats st = {0};
     int exit_code = PN_EXIT_FAILURE;
+    pn_quality_choice choice = {0};
     if (pn_gpu_device_create(&desc, &dev) == PN_OK) {
-        exit_code = render_frame(&o, output, &dev, &scene, &cam, &light, &st);
+        exit_code = PN_EXIT_OK;
+        if (o.auto_quality) {
+            pn_renderer_desc frame = {.width = o.r.width, .height = o.r.height, .traversal = (pn_traversal)o.r.traversal,
+                                      .sampler = (pn_sampler)o.r.sampler, .spp = (uint32_t)o.r.spp,
+                                      .seed = (uint32_t)o.r.seed};
+            if (pn_quality_choose(&dev, &scene, &cam, &light, &frame, o.max_error, o.r.max_bytes, &choice) == PN_OK) {
+                o.r.mode = choice.mode;
+                if (choice.tree_n)
+                    o.r.tree_n = choice.tree_n, o.r.tree_d = choice.tree_d;
+                if (!o.json)
+                    printf("quality auto: %s%s (pilot %ux%u, %d configurations: MAE %.4f against exact within %.4f, "
+                           "shadow %.1f ms vs exact %.1f ms)\n",
+                           pn_mode_names[choice.mode], "", choice.pilot_width, choice.pilot_height,
+                           choice.candidates, choice.pilot_mae, o.max_error, choice.pilot_ms, choice.exact_ms);
+            } else {
+                exit_code = PN_EXIT_FAILURE;
+            }
+        }
+        st.quality_auto = o.auto_quality;
+        st.quality = choice;
+        if (exit_code == PN_EXIT_OK)
+            exit_code = render_frame(&o, output, &dev, &scene, &cam, &light, &st);
         pn_gpu_device_destroy(&dev);
     }
     if (exit_code == PN_EXIT_OK)

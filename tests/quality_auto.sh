@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# --quality auto picks a configuration whose error against exact fits the budget:
+#  - with --max-error 0 it must pick an exact configuration (exact or exact-ls): the full render then
+#    equals exact, MAE 0;
+#  - with --max-error 0.02 its pilot error (a quarter of the pixels) is within the budget, and the full
+#    render's MAE against exact is within 1.5x the budget: the pilot estimates the MAE from a
+#    quarter of the pixels, which the 1.5 allows for (measured here: pilot and full MAE agree to a
+#    few percent), and it picks something faster than exact.
+set -u
+BIN=${PN_BIN:?PN_BIN not set}
+T=${PN_TEST_TMP:-/tmp}/quality_auto
+rm -rf "$T" && mkdir -p "$T"
+common=(builtin:default --size 128x96 --spp 16 --seed 5)
+"$BIN" render "${common[@]}" --mode exact -o "$T/exact.exr" >/dev/null || { echo "FAIL: exact render"; exit 1; }
+fail=0
+for budget in 0 0.02; do
+  "$BIN" render "${common[@]}" --quality auto --max-error $budget --json -o "$T/auto_$budget.exr" > "$T/auto_$budget.json" \
+    || { echo "FAIL: auto render ($budget)"; fail=1; continue; }
+  "$BIN" diff "$T/exact.exr" "$T/auto_$budget.exr" --json > "$T/diff_$budget.json" || { echo "FAIL: diff"; fail=1; continue; }
+  python3 - "$budget" "$T/auto_$budget.json" "$T/diff_$budget.json" <<'PY' || fail=1
+import json, sys
+budget = float(sys.argv[1]); run = json.load(open(sys.argv[2])); d = json.load(open(sys.argv[3]))
+q = run["quality"]
+print("budget %g: chose %s %s, pilot MAE %.5f, full MAE %.5f, pilot shadow %.1f ms vs exact %.1f ms"
+      % (budget, run["mode"], run["tree"], q["pilot_mae"], d["mae"], q["pilot_shadow_ms"], q["pilot_exact_ms"]))
+assert q["pilot_mae"] <= budget, q
+if budget == 0:
+    assert run["mode"] in ("exact", "exact-ls"), run["mode"]
+    assert d["max"] == 0, d
+else:
+    assert d["mae"] <= 1.5 * budget, d
+    assert run["mode"] != "exact" and q["pilot_shadow_ms"] < q["pilot_exact_ms"], q
+PY
+done
+exit $fail
