@@ -14,6 +14,7 @@
 #include "apps/args.h"
 #include "apps/commands.h"
 #include "apps/metrics.h"
+#include "apps/quality.h"
 #include "apps/setup.h"
 #include "core/log.h"
 #include "core/parallel.h"
@@ -40,6 +41,7 @@ typedef struct bench_opts {
     int traversal, sampler;
     const char *out_dir;
     bool embree;
+    double max_error; // > 0: check --quality auto against the matrix at this budget
     char *owned[256]; // scene paths found in --scenes folders
     int owned_count;
 } bench_opts;
@@ -80,6 +82,8 @@ void pn_print_bench_help(void)
            "  --traversal ray|packet  --sampler grid|stratified   (default ray, stratified)\n"
            "  --out DIR            where the CSV, JSON and plots go (default bench-out)\n"
            "  --no-embree          skip the CPU peer\n"
+           "  --max-error E        also run --quality auto at this budget and compare its pick with the\n"
+           "                       matrix's fastest cell within the budget\n"
            "  --quick              a small matrix (bunny or builtin:default, 256x256, 16 spp, LS(6,3) and\n"
            "                       LS(7,3), 3 repeats): under two minutes on a 2-core CPU with lavapipe\n");
 }
@@ -202,6 +206,10 @@ static int parse(int argc, char **argv, bench_opts *o)
             ok = v && (o->traversal = pn_parse_choice("--traversal", v, (const char *const[]){"packet", "ray", NULL})) >= 0;
         } else if (pn_args_value(&a, "--sampler", &v, &err)) {
             ok = v && (o->sampler = pn_parse_choice("--sampler", v, (const char *const[]){"grid", "stratified", NULL})) >= 0;
+        } else if (pn_args_value(&a, "--max-error", &v, &err)) {
+            float e;
+            ok = v && pn_parse_float_range("--max-error", v, 0.0f, 1.0f, &e);
+            o->max_error = e;
         } else if (pn_args_value(&a, "--out", &v, &err)) {
             o->out_dir = v;
         } else {
@@ -351,6 +359,44 @@ static bool push_row(bench_rows *rows, const bench_row *r)
     return true;
 }
 
+// --quality auto against the matrix: the configuration it picks from its pilot, rendered in full and
+// measured against exact, next to the fastest cell of this group that meets the same budget.
+static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                          const pn_light *light, const pn_renderer_desc *frame, const float *v_ref, const uint8_t *mask,
+                          bench_rows *rows, int first_row)
+{
+    const bench_row *best = NULL;
+    for (int i = first_row; i < rows->count; i++) {
+        const bench_row *r = &rows->rows[i];
+        if (r->err.mae <= o->max_error && (!best || r->shadow_ms < best->shadow_ms))
+            best = r;
+    }
+    pn_quality_choice q;
+    if (pn_quality_choose(dev, scene, cam, light, frame, o->max_error, 0, &q) != PN_OK)
+        return;
+    pn_setup s;
+    pn_setup_desc sd = {.frame = *frame, .tree_n = q.tree_n, .tree_d = q.tree_d};
+    sd.frame.mode = (pn_shadow_mode)q.mode;
+    bench_row row = rows->rows[first_row < rows->count ? first_row : 0];
+    if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
+        return;
+    if (time_frames(o, &s.renderer, cam, light, &row) == PN_OK) {
+        pn_frame_images img;
+        pn_renderer_images(&s.renderer, &img);
+        pn_error_compare(img.v, v_ref, mask, (size_t)frame->width * frame->height, NULL, &row.err);
+        printf("quality auto (max error %.4g): %s", o->max_error, MODE_NAMES[q.mode]);
+        if (q.tree_n)
+            printf(" LS(%d,%d)", q.tree_n, q.tree_d);
+        printf(", shadow %.1f ms, MAE %.4f (pilot %.4f)", row.shadow_ms, row.err.mae, q.pilot_mae);
+        if (best)
+            printf("; the matrix's fastest within the budget: %s LS(%d,%d) %.1f ms: auto takes %.2fx its time\n",
+                   MODE_NAMES[best->mode], best->n, best->d, best->shadow_ms, row.shadow_ms / best->shadow_ms);
+        else
+            printf("; no cell of the matrix meets the budget\n");
+    }
+    pn_setup_destroy(dev, &s);
+}
+
 static const char *base_name(const char *path)
 {
     const char *s = strrchr(path, '/');
@@ -457,6 +503,7 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
             exact_row.vs_embree = embree_ms > 0 ? exact_ms / embree_ms : 0;
             pn_error_compare(v_ref, v_ref, mask, px, NULL, &exact_row.err);
             pn_setup_destroy(dev, &ref);
+            int first_row = rows->count; // this group's rows start here
             bool want_exact = false;
             for (int m = 0; m < o->mode_count; m++)
                 want_exact = want_exact || o->modes[m] == PN_SHADOW_EXACT;
@@ -493,6 +540,8 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
                     pn_setup_destroy(dev, &s);
                 }
             }
+            if (o->max_error > 0 && rc == PN_EXIT_OK)
+                check_quality(o, dev, &scene, &cam, &light, &frame, v_ref, mask, rows, first_row);
             free(v_ref);
             free(mask);
         }
