@@ -28,4 +28,16 @@ for r in rows:
         assert r["error"]["mae"] > 0, r
 print("bench rows ok:", len(rows))
 PY
+# Shader level: the shadow pass alone over a G-buffer from render --aovs; the V it computes for the
+# same pixels and samples must be the frame's V (exact-ls against exact: zero error again).
+"$BIN" render builtin:default --size 64x48 --aovs -o "$OUT/gbuffer.exr" >/dev/null || { echo "FAIL: render --aovs"; exit 1; }
+"$BIN" bench --shader shadow --gbuffer "$OUT/gbuffer.exr" --scenes builtin:default --modes exact,exact-ls --trees 5,2 \
+  --spp 9 --repeat 1 --warmup 0 --no-embree --out "$OUT/shader" || { echo "FAIL: shader-level bench"; fail=1; }
+python3 - "$OUT/shader/bench.json" <<'PY' || fail=1
+import json, sys
+rows = json.load(open(sys.argv[1]))["results"]
+assert [r["mode"] for r in rows] == ["exact", "exact-ls"], rows
+assert all(r["width"] == 64 and r["height"] == 48 and r["error"]["max"] == 0 for r in rows), rows
+print("shader-level rows ok")
+PY
 exit $fail

@@ -19,6 +19,7 @@
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/timer.h"
+#include "io/exr.h"
 #include "io/file.h"
 #include "io/json.h"
 
@@ -42,6 +43,9 @@ typedef struct bench_opts {
     const char *out_dir;
     bool embree;
     double max_error; // > 0: check --quality auto against the matrix at this budget
+    const char *gbuffer; // --shader shadow --gbuffer FILE.exr: P and N from a render's AOVs
+    float *gb_p, *gb_n;  // its P (w = A) and N as RGBA planes
+    uint32_t gb_width, gb_height;
     char *owned[256]; // scene paths found in --scenes folders
     int owned_count;
 } bench_opts;
@@ -82,6 +86,9 @@ void pn_print_bench_help(void)
            "  --traversal ray|packet  --sampler grid|stratified   (default ray, stratified)\n"
            "  --out DIR            where the CSV, JSON and plots go (default bench-out)\n"
            "  --no-embree          skip the CPU peer\n"
+           "  --shader shadow --gbuffer FILE.exr\n"
+           "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"
+           "                       (render --aovs of the same scene); the size is the EXR's\n"
            "  --max-error E        also run --quality auto at this budget and compare its pick with the\n"
            "                       matrix's fastest cell within the budget\n"
            "  --quick              a small matrix (bunny or builtin:default, 256x256, 16 spp, LS(6,3) and\n"
@@ -210,6 +217,10 @@ static int parse(int argc, char **argv, bench_opts *o)
             float e;
             ok = v && pn_parse_float_range("--max-error", v, 0.0f, 1.0f, &e);
             o->max_error = e;
+        } else if (pn_args_value(&a, "--shader", &v, &err)) {
+            ok = v && pn_parse_choice("--shader", v, (const char *const[]){"shadow", NULL}) == 0;
+        } else if (pn_args_value(&a, "--gbuffer", &v, &err)) {
+            o->gbuffer = v;
         } else if (pn_args_value(&a, "--out", &v, &err)) {
             o->out_dir = v;
         } else {
@@ -256,6 +267,39 @@ static int parse(int argc, char **argv, bench_opts *o)
     if (!o->size_count)
         o->sizes[0][0] = o->sizes[0][1] = 512, o->size_count = 1;
     return PN_EXIT_OK;
+}
+
+// The G-buffer of --gbuffer: P.X/Y/Z with A as P.w, N.X/Y/Z, as the renderer's images hold them.
+static pn_result load_gbuffer(bench_opts *o)
+{
+    pn_exr_image img;
+    if (pn_exr_read(o->gbuffer, &img) != PN_OK)
+        return PN_ERR_IO;
+    const char *names[7] = {"P.X", "P.Y", "P.Z", "A", "N.X", "N.Y", "N.Z"};
+    const float *ch[7];
+    for (int c = 0; c < 7; c++)
+        if (!(ch[c] = pn_exr_image_channel(&img, names[c]))) {
+            pn_error("%s: no %s channel (write it with render --aovs)", o->gbuffer, names[c]);
+            pn_exr_image_free(&img);
+            return PN_ERR_FORMAT;
+        }
+    size_t px = (size_t)img.width * img.height;
+    o->gb_p = calloc(px * 4, sizeof(float));
+    o->gb_n = calloc(px * 4, sizeof(float));
+    if (!o->gb_p || !o->gb_n) {
+        pn_exr_image_free(&img);
+        return PN_ERR_MEMORY;
+    }
+    for (size_t i = 0; i < px; i++)
+        for (int k = 0; k < 4; k++) {
+            o->gb_p[4 * i + k] = ch[k][i];
+            o->gb_n[4 * i + k] = k < 3 ? ch[4 + k][i] : 0.0f;
+        }
+    o->gb_width = (uint32_t)img.width;
+    o->gb_height = (uint32_t)img.height;
+    o->sizes[0][0] = o->gb_width, o->sizes[0][1] = o->gb_height, o->size_count = 1;
+    pn_exr_image_free(&img);
+    return PN_OK;
 }
 
 static int cmp_double(const void *a, const void *b)
@@ -453,7 +497,8 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
             bench_row base = {.width = w, .height = h, .spp = spp, .triangles = pn_scene_triangle_count(&scene)};
             snprintf(base.scene, sizeof base.scene, "%s", base_name(scene.name));
             fprintf(stderr, "bench: %s %ux%u %u spp: exact reference\n", scene.name, w, h, spp);
-            if (pn_setup_create(dev, &scene, &light, &rd, &ref) != PN_OK) {
+            if (pn_setup_create(dev, &scene, &light, &rd, &ref) != PN_OK ||
+                (o->gbuffer && pn_renderer_set_gbuffer(&ref.renderer, o->gb_p, o->gb_n) != PN_OK)) {
                 rc = PN_EXIT_FAILURE;
                 break;
             }
@@ -525,6 +570,8 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
                         pn_warn("bench: %s LS(%d,%d) skipped (see above)", MODE_NAMES[row.mode], row.n, row.d);
                         continue;
                     }
+                    if (o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK)
+                        rc = PN_EXIT_FAILURE;
                     if (time_frames(o, &s.renderer, &cam, &light, &row) == PN_OK) {
                         pn_renderer_images(&s.renderer, &img);
                         row.build_ms = s.build_ms;
@@ -747,6 +794,11 @@ int pn_cmd_bench(int argc, char **argv)
             free(o.owned[i]);
         return rc < 0 ? PN_EXIT_OK : rc;
     }
+    if (o.gbuffer && load_gbuffer(&o) != PN_OK) {
+        for (int i = 0; i < o.owned_count; i++)
+            free(o.owned[i]);
+        return PN_EXIT_FAILURE;
+    }
     if (mkdir(o.out_dir, 0755) != 0 && errno != EEXIST) {
         pn_error("%s: cannot create the output folder: %s", o.out_dir, strerror(errno));
         return PN_EXIT_FAILURE;
@@ -774,6 +826,8 @@ int pn_cmd_bench(int argc, char **argv)
     pn_gpu_device_destroy(&dev);
     for (int i = 0; i < o.owned_count; i++)
         free(o.owned[i]);
+    free(o.gb_p);
+    free(o.gb_n);
     if (dev.validation_messages) {
         pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);
         return PN_EXIT_VALIDATION;

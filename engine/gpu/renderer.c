@@ -131,6 +131,7 @@ static pn_result create_targets(pn_renderer *r)
 {
     pn_gpu_device *dev = r->dev;
     const VkImageUsageFlags gbuf = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_STORAGE_BIT |
+                                   VK_IMAGE_USAGE_TRANSFER_DST_BIT | // pn_renderer_set_gbuffer
                                    VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
     const VkImageUsageFlags comp = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
     struct {
@@ -504,6 +505,7 @@ void pn_renderer_destroy(pn_renderer *r)
     pn_gpu_buffer_destroy(dev, &r->readback);
     pn_gpu_buffer_destroy(dev, &r->shadow_params);
     pn_gpu_buffer_destroy(dev, &r->shadow_status);
+    pn_gpu_buffer_destroy(dev, &r->gbuffer_upload);
     pn_gpu_buffer_destroy(dev, &r->ray_dump);
     for (uint32_t i = 0; r->textures && i < r->texture_count; i++)
         pn_gpu_image_destroy(dev, &r->textures[i]);
@@ -582,9 +584,14 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
     vkCmdResetQueryPool(cmd, r->timestamps, 0, TS_COUNT);
     // Every target is fully rewritten each frame: discard old contents (UNDEFINED) after all of the
     // previous frame's work on them.
+    // With an external G-buffer (pn_renderer_set_gbuffer) P and N are copied in instead of drawn.
+    bool external = r->gbuffer_upload.buffer != VK_NULL_HANDLE;
+    const VkPipelineStageFlags2 PN_STAGE = external ? VK_PIPELINE_STAGE_2_COPY_BIT : COLOR;
+    const VkAccessFlags2 PN_ACCESS = external ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT;
+    const VkImageLayout PN_LAYOUT = external ? VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL : GENERAL;
     VkImageMemoryBarrier2 start[7] = {
-        pn_gpu_image_barrier(&r->p, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, UNDEF, GENERAL),
-        pn_gpu_image_barrier(&r->n, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, UNDEF, GENERAL),
+        pn_gpu_image_barrier(&r->p, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, PN_STAGE, PN_ACCESS, UNDEF, PN_LAYOUT),
+        pn_gpu_image_barrier(&r->n, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, PN_STAGE, PN_ACCESS, UNDEF, PN_LAYOUT),
         pn_gpu_image_barrier(&r->albedo, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, UNDEF, GENERAL),
         pn_gpu_image_barrier(&r->depth, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, DEPTH,
                              VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, UNDEF,
@@ -598,47 +605,80 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
     vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_START);
 
     // --- G-buffer
-    VkRenderingAttachmentInfo colors[3];
-    const pn_gpu_image *targets[3] = {&r->p, &r->n, &r->albedo};
-    for (int i = 0; i < 3; i++)
-        colors[i] = (VkRenderingAttachmentInfo){
-            .sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO,
-            .imageView = targets[i]->view,
-            .imageLayout = GENERAL,
-            .loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR,
-            .storeOp = VK_ATTACHMENT_STORE_OP_STORE,
+    if (external) {
+        VkDeviceSize px = (VkDeviceSize)r->width * r->height;
+        const pn_gpu_image *dst[2] = {&r->p, &r->n};
+        for (int i = 0; i < 2; i++) {
+            VkBufferImageCopy copy = {
+                .bufferOffset = (VkDeviceSize)i * px * 16,
+                .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                .imageExtent = {r->width, r->height, 1},
+            };
+            vkCmdCopyBufferToImage(cmd, r->gbuffer_upload.buffer, dst[i]->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                                   &copy);
+        }
+        // Albedo is not part of the input: black, so the shade pass reads defined values.
+        VkImageMemoryBarrier2 albedo = pn_gpu_image_barrier(&r->albedo, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                                                            VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                                            GENERAL, GENERAL);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &albedo);
+        vkCmdClearColorImage(cmd, r->albedo.image, GENERAL, &(VkClearColorValue){{0, 0, 0, 0}}, 1,
+                             &(VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1});
+        VkImageMemoryBarrier2 ready[3] = {
+            pn_gpu_image_barrier(&r->p, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, COMPUTE | VK_PIPELINE_STAGE_2_COPY_BIT,
+                                 VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, GENERAL),
+            pn_gpu_image_barrier(&r->n, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, COMPUTE | VK_PIPELINE_STAGE_2_COPY_BIT,
+                                 VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, GENERAL),
+            pn_gpu_image_barrier(&r->albedo, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                 COMPUTE | VK_PIPELINE_STAGE_2_COPY_BIT,
+                                 VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT, GENERAL, GENERAL),
         };
-    VkRenderingAttachmentInfo depth = {
-        .sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO,
-        .imageView = r->depth.view,
-        .imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-        .loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR,
-        .storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE,
-        .clearValue = {.depthStencil = {0.0f, 0}}, // reversed Z: 0 is the far plane
-    };
-    VkRenderingInfo ri = {
-        .sType = VK_STRUCTURE_TYPE_RENDERING_INFO,
-        .renderArea = {{0, 0}, {r->width, r->height}},
-        .layerCount = 1,
-        .colorAttachmentCount = 3,
-        .pColorAttachments = colors,
-        .pDepthAttachment = &depth,
-    };
-    vkCmdBeginRendering(cmd, &ri);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->gbuffer_pipeline);
-    vkCmdSetViewport(cmd, 0, 1, &(VkViewport){0, 0, (float)r->width, (float)r->height, 0, 1});
-    vkCmdSetScissor(cmd, 0, 1, &(VkRect2D){{0, 0}, {r->width, r->height}});
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->gbuffer_layout, 0, 1, &r->gbuffer_set, 0, NULL);
-    vkCmdBindVertexBuffers(cmd, 0, 1, &r->vertices.buffer, &(VkDeviceSize){0});
-    vkCmdBindIndexBuffer(cmd, r->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-    pn_gbuffer_push push = *cam;
-    for (uint32_t i = 0; i < r->draw_count; i++) {
-        push.material = r->draws[i].material;
-        vkCmdPushConstants(cmd, r->gbuffer_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                           sizeof push, &push);
-        vkCmdDrawIndexed(cmd, r->draws[i].index_count, 1, r->draws[i].first_index, 0, 0);
+        pn_gpu_cmd_barrier(cmd, NULL, 3, ready);
+    } else {
+        VkRenderingAttachmentInfo colors[3];
+        const pn_gpu_image *targets[3] = {&r->p, &r->n, &r->albedo};
+        for (int i = 0; i < 3; i++)
+            colors[i] = (VkRenderingAttachmentInfo){
+                .sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO,
+                .imageView = targets[i]->view,
+                .imageLayout = GENERAL,
+                .loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR,
+                .storeOp = VK_ATTACHMENT_STORE_OP_STORE,
+            };
+        VkRenderingAttachmentInfo depth = {
+            .sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO,
+            .imageView = r->depth.view,
+            .imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+            .loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR,
+            .storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE,
+            .clearValue = {.depthStencil = {0.0f, 0}}, // reversed Z: 0 is the far plane
+        };
+        VkRenderingInfo ri = {
+            .sType = VK_STRUCTURE_TYPE_RENDERING_INFO,
+            .renderArea = {{0, 0}, {r->width, r->height}},
+            .layerCount = 1,
+            .colorAttachmentCount = 3,
+            .pColorAttachments = colors,
+            .pDepthAttachment = &depth,
+        };
+        vkCmdBeginRendering(cmd, &ri);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->gbuffer_pipeline);
+        vkCmdSetViewport(cmd, 0, 1, &(VkViewport){0, 0, (float)r->width, (float)r->height, 0, 1});
+        vkCmdSetScissor(cmd, 0, 1, &(VkRect2D){{0, 0}, {r->width, r->height}});
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->gbuffer_layout, 0, 1, &r->gbuffer_set, 0, NULL);
+        vkCmdBindVertexBuffers(cmd, 0, 1, &r->vertices.buffer, &(VkDeviceSize){0});
+        vkCmdBindIndexBuffer(cmd, r->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+        pn_gbuffer_push push = *cam;
+        for (uint32_t i = 0; i < r->draw_count; i++) {
+            push.material = r->draws[i].material;
+            vkCmdPushConstants(cmd, r->gbuffer_layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                               sizeof push, &push);
+            vkCmdDrawIndexed(cmd, r->draws[i].index_count, 1, r->draws[i].first_index, 0, 0);
+        }
+        vkCmdEndRendering(cmd);
     }
-    vkCmdEndRendering(cmd);
     vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_GBUFFER);
 
     // --- shadow: reads P and N, writes V
@@ -647,7 +687,8 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_image_barrier(&r->n, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, GENERAL, GENERAL),
         pn_gpu_image_barrier(&r->albedo, COLOR, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, GENERAL, GENERAL),
     };
-    pn_gpu_cmd_barrier(cmd, NULL, 3, to_compute);
+    if (!external) // the external path made its copies visible already
+        pn_gpu_cmd_barrier(cmd, NULL, 3, to_compute);
     // In chunks of light samples (see Chunk in shadow_common.glsl); each reads the counts the previous
     // one wrote.
     uint32_t spp = r->desc.mode == PN_SHADOW_NONE ? 1 : r->desc.spp;
@@ -790,4 +831,16 @@ const float *pn_renderer_ray_dump(const pn_renderer *r, uint64_t *floats)
 {
     *floats = r->ray_dump.mapped ? (uint64_t)r->width * r->height * (1 + r->desc.spp) * 4 : 0;
     return r->ray_dump.mapped;
+}
+
+pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n)
+{
+    pn_gpu_buffer_destroy(r->dev, &r->gbuffer_upload);
+    if (!p || !n)
+        return PN_OK;
+    VkDeviceSize bytes = (VkDeviceSize)r->width * r->height * 16;
+    PN_TRY(pn_gpu_buffer_create(r->dev, 2 * bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &r->gbuffer_upload));
+    memcpy(r->gbuffer_upload.mapped, p, bytes);
+    memcpy((char *)r->gbuffer_upload.mapped + bytes, n, bytes);
+    return PN_OK;
 }

@@ -57,6 +57,7 @@ typedef struct pn_renderer {
     pn_renderer_desc desc;
     pn_gpu_buffer shadow_params; // uniform buffer of the shadow pass
     pn_gpu_buffer ray_dump;      // with desc.dump_rays
+    pn_gpu_buffer gbuffer_upload; // pn_renderer_set_gbuffer's P and N
     pn_gpu_buffer shadow_status; // host-visible flag: a shadow dispatch ran out of llvmpipe's loop budget
     pn_gpu_image counts;         // (visible, valid) sample counts between shadow chunks
     uint32_t chunk;              // light samples per shadow dispatch (halved when a dispatch is cut short)
@@ -92,6 +93,11 @@ void pn_renderer_destroy(pn_renderer *r);
 pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
+
+// Shader-level benchmarking: the following frames skip the raster pass and use this G-buffer
+// instead (P and N as width*height RGBA floats as pn_frame_images has them, P.w = 1 where
+// geometry is; albedo black). NULL for both restores the raster pass.
+pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n);
 
 // Changes the stratified sampler's seed from the next pn_renderer_render on: the demo's progressive
 // refinement takes new light samples every frame without recreating the renderer.
