@@ -32,7 +32,12 @@ PY
 # same pixels and samples must be the frame's V (exact-ls against exact: zero error again).
 "$BIN" render builtin:default --size 64x48 --aovs -o "$OUT/gbuffer.exr" >/dev/null || { echo "FAIL: render --aovs"; exit 1; }
 "$BIN" bench --shader shadow --gbuffer "$OUT/gbuffer.exr" --scenes builtin:default --modes exact,exact-ls --trees 5,2 \
-  --spp 9 --repeat 1 --warmup 0 --no-embree --out "$OUT/shader" || { echo "FAIL: shader-level bench"; fail=1; }
+  --spp 9 --repeat 1 --warmup 0 --no-embree --work --out "$OUT/shader" > "$OUT/shader.txt" || { echo "FAIL: shader-level bench"; fail=1; }
+# --work: the counting builds report per-pixel work; the exact mode walks BVH nodes and tests
+# triangles but never looks up a line space; exact-ls does look up line spaces.
+grep -q "work of builtin:default_64x48_9spp_exact per pixel.*lookups 0/0/0/0" "$OUT/shader.txt" || { echo "FAIL: exact work"; cat "$OUT/shader.txt"; fail=1; }
+grep -Eq "work of builtin:default_64x48_9spp_exact-ls_LS5_2 per pixel.*lookups [0-9]+/[0-9]+/[0-9]+/[1-9]" "$OUT/shader.txt" || { echo "FAIL: exact-ls work"; fail=1; }
+exrheader "$OUT/shader/work_builtin_default_64x48_9spp_exact.exr" | grep -q "work.triangles" || { echo "FAIL: work EXR layers"; fail=1; }
 python3 - "$OUT/shader/bench.json" <<'PY' || fail=1
 import json, sys
 rows = json.load(open(sys.argv[1]))["results"]

@@ -43,6 +43,7 @@ typedef struct bench_opts {
     const char *out_dir;
     bool embree;
     double max_error; // > 0: check --quality auto against the matrix at this budget
+    bool work;           // --work: count each cell's work per pixel with the counting shader builds
     const char *gbuffer; // --shader shadow --gbuffer FILE.exr: P and N from a render's AOVs
     float *gb_p, *gb_n;  // its P (w = A) and N as RGBA planes
     uint32_t gb_width, gb_height;
@@ -89,6 +90,9 @@ void pn_print_bench_help(void)
            "  --shader shadow --gbuffer FILE.exr\n"
            "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"
            "                       (render --aovs of the same scene); the size is the EXR's\n"
+           "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
+           "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
+           "                       stack; their distribution is printed and written as EXR layers work.*\n"
            "  --max-error E        also run --quality auto at this budget and compare its pick with the\n"
            "                       matrix's fastest cell within the budget\n"
            "  --quick              a small matrix (bunny or builtin:default, 256x256, 16 spp, LS(6,3) and\n"
@@ -167,6 +171,8 @@ static int parse(int argc, char **argv, bench_opts *o)
             return -1;
         } else if (pn_args_flag(&a, "--quick")) {
             quick = true;
+        } else if (pn_args_flag(&a, "--work")) {
+            o->work = true;
         } else if (pn_args_flag(&a, "--no-embree")) {
             o->embree = false;
         } else if (pn_args_value(&a, "--scenes", &v, &err)) {
@@ -441,6 +447,63 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
     pn_setup_destroy(dev, &s);
 }
 
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+// --work: one frame with the counting build of the cell's shadow shader; the distribution of each
+// counter over the pixels with geometry, and the counters as EXR layers.
+static void report_work(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                        const pn_light *light, pn_setup_desc sd, const char *label)
+{
+    sd.frame.count_work = true;
+    sd.frame.dump_rays = false;
+    pn_setup s;
+    if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
+        return;
+    pn_frame_times t;
+    if ((!o->gbuffer || pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) == PN_OK) &&
+        pn_renderer_render(&s.renderer, cam, light, &t) == PN_OK) {
+        const uint32_t *w = pn_renderer_work(&s.renderer);
+        pn_frame_images img;
+        pn_renderer_images(&s.renderer, &img);
+        size_t px = (size_t)sd.frame.width * sd.frame.height, n = 0;
+        uint32_t *vals = malloc(px * sizeof *vals);
+        float *planes = calloc(px * 4, sizeof *planes);
+        static const char *const names[4] = {"work.nodes", "work.lookups", "work.triangles", "work.depth"};
+        printf("  work of %s per pixel (p50 / p90 / p99 / max):", label);
+        for (int c = 0; c < 4 && vals && planes; c++) {
+            n = 0;
+            for (size_t i = 0; i < px; i++) {
+                planes[c * px + i] = (float)w[4 * i + c];
+                if (img.p[4 * i + 3] > 0)
+                    vals[n++] = w[4 * i + c];
+            }
+            qsort(vals, n, sizeof *vals, cmp_u32);
+            if (n)
+                printf(" %s %u/%u/%u/%u", names[c] + 5, vals[n / 2], vals[(size_t)(0.9 * (double)(n - 1))],
+                       vals[(size_t)(0.99 * (double)(n - 1))], vals[n - 1]);
+        }
+        printf("\n");
+        if (vals && planes) {
+            char path[4096];
+            snprintf(path, sizeof path, "%s/work_%s.exr", o->out_dir, label);
+            for (char *c = path + strlen(o->out_dir) + 1; *c; c++)
+                if (*c == ':' || *c == '/' || *c == ',' || *c == ' ')
+                    *c = '_';
+            pn_exr_channel ch[4];
+            for (int c = 0; c < 4; c++)
+                ch[c] = (pn_exr_channel){names[c], planes + c * px};
+            pn_exr_write(path, (int)sd.frame.width, (int)sd.frame.height, ch, 4, NULL, 0);
+        }
+        free(vals);
+        free(planes);
+    }
+    pn_setup_destroy(dev, &s);
+}
+
 static const char *base_name(const char *path)
 {
     const char *s = strrchr(path, '/');
@@ -549,6 +612,11 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
             pn_error_compare(v_ref, v_ref, mask, px, NULL, &exact_row.err);
             pn_setup_destroy(dev, &ref);
             int first_row = rows->count; // this group's rows start here
+            if (o->work) {
+                char label[512];
+                snprintf(label, sizeof label, "%s_%ux%u_%uspp_exact", base.scene, w, h, spp);
+                report_work(o, dev, &scene, &cam, &light, rd, label);
+            }
             bool want_exact = false;
             for (int m = 0; m < o->mode_count; m++)
                 want_exact = want_exact || o->modes[m] == PN_SHADOW_EXACT;
@@ -581,6 +649,12 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
                         row.vs_embree = embree_ms > 0 ? row.shadow_ms / embree_ms : 0;
                         pn_error_compare(img.v, v_ref, mask, px, NULL, &row.err);
                         push_row(rows, &row);
+                        if (o->work) {
+                            char label[512];
+                            snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s_LS%d_%d", base.scene, w, h, spp,
+                                     MODE_NAMES[row.mode], row.n, row.d);
+                            report_work(o, dev, &scene, &cam, &light, sd, label);
+                        }
                     } else {
                         rc = PN_EXIT_FAILURE;
                     }

@@ -40,6 +40,8 @@ typedef struct pn_shadow_params {
     uint64_t tris, bvh, bvh_tris, cand_offset, cand_tris; // buffer device addresses
     uint64_t dump;
     uint32_t dump_rays, cand_first;
+    uint64_t work; // COUNT_WORK builds
+    uint32_t pad3[2];
 } pn_shadow_params;
 
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
@@ -340,11 +342,14 @@ static pn_result create_pipelines(pn_renderer *r)
     const VkDescriptorSetLayoutBinding shadow_bindings[6] = {
         img[0], img[1], img[2], {.binding = 3, .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER}, img[4],
         {.binding = 5, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}};
-    // Specialisation of shadow_linespace.comp: TRAVERSAL (id 0) and MODE (id 1: 0 linespace,
-    // 1 hybrid, 2 exact-ls).
-    int32_t spec_data[2] = {(int32_t)r->desc.traversal, (int32_t)r->desc.mode - PN_SHADOW_LINESPACE};
-    VkSpecializationMapEntry entries[2] = {{.constantID = 0, .offset = 0, .size = 4}, {.constantID = 1, .offset = 4, .size = 4}};
-    VkSpecializationInfo spec = {.mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof spec_data, .pData = spec_data};
+    // Specialisation of the shadow shaders: TRAVERSAL (id 0), MODE (id 1: 0 linespace, 1 hybrid,
+    // 2 exact-ls) and COUNT_WORK (id 2, a 32-bit bool).
+    int32_t spec_data[3] = {(int32_t)r->desc.traversal, (int32_t)r->desc.mode - PN_SHADOW_LINESPACE,
+                            r->desc.count_work ? 1 : 0};
+    VkSpecializationMapEntry entries[3] = {{.constantID = 0, .offset = 0, .size = 4},
+                                           {.constantID = 1, .offset = 4, .size = 4},
+                                           {.constantID = 2, .offset = 8, .size = 4}};
+    VkSpecializationInfo spec = {.mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof spec_data, .pData = spec_data};
     bool ls = r->desc.mode >= PN_SHADOW_LINESPACE && r->desc.mode <= PN_SHADOW_EXACT_LS;
     const uint32_t *spirv = pn_spv_shadow_none_comp;
     size_t spirv_size = sizeof pn_spv_shadow_none_comp;
@@ -361,11 +366,15 @@ static pn_result create_pipelines(pn_renderer *r)
                                                         .bindings = shadow_bindings,
                                                         .binding_count = 6,
                                                         .push_size = sizeof(pn_shadow_chunk),
-                                                        .spec = ls ? &spec : NULL},
+                                                        .spec = &spec},
                                  &r->shadow));
     PN_TRY(pn_gpu_buffer_create(dev, sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                 &r->shadow_params));
     pn_gpu_compute_write_uniform(dev, &r->shadow, 3, r->shadow_params.buffer);
+    if (r->desc.count_work)
+        PN_TRY(pn_gpu_buffer_create(dev, (uint64_t)r->width * r->height * 16,
+                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT,
+                                    PN_GPU_HOST_READBACK, &r->work));
     if (r->desc.dump_rays) {
         uint64_t px = (uint64_t)r->width * r->height;
         PN_TRY(pn_gpu_buffer_create(dev, px * (1 + r->desc.spp) * 16,
@@ -506,6 +515,7 @@ void pn_renderer_destroy(pn_renderer *r)
     pn_gpu_buffer_destroy(dev, &r->shadow_params);
     pn_gpu_buffer_destroy(dev, &r->shadow_status);
     pn_gpu_buffer_destroy(dev, &r->gbuffer_upload);
+    pn_gpu_buffer_destroy(dev, &r->work);
     pn_gpu_buffer_destroy(dev, &r->ray_dump);
     for (uint32_t i = 0; r->textures && i < r->texture_count; i++)
         pn_gpu_image_destroy(dev, &r->textures[i]);
@@ -777,6 +787,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     sp.dump = r->ray_dump.address;
     sp.cand_first = r->desc.cand_first_node;
     sp.dump_rays = r->desc.dump_rays;
+    sp.work = r->work.address;
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite it.
     memcpy(r->shadow_params.mapped, &sp, sizeof sp);
 
@@ -844,3 +855,5 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
     memcpy((char *)r->gbuffer_upload.mapped + bytes, n, bytes);
     return PN_OK;
 }
+
+const uint32_t *pn_renderer_work(const pn_renderer *r) { return r->work.mapped; }

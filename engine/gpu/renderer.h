@@ -31,6 +31,7 @@ typedef struct pn_renderer_desc {
     const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for the exact tests
     uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
     bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
+    bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
 } pn_renderer_desc;
 
 // The light-sample grid for spp rays: grid_u * grid_v == spp with grid_u the largest divisor of
@@ -58,6 +59,7 @@ typedef struct pn_renderer {
     pn_gpu_buffer shadow_params; // uniform buffer of the shadow pass
     pn_gpu_buffer ray_dump;      // with desc.dump_rays
     pn_gpu_buffer gbuffer_upload; // pn_renderer_set_gbuffer's P and N
+    pn_gpu_buffer work;           // with desc.count_work
     pn_gpu_buffer shadow_status; // host-visible flag: a shadow dispatch ran out of llvmpipe's loop budget
     pn_gpu_image counts;         // (visible, valid) sample counts between shadow chunks
     uint32_t chunk;              // light samples per shadow dispatch (halved when a dispatch is cut short)
@@ -93,6 +95,10 @@ void pn_renderer_destroy(pn_renderer *r);
 pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
+
+// With desc.count_work, after a frame: per pixel 4 counts over all its shadow rays: nodes visited
+// (N-tree or BVH), line-space lookups, triangle tests, deepest stack reached. NULL otherwise.
+const uint32_t *pn_renderer_work(const pn_renderer *r);
 
 // Shader-level benchmarking: the following frames skip the raster pass and use this G-buffer
 // instead (P and N as width*height RGBA floats as pn_frame_images has them, P.w = 1 where

@@ -56,6 +56,8 @@ bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max)
 
 bool tri_hit(WRay r, uint tri, float t_min, float t_max)
 {
+    if (COUNT_WORK)
+        work.z++;
     return wt_hit(r, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz,
                   t_min, t_max);
 }
@@ -91,6 +93,8 @@ bool bvh_blocked(vec3 o, vec3 d, float t_min, float t_max)
     bool hit = false, done = false;
     while (!hit && !done) {
         BvhNode nd = params.bvh.nodes[node];
+        if (COUNT_WORK)
+            work = uvec4(work.x + 1u, work.yz, max(work.w, uint(sp)));
         bool enter = box_hit(nd.min, nd.max, o, inv_d, t_min, t_max);
         if (enter && nd.count == 0u) {
             bvh_stack[sp] = nd.first + 1u; // the far child waits; depth <= BVH_STACK (bvh.c)

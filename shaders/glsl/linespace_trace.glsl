@@ -166,6 +166,8 @@ int ls_classify_local(TreeInfo t, uint level, uint ls, Local l, bool hit, float 
             vec3 pa = clamp(l.o + t_in * l.d, vec3(0.0), vec3(n));
             vec3 pb = clamp(l.o + t_out * l.d, vec3(0.0), vec3(n));
             int bit = ls_any_bit(t, ls, pa, pb, l.eps);
+            if (COUNT_WORK)
+                work.y++;
             // In a face plane (bit < 0): walk the children instead.
             result = bit == 0 ? LS_SKIP : (bit < 0 || !last ? LS_DESCEND : LS_BLOCKED);
         }

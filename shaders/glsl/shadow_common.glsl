@@ -16,6 +16,8 @@ layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer Ind
 // Per pixel: origin (xyz) and 1 where geometry is; then per pixel and sample: the light point (xyz)
 // and flags (bit 0 valid, bit 1 blocked) as float bits. Mirrors pn_ray_dump in renderer.h.
 layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer RayDump { vec4 v[]; };
+// Per pixel: nodes visited, line-space lookups, triangle tests, deepest stack (COUNT_WORK builds).
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer WorkCounts { uvec4 v[]; };
 
 layout(set = 0, binding = 3, std140) uniform ShadowParams {
     TreeInfo tree;      // 64 bytes
@@ -37,6 +39,8 @@ layout(set = 0, binding = 3, std140) uniform ShadowParams {
     RayDump dump;          // with dump_rays: every ray, for tests against an independent tracer
     uint dump_rays;
     uint cand_first;       // the first last-level node (they are numbered consecutively)
+    WorkCounts work;       // COUNT_WORK builds only
+    uvec2 pad3;
 } params;
 
 // The shadow pass runs in chunks of light samples, one dispatch each, accumulating counts: llvmpipe

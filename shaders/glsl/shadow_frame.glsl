@@ -13,6 +13,12 @@ vec3 dir[MAX_CHUNK];
 float t_rise[MAX_CHUNK];
 bool truncated = false; // set when llvmpipe's loop budget ended a loop early
 
+// Work counters (the bench's --work): a separate build of each shadow shader, with COUNT_WORK on,
+// counts per pixel the nodes visited (N-tree or BVH), line-space lookups, triangle tests and the
+// deepest stack reached, over all its rays. Off, the increments compile away.
+layout(constant_id = 2) const bool COUNT_WORK = false;
+uvec4 work = uvec4(0u); // nodes, lookups, triangle tests, stack depth (max)
+
 // Surface offsets against self-shadowing.
 // 1. Float precision: the G-buffer position is interpolated in float, so it is only known to a few
 //    ulps of its magnitude; lifting the origin by 8 ulps along the normal puts it on the lit side of
@@ -57,6 +63,12 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
 // Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid.
 void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
 {
+    if (COUNT_WORK) {
+        ivec2 size = imageSize(img_v);
+        uint pixel = uint(px.y * size.x + px.x);
+        uvec4 before = chunk.first != 0u ? uvec4(0u) : params.work.v[pixel];
+        params.work.v[pixel] = uvec4(before.xyz + work.xyz, max(before.w, work.w));
+    }
     if (params.dump_rays != 0u) {
         ivec2 size = imageSize(img_v);
         uint pixel = uint(px.y * size.x + px.x), pixels = uint(size.x * size.y);

@@ -141,6 +141,8 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             next = entry - 2u;
         }
         if (visit) {
+            if (COUNT_WORK)
+                work = uvec4(work.x + 1u, work.yz, max(work.w, uint(depth + 2)));
             vec2 xy = uintBitsToFloat(unpackDouble2x32(boxes.words[4u * next]));
             vec2 zs = uintBitsToFloat(unpackDouble2x32(boxes.words[4u * next + 1u]));
             Local l = ls_local_box(vec3(xy, zs.x), zs.y, fn, o, d);
@@ -330,6 +332,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                 vec2 cxy = uintBitsToFloat(unpackDouble2x32(boxes.words[4u * child_index]));
                 vec2 czs = uintBitsToFloat(unpackDouble2x32(boxes.words[4u * child_index + 1u]));
                 uint down = 0u;
+                if (COUNT_WORK) // the packet visits the child once for all its rays
+                    work = uvec4(work.x + 1u, work.yz, max(work.w, uint(depth + 2)));
                 for (uint left = live; left != 0u; left &= left - 1u) {
                     uint i = uint(findLSB(left));
                     Local l = ls_local_box(vec3(cxy, czs.x), czs.y, fn, o, dir[i]);
