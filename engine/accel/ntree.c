@@ -399,6 +399,12 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
         for (uint32_t i = 0; i < total; i++) {
             if (desc->cull_light && !can_block(tri[i], s->bounds_min, s->bounds_max, desc->cull_light))
                 continue;
+            const float *kb = desc->keep_box;
+            if (kb && (box[i][0] > kb[3] || box[i][1] > kb[4] || box[i][2] > kb[5] || box[i][3] < kb[0] ||
+                       box[i][4] < kb[1] || box[i][5] < kb[2])) {
+                t->culled_box++;
+                continue;
+            }
             all[t->triangles++] = i;
             for (int k = 0; k < 3; k++) {
                 lo[k] = fminf(lo[k], box[i][k]);

@@ -23,6 +23,9 @@ typedef struct pn_ntree_desc {
     // whose plane has the whole scene and the light on one closed side (a ground plane under
     // everything, the outer walls of a room lit from inside). NULL keeps every triangle.
     const float (*cull_light)[3];
+    // With a box (lo xyz, hi xyz): also leave out triangles wholly outside it, e.g. the box of the
+    // visible receivers and the light, which holds every segment from one to the other.
+    const float *keep_box;
     // Keep each last-level node's triangles (the paper's candidate lists), for the modes that test
     // triangles exactly where the line space cannot decide (hybrid, exact-ls).
     bool keep_candidates;
@@ -44,7 +47,8 @@ typedef struct pn_ntree {
     double root_size; // edge of the cubic root box
     double slack;     // every cell is grown by this for the occupancy test (see ntree.c)
     uint32_t triangles;   // in the tree
-    uint32_t culled;      // left out: they cannot block a shadow ray (pn_ntree_desc.cull_light)
+    uint32_t culled;      // left out: they cannot block a shadow ray (cull_light, keep_box)
+    uint32_t culled_box;  // of those, left out by keep_box
     uint32_t node_count;  // subdivided nodes, breadth-first, root = 0
     pn_ntree_node *nodes; // node_count
     uint32_t *children;   // node_count * n^3 child entries, child c = (z*n + y)*n + x

@@ -425,7 +425,7 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
     if (pn_quality_choose(dev, scene, cam, light, frame, o->max_error, 0, &q) != PN_OK)
         return;
     pn_setup s;
-    pn_setup_desc sd = {.frame = *frame, .tree_n = q.tree_n, .tree_d = q.tree_d};
+    pn_setup_desc sd = {.frame = *frame, .tree_n = q.tree_n, .tree_d = q.tree_d, .view = cam};
     sd.frame.mode = (pn_shadow_mode)q.mode;
     bench_row row = rows->rows[first_row < rows->count ? first_row : 0];
     if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
@@ -628,7 +628,8 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
                     continue;
                 for (int ti = 0; ti < o->tree_count && rc == PN_EXIT_OK; ti++) {
                     pn_setup s;
-                    pn_setup_desc sd = {.frame = frame, .tree_n = o->trees[ti][0], .tree_d = o->trees[ti][1]};
+                    pn_setup_desc sd = {.frame = frame, .tree_n = o->trees[ti][0], .tree_d = o->trees[ti][1],
+                                        .view = o->gbuffer ? NULL : &cam}; // the tree models what the picture needs
                     sd.frame.mode = (pn_shadow_mode)o->modes[m];
                     bench_row row = base;
                     row.mode = o->modes[m];

@@ -19,6 +19,7 @@ typedef struct render_opts {
     pn_render_opts r;
     const char *scene, *output, *preview, *ray_dump;
     bool aovs, json;
+    bool view_cull;    // the tree models only what the picture needs (off: --no-view-cull)
     bool auto_quality; // --quality auto
     double max_error;  // --max-error: its budget of MAE against exact
 } render_opts;
@@ -43,13 +44,15 @@ void pn_print_render_help(void)
            "  --quality auto|manual auto: choose --mode and --tree from pilot renders against exact on\n"
            "                        a quarter of the pixels: the fastest configuration whose mean absolute\n"
            "                        error of V stays within --max-error (default manual)\n"
-           "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01)\n");
+           "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01)\n"
+           "  --no-view-cull        build the N-tree over all of the scene, not just over the box of\n"
+           "                        the visible receivers and the light (which holds every shadow ray)\n");
     pn_render_opts_print_help();
 }
 
 static int parse(int argc, char **argv, render_opts *o)
 {
-    *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01};
+    *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01, .view_cull = true};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL;
@@ -66,6 +69,8 @@ static int parse(int argc, char **argv, render_opts *o)
             o->preview = v;
         } else if (pn_args_flag(&a, "--aovs")) {
             o->aovs = true;
+        } else if (pn_args_flag(&a, "--no-view-cull")) {
+            o->view_cull = false;
         } else if (pn_args_value(&a, "--quality", &v, &err)) {
             int q = v ? pn_parse_choice("--quality", v, (const char *const[]){"manual", "auto", NULL}) : -1;
             if (q < 0)
@@ -122,6 +127,7 @@ typedef struct render_stats {
     uint32_t subdivided;
     uint32_t culled; // triangles left out of the tree
     uint64_t exact_bytes; // triangle pools of the exact tests (triangles, BVH, candidate lists)
+    uint32_t culled_box;        // of those, outside the view's receivers and the light
     bool quality_auto;          // --quality auto chose the mode and tree
     pn_quality_choice quality;
 } render_stats;
@@ -177,6 +183,7 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
         .tree_n = p->tree_n,
         .tree_d = p->tree_d,
         .max_bytes = p->max_bytes,
+        .view = o->view_cull ? cam : NULL,
     };
     pn_setup s;
     if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
@@ -184,6 +191,7 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     st->build_ms = s.build_ms;
     st->subdivided = s.accel.tree.node_count;
     st->culled = s.accel.tree.culled;
+    st->culled_box = s.accel.tree.culled_box;
     st->pools = s.pool_bytes;
     st->exact_bytes = s.exact_bytes;
     int rc = PN_EXIT_FAILURE;
@@ -223,9 +231,9 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                o->r.width, o->r.height, pn_scene_triangle_count(scene), pn_mode_names[o->r.mode],
                pn_traversal_names[o->r.traversal], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed);
         if (tree)
-            printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
+            printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"culled_by_view\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
                    "\"node\": %llu, \"linespace\": %llu, \"total\": %llu}, ",
-                   o->r.tree_n, o->r.tree_d, st->subdivided, st->culled, st->build_ms, (unsigned long long)st->pools.tree,
+                   o->r.tree_n, o->r.tree_d, st->subdivided, st->culled, st->culled_box, st->build_ms, (unsigned long long)st->pools.tree,
                    (unsigned long long)st->pools.node, (unsigned long long)st->pools.linespace,
                    (unsigned long long)st->pools.total);
         else
@@ -251,8 +259,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
     if (tree)
         printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
-               "(they cannot block a shadow ray)\n",
-               st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled);
+               "(they cannot block a shadow ray; %u of them outside the view and light)\n",
+               st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled, st->culled_box);
     if (o->r.mode == PN_SHADOW_EXACT)
         printf("  BVH built in %.1f ms; triangle and BVH pools %.1f MiB\n", st->build_ms, st->exact_bytes / 1048576.0);
     printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,

@@ -50,7 +50,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, pn_quality_choice *out)
 {
     memset(out, 0, sizeof *out);
-    pn_setup_desc sd = {.frame = *frame, .max_bytes = max_bytes};
+    pn_setup_desc sd = {.frame = *frame, .max_bytes = max_bytes, .view = cam}; // as render builds it
     // A quarter of the pixels: a subsample of the picture at the same light samples per pixel.
     sd.frame.width = frame->width / 2 > 64 ? frame->width / 2 : (frame->width < 64 ? frame->width : 64);
     sd.frame.height = (uint32_t)fmax(1.0, round((double)frame->height * sd.frame.width / frame->width));

@@ -1,5 +1,6 @@
 #include "apps/setup.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "core/log.h"
@@ -16,6 +17,7 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
                             .d = desc->tree_d,
                             .max_bytes = desc->max_bytes,
                             .cull_light = (const float(*)[3])corners,
+                            .keep_box = desc->keep_box,
                             .keep_candidates = desc->candidates};
         r = pn_ntree_build(scene, &td, &out->tree);
         if (r == PN_OK) {
@@ -83,7 +85,14 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         .bvh = mode == PN_SHADOW_EXACT,
         .exact_pools = mode >= PN_SHADOW_HYBRID,
     };
-    pn_result r = pn_shadow_accel_build(scene, &ad, &s->accel);
+    float box[6];
+    pn_result r = PN_OK;
+    if (desc->view && ad.tree) {
+        r = pn_view_box(dev, scene, desc->view, light, &desc->frame, box);
+        ad.keep_box = box;
+    }
+    if (r == PN_OK)
+        r = pn_shadow_accel_build(scene, &ad, &s->accel);
     if (r != PN_OK)
         return r;
     s->build_ms = s->accel.build_ms;
@@ -104,4 +113,45 @@ void pn_setup_destroy(pn_gpu_device *dev, pn_setup *s)
     pn_renderer_destroy(&s->renderer);
     pn_shadow_accel_destroy(dev, &s->accel);
     memset(s, 0, sizeof *s);
+}
+
+pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
+                      const pn_renderer_desc *frame, float box[6])
+{
+    pn_renderer_desc rd = {.width = frame->width, .height = frame->height, .mode = PN_SHADOW_NONE, .spp = 1};
+    pn_renderer r;
+    PN_TRY(pn_renderer_create(dev, scene, &rd, &r));
+    pn_frame_times t;
+    pn_result res = pn_renderer_render(&r, cam, light, &t);
+    if (res == PN_OK) {
+        float corners[4][3];
+        pn_light_corners(light, corners);
+        for (int k = 0; k < 3; k++)
+            box[k] = box[3 + k] = corners[0][k];
+        for (int c = 1; c < 4; c++)
+            for (int k = 0; k < 3; k++) {
+                box[k] = corners[c][k] < box[k] ? corners[c][k] : box[k];
+                box[3 + k] = corners[c][k] > box[3 + k] ? corners[c][k] : box[3 + k];
+            }
+        pn_frame_images img;
+        pn_renderer_images(&r, &img);
+        size_t px = (size_t)frame->width * frame->height;
+        // Grown below by 4 ulps of the largest coordinate: the G-buffer's positions are interpolated
+        // in float, a few ulps off the surfaces they sample.
+        for (size_t i = 0; i < px; i++)
+            if (img.p[4 * i + 3] > 0)
+                for (int k = 0; k < 3; k++) {
+                    float v = img.p[4 * i + k];
+                    box[k] = v < box[k] ? v : box[k];
+                    box[3 + k] = v > box[3 + k] ? v : box[3 + k];
+                }
+        float mag = 0;
+        for (int k = 0; k < 6; k++)
+            mag = fabsf(box[k]) > mag ? fabsf(box[k]) : mag;
+        float grow = 4 * (nextafterf(mag, INFINITY) - mag);
+        for (int k = 0; k < 3; k++)
+            box[k] -= grow, box[3 + k] += grow;
+    }
+    pn_renderer_destroy(&r);
+    return res;
 }

@@ -23,6 +23,7 @@ typedef struct pn_shadow_accel_desc {
     int tree_n, tree_d;
     uint64_t max_bytes;     // refuse a tree whose pools exceed this (0: no limit)
     const pn_light *light;  // the tree leaves out triangles that cannot block a ray to it
+    const float *keep_box;  // and, when given (lo xyz, hi xyz), those wholly outside this box
     bool candidates;        // keep the tree's per-leaf triangle lists (hybrid, exact-ls)
     bool bvh;               // build a BVH (exact mode)...
     const pn_bvh *reuse_bvh; // ...or put this one in the exact pools (not owned; must outlive the accel)
@@ -58,7 +59,15 @@ typedef struct pn_setup_desc {
     pn_renderer_desc frame; // size, mode, traversal, sampler, spp, seed, dump_rays (pools filled in here)
     int tree_n, tree_d;
     uint64_t max_bytes;     // for the tree's pools; 0: half the device's heap
+    // Model only what the picture needs: with a camera, the tree leaves out triangles outside the
+    // box of the visible receivers (from a G-buffer pass) and the light, which holds every shadow ray.
+    const pn_camera *view;
 } pn_setup_desc;
+
+// The box of what the camera sees (P of every pixel with geometry, from a G-buffer pass at the
+// frame's size) and the light: every shadow ray of the picture lies in it.
+pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
+                      const pn_renderer_desc *frame, float box[6]);
 
 typedef struct pn_setup {
     pn_shadow_accel accel;
