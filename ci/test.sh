@@ -1,8 +1,63 @@
 #!/usr/bin/env bash
 # Set-up and the whole test suite: installs what is missing, builds, runs ctest. Every GPU test
 # runs on lavapipe with the Khronos validation layer and synchronization validation on.
+# Then the same suite again in a second build with AddressSanitizer and UndefinedBehaviorSanitizer
+# (clang, build-asan/), which must report nothing, and each libFuzzer target for a bounded time.
+# Arguments go to both ctest runs (e.g. -R hostile). Environment:
+#   PN_SANITIZERS=0     skip the sanitizer build, its tests and the fuzzing
+#   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing)
+# How the sanitizer run is set up, and why: tests/sanitizers.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./ci/build.sh
-cd build
-ctest --output-on-failure --timeout 1800 -j"$(nproc)" "$@"
+step() { echo "== $1 ($(date +%T))"; }
+t0=$SECONDS
+step "tests"
+(cd build && ctest --output-on-failure --timeout 1800 -j"$(nproc)" "$@")
+echo "== tests: $((SECONDS - t0)) s"
+[ "${PN_SANITIZERS:-1}" = 0 ] && exit 0
+
+t0=$SECONDS
+step "sanitizer build (build-asan/, clang, -fsanitize=address,undefined, libFuzzer targets)"
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+  -DPN_SANITIZE=ON -DPN_FUZZ=ON >/dev/null
+cmake --build build-asan --parallel "$(nproc)"
+echo "== sanitizer build: $((SECONDS - t0)) s"
+
+t0=$SECONDS
+step "tests under the sanitizers"
+(cd build-asan && ctest --output-on-failure --timeout 1800 -j"$(nproc)" "$@")
+echo "== tests under the sanitizers: $((SECONDS - t0)) s"
+
+seconds=${PN_FUZZ_SECONDS:-60}
+[ "$seconds" -gt 0 ] || exit 0
+t0=$SECONDS
+step "fuzzing, ${seconds} s per target"
+# Both targets at once, one core each. New inputs go to build-asan/fuzz/<target>/new, never into
+# the corpus in tests/fuzz; a crash leaves its input in build-asan/fuzz/<target>/ as crash-*.
+pids=()
+for target in scene cli; do
+  dir=build-asan/fuzz/$target
+  mkdir -p "$dir/new"
+  dict=tests/fuzz/gltf.dict
+  [ "$target" = cli ] && dict=tests/fuzz/cli.dict
+  build-asan/tests/fuzz/fuzz_$target -max_total_time="$seconds" -timeout=20 -rss_limit_mb=3072 \
+    -dict="$dict" -artifact_prefix="$dir/" -print_final_stats=1 "$dir/new" "tests/fuzz/corpus_$target" \
+    >"$dir/log.txt" 2>&1 &
+  pids+=($!)
+done
+status=0
+for i in 0 1; do
+  target=$([ "$i" = 0 ] && echo scene || echo cli)
+  if wait "${pids[$i]}"; then
+    echo "fuzz_$target: $(grep -E '^Done [0-9]+ runs' "build-asan/fuzz/$target/log.txt"), no crash"
+  else
+    status=1
+    echo "FAIL: fuzz_$target found a crash: build-asan/fuzz/$target/log.txt ends with"
+    tail -n 40 "build-asan/fuzz/$target/log.txt"
+    echo "Reproduce with build-asan/tests/fuzz/fuzz_$target <crash file>; once fixed, add the file to"
+    echo "tests/fuzz/corpus_$target/ as regress_<what>, so that ctest replays it (tests/sanitizers.md)."
+  fi
+done
+echo "== fuzzing: $((SECONDS - t0)) s"
+exit $status

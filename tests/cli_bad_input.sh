@@ -94,8 +94,112 @@ expect 2 "--sampler: expected one of" -- "${R[@]}" --sampler halton
 expect 2 "option --size needs a value" -- "${R[@]}" --size
 expect 2 "more than one scene" -- "${R[@]}" builtin:plane builtin:default
 
-# --- outputs
+# Every render option with values it must refuse, NaN and Inf included (exit 2 naming the option).
+bad_values() { # OPTION PATTERN VALUE...: each VALUE of OPTION is refused with PATTERN
+  local opt=$1 pattern=$2; shift 2
+  for v in "$@"; do expect 2 "$opt: $pattern" -- "${R[@]}" "$opt" "$v"; done
+}
+bad_values --size "expected WIDTHxHEIGHT" 10x-1 x10 10x10x10 "" 10x 16385x16 nanx3
+bad_values --camera-pos "expected 3 comma-separated finite numbers" 1,nan,2 inf,0,0 0,-inf,0 1e39,0,0 \
+  0x1p200,0,0 1,2,3,4 1,,3 ""
+bad_values --camera-target "expected 3 comma-separated finite numbers" -inf,0,0 nan,nan,nan 1,2
+bad_values --fov "expected a number in" 0 180 nan inf -5 x 1e39
+bad_values --light-pos "expected 3 comma-separated finite numbers" nan,0,0 0,inf,0 0,0,1e40
+bad_values --light-normal "expected 3 comma-separated finite numbers" nan,0,1 0,-inf,0
+bad_values --light-up "expected 3 comma-separated finite numbers" inf,0,0
+bad_values --light-size "(expected 2 comma-separated finite numbers|width and height must be positive)" \
+  -1,1 inf,1 1 nan,nan 0,0
+bad_values --light-radiance "(expected [0-9] comma-separated finite numbers|must not be negative)" nan inf 1,2 -1,0,0
+bad_values --exposure "expected a number in" -1 nan inf x
+bad_values --seed "expected an integer in" -1 4294967296 1.5 x ""
+bad_values --spp "expected an integer in" 4097 -3 nan 1e3
+bad_values --tree "expected N,d" 1,3 4,7 4 a,b 4,2,1 ""
+bad_values --max-memory "expected a positive size" 0 -1 1e-300 x nan 1e30G 5T ""
+bad_values --max-error "expected a number in" 2 -0.1 nan
+bad_values --quality "expected one of manual\|auto, got 'best'" best
+for opt in -o --output --preview --ray-dump --camera-pos --light-size --tree --mode --max-memory; do
+  expect 2 "option $opt needs a value" -- "${R[@]}" "$opt"
+done
+expect 2 "--ray-dump: mode none traces no rays" -- "${R[@]}" --mode none --ray-dump "$TMP/rays.bin"
+# Finite values whose squares or sums overflow float further on: refused with the reason.
+expect 2 "camera position .* beyond 1e\+18" -- "${R[@]}" --camera-pos 3e38,0,0
+expect 2 "camera target .* beyond 1e\+18" -- "${R[@]}" --camera-target 0,-2e18,0
+expect 2 "light position .* beyond 1e\+18" -- "${R[@]}" --light-pos 0,1e19,0
+expect 2 "corner of the light .* beyond 1e\+18" -- "${R[@]}" --light-size 3e38,1
+expect 2 "camera position and target coincide" -- "${R[@]}" --camera-pos 0,1,1 --camera-target 0,1,1.00000001
+# ... while extreme but usable directions are normalised without overflow or underflow: the image
+# is the one of the plain direction, bit for bit. (diff counts a NaN or Inf as an infinite error,
+# so --fail max=0 also proves every pixel finite.)
+same_render() { # EXTREME_ARGS REFERENCE_ARGS
+  local a=$TMP/extreme.exr b=$TMP/reference.exr
+  # shellcheck disable=SC2086
+  if ! "$BIN" render builtin:default --size 24x16 --spp 4 $1 -o "$a" >/dev/null 2>"$TMP/extreme.err" ||
+     ! "$BIN" render builtin:default --size 24x16 --spp 4 $2 -o "$b" >/dev/null 2>>"$TMP/extreme.err"; then
+    echo "FAIL: render $1 or $2 failed:"; sed 's/^/    /' "$TMP/extreme.err"; fail=1; return
+  fi
+  for ch in R shadow.V; do
+    if ! "$BIN" diff "$a" "$b" --channel "$ch" --fail max=0 >/dev/null; then
+      echo "FAIL: render $1 differs from render $2 in $ch"; fail=1; return
+    fi
+  done
+  echo "ok: render $1 = render $2"
+}
+same_render "--light-normal 1e30,-1e30,0" "--light-normal 1,-1,0"
+same_render "--light-normal 1e-30,-2e-30,1e-31" "--light-normal 10,-20,1"
+same_render "--light-up 0,0,-1e-30" "--light-up 0,0,-1"
+same_render "--light-up 3e38,0,0" "--light-up 1,0,0"
+same_render "--light-radiance 1e30" "--light-radiance 1e30"
+
+# build, diff and info refuse bad command lines the same way.
+expect 2 "--tree: expected N,d" -- build --no-upload --tree 1,1
+expect 2 "--max-memory: expected a positive size" -- build --no-upload --max-memory 0
+expect 2 "build: unknown option '--bogus'" -- build --bogus
+expect 2 "build: more than one scene" -- build builtin:plane builtin:default
+expect 2 "option --tree needs a value" -- build --tree
+expect 1 "missing.glb.*cannot open" -- build --no-upload "$TMP/missing.glb"
+# A tree over --max-memory is refused while it is built, with its size in the message.
+expect 1 "LS\(8,4\) needs at least [0-9.]+ MiB of pools .* over the limit of 1.0 MiB" -- build --no-upload --tree 8,4 --max-memory 1M
+expect 1 "LS\(8,4\) needs at least [0-9.]+ MiB of pools" -- "${R[@]}" --tree 8,4 --max-memory 1M
+expect 2 "diff: expected two EXR files" -- diff "$TMP/a.exr"
+expect 2 "diff: more than two files" -- diff a.exr b.exr c.exr
+expect 2 "diff: unknown option '--bogus'" -- diff a.exr b.exr --bogus
+expect 2 "--fail: expected KEY=VALUE" -- diff a.exr b.exr --fail mae
+expect 2 "--fail: expected KEY=VALUE" -- diff a.exr b.exr --fail ""
+expect 2 "--fail: expected one of" -- diff a.exr b.exr --fail speed=1
+expect 2 "--fail: expected a non-negative number for mae" -- diff a.exr b.exr --fail mae=-1
+expect 2 "--fail: expected a non-negative number for p99" -- diff a.exr b.exr --fail p99=nan
+expect 2 "--fail: expected a non-negative number for max" -- diff a.exr b.exr --fail max=inf
+expect 2 "option --channel needs a value" -- diff a.exr b.exr --channel
+expect 2 "missing.exr" -- diff "$TMP/missing.exr" "$TMP/missing.exr"
+expect 2 "info: unexpected argument '--bogus'" -- info --bogus
+
+# --- outputs: every one is checked before any work, and refused when it cannot be written
 expect 1 "nonexistent-dir/x.exr.*cannot write" -- render --size 32x32 builtin:plane -o "$TMP/nonexistent-dir/x.exr"
+mkdir -p "$TMP/adir"
+expect 1 "adir: cannot write: is a folder" -- render --size 32x32 builtin:plane -o "$TMP/adir"
+expect 1 "adir/: cannot write: is a folder" -- render --size 32x32 builtin:plane -o "$TMP/adir/"
+expect 1 "empty output file name" -- render --size 32x32 builtin:plane -o ""
+mkfifo "$TMP/fifo.exr"
+expect 1 "fifo.exr: cannot write: exists and is not a regular file" -- render --size 32x32 builtin:plane -o "$TMP/fifo.exr"
+[ -p "$TMP/fifo.exr" ] || { echo "FAIL: the FIFO was replaced"; fail=1; }
+rm -f "$TMP/fifo.exr"
+if [ "$(id -u)" -ne 0 ]; then # root writes anywhere
+  mkdir -p "$TMP/readonly" && chmod 555 "$TMP/readonly"
+  expect 1 "readonly/x.exr: cannot write here: Permission denied" -- render --size 32x32 builtin:plane -o "$TMP/readonly/x.exr"
+  chmod 755 "$TMP/readonly"
+fi
+# A second output that cannot be written stops the run before the first is (over)written.
+echo "previous" > "$TMP/out.exr"
+for extra in "--preview $TMP/nonexistent-dir/p.png" "--preview $TMP/adir" "--ray-dump $TMP/adir"; do
+  # shellcheck disable=SC2086
+  err=$("$BIN" render --size 32x32 builtin:plane -o "$TMP/out.exr" $extra 2>&1 >/dev/null); rc=$?
+  if [ "$rc" -ne 1 ] || ! grep -q "cannot write" <<<"$err" || [ "$(cat "$TMP/out.exr")" != "previous" ]; then
+    echo "FAIL: render $extra: exit $rc, output $(head -c 8 "$TMP/out.exr"):"; echo "$err" | sed 's/^/    /'; fail=1
+  else
+    echo "ok: exit 1, previous output intact: render $extra"
+  fi
+done
+rm -f "$TMP/out.exr"
 # A failing render leaves an existing output untouched.
 echo "previous" > "$TMP/keep.exr"
 expect 1 "index_range.gltf" -- render --size 32x32 -o "$TMP/keep.exr" "$TMP/index_range.gltf"
@@ -105,6 +209,10 @@ ls -a "$TMP" | grep -q '\.tmp-' && { echo "FAIL: temporary file left behind"; ls
 # The good file renders (so the broken ones fail for their defect, not for the harness).
 "$BIN" render --size 32x32 -o "$TMP/good.exr" "$TMP/good.gltf" >/dev/null || { echo "FAIL: good.gltf did not render"; fail=1; }
 [ -s "$TMP/good.exr" ] || { echo "FAIL: good.exr missing"; fail=1; }
+# diff's error image cannot go into a folder either; the comparison itself works.
+expect 2 "adir.*(cannot|Is a directory)" -- diff "$TMP/good.exr" "$TMP/good.exr" -o "$TMP/adir"
+"$BIN" diff "$TMP/good.exr" "$TMP/good.exr" --fail max=0 >/dev/null || { echo "FAIL: good.exr differs from itself"; fail=1; }
+ls -a "$TMP" "$TMP/adir" | grep -q '\.tmp-' && { echo "FAIL: temporary file left behind"; ls -a "$TMP"; fail=1; }
 
 chmod 644 "$TMP/unreadable.glb"
 exit $fail

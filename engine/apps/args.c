@@ -163,7 +163,7 @@ bool pn_parse_bytes(const char *opt, const char *s, uint64_t *out)
         unit = 1048576.0, end++;
     else if (end != s && (*end == 'G' || *end == 'g'))
         unit = 1073741824.0, end++;
-    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v) || v <= 0 || v * unit > 1e18) {
+    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v) || v * unit < 1 || v * unit > 1e18) {
         pn_error("%s: expected a positive size in MiB or with a K/M/G suffix (e.g. 512M, 2G), got '%s'", opt, s);
         return false;
     }

@@ -6,6 +6,7 @@
 #include "accel/pools.h"
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/options.h"
 #include "core/log.h"
 #include "core/parallel.h"
 #include "gpu/pools.h"
@@ -28,48 +29,58 @@ void pn_print_build_help(void)
            "  PN_THREADS=K       build threads (default: all cores)\n");
 }
 
-int pn_cmd_build(int argc, char **argv)
+int pn_build_parse(int argc, char **argv, pn_build_opts *o)
 {
-    const char *source = NULL;
-    int n = 7, d = 3;
-    uint64_t max_bytes = 0;
-    bool json = false, ground = true, upload = true, cull = true;
+    *o = (pn_build_opts){.tree_n = 7, .tree_d = 3, .ground = true, .upload = true, .cull = true};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL, *arg = argv[a.i];
         bool err = false, ok = true;
         if (pn_args_flag(&a, "--help") || pn_args_flag(&a, "-h")) {
             pn_print_build_help();
-            return PN_EXIT_OK;
+            return -1;
         } else if (pn_args_value(&a, "--tree", &v, &err)) {
-            ok = v && pn_parse_tree("--tree", v, &n, &d);
+            ok = v && pn_parse_tree("--tree", v, &o->tree_n, &o->tree_d);
         } else if (pn_args_value(&a, "--max-memory", &v, &err)) {
-            ok = v && pn_parse_bytes("--max-memory", v, &max_bytes);
+            ok = v && pn_parse_bytes("--max-memory", v, &o->max_bytes);
         } else if (pn_args_flag(&a, "--json")) {
-            json = true;
+            o->json = true;
         } else if (pn_args_flag(&a, "--ground")) {
-            ground = true;
+            o->ground = true;
         } else if (pn_args_flag(&a, "--no-ground")) {
-            ground = false;
+            o->ground = false;
         } else if (pn_args_flag(&a, "--no-cull")) {
-            cull = false;
+            o->cull = false;
         } else if (pn_args_flag(&a, "--no-upload")) {
-            upload = false;
+            o->upload = false;
         } else if (arg[0] == '-' && arg[1] != '\0') {
             pn_error("build: unknown option '%s' (see penumbra build --help)", arg);
             return PN_EXIT_USAGE;
-        } else if (!source) {
-            source = arg;
+        } else if (!o->scene) {
+            o->scene = arg;
             a.i++;
         } else {
-            pn_error("build: more than one scene given ('%s' and '%s')", source, arg);
+            pn_error("build: more than one scene given ('%s' and '%s')", o->scene, arg);
             return PN_EXIT_USAGE;
         }
         if (err || !ok)
             return PN_EXIT_USAGE;
     }
-    if (!source)
-        source = "builtin:default";
+    if (!o->scene)
+        o->scene = "builtin:default";
+    return PN_EXIT_OK;
+}
+
+int pn_cmd_build(int argc, char **argv)
+{
+    pn_build_opts o;
+    int prc = pn_build_parse(argc, argv, &o);
+    if (prc != PN_EXIT_OK)
+        return prc < 0 ? PN_EXIT_OK : prc;
+    const char *source = o.scene;
+    const int n = o.tree_n, d = o.tree_d;
+    uint64_t max_bytes = o.max_bytes;
+    const bool json = o.json, ground = o.ground, upload = o.upload, cull = o.cull;
 
     pn_scene scene;
     if (pn_scene_load(source, &scene) != PN_OK)

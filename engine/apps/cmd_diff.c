@@ -6,6 +6,7 @@
 
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/options.h"
 #include "apps/metrics.h"
 #include "core/log.h"
 #include "io/exr.h"
@@ -35,8 +36,13 @@ void pn_print_diff_help(void)
 static bool parse_fail(const char *s, double thresholds[6], bool set[6])
 {
     char buf[512];
+    if (strlen(s) >= sizeof buf) { // cut short, a threshold could silently change
+        pn_error("--fail: value too long (%zu characters)", strlen(s));
+        return false;
+    }
     snprintf(buf, sizeof buf, "%s", s);
-    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+    bool any = false;
+    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ","), any = true) {
         char *eq = strchr(tok, '=');
         if (!eq) {
             pn_error("--fail: expected KEY=VALUE, got '%s'", tok);
@@ -55,46 +61,62 @@ static bool parse_fail(const char *s, double thresholds[6], bool set[6])
         thresholds[k] = v;
         set[k] = true;
     }
-    return true;
+    if (!any)
+        pn_error("--fail: expected KEY=VALUE[,KEY=VALUE...], got '%s'", s);
+    return any;
 }
 
-int pn_cmd_diff(int argc, char **argv)
+int pn_diff_parse(int argc, char **argv, pn_diff_opts *o)
 {
-    const char *files[2] = {NULL, NULL}, *channel = "shadow.V", *out = NULL;
-    bool json = false, set[6] = {false};
-    double thresholds[6] = {0};
+    *o = (pn_diff_opts){.channel = "shadow.V"};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL, *arg = argv[a.i];
         bool err = false, ok = true;
         if (pn_args_flag(&a, "--help") || pn_args_flag(&a, "-h")) {
             pn_print_diff_help();
-            return DIFF_OK;
+            return -1;
         } else if (pn_args_value(&a, "--channel", &v, &err)) {
-            channel = v;
+            o->channel = v;
         } else if (pn_args_value(&a, "-o", &v, &err) || pn_args_value(&a, "--output", &v, &err)) {
-            out = v;
+            o->output = v;
         } else if (pn_args_value(&a, "--fail", &v, &err)) {
-            ok = v && parse_fail(v, thresholds, set);
+            ok = v && parse_fail(v, o->fail_threshold, o->fail_set);
         } else if (pn_args_flag(&a, "--json")) {
-            json = true;
+            o->json = true;
         } else if (arg[0] == '-' && arg[1] != '\0') {
             pn_error("diff: unknown option '%s' (see penumbra diff --help)", arg);
-            return DIFF_BAD;
-        } else if (!files[0] || !files[1]) {
-            files[files[0] ? 1 : 0] = arg;
+            return PN_EXIT_USAGE;
+        } else if (!o->files[0] || !o->files[1]) {
+            o->files[o->files[0] ? 1 : 0] = arg;
             a.i++;
         } else {
             pn_error("diff: more than two files given");
-            return DIFF_BAD;
+            return PN_EXIT_USAGE;
         }
         if (err || !ok)
-            return DIFF_BAD;
+            return PN_EXIT_USAGE;
     }
-    if (!files[1]) {
+    if (!o->files[1]) {
         pn_error("diff: expected two EXR files (see penumbra diff --help)");
-        return DIFF_BAD;
+        return PN_EXIT_USAGE;
     }
+    if (!o->channel[0]) {
+        pn_error("--channel: expected a channel name, got ''");
+        return PN_EXIT_USAGE;
+    }
+    return PN_EXIT_OK;
+}
+
+int pn_cmd_diff(int argc, char **argv)
+{
+    pn_diff_opts o;
+    int prc = pn_diff_parse(argc, argv, &o);
+    if (prc != PN_EXIT_OK)
+        return prc < 0 ? DIFF_OK : DIFF_BAD;
+    const char *const *files = o.files, *channel = o.channel, *out = o.output;
+    const bool json = o.json, *set = o.fail_set;
+    const double *thresholds = o.fail_threshold;
     pn_exr_image img[2] = {{0}, {0}};
     int rc = DIFF_BAD;
     const float *ch[2] = {NULL, NULL}, *alpha[2] = {NULL, NULL};

@@ -5,6 +5,7 @@
 
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/options.h"
 #include "apps/quality.h"
 #include "apps/render_opts.h"
 #include "apps/render_output.h"
@@ -14,15 +15,8 @@
 #include "io/file.h"
 #include "io/json.h"
 
-// The options render shares with demo (apps/render_setup.h), plus its outputs.
-typedef struct render_opts {
-    pn_render_opts r;
-    const char *scene, *output, *preview, *ray_dump;
-    bool aovs, json;
-    bool view_cull;    // the tree models only what the picture needs (off: --no-view-cull)
-    bool auto_quality; // --quality auto
-    double max_error;  // --max-error: its budget of MAE against exact
-} render_opts;
+// The options render shares with demo (apps/render_opts.h), plus its outputs: apps/options.h.
+typedef pn_render_cmd_opts render_opts;
 
 void pn_print_render_help(void)
 {
@@ -50,7 +44,7 @@ void pn_print_render_help(void)
     pn_render_opts_print_help();
 }
 
-static int parse(int argc, char **argv, render_opts *o)
+int pn_render_parse(int argc, char **argv, render_opts *o)
 {
     *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01, .view_cull = true};
     pn_args a = {argc, argv, 0};
@@ -270,7 +264,7 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
 int pn_cmd_render(int argc, char **argv)
 {
     render_opts o;
-    int rc = parse(argc, argv, &o);
+    int rc = pn_render_parse(argc, argv, &o);
     if (rc != PN_EXIT_OK)
         return rc < 0 ? PN_EXIT_OK : rc;
     char default_out[1024];

@@ -1,6 +1,7 @@
 // Options and view set-up shared by render and demo.
 #include "apps/render_opts.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -106,7 +107,34 @@ void pn_render_opts_print_help(void)
            "                        per-pixel rotated low-discrepancy set (default stratified)\n");
 }
 
-static float v3_len(const float v[3]) { return sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+// The camera and light feed float arithmetic that squares distances (the view matrix, the light's
+// corners, the shading integral): beyond this distance from the origin those squares overflow.
+// The same limit pn_scene_validate puts on the scene's positions.
+#define PN_MAX_COORD 1e18f
+
+// Normalises v in double precision, so that neither huge (1e30) nor tiny (1e-30) components
+// overflow or underflow on the way; false for a zero or non-finite vector.
+static bool v3_unit(const float v[3], float out[3])
+{
+    double l = sqrt((double)v[0] * v[0] + (double)v[1] * v[1] + (double)v[2] * v[2]);
+    if (!(l > 0) || !isfinite(l))
+        return false;
+    for (int k = 0; k < 3; k++)
+        out[k] = (float)(v[k] / l);
+    return true;
+}
+
+// Logs and returns false when a point is farther than PN_MAX_COORD from the origin along an axis.
+static bool in_range(const char *what, const float v[3])
+{
+    for (int k = 0; k < 3; k++)
+        if (!(fabsf(v[k]) <= PN_MAX_COORD)) {
+            pn_error("%s (%g, %g, %g) is beyond %g from the origin, where float arithmetic overflows", what,
+                     (double)v[0], (double)v[1], (double)v[2], (double)PN_MAX_COORD);
+            return false;
+        }
+    return true;
+}
 
 bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *light)
 {
@@ -120,41 +148,43 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
         memcpy(cam->pos, o->cam_pos, sizeof cam->pos);
     if (o->has_cam_target)
         memcpy(cam->target, o->cam_target, sizeof cam->target);
+    // (A framing camera can land out of range too: a huge scene seen through a narrow --fov.)
+    if (!in_range("camera position", cam->pos) || !in_range("camera target", cam->target))
+        return false;
     float d[3] = {cam->target[0] - cam->pos[0], cam->target[1] - cam->pos[1], cam->target[2] - cam->pos[2]};
-    float dl = v3_len(d);
-    if (!(dl > 0) || !(fabsf(d[0]) + fabsf(d[2]) > 1e-6f * dl)) {
-        // Looking straight up or down: pick an up vector that is not parallel to the view.
-        if (!(dl > 0)) {
-            pn_error("camera position and target coincide");
-            return false;
-        }
-        cam->up[0] = 0, cam->up[1] = 0, cam->up[2] = -1;
+    float dl = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]); // in range: no overflow
+    // The view matrix (cglm) takes a direction shorter than FLT_EPSILON for zero.
+    if (!(dl >= FLT_EPSILON)) {
+        pn_error("camera position and target coincide or nearly (%g apart; the view needs %g)", (double)dl,
+                 (double)FLT_EPSILON);
+        return false;
     }
+    if (!(fabsf(d[0]) + fabsf(d[2]) > 1e-6f * dl)) // looking straight up or down: an up vector not parallel to the view
+        cam->up[0] = 0, cam->up[1] = 0, cam->up[2] = -1;
 
     pn_light_default(s->bounds_min, s->bounds_max, light);
     if (o->has_light_pos)
         memcpy(light->pos, o->light.pos, sizeof light->pos);
+    if (!in_range("light position", light->pos))
+        return false;
     if (o->has_light_normal) {
-        float l = v3_len(o->light.normal);
-        if (!(l > 0)) {
+        if (!v3_unit(o->light.normal, light->normal)) {
             pn_error("--light-normal: must not be zero");
             return false;
         }
-        for (int k = 0; k < 3; k++)
-            light->normal[k] = o->light.normal[k] / l;
     } else if (o->has_light_pos) {
         // A moved light still faces the scene's centre.
+        float to_centre[3];
         for (int k = 0; k < 3; k++)
-            light->normal[k] = 0.5f * (s->bounds_min[k] + s->bounds_max[k]) - light->pos[k];
-        float l = v3_len(light->normal);
-        if (!(l > 0))
+            to_centre[k] = 0.5f * (s->bounds_min[k] + s->bounds_max[k]) - light->pos[k];
+        if (!v3_unit(to_centre, light->normal))
             light->normal[0] = 0, light->normal[1] = -1, light->normal[2] = 0;
-        else
-            for (int k = 0; k < 3; k++)
-                light->normal[k] /= l;
     }
-    if (o->has_light_up)
-        memcpy(light->up, o->light.up, sizeof light->up);
+    // Only its direction matters: unit length keeps pn_light_frame's float products in range.
+    if (o->has_light_up && !v3_unit(o->light.up, light->up)) {
+        pn_error("--light-up: must not be zero or parallel to the light's normal");
+        return false;
+    }
     float t[3], b[3];
     if (!pn_light_frame(light, t, b)) {
         if (o->has_light_up) {
@@ -169,5 +199,10 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
         memcpy(light->size, o->light.size, sizeof light->size);
     if (o->has_light_radiance)
         memcpy(light->radiance, o->light.radiance, sizeof light->radiance);
+    float corners[4][3];
+    pn_light_corners(light, corners);
+    for (int i = 0; i < 4; i++)
+        if (!in_range("a corner of the light", corners[i]))
+            return false;
     return true;
 }

@@ -1,9 +1,11 @@
 // EXR and PNG output of a rendered frame, shared by render and demo.
 #include "apps/render_output.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "apps/setup.h"
 #include "core/log.h"
@@ -12,12 +14,29 @@
 
 bool pn_render_output_writable(const char *path)
 {
+    // The output is renamed over `path` at the end: that fails for a folder (after all the work),
+    // and would replace a device node or a FIFO (as root, /dev/null itself). Only a regular file
+    // or a new name will do.
+    struct stat st;
+    size_t n = strlen(path);
+    if (n == 0) {
+        pn_error("empty output file name");
+        return false;
+    }
+    if (path[n - 1] == '/' || (stat(path, &st) == 0 && S_ISDIR(st.st_mode))) {
+        pn_error("%s: cannot write: is a folder, not a file name", path);
+        return false;
+    }
+    if (lstat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISLNK(st.st_mode)) {
+        pn_error("%s: cannot write: exists and is not a regular file", path);
+        return false;
+    }
     char tmp[4096];
     if (pn_file_tmp_path(path, tmp, sizeof tmp) != PN_OK)
         return false;
     FILE *f = fopen(tmp, "wb");
     if (!f) {
-        pn_error("%s: cannot write here", path);
+        pn_error("%s: cannot write here: %s", path, strerror(errno));
         return false;
     }
     fclose(f);

@@ -1355,6 +1355,37 @@ std::string glb_header_problem(const std::vector<unsigned char> &b)
     return std::string();
 }
 
+// tinygltf 2.7 (with its JSON library) recurses once per level of JSON nesting: a document
+// nested some 10^4 levels deep, 20 KB of brackets, overflows the stack (SIGSEGV). glTF's own
+// structure is a few levels deep and extras never need hundreds, so deeper nesting is refused
+// before tinygltf sees it.
+constexpr int kMaxJsonDepth = 512;
+
+// True when arrays and objects in `json` nest deeper than kMaxJsonDepth (brackets in strings do
+// not count).
+bool json_too_deep(const char *json, size_t n)
+{
+    int depth = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < n; i++) {
+        const char c = json[i];
+        if (in_string) {
+            if (c == '\\')
+                i++; // skip the escaped character
+            else if (c == '"')
+                in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonDepth)
+                return true;
+        } else if (c == ']' || c == '}') {
+            depth--;
+        }
+    }
+    return false;
+}
+
 // When tinygltf rejects a file, a likelier cause than its message: a required extension this
 // loader cannot decode (tinygltf then trips over the accessors the extension replaces) or a
 // glTF 1.0 file (tinygltf wants asset.version to be a string). A plain text scan, since the JSON
@@ -1416,6 +1447,10 @@ pn_result load(const char *path, pn_scene *out)
         }
         json += 20;
         json_len = le32(&bytes[12]);
+    }
+    if (json_too_deep(json, json_len)) {
+        pn_error("%s: JSON nested deeper than %d levels", path, kMaxJsonDepth);
+        return PN_ERR_FORMAT;
     }
     // URIs resolve against the file's folder, as tinygltf's own *FromFile functions do.
     const char *slash = std::strrchr(path, '/');

@@ -1,0 +1,42 @@
+// The command lines of render, build and diff, parsed apart from running the command: the
+// libFuzzer target tests/fuzz/fuzz_cli.c calls these parsers directly, without a GPU or files.
+// Each parser fills *o (defaults first), logs a message naming the option and the bad value on
+// failure, and returns PN_EXIT_OK, PN_EXIT_USAGE, or -1 when it printed the help (--help, -h).
+// Strings in *o point into argv.
+#pragma once
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "apps/render_opts.h"
+
+// penumbra render: the options render shares with demo, plus its scene and outputs.
+typedef struct pn_render_cmd_opts {
+    pn_render_opts r;
+    const char *scene, *output, *preview, *ray_dump;
+    bool aovs, json;
+    bool view_cull;    // the tree models only what the picture needs (off: --no-view-cull)
+    bool auto_quality; // --quality auto
+    double max_error;  // --max-error: its budget of MAE against exact
+} pn_render_cmd_opts;
+
+int pn_render_parse(int argc, char **argv, pn_render_cmd_opts *o);
+
+// penumbra build
+typedef struct pn_build_opts {
+    const char *scene;
+    int tree_n, tree_d;
+    uint64_t max_bytes; // 0: half the device's heap (1 GiB with --no-upload)
+    bool json, ground, upload, cull;
+} pn_build_opts;
+
+int pn_build_parse(int argc, char **argv, pn_build_opts *o);
+
+// penumbra diff
+typedef struct pn_diff_opts {
+    const char *files[2], *channel, *output;
+    bool json;
+    bool fail_set[6];          // --fail thresholds given, per metric (mae, rmse, p99, max, over005, over02)
+    double fail_threshold[6];
+} pn_diff_opts;
+
+int pn_diff_parse(int argc, char **argv, pn_diff_opts *o);
