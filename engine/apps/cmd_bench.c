@@ -208,11 +208,11 @@ static int parse(int argc, char **argv, bench_opts *o)
                 o->size_count += ok;
             }
         } else if (pn_args_value(&a, "--repeat", &v, &err)) {
-            long long x;
+            long long x = 0;
             ok = v && pn_parse_int_range("--repeat", v, 1, 1000, &x);
             o->repeat = (int)x;
         } else if (pn_args_value(&a, "--warmup", &v, &err)) {
-            long long x;
+            long long x = 0;
             ok = v && pn_parse_int_range("--warmup", v, 0, 100, &x);
             o->warmup = (int)x;
         } else if (pn_args_value(&a, "--traversal", &v, &err)) {
@@ -220,7 +220,7 @@ static int parse(int argc, char **argv, bench_opts *o)
         } else if (pn_args_value(&a, "--sampler", &v, &err)) {
             ok = v && (o->sampler = pn_parse_choice("--sampler", v, (const char *const[]){"grid", "stratified", NULL})) >= 0;
         } else if (pn_args_value(&a, "--max-error", &v, &err)) {
-            float e;
+            float e = 0;
             ok = v && pn_parse_float_range("--max-error", v, 0.0f, 1.0f, &e);
             o->max_error = e;
         } else if (pn_args_value(&a, "--shader", &v, &err)) {
