@@ -78,7 +78,8 @@ expect 2 "--size: expected WIDTHxHEIGHT" -- "${R[@]}" --size 99999x10
 expect 2 "--camera-pos: expected 3" -- "${R[@]}" --camera-pos 1,2
 expect 2 "--camera-pos: expected 3" -- "${R[@]}" --camera-pos 1,nan,2
 expect 2 "--light-pos: expected 3" -- "${R[@]}" --light-pos inf,0,0
-expect 2 "--light-size: width and height must be positive" -- "${R[@]}" --light-size 0,1
+expect 2 "--light-size: width and height must both be positive, or both 0" -- "${R[@]}" --light-size 0,1
+expect 2 "--light-size: width and height must both be positive, or both 0" -- "${R[@]}" --light-size 2,0
 expect 2 "--light-radiance: must not be negative" -- "${R[@]}" --light-radiance -1
 expect 2 "--light-normal: must not be zero" -- "${R[@]}" --light-normal 0,0,0
 expect 2 "--light-up: must not be zero or parallel" -- "${R[@]}" --light-normal 0,-1,0 --light-up 0,2,0
@@ -107,8 +108,8 @@ bad_values --fov "expected a number in" 0 180 nan inf -5 x 1e39
 bad_values --light-pos "expected 3 comma-separated finite numbers" nan,0,0 0,inf,0 0,0,1e40
 bad_values --light-normal "expected 3 comma-separated finite numbers" nan,0,1 0,-inf,0
 bad_values --light-up "expected 3 comma-separated finite numbers" inf,0,0
-bad_values --light-size "(expected 2 comma-separated finite numbers|width and height must be positive)" \
-  -1,1 inf,1 1 nan,nan 0,0
+bad_values --light-size "(expected 2 comma-separated finite numbers|width and height must both be positive)" \
+  -1,1 inf,1 1 nan,nan 0,-0.5
 bad_values --light-radiance "(expected [0-9] comma-separated finite numbers|must not be negative)" nan inf 1,2 -1,0,0
 bad_values --exposure "expected a number in" -1 nan inf x
 bad_values --seed "expected an integer in" -1 4294967296 1.5 x ""

@@ -5,7 +5,8 @@
 //     corner rectangles with signs;
 //  2. a tilted light cut by the plane's horizon: brute-force quadrature of cos*cos'/r^2 over the
 //     light's area, so the hemisphere clipping is checked too;
-//  3. a light facing away: exactly zero.
+//  3. a light facing away: exactly zero;
+//  4. a point light: the inverse square law with the emitter's and receiver's cosines.
 // No occluders, so V = 1 and shadow.V must be 1 on every covered pixel.
 #include "io/exr.h"
 #include "test_util.h"
@@ -169,6 +170,33 @@ int main(void)
             covered++;
             CHECK_MSG(f.r[i] == 0.0f && f.g[i] == 0.0f && f.b[i] == 0.0f, "pixel %d lit from behind the light", i);
         }
+    CHECK(covered > 1000);
+    pn_exr_image_free(&f.img);
+
+    // 4. A point light (--light-size 0,0), tilted: --light-radiance is its intensity I along the
+    //    normal, so E = I cos(light) cos(receiver) / r^2 (inverse square law, cosine emitter).
+    double pn_[3] = {0.3, -1, 0.2}, pl = sqrt(0.09 + 1 + 0.04), pp[3] = {0.1, 0.4, -0.2};
+    n = render("shade_point.exr",
+               "--light-pos 0.1,0.4,-0.2 --light-normal 0.3,-1,0.2 --light-size 0,0 --light-radiance 2,3,4", &f);
+    covered = 0;
+    worst = 0;
+    for (int i = 0; i < n; i++) {
+        if (f.a[i] != 1.0f)
+            continue;
+        covered++;
+        double dp[3] = {f.px[i] - pp[0], f.py[i] - pp[1], f.pz[i] - pp[2]};
+        double r2 = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2], r = sqrt(r2);
+        double cl = (pn_[0] * dp[0] + pn_[1] * dp[1] + pn_[2] * dp[2]) / (pl * r), cr = -dp[1] / r;
+        double e = cl > 0 && cr > 0 ? cl * cr / r2 : 0;
+        const float *rgb[3] = {f.r, f.g, f.b}, *alb[3] = {f.ar, f.ag, f.ab};
+        for (int c = 0; c < 3; c++) {
+            double want = alb[c][i] / PI * L[c] * e, rel = want > 0 ? fabs(rgb[c][i] - want) / want : rgb[c][i];
+            worst = rel > worst ? rel : worst;
+            CHECK_MSG(rel < 1e-3, "point light, pixel %d channel %d: radiance %.7g, inverse square %.7g", i, c,
+                      rgb[c][i], want);
+        }
+    }
+    fprintf(stderr, "point light: %d covered pixels, worst relative error %.2e\n", covered, worst);
     CHECK(covered > 1000);
     pn_exr_image_free(&f.img);
     return pn_test_result();

@@ -40,8 +40,10 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         ok = o->has_light_up = v && pn_parse_floats("--light-up", v, o->light.up, 3);
     } else if (pn_args_value(a, "--light-size", &v, err)) {
         ok = o->has_light_size = v && pn_parse_floats("--light-size", v, o->light.size, 2);
-        if (ok && !(o->light.size[0] > 0 && o->light.size[1] > 0)) {
-            pn_error("--light-size: width and height must be positive, got '%s'", v);
+        // 0,0 is a point light (hard shadows); a segment (one side zero) has neither area nor a point.
+        bool point = ok && o->light.size[0] == 0 && o->light.size[1] == 0;
+        if (ok && !point && !(o->light.size[0] > 0 && o->light.size[1] > 0)) {
+            pn_error("--light-size: width and height must both be positive, or both 0 for a point light, got '%s'", v);
             ok = false;
         }
     } else if (pn_args_value(a, "--light-radiance", &v, err)) {
@@ -86,7 +88,8 @@ void pn_render_opts_print_help(void)
            "  --light-pos X,Y,Z     centre\n"
            "  --light-normal X,Y,Z  the side it emits to\n"
            "  --light-up X,Y,Z      orients its height axis\n"
-           "  --light-size W,H      width and height\n"
+           "  --light-size W,H      width and height; 0,0 is a point light (hard shadows; --light-radiance\n"
+           "                        is then its radiant intensity along the normal, W/sr; --spp 1 suffices)\n"
            "  --light-radiance R[,G,B]\n"
            "scene:\n"
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
@@ -195,8 +198,15 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
         if (!pn_light_frame(light, t, b))
             light->up[0] = 0, light->up[1] = 1;
     }
-    if (o->has_light_size)
+    if (o->has_light_size) {
+        // A point light emits its radiant intensity as radiance x area did: without
+        // --light-radiance, the default light's intensity along its normal, so the picture keeps
+        // its brightness and only the penumbrae go.
+        if (o->light.size[0] == 0 && o->light.size[1] == 0)
+            for (int k = 0; k < 3; k++)
+                light->radiance[k] *= light->size[0] * light->size[1];
         memcpy(light->size, o->light.size, sizeof light->size);
+    }
     if (o->has_light_radiance)
         memcpy(light->radiance, o->light.radiance, sizeof light->radiance);
     float corners[4][3];

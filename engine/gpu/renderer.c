@@ -580,6 +580,7 @@ static void light_to_gpu(const pn_light *l, pn_light_gpu *g)
         g->normal[k] = n > 0 ? l->normal[k] / n : 0;
         g->radiance[k] = l->radiance[k];
     }
+    g->radiance[3] = pn_light_is_point(l) ? 1.0f : 0.0f; // light.glsl: radiance is then an intensity
 }
 
 static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *cam, const pn_light_gpu *light)

@@ -113,6 +113,10 @@ double pn_light_irradiance(const pn_light *l, const double p[3], const double n[
     double to_p[3] = {p[0] - l->pos[0], p[1] - l->pos[1], p[2] - l->pos[2]};
     if (d3_dot(ln, to_p) <= 0) // one-sided: nothing behind or in the light's plane
         return 0;
+    if (pn_light_is_point(l)) { // I cos(light) cos(receiver) / r^2, ln unit
+        double r2 = d3_dot(to_p, to_p), cr = -d3_dot(n, to_p);
+        return cr > 0 ? d3_dot(ln, to_p) * cr / (r2 * r2) : 0;
+    }
     // Clip the polygon (relative to p) to the receiver's upper hemisphere, n . x >= 0.
     double in[4][3], out[8][3];
     for (int i = 0; i < 4; i++)

@@ -3,14 +3,17 @@
 #pragma once
 #include "scene/scene.h"
 
-// One rectangular, one-sided Lambertian emitter.
+// One rectangular, one-sided Lambertian emitter; size 0,0 is a point light (hard shadows).
 typedef struct pn_light {
     float pos[3];      // centre
     float normal[3];   // unit; the side it emits to
     float up[3];       // orients the height axis (projected onto the light's plane)
-    float size[2];     // width, height
-    float radiance[3]; // emitted radiance, linear RGB
+    float size[2];     // width, height: both positive, or both 0 (a point)
+    float radiance[3]; // emitted radiance, linear RGB; for a point, radiant intensity along the normal
+                       // (W/sr: the limit of radiance x area; it falls off with the cosine)
 } pn_light;
+
+static inline bool pn_light_is_point(const pn_light *l) { return l->size[0] == 0 && l->size[1] == 0; }
 
 // Frames the bounds: looks at their centre from the front and above (+Z, +Y; glTF's +Y is up)
 // from a distance at which the bounding sphere fits the field of view.
@@ -29,4 +32,5 @@ void pn_light_corners(const pn_light *l, float corners[4][3]);
 
 // Exact irradiance per unit radiance at point p with unit normal n from the one-sided emitter
 // (polygon clipped to the receiver's upper hemisphere; zero behind the light). Double precision.
+// For a point light, per unit intensity: cos(light) cos(receiver) / r^2.
 double pn_light_irradiance(const pn_light *l, const double p[3], const double n[3]);
