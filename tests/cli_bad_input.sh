@@ -55,6 +55,9 @@ gltf "$b64pos" "$idx_bad" "$mm" 4 > "$TMP/index_range.gltf"
 gltf "$nanpos" "$idx_ok" "$mm" 4 > "$TMP/nan.gltf"
 gltf "$b64pos" "$idx_ok" "$mm" 0 > "$TMP/points.gltf"
 touch "$TMP/unreadable.glb" && chmod 000 "$TMP/unreadable.glb"
+# The 1-unit triangle far from the origin: at 1e7 it spans 1 float step, at 1e4 about 1000.
+sed 's/"nodes":\[{"mesh":0}\]/"nodes":[{"mesh":0,"translation":[1e7,1e7,1e7]}]/' "$TMP/good.gltf" > "$TMP/far7.gltf"
+sed 's/"nodes":\[{"mesh":0}\]/"nodes":[{"mesh":0,"translation":[1e4,1e4,1e4]}]/' "$TMP/good.gltf" > "$TMP/far4.gltf"
 
 R=(render --size 32x32 -o "$TMP/out.exr")
 expect 1 "missing.glb.*(No such file|cannot|not found|unable|open)" -- "${R[@]}" "$TMP/missing.glb"
@@ -68,6 +71,12 @@ expect 1 "index_range.gltf.*(out of range|range)" -- "${R[@]}" "$TMP/index_range
 expect 1 "nan.gltf.*(NaN|non-finite|finite)" -- "${R[@]}" "$TMP/nan.gltf"
 expect 1 "points.gltf.*no triangles" -- "${R[@]}" "$TMP/points.gltf"
 expect 1 "builtin:nope.*no such built-in" -- "${R[@]}" builtin:nope
+# Precision limits (README, "Accuracy at the extremes"): a scene float cannot resolve, a tree whose
+# leaves it cannot resolve; a coarser tree and the exact mode render.
+expect 1 "far7.gltf.*only 1 float steps" -- "${R[@]}" "$TMP/far7.gltf"
+expect 1 "far4.gltf.*LS\(7,3\) leaves .* float steps" -- "${R[@]}" "$TMP/far4.gltf"
+expect 0 "" -- render --size 32x32 -o "$TMP/far_ok.exr" "$TMP/far4.gltf" --tree 2,2
+expect 0 "" -- render --size 32x32 -o "$TMP/far_ok.exr" "$TMP/far4.gltf" --mode exact
 
 # --- command line
 expect 2 "unknown command" -- frobnicate
