@@ -613,21 +613,23 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
         return;
     }
 
-    // The tree the line-space modes will build (the same inputs give the same tree), for the lattice
-    // of the crafted receivers and the oracle's leaf size; d = 0 finds the largest depth that fits.
+    // One set of acceleration structures serves every mode: the N-tree as the line-space modes
+    // build it (with the per-leaf triangle lists of hybrid and exact-ls), the BVH and the exact
+    // pools. d = 0 finds the largest depth that fits.
     float corners[4][3];
     pn_light_corners(&light, corners);
     uint64_t max_bytes = pn_gpu_device_heap(dev) / 2;
-    pn_ntree tree = {0};
+    pn_shadow_accel acc;
+    memset(&acc, 0, sizeof acc);
     int d = c->tree_d;
     pn_result tr = PN_ERR_INVALID;
     for (int try_d = d ? d : PN_NTREE_MAX_DEPTH; try_d >= (d ? d : 1); try_d--) {
-        pn_ntree_desc td = {.n = c->tree_n, .d = try_d, .max_bytes = max_bytes,
-                            .cull_light = (const float(*)[3])corners};
+        pn_shadow_accel_desc ad = {.tree = true, .tree_n = c->tree_n, .tree_d = try_d, .max_bytes = max_bytes,
+                                   .light = &light, .candidates = true, .bvh = true, .exact_pools = true};
         pn_log_level level = pn_log_get_level();
         if (!d)
             pn_log_set_level(PN_LOG_QUIET); // the deeper trees' refusals are expected here
-        tr = pn_ntree_build(&scene, &td, &tree);
+        tr = pn_shadow_accel_build(&scene, &ad, &acc);
         pn_log_set_level(level);
         if (tr == PN_OK) {
             d = try_d;
@@ -640,14 +642,20 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     CHECK_MSG((tr != PN_OK) == (c->expect == EXPECT_TREE_REFUSED), "%s: LS(%d,%d) build returned %s", c->name,
               c->tree_n, d, pn_result_str(tr));
     if (!c->tree_d && tr == PN_OK)
-        fprintf(stderr, "  largest depth for N=%d: %d (%u subdivided nodes)\n", c->tree_n, d, tree.node_count);
+        fprintf(stderr, "  largest depth for N=%d: %d (%u subdivided nodes)\n", c->tree_n, d, acc.tree.node_count);
+    if (tr != PN_OK) { // the modes without a tree still render
+        pn_shadow_accel_desc ad = {.light = &light, .bvh = true, .exact_pools = true};
+        CHECK(pn_shadow_accel_build(&scene, &ad, &acc) == PN_OK);
+    }
+    CHECK(pn_shadow_accel_upload(dev, &scene, &acc) == PN_OK);
+    const pn_ntree *tree = tr == PN_OK ? &acc.tree : NULL;
 
     float *P = malloc(sizeof(float) * 4 * SIZE * SIZE), *N = malloc(sizeof(float) * 4 * SIZE * SIZE);
     float *exact_v[2] = {malloc(sizeof(float) * SIZE * SIZE), malloc(sizeof(float) * SIZE * SIZE)};
     CHECK(P && N && exact_v[0] && exact_v[1]);
     if (!P || !N || !exact_v[0] || !exact_v[1])
         exit(1);
-    crafted_gbuffer(c, &scene, &light, tr == PN_OK ? &tree : NULL, P, N);
+    crafted_gbuffer(c, &scene, &light, tree, P, N);
 
     oracle o = {.tris = world, .tri_count = tri_count, .n = c->tree_n};
     for (int i = 0; i < tri_count; i++)
@@ -674,9 +682,9 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
         for (int k = 0; k < 3; k++)
             mag = fmax(mag, fabs(P[4 * i + k]));
     o.e = 16 * ((double)nextafterf((float)mag, INFINITY) - (float)mag);
-    if (tr == PN_OK) {
-        o.leaf = tree.root_size / pow(tree.n, tree.d);
-        o.slack = tree.slack;
+    if (tree) {
+        o.leaf = tree->root_size / pow(tree->n, tree->d);
+        o.slack = tree->slack;
     }
 
     pn_camera cam;
@@ -687,14 +695,15 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
         int mi = order[oi];
         pn_shadow_mode mode = MODE_LIST[mi];
         bool tree_mode = pn_mode_uses_tree(mode);
-        pn_setup_desc sd = {.frame = {.width = SIZE, .height = SIZE, .mode = mode,
-                                      .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY,
-                                      .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1},
-                            .tree_n = c->tree_n, .tree_d = d};
-        pn_setup s;
-        pn_result r = pn_setup_create(dev, &scene, &light, &sd, &s);
-        bool refused = tree_mode && c->expect == EXPECT_TREE_REFUSED;
-        CHECK_MSG((r != PN_OK) == refused, "%s %s: setup returned %s", c->name, MODE_NAME[mi], pn_result_str(r));
+        if (tree_mode && !tree)
+            continue; // refused above, as expected or reported
+        pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = mode,
+                               .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY,
+                               .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1};
+        pn_shadow_accel_bind(&acc, &rd);
+        pn_renderer ren;
+        pn_result r = pn_renderer_create(dev, &scene, &rd, &ren);
+        CHECK_MSG(r == PN_OK, "%s %s: renderer: %s", c->name, MODE_NAME[mi], pn_result_str(r));
         if (r != PN_OK)
             continue;
         o.mode = mode;
@@ -702,10 +711,10 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
         for (int pass = 0; pass < 2; pass++) { // raster G-buffer, crafted G-buffer
             pn_frame_times times;
             if (pass == 1)
-                CHECK(pn_renderer_set_gbuffer(&s.renderer, P, N) == PN_OK);
-            CHECK(pn_renderer_render(&s.renderer, &cam, &light, &times) == PN_OK);
+                CHECK(pn_renderer_set_gbuffer(&ren, P, N) == PN_OK);
+            CHECK(pn_renderer_render(&ren, &cam, &light, &times) == PN_OK);
             pn_frame_images img;
-            pn_renderer_images(&s.renderer, &img);
+            pn_renderer_images(&ren, &img);
             if (mode == PN_SHADOW_EXACT)
                 memcpy(exact_v[pass], img.v, sizeof(float) * SIZE * SIZE);
             check_frame(c, mi, &o, &img, mode == PN_SHADOW_EXACT ? NULL : exact_v[pass], pass ? "crafted" : "raster",
@@ -723,13 +732,13 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
                 MODE_NAME[mi], c->tree_n, d, c->spp, (unsigned long long)px,
                 (st[0].width_sum + st[1].width_sum) / fmax(1.0, (double)(st[0].lit_pixels + st[1].lit_pixels)),
                 (st[0].err_sum + st[1].err_sum) / px, fmax(st[0].err_max, st[1].err_max));
-        pn_setup_destroy(dev, &s);
+        pn_renderer_destroy(&ren);
     }
     free(P);
     free(N);
     free(exact_v[0]);
     free(exact_v[1]);
-    pn_ntree_destroy(&tree);
+    pn_shadow_accel_destroy(dev, &acc);
     pn_scene_destroy(&scene);
 }
 
