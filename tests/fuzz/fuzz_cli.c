@@ -67,7 +67,9 @@ static void check_render(const pn_render_cmd_opts *o)
     float view[3] = {cam.target[0] - cam.pos[0], cam.target[1] - cam.pos[1], cam.target[2] - cam.pos[2]};
     REQUIRE(finite3(view) && (view[0] != 0 || view[1] != 0 || view[2] != 0));
     REQUIRE(finite3(light.pos) && finite3(light.normal) && finite3(light.up) && finite3(light.radiance));
-    REQUIRE(isfinite(light.size[0]) && isfinite(light.size[1]) && light.size[0] > 0 && light.size[1] > 0);
+    // Both sides positive, or both 0 (a point light).
+    REQUIRE(isfinite(light.size[0]) && isfinite(light.size[1]) &&
+            ((light.size[0] > 0 && light.size[1] > 0) || (light.size[0] == 0 && light.size[1] == 0)));
     REQUIRE(light.radiance[0] >= 0 && light.radiance[1] >= 0 && light.radiance[2] >= 0);
     float len = sqrtf(light.normal[0] * light.normal[0] + light.normal[1] * light.normal[1] +
                       light.normal[2] * light.normal[2]);
