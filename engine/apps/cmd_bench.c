@@ -606,7 +606,7 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
             double exact_ms = exact_row.shadow_ms;
             exact_row.build_ms = ref.build_ms;
             exact_row.pool_mb = ref.exact_bytes / 1048576.0;
-            exact_row.rays_per_s = covered * (double)spp / (exact_ms * 1e-3);
+            exact_row.rays_per_s = covered * (double)pn_shadow_samples(spp, &light) / (exact_ms * 1e-3);
             exact_row.vs_exact = 1.0;
             exact_row.vs_embree = embree_ms > 0 ? exact_ms / embree_ms : 0;
             pn_error_compare(v_ref, v_ref, mask, px, NULL, &exact_row.err);
@@ -645,7 +645,7 @@ static int bench_scene(const bench_opts *o, pn_gpu_device *dev, RTCDevice rtc, c
                         pn_renderer_images(&s.renderer, &img);
                         row.build_ms = s.build_ms;
                         row.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
-                        row.rays_per_s = covered * (double)spp / (row.shadow_ms * 1e-3);
+                        row.rays_per_s = covered * (double)pn_shadow_samples(spp, &light) / (row.shadow_ms * 1e-3);
                         row.vs_exact = row.shadow_ms / exact_ms;
                         row.vs_embree = embree_ms > 0 ? row.shadow_ms / embree_ms : 0;
                         pn_error_compare(img.v, v_ref, mask, px, NULL, &row.err);

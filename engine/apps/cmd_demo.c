@@ -285,7 +285,7 @@ static pn_result render(pn_demo *d)
         if (mask)
             mask[i] = geometry;
     }
-    s->rays_per_s = s->times.shadow_ms > 0 ? (double)covered * (double)d->opts.spp / (s->times.shadow_ms * 1e-3) : 0;
+    s->rays_per_s = s->times.shadow_ms > 0 ? (double)covered * pn_shadow_samples(d->opts.spp, &d->light) / (s->times.shadow_ms * 1e-3) : 0;
     pn_error_metrics m;
     if (mask && pn_error_compare(d->image.v, d->image.vx, mask, px, NULL, &m))
         s->error_mae = m.mae, s->error_p99 = m.p99, s->error_max = m.max;

@@ -115,7 +115,7 @@ static void default_output(const char *scene, char *out, size_t n)
 typedef struct render_stats {
     pn_frame_times times;
     uint64_t covered;    // pixels holding geometry
-    double rays_per_s;   // shadow rays (covered pixels x spp) per second of the shadow pass
+    double rays_per_s;   // shadow rays (covered pixels x pn_shadow_samples) per second of the shadow pass
     double build_ms;     // N-tree and line spaces
     pn_pool_bytes pools; // zero without a tree
     uint32_t subdivided;
@@ -196,7 +196,7 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
         for (size_t i = 0; i < px; i++)
             st->covered += img.radiance[4 * i + 3] > 0;
         if (st->times.shadow_ms > 0)
-            st->rays_per_s = (double)st->covered * (double)p->spp / (st->times.shadow_ms * 1e-3);
+            st->rays_per_s = (double)st->covered * pn_shadow_samples(p->spp, light) / (st->times.shadow_ms * 1e-3);
         if (write_outputs(o, output, scene, cam, light, st, &img) == PN_OK &&
             (!o->ray_dump || write_ray_dump(o, &s.renderer) == PN_OK))
             rc = PN_EXIT_OK;

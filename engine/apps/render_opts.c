@@ -41,8 +41,7 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
     } else if (pn_args_value(a, "--light-size", &v, err)) {
         ok = o->has_light_size = v && pn_parse_floats("--light-size", v, o->light.size, 2);
         // 0,0 is a point light (hard shadows); a segment (one side zero) has neither area nor a point.
-        bool point = ok && o->light.size[0] == 0 && o->light.size[1] == 0;
-        if (ok && !point && !(o->light.size[0] > 0 && o->light.size[1] > 0)) {
+        if (ok && !pn_light_is_point(&o->light) && !(o->light.size[0] > 0 && o->light.size[1] > 0)) {
             pn_error("--light-size: width and height must both be positive, or both 0 for a point light, got '%s'", v);
             ok = false;
         }
@@ -89,7 +88,7 @@ void pn_render_opts_print_help(void)
            "  --light-normal X,Y,Z  the side it emits to\n"
            "  --light-up X,Y,Z      orients its height axis\n"
            "  --light-size W,H      width and height; 0,0 is a point light (hard shadows; --light-radiance\n"
-           "                        is then its radiant intensity along the normal, W/sr; --spp 1 suffices)\n"
+           "                        is then its radiant intensity along the normal, W/sr; one ray per pixel)\n"
            "  --light-radiance R[,G,B]\n"
            "scene:\n"
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
@@ -202,7 +201,7 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
         // A point light emits its radiant intensity as radiance x area did: without
         // --light-radiance, the default light's intensity along its normal, so the picture keeps
         // its brightness and only the penumbrae go.
-        if (o->light.size[0] == 0 && o->light.size[1] == 0)
+        if (pn_light_is_point(&o->light))
             for (int k = 0; k < 3; k++)
                 light->radiance[k] *= light->size[0] * light->size[1];
         memcpy(light->size, o->light.size, sizeof light->size);

@@ -44,6 +44,8 @@ typedef struct pn_shadow_params {
     uint32_t pad3[2];
 } pn_shadow_params;
 
+uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 1 : spp; }
+
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
 {
     uint32_t u = 1;
@@ -583,7 +585,9 @@ static void light_to_gpu(const pn_light *l, pn_light_gpu *g)
     g->radiance[3] = pn_light_is_point(l) ? 1.0f : 0.0f; // light.glsl: radiance is then an intensity
 }
 
-static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *cam, const pn_light_gpu *light)
+// `samples`: light samples traced per pixel (pn_shadow_samples).
+static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *cam, const pn_light_gpu *light,
+                         uint32_t samples)
 {
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkPipelineStageFlags2 COLOR = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
@@ -702,7 +706,7 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_cmd_barrier(cmd, NULL, 3, to_compute);
     // In chunks of light samples (see Chunk in shadow_common.glsl); each reads the counts the previous
     // one wrote.
-    uint32_t spp = r->desc.mode == PN_SHADOW_NONE ? 1 : r->desc.spp;
+    uint32_t spp = r->desc.mode == PN_SHADOW_NONE ? 1 : samples;
     for (uint32_t begin = 0; begin < spp; begin += r->chunk) {
         pn_shadow_chunk ch = {begin, begin + r->chunk < spp ? begin + r->chunk : spp, begin == 0, begin + r->chunk >= spp};
         if (begin > 0)
@@ -798,7 +802,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
         VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
         VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-        record_frame(r, r->cmd, &cam, &l);
+        record_frame(r, r->cmd, &cam, &l, pn_shadow_samples(sp.spp, light));
         VK_CHECK(vkEndCommandBuffer(r->cmd));
         VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));

@@ -34,6 +34,10 @@ typedef struct pn_renderer_desc {
     bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
 } pn_renderer_desc;
 
+// Light samples the shadow pass traces per pixel for spp: one for a point light, whose samples all
+// coincide (the first decides V), else spp. Shadow rays per second count these.
+uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light);
+
 // The light-sample grid for spp rays: grid_u * grid_v == spp with grid_u the largest divisor of
 // spp not above its square root (a square grid when spp is a square).
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v);

@@ -69,7 +69,7 @@ static void check_render(const pn_render_cmd_opts *o)
     REQUIRE(finite3(light.pos) && finite3(light.normal) && finite3(light.up) && finite3(light.radiance));
     // Both sides positive, or both 0 (a point light).
     REQUIRE(isfinite(light.size[0]) && isfinite(light.size[1]) &&
-            ((light.size[0] > 0 && light.size[1] > 0) || (light.size[0] == 0 && light.size[1] == 0)));
+            ((light.size[0] > 0 && light.size[1] > 0) || pn_light_is_point(&light)));
     REQUIRE(light.radiance[0] >= 0 && light.radiance[1] >= 0 && light.radiance[2] >= 0);
     float len = sqrtf(light.normal[0] * light.normal[0] + light.normal[1] * light.normal[1] +
                       light.normal[2] * light.normal[2]);
