@@ -12,38 +12,20 @@ set -u
 BIN=${PN_BIN:?PN_BIN not set}
 TMP=${PN_TEST_TMP:-/tmp}/hostile_glb
 rm -rf "$TMP" && mkdir -p "$TMP"
-exec python3 - "$BIN" "$TMP" "${PN_ASSETS:-}" <<'PY'
+exec python3 - "$BIN" "$TMP" "${PN_ASSETS:-}" "$(dirname "$0")/fuzz" <<'PY'
 import json, os, random, re, struct, subprocess, sys, time, zlib
 
-BIN, TMP, ASSETS = sys.argv[1], sys.argv[2], sys.argv[3]
+BIN, TMP, ASSETS, FUZZ_DIR = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
 LIMIT = 60  # seconds per run; the slowest case takes well under one
 PREVIOUS = b"previous output\n"
 failures = []
 counts = {"render": 0, "fail": 0}
 
 
-def pad4(b, fill=b"\0"):
-    return b + fill * (-len(b) % 4)
-
-
-def glb(doc, bin_data, header_len=None, json_len=None, bin_len=None):
-    """A binary glTF (doc: a dict, or JSON text as bytes); the *_len arguments override what the
-    header and chunk headers claim."""
-    text = doc if isinstance(doc, bytes) else json.dumps(doc, separators=(",", ":")).encode()
-    js = pad4(text, b" ")
-    bn = pad4(bin_data)
-    body = struct.pack("<I4s", len(js) if json_len is None else json_len, b"JSON") + js
-    body += struct.pack("<I4s", len(bn) if bin_len is None else bin_len, b"BIN\0") + bn
-    total = 12 + len(body)
-    return struct.pack("<4sII", b"glTF", 2, total if header_len is None else header_len) + body
-
-
-def png_2x2():
-    raw = b"\0" + bytes([255, 0, 0, 255, 0, 255, 0, 255]) + b"\0" + bytes([0, 0, 255, 255] + [255] * 4)
-    def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 2, 8, 6, 0, 0, 0)) +
-            chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+# The GLB and PNG writers of the fuzz corpus generator.
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, FUZZ_DIR)
+from make_corpus import as_glb as glb, pad4, tiny_png as png_2x2  # noqa: E402
 
 
 def cube(positions=None, normals=None, uvs=None, edit=None, png=None):

@@ -84,11 +84,16 @@ def as_gltf(doc):
     return json.dumps(doc, separators=(",", ":")).encode()
 
 
-def as_glb(doc, bin_data):
-    js = pad4(json.dumps(doc, separators=(",", ":")).encode(), b" ")
+def as_glb(doc, bin_data, header_len=None, json_len=None, bin_len=None):
+    """A binary glTF (doc: a dict, or JSON text as bytes); the *_len arguments override what the
+    header and chunk headers claim (tests/hostile_glb.sh writes broken files with them)."""
+    text = doc if isinstance(doc, bytes) else json.dumps(doc, separators=(",", ":")).encode()
+    js = pad4(text, b" ")
     bn = pad4(bin_data)
-    body = struct.pack("<I4s", len(js), b"JSON") + js + struct.pack("<I4s", len(bn), b"BIN\0") + bn
-    return struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body
+    body = struct.pack("<I4s", len(js) if json_len is None else json_len, b"JSON") + js
+    body += struct.pack("<I4s", len(bn) if bin_len is None else bin_len, b"BIN\0") + bn
+    total = 12 + len(body)
+    return struct.pack("<4sII", b"glTF", 2, total if header_len is None else header_len) + body
 
 
 def tiny_png():
