@@ -839,6 +839,9 @@ void Loader::visit_camera(int node, const Mat4 &w)
         problem = "yfov is not in (0, pi)";
     else if (!finite3(pos))
         problem = "position is not finite";
+    // Stored as floats and used like scene positions: the same 1e18 limit (pn_scene_validate).
+    else if (std::fabs(pos[0]) > 1e18 || std::fabs(pos[1]) > 1e18 || std::fabs(pos[2]) > 1e18)
+        problem = "position is beyond 1e18 from the origin";
     else if (!normalize3(fwd) || !normalize3(up))
         problem = "its node's transform is degenerate";
     if (problem) {
