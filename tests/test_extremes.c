@@ -33,10 +33,10 @@
 #include "gpu/device.h"
 #include "test_util.h"
 
-enum { MODES = 5 };
-static const pn_shadow_mode MODE_LIST[MODES] = {PN_SHADOW_NONE, PN_SHADOW_LINESPACE, PN_SHADOW_HYBRID,
-                                                PN_SHADOW_EXACT_LS, PN_SHADOW_EXACT};
-static const char *const MODE_NAME[MODES] = {"none", "linespace", "hybrid", "exact-ls", "exact"};
+// Every mode of the table (gpu/shadow_modes.c) is checked; its bound follows from its row: exact
+// modes must match the oracle, the others within the line-space dilation.
+enum { MODES = PN_SHADOW_MODE_COUNT };
+#define MODE_NAME(mi) (pn_shadow_mode_get((pn_shadow_mode)(mi))->name)
 
 enum { GEO_FULL, GEO_DEGENERATE, GEO_SINGLE };
 enum { EXPECT_RENDER, EXPECT_SCENE_REFUSED, EXPECT_TREE_REFUSED };
@@ -316,7 +316,8 @@ static bool own_plane(const oracle *o, const tri *t, const double g[3], const do
 static bounds pixel_bounds(const oracle *o, const double g[3], const double nrm[3])
 {
     double node = o->n * o->leaf;
-    double dil = pn_mode_uses_tree(o->mode) && o->mode != PN_SHADOW_EXACT_LS ? 2 * (o->leaf + o->slack) : 0;
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(o->mode);
+    double dil = mode->needs.tree && !mode->exact ? 2 * (o->leaf + o->slack) : 0;
     double free_r = sqrt(3.0) * (dil + o->e); // Euclidean radius of the max-norm dilation, + slack
     double e_euclid = sqrt(3.0) * o->e;
     double n1 = fabs(nrm[0]) + fabs(nrm[1]) + fabs(nrm[2]);
@@ -554,14 +555,14 @@ static void check_frame(const sweep_case *c, int mi, const oracle *o, const pn_f
         bool geo = img->p[4 * px + 3] > 0;
         if (!(isfinite(v) && v >= 0 && v <= 1) || (!geo && v != 0)) {
             if (st->bad_values++ < 5)
-                fprintf(stderr, "  %s %s %s: pixel %u: V = %g (geometry %d)\n", c->name, MODE_NAME[mi], what, px, v, geo);
+                fprintf(stderr, "  %s %s %s: pixel %u: V = %g (geometry %d)\n", c->name, MODE_NAME(mi), what, px, v, geo);
             continue;
         }
         for (int k = 0; k < 4; k++) {
             float r = img->radiance[4 * px + k];
             if (!(isfinite(r) && r >= 0) || (!geo && r != 0)) {
                 if (st->bad_values++ < 5)
-                    fprintf(stderr, "  %s %s %s: pixel %u: radiance[%d] = %g\n", c->name, MODE_NAME[mi], what, px, k, r);
+                    fprintf(stderr, "  %s %s %s: pixel %u: radiance[%d] = %g\n", c->name, MODE_NAME(mi), what, px, k, r);
             }
         }
         if (!geo)
@@ -589,7 +590,7 @@ static void check_frame(const sweep_case *c, int mi, const oracle *o, const pn_f
         st->lit_pixels += b.any_valid;
         if (!ok && st->violations++ < 5)
             fprintf(stderr, "  %s %s %s: pixel %u at (%.9g %.9g %.9g) n (%g %g %g): V = %.6f outside [%.6f, %.6f]\n",
-                    c->name, MODE_NAME[mi], what, px, g[0], g[1], g[2], n[0], n[1], n[2], v, b.lo, b.hi);
+                    c->name, MODE_NAME(mi), what, px, g[0], g[1], g[2], n[0], n[1], n[2], v, b.lo, b.hi);
     }
 }
 
@@ -624,8 +625,8 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     int d = c->tree_d;
     pn_result tr = PN_ERR_INVALID;
     for (int try_d = d ? d : PN_NTREE_MAX_DEPTH; try_d >= (d ? d : 1); try_d--) {
-        pn_shadow_accel_desc ad = {.tree = true, .tree_n = c->tree_n, .tree_d = try_d, .max_bytes = max_bytes,
-                                   .light = &light, .candidates = true, .bvh = true, .exact_pools = true};
+        pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(), .tree_n = c->tree_n, .tree_d = try_d,
+                                   .max_bytes = max_bytes, .light = &light};
         pn_log_level level = pn_log_get_level();
         if (!d)
             pn_log_set_level(PN_LOG_QUIET); // the deeper trees' refusals are expected here
@@ -644,7 +645,8 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     if (!c->tree_d && tr == PN_OK)
         fprintf(stderr, "  largest depth for N=%d: %d (%u subdivided nodes)\n", c->tree_n, d, acc.tree.node_count);
     if (tr != PN_OK) { // the modes without a tree still render
-        pn_shadow_accel_desc ad = {.light = &light, .bvh = true, .exact_pools = true};
+        pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(), .light = &light};
+        ad.needs.tree = ad.needs.candidates = false;
         CHECK(pn_shadow_accel_build(&scene, &ad, &acc) == PN_OK);
     }
     CHECK(pn_shadow_accel_upload(dev, &scene, &acc) == PN_OK);
@@ -690,11 +692,14 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     pn_camera cam;
     pn_camera_frame(scene.bounds_min, scene.bounds_max, 45, &cam);
     // Exact first: the others' error is measured against it on the same pixels and samples.
-    static const int order[MODES] = {4, 0, 1, 2, 3};
+    int order[MODES] = {PN_SHADOW_REFERENCE}, ordered = 1;
+    for (int m = 0; m < MODES; m++)
+        if (m != PN_SHADOW_REFERENCE)
+            order[ordered++] = m;
     for (int oi = 0; oi < MODES; oi++) {
         int mi = order[oi];
-        pn_shadow_mode mode = MODE_LIST[mi];
-        bool tree_mode = pn_mode_uses_tree(mode);
+        pn_shadow_mode mode = (pn_shadow_mode)mi;
+        bool tree_mode = pn_shadow_mode_get(mode)->needs.tree;
         if (tree_mode && !tree)
             continue; // refused above, as expected or reported
         pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = mode,
@@ -703,7 +708,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
         pn_shadow_accel_bind(&acc, &rd);
         pn_renderer ren;
         pn_result r = pn_renderer_create(dev, &scene, &rd, &ren);
-        CHECK_MSG(r == PN_OK, "%s %s: renderer: %s", c->name, MODE_NAME[mi], pn_result_str(r));
+        CHECK_MSG(r == PN_OK, "%s %s: renderer: %s", c->name, MODE_NAME(mi), pn_result_str(r));
         if (r != PN_OK)
             continue;
         o.mode = mode;
@@ -715,21 +720,21 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
             CHECK(pn_renderer_render(&ren, &cam, &light, &times) == PN_OK);
             pn_frame_images img;
             pn_renderer_images(&ren, &img);
-            if (mode == PN_SHADOW_EXACT)
+            if (mode == PN_SHADOW_REFERENCE)
                 memcpy(exact_v[pass], img.v, sizeof(float) * SIZE * SIZE);
-            check_frame(c, mi, &o, &img, mode == PN_SHADOW_EXACT ? NULL : exact_v[pass], pass ? "crafted" : "raster",
+            check_frame(c, mi, &o, &img, mode == PN_SHADOW_REFERENCE ? NULL : exact_v[pass], pass ? "crafted" : "raster",
                         &st[pass]);
         }
         for (int pass = 0; pass < 2; pass++) {
             CHECK_MSG(st[pass].violations == 0 && st[pass].bad_values == 0,
-                      "%s %s %s: %llu of %llu pixels outside the bound, %llu bad values", c->name, MODE_NAME[mi],
+                      "%s %s %s: %llu of %llu pixels outside the bound, %llu bad values", c->name, MODE_NAME(mi),
                       pass ? "crafted" : "raster", (unsigned long long)st[pass].violations,
                       (unsigned long long)st[pass].pixels, (unsigned long long)st[pass].bad_values);
-            CHECK_MSG(st[pass].pixels > 0, "%s %s: no receivers checked", c->name, MODE_NAME[mi]);
+            CHECK_MSG(st[pass].pixels > 0, "%s %s: no receivers checked", c->name, MODE_NAME(mi));
         }
         double px = (double)(st[0].pixels + st[1].pixels);
         fprintf(stderr, "  %-9s LS(%d,%d) spp %u: %llu px, bound width %.3f, |V - exact| mean %.4f max %.3f\n",
-                MODE_NAME[mi], c->tree_n, d, c->spp, (unsigned long long)px,
+                MODE_NAME(mi), c->tree_n, d, c->spp, (unsigned long long)px,
                 (st[0].width_sum + st[1].width_sum) / fmax(1.0, (double)(st[0].lit_pixels + st[1].lit_pixels)),
                 (st[0].err_sum + st[1].err_sum) / px, fmax(st[0].err_max, st[1].err_max));
         pn_renderer_destroy(&ren);

@@ -13,7 +13,7 @@
 enum {
     BINS = 16,       // SAH bins per axis
     LEAF_MAX = 4,    // triangles per leaf at most, unless they cannot be split
-    MAX_DEPTH = 60,  // the GPU stack holds this many entries (exact.glsl)
+    MAX_DEPTH = PN_BVH_STACK - 4, // the GPU walk's stack holds PN_BVH_STACK entries
     PARALLEL_MIN = 16384, // subtrees larger than this are built as separate tasks
 };
 

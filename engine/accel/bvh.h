@@ -4,17 +4,12 @@
 #include <stdint.h>
 
 #include "core/error.h"
+#include "interface.h"
 #include "scene/scene.h"
 
-// One node, 32 bytes, mirrored by BvhNode in shaders/glsl/exact.glsl.
+// pn_bvh_node (32 bytes, shared with the shaders): interface.h.
 //   count == 0: interior; its children are nodes first and first + 1.
 //   count > 0:  leaf; triangles tri_index[first .. first + count).
-typedef struct pn_bvh_node {
-    float min[3];
-    uint32_t first;
-    float max[3];
-    uint32_t count;
-} pn_bvh_node;
 
 typedef struct pn_bvh {
     pn_bvh_node *nodes;

@@ -9,12 +9,9 @@
 #include "core/error.h"
 #include "scene/scene.h"
 
-#define PN_NTREE_MAX_DEPTH 6
+#include "interface.h" // PN_NTREE_MAX_DEPTH; PN_CELL_EMPTY, PN_CELL_FILLED: the tree pool's encoding
 
-// Child entries of the tree (also the GPU tree pool's encoding).
-#define PN_CELL_EMPTY 0u
-#define PN_CELL_FILLED 1u                 // a filled leaf
-#define PN_CELL_NODE(i) ((uint32_t)(i) + 2u) // a subdivided child: node index i
+#define PN_CELL_NODE(i) ((uint32_t)(i) + PN_CELL_FIRST_NODE) // a subdivided child: node index i
 
 typedef struct pn_ntree_desc {
     int n, d;           // branching factor 2..16, depth 1..6

@@ -1,5 +1,5 @@
-// The N-tree's GPU pools (after Crassin's octree pools), declared once here and once in
-// shaders/glsl/pools.glsl; tests/test_pools.c checks that both agree on sizes and offsets.
+// The N-tree's GPU pools (after Crassin's octree pools), declared once for C and GLSL in
+// shaders/glsl/interface.h; tests/test_pools.c checks that both agree on sizes and offsets.
 //
 //   tree pool:      uint32 entries, N^3 per subdivided node (its children group, child
 //                   c = (z*N + y)*N + x): PN_CELL_EMPTY, PN_CELL_FILLED (a filled leaf) or
@@ -14,28 +14,10 @@
 #include <stdint.h>
 
 #include "accel/ntree.h"
+#include "interface.h"
 
-typedef struct pn_gpu_node {
-    float min[3];          // box corner; the box is a cube
-    float size;            // edge length
-    uint32_t children;     // index of its first entry in the tree pool
-    uint32_t level;        // root = 0
-    uint32_t linespace;    // index of its first word in the line-space pool
-    uint32_t parent;       // node index, or UINT32_MAX for the root
-} pn_gpu_node;             // std430: 32 bytes, 16-byte aligned
-
-// Everything a shader needs to walk the pools (mirrors TreeInfo in pools.glsl).
-typedef struct pn_gpu_tree_info {
-    float root_min[3];
-    float root_size;
-    uint32_t n, d;
-    uint32_t ls_words;   // 32-bit words per line space
-    uint32_t node_count;
-    uint64_t node_pool;  // buffer device addresses
-    uint64_t tree_pool;
-    uint64_t ls_pool;
-    uint64_t pad;
-} pn_gpu_tree_info;      // 64 bytes
+// pn_gpu_node (one per subdivided node) and pn_gpu_tree_info (what a shader needs to walk the
+// pools) are shared with the shaders: interface.h.
 
 // The pools as plain bytes, ready to upload. `tree` and `linespace` point into the tree (no copy);
 // `nodes` is allocated here.

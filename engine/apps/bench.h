@@ -10,17 +10,18 @@
 #include <stdint.h>
 
 #include "apps/metrics.h"
+#include "apps/render_opts.h"
 #include "apps/setup.h"
 
-// The mode names by pn_shadow_mode (static: a copy in each file of the bench).
-static const char *const MODE_NAMES[] = {"none", "linespace", "hybrid", "exact-ls", "exact", NULL};
+// A cell's mode name.
+#define MODE_NAME(m) (pn_shadow_mode_get(m)->name)
 
 enum { MAX_LIST = 32 };
 
 typedef struct bench_opts {
     const char *scenes[MAX_LIST];
     int scene_count;
-    int modes[5];
+    pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
     int mode_count;
     int trees[MAX_LIST][2];
     int tree_count;
@@ -29,7 +30,8 @@ typedef struct bench_opts {
     uint32_t sizes[MAX_LIST][2];
     int size_count;
     int repeat, warmup;
-    int traversal, sampler;
+    pn_traversal traversal;
+    pn_sampler sampler;
     const char *out_dir;
     bool embree;
     double max_error; // > 0: check --quality auto against the matrix at this budget
@@ -45,7 +47,8 @@ typedef struct bench_opts {
 typedef struct bench_row {
     char scene[256];
     uint32_t width, height, spp;
-    int mode, n, d;
+    pn_shadow_mode mode;
+    int n, d;
     uint32_t triangles;
     double build_ms, pool_mb;
     double gbuffer_ms, shadow_ms, shade_ms;       // medians

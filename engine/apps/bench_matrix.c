@@ -87,13 +87,13 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
         pn_frame_images img;
         pn_renderer_images(&s.renderer, &img);
         pn_error_compare(img.v, v_ref, mask, (size_t)frame->width * frame->height, NULL, &row.err);
-        printf("quality auto (max error %.4g): %s", o->max_error, MODE_NAMES[q.mode]);
+        printf("quality auto (max error %.4g): %s", o->max_error, MODE_NAME(q.mode));
         if (q.tree_n)
             printf(" LS(%d,%d)", q.tree_n, q.tree_d);
         printf(", shadow %.1f ms, MAE %.4f (pilot %.4f)", row.shadow_ms, row.err.mae, q.pilot_mae);
         if (best)
             printf("; the matrix's fastest within the budget: %s LS(%d,%d) %.1f ms: auto takes %.2fx its time\n",
-                   MODE_NAMES[best->mode], best->n, best->d, best->shadow_ms, row.shadow_ms / best->shadow_ms);
+                   MODE_NAME(best->mode), best->n, best->d, best->shadow_ms, row.shadow_ms / best->shadow_ms);
         else
             printf("; no cell of the matrix meets the budget\n");
     }
@@ -166,33 +166,27 @@ static const char *base_name(const char *path)
 // One scene: its exact reference and Embree peer per size and spp, then every mode and tree.
 int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const char *source, bench_rows *rows)
 {
-    pn_scene scene;
-    if (pn_scene_load(source, &scene) != PN_OK)
-        return PN_EXIT_FAILURE;
-    pn_camera cam;
-    pn_light light;
-    // Reproducible camera and light from the bounds, and the ground plane, as render's defaults.
-    if (scene.has_camera)
-        cam = scene.camera;
-    else
-        pn_camera_frame(scene.bounds_min, scene.bounds_max, 45.0f, &cam);
-    pn_light_default(scene.bounds_min, scene.bounds_max, &light);
-    if (pn_scene_add_ground(&scene, 6.0f) != PN_OK) {
-        pn_scene_destroy(&scene);
-        return PN_EXIT_FAILURE;
-    }
+    // Reproducible camera and light from the bounds, and the ground plane: render's defaults.
+    pn_render_opts defaults = pn_render_opts_default();
+    pn_prepared_scene prep;
+    int prc = pn_render_prepare(&defaults, source, &prep);
+    if (prc != PN_EXIT_OK)
+        return prc;
+    pn_scene scene = prep.scene;
+    pn_camera cam = prep.camera;
+    pn_light light = prep.light;
     pn_bench_embree_scene *rs = rtc ? pn_bench_embree_scene_create(rtc, &scene) : NULL;
     int rc = PN_EXIT_OK;
     for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++)
         for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
             uint32_t w = o->sizes[si][0], h = o->sizes[si][1], spp = o->spps[pi];
             size_t px = (size_t)w * h;
-            pn_renderer_desc frame = {.width = w, .height = h, .traversal = (pn_traversal)o->traversal,
-                                      .sampler = (pn_sampler)o->sampler, .spp = spp, .seed = 1};
+            pn_renderer_desc frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler,
+                                      .spp = spp, .seed = 1};
             // The reference: exact, with its rays kept for Embree.
             pn_setup ref;
             pn_setup_desc rd = {.frame = frame};
-            rd.frame.mode = PN_SHADOW_EXACT;
+            rd.frame.mode = PN_SHADOW_REFERENCE;
             rd.frame.dump_rays = rtc != NULL;
             bench_row base = {.width = w, .height = h, .spp = spp, .triangles = pn_scene_triangle_count(&scene)};
             snprintf(base.scene, sizeof base.scene, "%s", base_name(scene.name));
@@ -203,7 +197,7 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
                 break;
             }
             bench_row exact_row = base;
-            exact_row.mode = PN_SHADOW_EXACT;
+            exact_row.mode = PN_SHADOW_REFERENCE;
             float *v_ref = malloc(px * sizeof *v_ref);
             uint8_t *mask = malloc(px);
             if (!v_ref || !mask || time_frames(o, &ref.renderer, &cam, &light, &exact_row) != PN_OK) {
@@ -229,7 +223,7 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
             double exact_ms = exact_row.shadow_ms;
             exact_row.build_ms = ref.build_ms;
             exact_row.pool_mb = ref.exact_bytes / 1048576.0;
-            exact_row.rays_per_s = covered * (double)pn_shadow_samples(spp, &light) / (exact_ms * 1e-3);
+            exact_row.rays_per_s = pn_shadow_rays_per_s(covered, spp, &light, exact_ms);
             exact_row.vs_exact = 1.0;
             exact_row.vs_embree = embree_ms > 0 ? exact_ms / embree_ms : 0;
             pn_error_compare(v_ref, v_ref, mask, px, NULL, &exact_row.err);
@@ -242,12 +236,12 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
             }
             bool want_exact = false;
             for (int m = 0; m < o->mode_count; m++)
-                want_exact = want_exact || o->modes[m] == PN_SHADOW_EXACT;
+                want_exact = want_exact || o->modes[m] == PN_SHADOW_REFERENCE;
             if (want_exact)
                 push_row(rows, &exact_row);
             // Every other mode and tree against it.
             for (int m = 0; m < o->mode_count && rc == PN_EXIT_OK; m++) {
-                if (o->modes[m] == PN_SHADOW_EXACT)
+                if (o->modes[m] == PN_SHADOW_REFERENCE)
                     continue;
                 for (int ti = 0; ti < o->tree_count && rc == PN_EXIT_OK; ti++) {
                     pn_setup s;
@@ -257,9 +251,9 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
                     bench_row row = base;
                     row.mode = o->modes[m];
                     row.n = o->trees[ti][0], row.d = o->trees[ti][1];
-                    fprintf(stderr, "bench: %s %s LS(%d,%d)\n", scene.name, MODE_NAMES[row.mode], row.n, row.d);
+                    fprintf(stderr, "bench: %s %s LS(%d,%d)\n", scene.name, MODE_NAME(row.mode), row.n, row.d);
                     if (pn_setup_create(dev, &scene, &light, &sd, &s) != PN_OK) {
-                        pn_warn("bench: %s LS(%d,%d) skipped (see above)", MODE_NAMES[row.mode], row.n, row.d);
+                        pn_warn("bench: %s LS(%d,%d) skipped (see above)", MODE_NAME(row.mode), row.n, row.d);
                         continue;
                     }
                     if (o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK)
@@ -268,7 +262,7 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
                         pn_renderer_images(&s.renderer, &img);
                         row.build_ms = s.build_ms;
                         row.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
-                        row.rays_per_s = covered * (double)pn_shadow_samples(spp, &light) / (row.shadow_ms * 1e-3);
+                        row.rays_per_s = pn_shadow_rays_per_s(covered, spp, &light, row.shadow_ms);
                         row.vs_exact = row.shadow_ms / exact_ms;
                         row.vs_embree = embree_ms > 0 ? row.shadow_ms / embree_ms : 0;
                         pn_error_compare(img.v, v_ref, mask, px, NULL, &row.err);
@@ -276,7 +270,7 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
                         if (o->work) {
                             char label[512];
                             snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s_LS%d_%d", base.scene, w, h, spp,
-                                     MODE_NAMES[row.mode], row.n, row.d);
+                                     MODE_NAME(row.mode), row.n, row.d);
                             report_work(o, dev, &scene, &cam, &light, sd, label);
                         }
                     } else {

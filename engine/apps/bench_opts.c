@@ -95,13 +95,13 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             char buf[256];
             snprintf(buf, sizeof buf, "%s", v ? v : "");
             o->mode_count = 0;
-            for (char *tok = strtok(buf, ","); tok && ok && o->mode_count < 5; tok = strtok(NULL, ",")) {
-                int m = pn_parse_choice("--modes", tok, MODE_NAMES);
-                ok = m > 0;
-                if (m == 0)
-                    pn_error("--modes: none has no shadows to measure");
+            for (char *tok = strtok(buf, ","); tok && ok && o->mode_count < PN_SHADOW_MODE_COUNT; tok = strtok(NULL, ",")) {
+                int m = pn_shadow_mode_parse("--modes", tok);
+                ok = m >= 0 && pn_shadow_mode_get((pn_shadow_mode)m)->traces;
+                if (m >= 0 && !ok)
+                    pn_error("--modes: %s has no shadows to measure", tok);
                 if (ok)
-                    o->modes[o->mode_count++] = m;
+                    o->modes[o->mode_count++] = (pn_shadow_mode)m;
             }
         } else if (pn_args_value(&a, "--trees", &v, &err)) {
             char buf[512];
@@ -130,9 +130,13 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             ok = v && pn_parse_int_range("--warmup", v, 0, 100, &x);
             o->warmup = (int)x;
         } else if (pn_args_value(&a, "--traversal", &v, &err)) {
-            ok = v && (o->traversal = pn_parse_choice("--traversal", v, (const char *const[]){"packet", "ray", NULL})) >= 0;
+            int t = v ? pn_parse_choice("--traversal", v, pn_traversal_names) : -1;
+            ok = t >= 0;
+            o->traversal = ok ? (pn_traversal)t : o->traversal;
         } else if (pn_args_value(&a, "--sampler", &v, &err)) {
-            ok = v && (o->sampler = pn_parse_choice("--sampler", v, (const char *const[]){"grid", "stratified", NULL})) >= 0;
+            int m = v ? pn_parse_choice("--sampler", v, pn_sampler_names) : -1;
+            ok = m >= 0;
+            o->sampler = ok ? (pn_sampler)m : o->sampler;
         } else if (pn_args_value(&a, "--max-error", &v, &err)) {
             float e = 0;
             ok = v && pn_parse_float_range("--max-error", v, 0.0f, 1.0f, &e);
@@ -175,9 +179,10 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         if (!add_scene_arg(o, tok))
             return PN_EXIT_USAGE;
     if (!o->mode_count) {
-        const int all[4] = {PN_SHADOW_EXACT, PN_SHADOW_EXACT_LS, PN_SHADOW_HYBRID, PN_SHADOW_LINESPACE};
-        memcpy(o->modes, all, sizeof all);
-        o->mode_count = 4;
+        // Every mode that traces, the most expensive first (the table lists the cheapest first).
+        for (int m = PN_SHADOW_MODE_COUNT - 1; m >= 0; m--)
+            if (pn_shadow_mode_get((pn_shadow_mode)m)->traces)
+                o->modes[o->mode_count++] = (pn_shadow_mode)m;
     }
     if (!o->tree_count)
         o->trees[0][0] = 6, o->trees[0][1] = 3, o->trees[1][0] = 7, o->trees[1][1] = 3, o->trees[2][0] = 8,

@@ -25,7 +25,7 @@ void pn_bench_print_row(const bench_row *r)
     if (r->n)
         snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
     printf("%-28.28s %4ux%-4u %4u %-9s %-5s %8.1f %7.1f %9.1f [%7.1f %7.1f] %7.2f %8.4f %7.4f %6.3f %6.2f %6.2f\n",
-           r->scene, r->width, r->height, r->spp, MODE_NAMES[r->mode], tree, r->build_ms, r->pool_mb, r->shadow_ms,
+           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, r->build_ms, r->pool_mb, r->shadow_ms,
            r->shadow_min_ms, r->shadow_max_ms, r->rays_per_s / 1e6, r->err.mae, r->err.p99, r->err.max, r->vs_exact,
            r->vs_embree);
     fflush(stdout);
@@ -82,7 +82,7 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.4f,%.4f\n",
-                r->scene, r->width, r->height, r->spp, MODE_NAMES[r->mode], r->n, r->d, r->triangles, r->build_ms,
+                r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->err.mae, r->err.rmse, r->err.p99, r->err.max, r->err.over005, r->err.over02, r->vs_exact, r->vs_embree);
     }
@@ -104,8 +104,8 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
     pn_json_string(f, cpu);
     fprintf(f, ", \"threads\": %u, \"repeat\": %d, \"warmup\": %d, \"traversal\": \"%s\", \"sampler\": \"%s\", "
                "\"scenes\": [",
-            pn_parallel_threads(), o->repeat, o->warmup, o->traversal ? "ray" : "packet",
-            o->sampler ? "stratified" : "grid");
+            pn_parallel_threads(), o->repeat, o->warmup, pn_traversal_names[o->traversal],
+            pn_sampler_names[o->sampler]);
     for (int i = 0; i < o->scene_count; i++) {
         fprintf(f, "%s", i ? ", " : "");
         pn_json_string(f, o->scenes[i]);
@@ -116,7 +116,7 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         fprintf(f, "  {\"scene\": ");
         pn_json_string(f, r->scene);
         fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"mode\": \"%s\", \"tree\": ", r->width, r->height,
-                r->spp, MODE_NAMES[r->mode]);
+                r->spp, MODE_NAME(r->mode));
         if (r->n)
             fprintf(f, "[%d, %d]", r->n, r->d);
         else
@@ -176,9 +176,9 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         for (int a = 0; a < n; a++) {
             const bench_row *r = &rows->rows[idx[a]];
             if (r->n)
-                fprintf(f, "%.4f %.6g %s-LS(%d,%d)\n", r->shadow_ms, r->err.mae, MODE_NAMES[r->mode], r->n, r->d);
+                fprintf(f, "%.4f %.6g %s-LS(%d,%d)\n", r->shadow_ms, r->err.mae, MODE_NAME(r->mode), r->n, r->d);
             else
-                fprintf(f, "%.4f %.6g %s\n", r->shadow_ms, r->err.mae, MODE_NAMES[r->mode]);
+                fprintf(f, "%.4f %.6g %s\n", r->shadow_ms, r->err.mae, MODE_NAME(r->mode));
         }
         fprintf(f, "\n\n# Pareto front\n");
         double best = INFINITY;

@@ -107,8 +107,9 @@ static int parse(int argc, char **argv, demo_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
-    if (o->r.mode == PN_SHADOW_NONE) {
-        pn_error("demo: --mode none casts no shadows to look at; pick linespace, hybrid, exact-ls or exact");
+    if (!pn_shadow_mode_get(o->r.mode)->traces) {
+        pn_error("demo: --mode %s casts no shadows to look at; pick a mode that traces rays (penumbra render --help)",
+                 pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
     }
     return PN_EXIT_OK;
@@ -157,17 +158,15 @@ static void on_glfw_error(int code, const char *message) { pn_warn("GLFW: %s", m
 
 static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
 {
-    // Every tree keeps its candidate lists and carries the shared BVH, so that switching modes never
-    // needs a rebuild; with the same light it is the tree render builds (culling included).
+    // What every mode needs together (candidate lists, the shared BVH), so that switching modes
+    // never needs a rebuild; with the same light it is the tree render builds (culling included).
     return (pn_shadow_accel_desc){
-        .tree = true,
+        .needs = pn_shadow_needs_all(),
         .tree_n = n,
         .tree_d = depth,
         .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_heap(&d->dev) / 2,
         .light = &d->light,
-        .candidates = true,
         .reuse_bvh = &d->bvh,
-        .exact_pools = true,
     };
 }
 
@@ -176,19 +175,13 @@ static pn_result create_renderers(pn_demo *d)
     pn_renderer_destroy(&d->renderer);
     pn_renderer_destroy(&d->exact);
     uint64_t t0 = pn_time_ns();
-    pn_renderer_desc rd = {
-        .width = d->swapchain.extent.width,
-        .height = d->swapchain.extent.height,
-        .mode = (pn_shadow_mode)d->opts.mode,
-        .traversal = (pn_traversal)d->opts.traversal,
-        .sampler = (pn_sampler)d->opts.sampler,
-        .spp = (uint32_t)d->opts.spp,
-        .seed = (uint32_t)d->opts.seed,
-    };
+    pn_renderer_desc rd = pn_render_opts_setup(&d->opts).frame;
+    rd.width = d->swapchain.extent.width;
+    rd.height = d->swapchain.extent.height;
     pn_shadow_accel_bind(&d->accel, &rd);
     PN_TRY(pn_renderer_create(&d->dev, &d->scene, &rd, &d->renderer));
-    if (d->view == PN_DEMO_ERROR && rd.mode != PN_SHADOW_EXACT) {
-        rd.mode = PN_SHADOW_EXACT;
+    if (d->view == PN_DEMO_ERROR && rd.mode != PN_SHADOW_REFERENCE) {
+        rd.mode = PN_SHADOW_REFERENCE;
         PN_TRY(pn_renderer_create(&d->dev, &d->scene, &rd, &d->exact));
     }
     d->renderer_ms = pn_ms_since(t0);
@@ -285,7 +278,7 @@ static pn_result render(pn_demo *d)
         if (mask)
             mask[i] = geometry;
     }
-    s->rays_per_s = s->times.shadow_ms > 0 ? (double)covered * pn_shadow_samples(d->opts.spp, &d->light) / (s->times.shadow_ms * 1e-3) : 0;
+    s->rays_per_s = pn_shadow_rays_per_s(covered, (uint32_t)d->opts.spp, &d->light, s->times.shadow_ms);
     pn_error_metrics m;
     if (mask && pn_error_compare(d->image.v, d->image.vx, mask, px, NULL, &m))
         s->error_mae = m.mae, s->error_p99 = m.p99, s->error_max = m.max;
@@ -566,30 +559,22 @@ int pn_cmd_demo(int argc, char **argv)
     pn_demo d = {.opts = o.r, .accumulate = o.accumulate,
                  .accumulate_max = (uint32_t)o.accumulate_max, .show_hud = o.hud, .save_prefix = o.save_prefix};
     atomic_init(&d.builder.state, PN_DEMO_BUILD_IDLE);
-    if (pn_scene_load(o.scene, &d.scene) != PN_OK) {
+    // As render prepares it: camera and light frame the scene itself, the ground plane comes after.
+    pn_prepared_scene prep;
+    int prc = pn_render_prepare(&o.r, o.scene, &prep);
+    if (prc != PN_EXIT_OK) {
         pn_demo_script_destroy(&script);
-        return PN_EXIT_FAILURE;
+        return prc;
     }
-    // Camera and light frame the scene itself, as render's do; the ground plane comes after.
-    if (!pn_render_setup_view(&o.r, &d.scene, &d.camera, &d.light)) {
-        pn_scene_destroy(&d.scene);
-        pn_demo_script_destroy(&script);
-        return PN_EXIT_USAGE;
-    }
+    d.scene = prep.scene, d.camera = prep.camera, d.light = prep.light;
     d.camera_home = d.camera, d.light_home = d.light;
-    float r2 = 0;
+    float r2 = 0; // orbiting centres on the object, not on the ground
     for (int k = 0; k < 3; k++) {
-        d.center[k] = 0.5f * (d.scene.bounds_min[k] + d.scene.bounds_max[k]);
-        float e = d.scene.bounds_max[k] - d.scene.bounds_min[k];
+        d.center[k] = 0.5f * (prep.object_min[k] + prep.object_max[k]);
+        float e = prep.object_max[k] - prep.object_min[k];
         r2 += e * e;
     }
     d.radius = 0.5f * sqrtf(r2) > 0 ? 0.5f * sqrtf(r2) : 1.0f;
-    if (o.r.ground && pn_scene_add_ground(&d.scene, 6.0f) != PN_OK) {
-        pn_error("%s: out of memory adding the ground plane", d.scene.name);
-        pn_scene_destroy(&d.scene);
-        pn_demo_script_destroy(&script);
-        return PN_EXIT_FAILURE;
-    }
 
     glfwSetErrorCallback(on_glfw_error);
     int exit_code = PN_EXIT_FAILURE;

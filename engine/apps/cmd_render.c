@@ -94,8 +94,8 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
-    if (o->ray_dump && o->r.mode == PN_SHADOW_NONE) {
-        pn_error("--ray-dump: mode none traces no rays");
+    if (o->ray_dump && !pn_shadow_mode_get(o->r.mode)->traces) {
+        pn_error("--ray-dump: mode %s traces no rays", pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
     }
     return PN_EXIT_OK;
@@ -165,20 +165,9 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
                         const pn_camera *cam, const pn_light *light, render_stats *st)
 {
     const pn_render_opts *p = &o->r;
-    pn_setup_desc sd = {
-        .frame = {.width = p->width,
-                  .height = p->height,
-                  .mode = (pn_shadow_mode)p->mode,
-                  .traversal = (pn_traversal)p->traversal,
-                  .sampler = (pn_sampler)p->sampler,
-                  .spp = (uint32_t)p->spp,
-                  .seed = (uint32_t)p->seed,
-                  .dump_rays = o->ray_dump != NULL},
-        .tree_n = p->tree_n,
-        .tree_d = p->tree_d,
-        .max_bytes = p->max_bytes,
-        .view = o->view_cull ? cam : NULL,
-    };
+    pn_setup_desc sd = pn_render_opts_setup(p);
+    sd.frame.dump_rays = o->ray_dump != NULL;
+    sd.view = o->view_cull ? cam : NULL;
     pn_setup s;
     if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
         return PN_EXIT_FAILURE;
@@ -195,8 +184,7 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
         size_t px = (size_t)p->width * p->height;
         for (size_t i = 0; i < px; i++)
             st->covered += img.radiance[4 * i + 3] > 0;
-        if (st->times.shadow_ms > 0)
-            st->rays_per_s = (double)st->covered * pn_shadow_samples(p->spp, light) / (st->times.shadow_ms * 1e-3);
+        st->rays_per_s = pn_shadow_rays_per_s(st->covered, (uint32_t)p->spp, light, st->times.shadow_ms);
         if (write_outputs(o, output, scene, cam, light, st, &img) == PN_OK &&
             (!o->ray_dump || write_ray_dump(o, &s.renderer) == PN_OK))
             rc = PN_EXIT_OK;
@@ -209,7 +197,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                           double load_ms, unsigned validation_messages)
 {
     const pn_frame_times *t = &st->times;
-    bool tree = pn_mode_uses_tree((pn_shadow_mode)o->r.mode);
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(o->r.mode);
+    bool tree = mode->needs.tree;
     if (o->json) {
         printf("{\"output\": ");
         pn_json_string(stdout, output);
@@ -222,7 +211,7 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         pn_json_string(stdout, scene->name);
         printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"traversal\": \"%s\", "
                "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, ",
-               o->r.width, o->r.height, pn_scene_triangle_count(scene), pn_mode_names[o->r.mode],
+               o->r.width, o->r.height, pn_scene_triangle_count(scene), mode->name,
                pn_traversal_names[o->r.traversal], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed);
         if (tree)
             printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"culled_by_view\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
@@ -245,17 +234,17 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         return;
     }
     printf("%s: %u triangles, %ux%u, mode %s", scene->name, pn_scene_triangle_count(scene), o->r.width, o->r.height,
-           pn_mode_names[o->r.mode]);
+           mode->name);
     if (tree)
         printf(" LS(%d,%d) %s", o->r.tree_n, o->r.tree_d, pn_traversal_names[o->r.traversal]);
-    if (o->r.mode != PN_SHADOW_NONE)
+    if (mode->traces)
         printf(" %s %lld spp", pn_sampler_names[o->r.sampler], o->r.spp);
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
     if (tree)
         printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
                "(they cannot block a shadow ray; %u of them outside the view and light)\n",
                st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled, st->culled_box);
-    if (o->r.mode == PN_SHADOW_EXACT)
+    if (mode->needs.bvh)
         printf("  BVH built in %.1f ms; triangle and BVH pools %.1f MiB\n", st->build_ms, st->exact_bytes / 1048576.0);
     printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,
            t->shadow_ms, t->shade_ms, st->rays_per_s, load_ms);
@@ -277,23 +266,14 @@ int pn_cmd_render(int argc, char **argv)
         (o.ray_dump && !pn_render_output_writable(o.ray_dump)))
         return PN_EXIT_FAILURE;
 
-    uint64_t t0 = pn_time_ns();
-    pn_scene scene;
-    if (pn_scene_load(o.scene, &scene) != PN_OK)
-        return PN_EXIT_FAILURE;
-    double load_ms = pn_ms_since(t0);
-    pn_camera cam;
-    pn_light light;
-    // Camera and light frame the scene itself; the ground plane is added afterwards.
-    if (!pn_render_setup_view(&o.r, &scene, &cam, &light)) {
-        pn_scene_destroy(&scene);
-        return PN_EXIT_USAGE;
-    }
-    if (o.r.ground && pn_scene_add_ground(&scene, 6.0f) != PN_OK) {
-        pn_error("%s: out of memory adding the ground plane", scene.name);
-        pn_scene_destroy(&scene);
-        return PN_EXIT_FAILURE;
-    }
+    pn_prepared_scene prep;
+    rc = pn_render_prepare(&o.r, o.scene, &prep);
+    if (rc != PN_EXIT_OK)
+        return rc;
+    pn_scene scene = prep.scene;
+    pn_camera cam = prep.camera;
+    pn_light light = prep.light;
+    double load_ms = prep.load_ms;
 
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
@@ -303,9 +283,7 @@ int pn_cmd_render(int argc, char **argv)
     if (pn_gpu_device_create(&desc, &dev) == PN_OK) {
         exit_code = PN_EXIT_OK;
         if (o.auto_quality) {
-            pn_renderer_desc frame = {.width = o.r.width, .height = o.r.height, .traversal = (pn_traversal)o.r.traversal,
-                                      .sampler = (pn_sampler)o.r.sampler, .spp = (uint32_t)o.r.spp,
-                                      .seed = (uint32_t)o.r.seed};
+            pn_renderer_desc frame = pn_render_opts_setup(&o.r).frame;
             if (pn_quality_choose(&dev, &scene, &cam, &light, &frame, o.max_error, o.r.max_bytes, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
                 if (choice.tree_n)
@@ -313,7 +291,7 @@ int pn_cmd_render(int argc, char **argv)
                 if (!o.json)
                     printf("quality auto: %s%s (pilot %ux%u, %d configurations: MAE %.4f against exact within %.4f, "
                            "shadow %.1f ms vs exact %.1f ms)\n",
-                           pn_mode_names[choice.mode], "", choice.pilot_width, choice.pilot_height,
+                           pn_shadow_mode_get(choice.mode)->name, "", choice.pilot_width, choice.pilot_height,
                            choice.candidates, choice.pilot_mae, o.max_error, choice.pilot_ms, choice.exact_ms);
             } else {
                 exit_code = PN_EXIT_FAILURE;

@@ -146,22 +146,35 @@ static void light_rotate(pn_demo *d, float deg)
 // ---------------------------------------------------------------------------------------------
 // Shadow parameters and views
 
-static const pn_shadow_mode CYCLE[] = {PN_SHADOW_LINESPACE, PN_SHADOW_HYBRID, PN_SHADOW_EXACT_LS, PN_SHADOW_EXACT};
-enum { CYCLE_COUNT = sizeof CYCLE / sizeof CYCLE[0] };
-
-static void set_mode(pn_demo *d, float mode)
+// The modes the demo offers: those that trace, in table order (gpu/shadow_modes.c).
+static int tracing_modes(pn_shadow_mode out[PN_SHADOW_MODE_COUNT])
 {
-    d->opts.mode = (int)mode;
+    int count = 0;
+    for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
+        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces)
+            out[count++] = (pn_shadow_mode)m;
+    return count;
+}
+
+// Key 1 selects the first of them, 2 the second, ...
+static void set_mode(pn_demo *d, float place)
+{
+    pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
+    int count = tracing_modes(modes);
+    if ((int)place < 1 || (int)place > count)
+        return;
+    d->opts.mode = modes[(int)place - 1];
     d->renderer_dirty = d->restart = true;
 }
 
 static void next_mode(pn_demo *d, float step)
 {
-    int at = 0;
-    for (int i = 0; i < CYCLE_COUNT; i++)
-        if ((int)CYCLE[i] == d->opts.mode)
+    pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
+    int count = tracing_modes(modes), at = 0;
+    for (int i = 0; i < count; i++)
+        if (modes[i] == d->opts.mode)
             at = i;
-    set_mode(d, (float)CYCLE[(at + (int)step + CYCLE_COUNT) % CYCLE_COUNT]);
+    set_mode(d, (float)((at + (int)step + count) % count + 1));
 }
 
 static void toggle_traversal(pn_demo *d, float unused)
@@ -252,10 +265,12 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_PERIOD, 0, true, light_rotate, 15.0f},
     {GLFW_KEY_M, 0, false, next_mode, 1, "M shift+M", "next, previous mode"},
     {GLFW_KEY_M, SHIFT, false, next_mode, -1},
-    {GLFW_KEY_1, 0, false, set_mode, PN_SHADOW_LINESPACE, "1 2 3 4", "linespace, hybrid, exact-ls, exact"},
-    {GLFW_KEY_2, 0, false, set_mode, PN_SHADOW_HYBRID},
-    {GLFW_KEY_3, 0, false, set_mode, PN_SHADOW_EXACT_LS},
-    {GLFW_KEY_4, 0, false, set_mode, PN_SHADOW_EXACT},
+    {GLFW_KEY_1, 0, false, set_mode, 1, "1 2 3 4 ...", "the modes in --help's order (linespace, hybrid, ...)"},
+    {GLFW_KEY_2, 0, false, set_mode, 2},
+    {GLFW_KEY_3, 0, false, set_mode, 3},
+    {GLFW_KEY_4, 0, false, set_mode, 4},
+    {GLFW_KEY_5, 0, false, set_mode, 5},
+    {GLFW_KEY_6, 0, false, set_mode, 6},
     {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal packet / ray"},
     {GLFW_KEY_G, 0, false, toggle_sampler, 0, "G", "sampler grid / stratified"},
     {GLFW_KEY_MINUS, 0, true, step_spp, -1, "- =", "fewer, more shadow rays per pixel"},

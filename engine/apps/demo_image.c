@@ -227,8 +227,9 @@ static const char *view_name(const pn_demo *d)
 static void params_text(const pn_demo *d, char *out, size_t n)
 {
     const pn_render_opts *o = &d->opts;
-    int at = snprintf(out, n, "%s", pn_mode_names[o->mode]);
-    if (pn_mode_uses_tree((pn_shadow_mode)o->mode) && at >= 0 && (size_t)at < n)
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(o->mode);
+    int at = snprintf(out, n, "%s", mode->name);
+    if (mode->needs.tree && at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " LS(%d,%d) %s", d->accel.tree.n, d->accel.tree.d,
                        pn_traversal_names[o->traversal]);
     if (at >= 0 && (size_t)at < n)
@@ -283,7 +284,7 @@ void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra)
         ADD("%s  seed %lld\n", params, d->opts.seed);
         ADD("gpu ms: gbuffer %.2f  shadow %.2f  shade %.2f", s->times.gbuffer_ms, s->times.shadow_ms,
             s->times.shade_ms);
-        if (d->view == PN_DEMO_ERROR && d->opts.mode != PN_SHADOW_EXACT)
+        if (d->view == PN_DEMO_ERROR && d->opts.mode != PN_SHADOW_REFERENCE)
             ADD("  exact shadow %.2f", s->exact_shadow_ms);
         ADD("\n%.2f M shadow rays/s  pools %.1f MB\n", s->rays_per_s * 1e-6,
             pn_shadow_accel_gpu_bytes(&d->accel) / 1048576.0);

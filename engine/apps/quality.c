@@ -8,15 +8,10 @@
 #include "apps/setup.h"
 #include "core/log.h"
 
-// Candidates, cheapest kind first; within a kind, trees from coarse to fine. A tree that does not
-// fit max_bytes (or float precision) is skipped.
-static const struct {
-    int mode, n, d;
-} CANDIDATES[] = {
-    {PN_SHADOW_LINESPACE, 6, 3}, {PN_SHADOW_LINESPACE, 7, 3}, {PN_SHADOW_LINESPACE, 8, 3}, {PN_SHADOW_LINESPACE, 5, 4},
-    {PN_SHADOW_HYBRID, 6, 3},    {PN_SHADOW_HYBRID, 7, 3},    {PN_SHADOW_HYBRID, 8, 3},    {PN_SHADOW_HYBRID, 5, 4},
-    {PN_SHADOW_EXACT_LS, 6, 3},
-};
+// The standard trees, coarse to fine; a mode tries the first pn_shadow_mode_info.auto_trees of
+// them, modes in table order (cheapest first). A tree that does not fit max_bytes (or float
+// precision) is skipped.
+static const int TREES[][2] = {{6, 3}, {7, 3}, {8, 3}, {5, 4}};
 
 // Renders one pilot frame; its V into v (when given) and its shadow time into ms.
 static pn_result pilot(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
@@ -61,32 +56,34 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     float *ref = malloc(px * sizeof *ref), *v = malloc(px * sizeof *v);
     uint8_t *mask = malloc(px);
     pn_result r = ref && v && mask ? PN_OK : PN_ERR_MEMORY;
-    sd.frame.mode = PN_SHADOW_EXACT;
+    sd.frame.mode = PN_SHADOW_REFERENCE;
     if (r == PN_OK)
         r = pilot(dev, scene, cam, light, &sd, ref, mask, &out->exact_ms);
-    out->mode = PN_SHADOW_EXACT;
+    out->mode = PN_SHADOW_REFERENCE;
     out->pilot_ms = out->exact_ms;
-    for (size_t c = 0; r == PN_OK && c < sizeof CANDIDATES / sizeof CANDIDATES[0]; c++) {
-        sd.frame.mode = (pn_shadow_mode)CANDIDATES[c].mode;
-        sd.tree_n = CANDIDATES[c].n;
-        sd.tree_d = CANDIDATES[c].d;
-        double ms;
-        if (pilot(dev, scene, cam, light, &sd, v, NULL, &ms) != PN_OK)
-            continue; // does not fit: try the next
-        out->candidates++;
-        pn_error_metrics m;
-        if (!pn_error_compare(v, ref, mask, px, NULL, &m)) {
-            r = PN_ERR_MEMORY;
-            break;
-        }
-        pn_debug("quality: %d LS(%d,%d): pilot MAE %.4f in %.1f ms", CANDIDATES[c].mode, CANDIDATES[c].n,
-                 CANDIDATES[c].d, m.mae, ms);
-        if (m.mae <= max_error && ms < out->pilot_ms) {
-            out->mode = CANDIDATES[c].mode;
-            out->tree_n = CANDIDATES[c].n;
-            out->tree_d = CANDIDATES[c].d;
-            out->pilot_mae = m.mae;
-            out->pilot_ms = ms;
+    for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
+        const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
+        for (int t = 0; r == PN_OK && t < info->auto_trees && t < (int)(sizeof TREES / sizeof TREES[0]); t++) {
+            sd.frame.mode = (pn_shadow_mode)m;
+            sd.tree_n = TREES[t][0];
+            sd.tree_d = TREES[t][1];
+            double ms;
+            if (pilot(dev, scene, cam, light, &sd, v, NULL, &ms) != PN_OK)
+                continue; // does not fit: try the next
+            out->candidates++;
+            pn_error_metrics e;
+            if (!pn_error_compare(v, ref, mask, px, NULL, &e)) {
+                r = PN_ERR_MEMORY;
+                break;
+            }
+            pn_debug("quality: %s LS(%d,%d): pilot MAE %.4f in %.1f ms", info->name, sd.tree_n, sd.tree_d, e.mae, ms);
+            if (e.mae <= max_error && ms < out->pilot_ms) {
+                out->mode = (pn_shadow_mode)m;
+                out->tree_n = sd.tree_n;
+                out->tree_d = sd.tree_d;
+                out->pilot_mae = e.mae;
+                out->pilot_ms = ms;
+            }
         }
     }
     free(ref), free(v), free(mask);

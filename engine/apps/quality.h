@@ -5,7 +5,7 @@
 #include "scene/view.h"
 
 typedef struct pn_quality_choice {
-    int mode;             // pn_shadow_mode
+    pn_shadow_mode mode;
     int tree_n, tree_d;   // for the tree modes
     double pilot_mae;     // mean |V - V_exact| over the pilot's pixels
     double pilot_ms;      // its shadow pass

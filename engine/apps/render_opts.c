@@ -7,11 +7,8 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "core/timer.h"
 #include "gpu/renderer.h"
-
-const char *const pn_mode_names[] = {"none", "linespace", "hybrid", "exact-ls", "exact", NULL};
-const char *const pn_traversal_names[] = {"packet", "ray", NULL};
-const char *const pn_sampler_names[] = {"grid", "stratified", NULL};
 
 pn_render_opts pn_render_opts_default(void)
 {
@@ -66,11 +63,17 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
     } else if (pn_args_value(a, "--max-memory", &v, err)) {
         ok = v && pn_parse_bytes("--max-memory", v, &o->max_bytes);
     } else if (pn_args_value(a, "--mode", &v, err)) {
-        ok = v && (o->mode = pn_parse_choice("--mode", v, pn_mode_names)) >= 0;
+        int m = v ? pn_shadow_mode_parse("--mode", v) : -1;
+        ok = m >= 0;
+        o->mode = ok ? (pn_shadow_mode)m : o->mode;
     } else if (pn_args_value(a, "--traversal", &v, err)) {
-        ok = v && (o->traversal = pn_parse_choice("--traversal", v, pn_traversal_names)) >= 0;
+        int t = v ? pn_parse_choice("--traversal", v, pn_traversal_names) : -1;
+        ok = t >= 0;
+        o->traversal = ok ? (pn_traversal)t : o->traversal;
     } else if (pn_args_value(a, "--sampler", &v, err)) {
-        ok = v && (o->sampler = pn_parse_choice("--sampler", v, pn_sampler_names)) >= 0;
+        int m = v ? pn_parse_choice("--sampler", v, pn_sampler_names) : -1;
+        ok = m >= 0;
+        o->sampler = ok ? (pn_sampler)m : o->sampler;
     } else {
         return false;
     }
@@ -93,13 +96,15 @@ void pn_render_opts_print_help(void)
            "scene:\n"
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
            "  --seed S              fixes every random choice (default 1)\n"
-           "shadows:\n"
-           "  --mode M              linespace (default): line-space visibility, the paper's method;\n"
-           "                        hybrid: line spaces, triangles tested exactly where rays start and end;\n"
-           "                        exact-ls: line spaces skip empty space, set shafts test triangles (exact);\n"
-           "                        exact: BVH and watertight triangle tests (the ground truth);\n"
-           "                        none: unshadowed (V = 1)\n"
-           "  --tree N,d            N-tree branching factor 2..16 and depth 1..6 (default 7,3)\n"
+           "shadows:\n");
+    // The modes from their table (gpu/shadow_modes.c), the tracing ones first, then none.
+    for (int pass = 0; pass < 2; pass++)
+        for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++) {
+            const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
+            if (info->traces == (pass == 0))
+                printf("  %-21s %s: %s\n", m == PN_SHADOW_LINESPACE ? "--mode M" : "", info->name, info->help);
+        }
+    printf("  --tree N,d            N-tree branching factor 2..16 and depth 1..6 (default 7,3)\n"
            "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
            "                        default: half the device's largest memory heap)\n"
            "  --spp S               shadow rays per pixel 1..4096 (default 25), a grid of U x V = S\n"
@@ -214,4 +219,42 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
         if (!in_range("a corner of the light", corners[i]))
             return false;
     return true;
+}
+
+pn_setup_desc pn_render_opts_setup(const pn_render_opts *o)
+{
+    return (pn_setup_desc){
+        .frame = {.width = o->width,
+                  .height = o->height,
+                  .mode = o->mode,
+                  .traversal = o->traversal,
+                  .sampler = o->sampler,
+                  .spp = (uint32_t)o->spp,
+                  .seed = (uint32_t)o->seed},
+        .tree_n = o->tree_n,
+        .tree_d = o->tree_d,
+        .max_bytes = o->max_bytes,
+    };
+}
+
+int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_scene *out)
+{
+    memset(out, 0, sizeof *out);
+    uint64_t t0 = pn_time_ns();
+    if (pn_scene_load(source, &out->scene) != PN_OK)
+        return PN_EXIT_FAILURE;
+    out->load_ms = pn_ms_since(t0);
+    memcpy(out->object_min, out->scene.bounds_min, sizeof out->object_min);
+    memcpy(out->object_max, out->scene.bounds_max, sizeof out->object_max);
+    // Camera and light frame the scene itself; the ground plane is added afterwards.
+    if (!pn_render_setup_view(o, &out->scene, &out->camera, &out->light)) {
+        pn_scene_destroy(&out->scene);
+        return PN_EXIT_USAGE;
+    }
+    if (o->ground && pn_scene_add_ground(&out->scene, 6.0f) != PN_OK) {
+        pn_error("%s: out of memory adding the ground plane", out->scene.name);
+        pn_scene_destroy(&out->scene);
+        return PN_EXIT_FAILURE;
+    }
+    return PN_EXIT_OK;
 }

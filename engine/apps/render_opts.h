@@ -5,12 +5,9 @@
 #include <stdint.h>
 
 #include "apps/args.h"
+#include "apps/setup.h"
+#include "gpu/shadow_modes.h"
 #include "scene/view.h"
-
-// Command-line names, NULL-terminated; the index is the enum value (pn_shadow_mode, ...).
-extern const char *const pn_mode_names[];
-extern const char *const pn_traversal_names[];
-extern const char *const pn_sampler_names[];
 
 // The parameters of one render. The has_* flags mark what the command line set explicitly; the
 // rest comes from the scene (pn_render_setup_view).
@@ -22,7 +19,10 @@ typedef struct pn_render_opts {
     pn_light light; // only the fields whose has_light_* flag is set
     bool ground;
     long long seed, spp;
-    int mode, traversal, sampler, tree_n, tree_d;
+    pn_shadow_mode mode;
+    pn_traversal traversal;
+    pn_sampler sampler;
+    int tree_n, tree_d;
     uint64_t max_bytes; // 0: half the device's largest heap
     float exposure;     // of the tone-mapped PNG
 } pn_render_opts;
@@ -43,3 +43,21 @@ void pn_render_opts_print_help(void);
 // the ground plane is added: the defaults frame the scene itself. Logs and returns false for a
 // degenerate camera or light.
 bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *light);
+
+// The one translation of the options into a set-up: frame size, mode, traversal, sampler, samples,
+// seed, tree and memory limit. The caller adds what is its own (view culling, ray dumps).
+pn_setup_desc pn_render_opts_setup(const pn_render_opts *o);
+
+// A scene ready to render as the options say: loaded (glTF file or builtin:NAME), camera and light
+// framed on the scene itself, then the ground plane added under it (--ground).
+typedef struct pn_prepared_scene {
+    pn_scene scene;
+    pn_camera camera;
+    pn_light light;
+    float object_min[3], object_max[3]; // the scene's bounds before the ground plane
+    double load_ms;
+} pn_prepared_scene;
+
+// Logs what went wrong and returns PN_EXIT_FAILURE (unreadable scene, out of memory) or
+// PN_EXIT_USAGE (a camera or light the options make degenerate); *out holds nothing then.
+int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_scene *out);

@@ -78,12 +78,12 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     pn_exr_channel ch[PLANES];
     for (int c = 0; c < PLANES; c++)
         ch[c] = (pn_exr_channel){names[c], pl[c]};
-    bool tree = pn_mode_uses_tree((pn_shadow_mode)o->mode);
+    bool tree = pn_shadow_mode_get(o->mode)->needs.tree;
 #define V3(nm, v) {.name = nm, .type = PN_EXR_ATTR_V3F, .f = {(v)[0], (v)[1], (v)[2]}}
 #define F1(nm, v) {.name = nm, .type = PN_EXR_ATTR_FLOAT, .f = {(float)(v)}}
     const pn_exr_attr attrs[] = {
         {.name = "penumbra.scene", .type = PN_EXR_ATTR_STRING, .s = rec->scene->name},
-        {.name = "penumbra.mode", .type = PN_EXR_ATTR_STRING, .s = pn_mode_names[o->mode]},
+        {.name = "penumbra.mode", .type = PN_EXR_ATTR_STRING, .s = pn_shadow_mode_get(o->mode)->name},
         {.name = "penumbra.triangles", .type = PN_EXR_ATTR_INT, .i = (int32_t)pn_scene_triangle_count(rec->scene)},
         {.name = "penumbra.seed", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->seed},
         {.name = "penumbra.width", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->width},

@@ -10,7 +10,7 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
     memset(out, 0, sizeof *out);
     out->desc = *desc;
     pn_result r = PN_OK;
-    if (desc->tree) {
+    if (desc->needs.tree) {
         float corners[4][3];
         pn_light_corners(desc->light, corners);
         pn_ntree_desc td = {.n = desc->tree_n,
@@ -18,16 +18,16 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
                             .max_bytes = desc->max_bytes,
                             .cull_light = (const float(*)[3])corners,
                             .keep_box = desc->keep_box,
-                            .keep_candidates = desc->candidates};
+                            .keep_candidates = desc->needs.candidates};
         r = pn_ntree_build(scene, &td, &out->tree);
         if (r == PN_OK) {
             out->build_ms += out->tree.build_ms;
             r = pn_pools_pack(&out->tree, &out->pools);
         }
     }
-    if (r == PN_OK && desc->reuse_bvh) {
+    if (r == PN_OK && desc->needs.bvh && desc->reuse_bvh) {
         out->exact_bvh = desc->reuse_bvh;
-    } else if (r == PN_OK && desc->bvh) {
+    } else if (r == PN_OK && desc->needs.bvh) {
         r = pn_bvh_build(scene, &out->bvh);
         if (r != PN_OK)
             pn_error("%s: out of memory building the BVH", scene->name);
@@ -41,18 +41,18 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
 
 pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_shadow_accel *a)
 {
-    if (a->desc.tree)
+    if (a->desc.needs.tree)
         PN_TRY(pn_gpu_pools_create(dev, &a->pools, &a->gpu_pools));
-    if (a->desc.exact_pools)
+    if (a->desc.needs.exact_pools)
         PN_TRY(pn_gpu_exact_pools_create(dev, scene, a->exact_bvh, &a->tree, &a->exact));
     return PN_OK;
 }
 
 void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
 {
-    rd->pools = a->desc.tree ? &a->gpu_pools : NULL;
-    rd->leaf_size = a->desc.tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : 0;
-    rd->exact = a->desc.exact_pools ? &a->exact : NULL;
+    rd->pools = a->desc.needs.tree ? &a->gpu_pools : NULL;
+    rd->leaf_size = a->desc.needs.tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : 0;
+    rd->exact = a->desc.needs.exact_pools ? &a->exact : NULL;
     rd->cand_first_node = a->tree.cand_first_node;
 }
 
@@ -74,20 +74,21 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
                           pn_setup *s)
 {
     memset(s, 0, sizeof *s);
-    pn_shadow_mode mode = desc->frame.mode;
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(desc->frame.mode);
+    if (!mode) {
+        pn_error("shadow mode %d does not exist", (int)desc->frame.mode);
+        return PN_ERR_INVALID;
+    }
     pn_shadow_accel_desc ad = {
-        .tree = pn_mode_uses_tree(mode),
+        .needs = mode->needs,
         .tree_n = desc->tree_n,
         .tree_d = desc->tree_d,
         .max_bytes = desc->max_bytes ? desc->max_bytes : pn_gpu_device_heap(dev) / 2,
         .light = light,
-        .candidates = mode != PN_SHADOW_LINESPACE,
-        .bvh = mode == PN_SHADOW_EXACT,
-        .exact_pools = mode >= PN_SHADOW_HYBRID,
     };
     float box[6];
     pn_result r = PN_OK;
-    if (desc->view && ad.tree) {
+    if (desc->view && ad.needs.tree) {
         r = pn_view_box(dev, scene, desc->view, light, &desc->frame, box);
         ad.keep_box = box;
     }

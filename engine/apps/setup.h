@@ -9,9 +9,6 @@
 #include "gpu/renderer.h"
 #include "scene/view.h"
 
-// Modes that walk the N-tree (linespace, hybrid, exact-ls).
-static inline bool pn_mode_uses_tree(pn_shadow_mode m) { return m >= PN_SHADOW_LINESPACE && m <= PN_SHADOW_EXACT_LS; }
-
 // ---------------------------------------------------------------------------------------------
 // The acceleration structures of the shadow modes, built in two steps so that the CPU part can run
 // on a worker thread while the device keeps rendering (the demo rebuilds trees that way):
@@ -19,26 +16,24 @@ static inline bool pn_mode_uses_tree(pn_shadow_mode m) { return m >= PN_SHADOW_L
 // on the thread that renders.
 
 typedef struct pn_shadow_accel_desc {
-    bool tree;              // the N-tree and its pools (modes linespace, hybrid, exact-ls)
+    pn_shadow_needs needs;  // what to build: a mode's (gpu/shadow_modes.h) or several modes' together
     int tree_n, tree_d;
     uint64_t max_bytes;     // refuse a tree whose pools exceed this (0: no limit)
     const pn_light *light;  // the tree leaves out triangles that cannot block a ray to it
     const float *keep_box;  // and, when given (lo xyz, hi xyz), those wholly outside this box
-    bool candidates;        // keep the tree's per-leaf triangle lists (hybrid, exact-ls)
-    bool bvh;               // build a BVH (exact mode)...
-    const pn_bvh *reuse_bvh; // ...or put this one in the exact pools (not owned; must outlive the accel)
-    bool exact_pools;       // upload triangles, BVH and candidate lists (hybrid, exact-ls, exact)
+    const pn_bvh *reuse_bvh; // for needs.bvh: put this one in the exact pools instead of building one
+                             // (not owned; must outlive the accel)
 } pn_shadow_accel_desc;
 
 typedef struct pn_shadow_accel {
     pn_shadow_accel_desc desc;
-    pn_ntree tree;             // zero without desc.tree
+    pn_ntree tree;             // zero without needs.tree
     pn_pools pools;
-    pn_bvh bvh;                // with desc.bvh
+    pn_bvh bvh;                // built for needs.bvh without reuse_bvh
     const pn_bvh *exact_bvh;   // the BVH of the exact pools: &bvh, desc.reuse_bvh or NULL
     double build_ms;           // N-tree with line spaces, and BVH
-    pn_gpu_pools gpu_pools;    // after upload, with desc.tree
-    pn_gpu_exact_pools exact;  // after upload, with desc.exact_pools
+    pn_gpu_pools gpu_pools;    // after upload, with needs.tree
+    pn_gpu_exact_pools exact;  // after upload, with needs.exact_pools
 } pn_shadow_accel;
 
 // CPU part: tree, pools and BVH. Thread-safe (no Vulkan). Logs and leaves *out zeroed on failure.

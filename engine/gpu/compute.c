@@ -2,6 +2,40 @@
 
 #include <string.h>
 
+pn_result pn_gpu_shader_module(pn_gpu_device *dev, const uint32_t *spirv, size_t bytes, VkShaderModule *out)
+{
+    VkShaderModuleCreateInfo ci = {.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO, .codeSize = bytes, .pCode = spirv};
+    VK_CHECK(vkCreateShaderModule(dev->device, &ci, NULL, out));
+    return PN_OK;
+}
+
+pn_result pn_gpu_set_layout(pn_gpu_device *dev, const VkDescriptorSetLayoutBinding *bindings, uint32_t count,
+                            VkDescriptorSetLayout *out)
+{
+    VkDescriptorSetLayoutCreateInfo ci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+        .bindingCount = count,
+        .pBindings = bindings,
+    };
+    VK_CHECK(vkCreateDescriptorSetLayout(dev->device, &ci, NULL, out));
+    return PN_OK;
+}
+
+pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, VkShaderStageFlags stages,
+                                 uint32_t push_size, VkPipelineLayout *out)
+{
+    VkPushConstantRange range = {.stageFlags = stages, .size = push_size};
+    VkPipelineLayoutCreateInfo ci = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+        .setLayoutCount = 1,
+        .pSetLayouts = &set,
+        .pushConstantRangeCount = push_size ? 1 : 0,
+        .pPushConstantRanges = &range,
+    };
+    VK_CHECK(vkCreatePipelineLayout(dev->device, &ci, NULL, out));
+    return PN_OK;
+}
+
 pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out)
 {
     memset(out, 0, sizeof *out);
@@ -17,33 +51,13 @@ pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *d
             b[i].descriptorCount = 1;
         sizes[i] = (VkDescriptorPoolSize){b[i].descriptorType, b[i].descriptorCount};
     }
-    pn_result r = PN_ERR_VULKAN;
     VkShaderModule module = VK_NULL_HANDLE;
-    VkDescriptorSetLayoutCreateInfo sl = {
-        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-        .bindingCount = desc->binding_count,
-        .pBindings = b,
-    };
-    VkPushConstantRange range = {.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT, .size = desc->push_size};
-    VkShaderModuleCreateInfo mi = {
-        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
-        .codeSize = desc->spirv_size,
-        .pCode = desc->spirv,
-    };
-    VkResult vr = vkCreateDescriptorSetLayout(dev->device, &sl, NULL, &out->set_layout);
-    if (vr == VK_SUCCESS) {
-        VkPipelineLayoutCreateInfo pl = {
-            .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-            .setLayoutCount = 1,
-            .pSetLayouts = &out->set_layout,
-            .pushConstantRangeCount = desc->push_size ? 1 : 0,
-            .pPushConstantRanges = &range,
-        };
-        vr = vkCreatePipelineLayout(dev->device, &pl, NULL, &out->layout);
-    }
-    if (vr == VK_SUCCESS)
-        vr = vkCreateShaderModule(dev->device, &mi, NULL, &module);
-    if (vr == VK_SUCCESS) {
+    pn_result r = pn_gpu_set_layout(dev, b, desc->binding_count, &out->set_layout);
+    if (r == PN_OK)
+        r = pn_gpu_pipeline_layout(dev, out->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, desc->push_size, &out->layout);
+    if (r == PN_OK)
+        r = pn_gpu_shader_module(dev, desc->spirv, desc->spirv_size, &module);
+    if (r == PN_OK) {
         VkComputePipelineCreateInfo ci = {
             .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
             .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
@@ -53,31 +67,34 @@ pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *d
                       .pSpecializationInfo = desc->spec},
             .layout = out->layout,
         };
-        vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, &out->pipeline);
+        VkResult vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, &out->pipeline);
         vkDestroyShaderModule(dev->device, module, NULL);
+        if (vr != VK_SUCCESS) {
+            pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
+            r = PN_ERR_VULKAN;
+        }
     }
-    if (vr == VK_SUCCESS && desc->binding_count) {
+    if (r == PN_OK && desc->binding_count) {
         VkDescriptorPoolCreateInfo pi = {
             .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
             .maxSets = 1,
             .poolSizeCount = desc->binding_count,
             .pPoolSizes = sizes,
         };
-        vr = vkCreateDescriptorPool(dev->device, &pi, NULL, &out->pool);
-        if (vr == VK_SUCCESS) {
-            VkDescriptorSetAllocateInfo ai = {
-                .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
-                .descriptorPool = out->pool,
-                .descriptorSetCount = 1,
-                .pSetLayouts = &out->set_layout,
-            };
+        VkDescriptorSetAllocateInfo ai = {
+            .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+            .descriptorSetCount = 1,
+            .pSetLayouts = &out->set_layout,
+        };
+        VkResult vr = vkCreateDescriptorPool(dev->device, &pi, NULL, &out->pool);
+        ai.descriptorPool = out->pool;
+        if (vr == VK_SUCCESS)
             vr = vkAllocateDescriptorSets(dev->device, &ai, &out->set);
+        if (vr != VK_SUCCESS) {
+            pn_error("creating a compute pipeline's descriptor set failed: %s", pn_vk_result_str(vr));
+            r = PN_ERR_VULKAN;
         }
     }
-    if (vr == VK_SUCCESS)
-        r = PN_OK;
-    else
-        pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
     if (r != PN_OK)
         pn_gpu_compute_destroy(dev, out);
     return r;

@@ -1,7 +1,16 @@
-// A compute pipeline with its own descriptor set: what every compute pass (shadow, shade, tests'
-// probes) needs, created from one description.
+// Pipelines: the helpers every pipeline is made of (shader module, set layout, pipeline layout),
+// and a compute pipeline with its own descriptor set, what every compute pass (shadow, shade,
+// tests' probes) needs, created from one description.
 #pragma once
 #include "gpu/device.h"
+
+pn_result pn_gpu_shader_module(pn_gpu_device *dev, const uint32_t *spirv, size_t bytes, VkShaderModule *out);
+// Bindings whose stageFlags are 0 get `stages`.
+pn_result pn_gpu_set_layout(pn_gpu_device *dev, const VkDescriptorSetLayoutBinding *bindings, uint32_t count,
+                            VkDescriptorSetLayout *out);
+// One set; push constants of push_size bytes (0: none) visible to `stages`.
+pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, VkShaderStageFlags stages,
+                                 uint32_t push_size, VkPipelineLayout *out);
 
 typedef struct pn_gpu_compute_desc {
     const uint32_t *spirv;

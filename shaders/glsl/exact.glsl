@@ -79,7 +79,7 @@ vec3 safe_inverse(vec3 d)
     return vec3(d.x != 0.0 ? 1.0 / d.x : 1e30, d.y != 0.0 ? 1.0 / d.y : 1e30, d.z != 0.0 ? 1.0 / d.z : 1e30);
 }
 
-const int BVH_STACK = 64;
+const int BVH_STACK = PN_BVH_STACK;
 uint bvh_stack[BVH_STACK];
 
 // Any hit of the segment o + t*d, t in (t_min, t_max), against the BVH. `truncated` (declared by

@@ -6,15 +6,10 @@
 //   albedo: baseColorFactor * baseColorTexture (linear), w = 1
 #include "gbuffer.glsl"
 
-layout(constant_id = 0) const int TEXTURE_COUNT = 1;
+layout(constant_id = PN_SPEC_TEXTURE_COUNT) const int TEXTURE_COUNT = 1;
 
-struct Material {
-    vec4 base_color;
-    int texture; // -1: none
-    int pad0, pad1, pad2;
-};
-layout(std430, set = 0, binding = 0) readonly buffer Materials { Material materials[]; };
-layout(set = 0, binding = 1) uniform sampler2D textures[TEXTURE_COUNT];
+layout(std430, set = 0, binding = PN_GBUFFER_BINDING_MATERIALS) readonly buffer Materials { Material materials[]; };
+layout(set = 0, binding = PN_GBUFFER_BINDING_TEXTURES) uniform sampler2D textures[TEXTURE_COUNT];
 
 layout(location = 0) in vec3 in_pos;
 layout(location = 1) in vec3 in_normal;

@@ -1,9 +1,5 @@
-// The rectangular one-sided Lambertian area light; mirrors pn_light_gpu in engine/gpu/renderer.c.
-struct Light {
-    vec4 corners[4]; // counter-clockwise seen from the emitting side (xyz)
-    vec4 normal;     // unit, the emitting side (xyz)
-    vec4 radiance;   // rgb; w = 1: a point light (all corners equal), rgb is its intensity (W/sr)
-};
+// The rectangular one-sided Lambertian area light: Light in interface.h.
+#include "interface.h"
 
 // Exact irradiance per unit radiance at p with unit normal n (Lambert's edge sum over the
 // polygon clipped to the receiver's upper hemisphere; zero behind the light); per unit intensity

@@ -1,37 +1,10 @@
-// The N-tree's GPU pools; mirrors engine/accel/pools.h (tests/test_pools.c checks the two agree)
-// and the line-space index mapping of engine/accel/linespace.h.
-#extension GL_EXT_buffer_reference : require
+// Reading the N-tree's GPU pools (layout: engine/accel/pools.h, structs: interface.h; tests/test_pools.c
+// checks the two sides agree) and the line-space index mapping of engine/accel/linespace.h.
+#include "interface.h" // Node, TreeInfo and the pools' buffer references
 
-struct Node {
-    vec3 min;       // box corner; the box is a cube
-    float size;     // edge length
-    uint children;  // first entry of its children group in the tree pool
-    uint level;     // root = 0
-    uint linespace; // first word of its line space in the line-space pool
-    uint parent;    // node index, 0xffffffff for the root
-};
-
-layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer NodePool { Node nodes[]; };
-layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TreePool { uint entries[]; };
-layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LinespacePool { uint words[]; };
-
-// Mirrors pn_gpu_tree_info.
-struct TreeInfo {
-    vec3 root_min;
-    float root_size;
-    uint n;
-    uint d;
-    uint ls_words;   // 32-bit words per line space
-    uint node_count;
-    NodePool node_pool;
-    TreePool tree_pool;
-    LinespacePool ls_pool;
-    uvec2 pad;      // keeps the struct at 64 bytes without needing 64-bit integers
-};
-
-const uint CELL_EMPTY = 0u;
-const uint CELL_FILLED = 1u;
-// Entries >= 2 are subdivided children: node index = entry - 2.
+const uint CELL_EMPTY = PN_CELL_EMPTY;
+const uint CELL_FILLED = PN_CELL_FILLED;
+// Entries >= PN_CELL_FIRST_NODE are subdivided children: node index = entry - PN_CELL_FIRST_NODE.
 
 // Patch index of (face, u, v); face = 2*axis + side, u along axis (axis+1)%3, v along (axis+2)%3.
 uint ls_patch(uint n, uint face, uint u, uint v) { return (face * n + v) * n + u; }

@@ -3,13 +3,13 @@
 // Shading pass: outgoing radiance = albedo / pi * E * V, linear HDR; alpha = coverage.
 #include "light.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D img_p;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D img_n;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D img_albedo;
-layout(set = 0, binding = 3, r32f) uniform readonly image2D img_v;
-layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D img_out;
+layout(set = 0, binding = PN_SHADE_BINDING_P, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = PN_SHADE_BINDING_N, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = PN_SHADE_BINDING_ALBEDO, rgba32f) uniform readonly image2D img_albedo;
+layout(set = 0, binding = PN_SHADE_BINDING_V, r32f) uniform readonly image2D img_v;
+layout(set = 0, binding = PN_SHADE_BINDING_OUT, rgba32f) uniform writeonly image2D img_out;
 
 layout(push_constant) uniform ShadePush { Light light; } pc;
 

@@ -7,7 +7,7 @@
 #include "shadow_frame.glsl"
 #include "exact.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
 void main()
 {

@@ -1,11 +1,11 @@
 // The skeleton of a shadow shader: the pixel, its chunk of rays, the counts. Include after
 // shadow_common.glsl.
 
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D img_p;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D img_n;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D img_v;
+layout(set = 0, binding = PN_SHADOW_BINDING_P, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = PN_SHADOW_BINDING_N, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = PN_SHADOW_BINDING_V, r32f) uniform writeonly image2D img_v;
 
-const uint MAX_CHUNK = 32u; // rays of one dispatch (renderer.c keeps chunks at most this big)
+const uint MAX_CHUNK = PN_MAX_CHUNK; // rays of one dispatch (shadow_pass.c keeps chunks at most this big)
 
 // The chunk's rays: all start at the pixel's origin o; ray i ends at o + dir[i] (a light sample),
 // and rises clear of its own surface at t_rise[i] (see shadow_origin).
@@ -16,7 +16,7 @@ bool truncated = false; // set when llvmpipe's loop budget ended a loop early
 // Work counters (the bench's --work): a separate build of each shadow shader, with COUNT_WORK on,
 // counts per pixel the nodes visited (N-tree or BVH), line-space lookups, triangle tests and the
 // deepest stack reached, over all its rays. Off, the increments compile away.
-layout(constant_id = 2) const bool COUNT_WORK = false;
+layout(constant_id = PN_SPEC_COUNT_WORK) const bool COUNT_WORK = false;
 uvec4 work = uvec4(0u); // nodes, lookups, triangle tests, stack depth (max)
 
 // Surface offsets against self-shadowing.

@@ -3,43 +3,45 @@
 #extension GL_EXT_control_flow_attributes : require
 // Line-space soft shadows: one invocation per G-buffer pixel traces its shadow rays from the surface
 // point to samples on the rectangular light and writes the visible fraction V.
-// TRAVERSAL 0 (packet): the rays of the pixel walk the tree together, slice by slice along the
+// TRAVERSAL packet: the rays of the pixel walk the tree together, slice by slice along the
 // dominant axis of the light direction, visiting in each slice the cells of the packet's footprint,
-// with an explicit stack of one frame per depth (Klee 2016, sec. 4.3). 1 (ray): each ray walks
-// alone, a 3D-DDA per level. Both decide every (ray, node) pair with ls_classify, so they agree up
+// with an explicit stack of one frame per depth (Klee 2016, sec. 4.3). ray: each ray walks
+// alone, a 3D-DDA per level (PN_TRAVERSAL_* in interface.h). Both decide every (ray, node) pair with ls_classify, so they agree up
 // to rays that graze cell boundaries.
 //
 // Control flow is kept structured (no break, continue or early return in loops): Mesa 22.3's
 // llvmpipe charges every loop iteration against one budget per invocation (see Chunk in
 // shadow_common.glsl), and structured loops keep that count predictable.
 //
-// MODE 0 (linespace): the paper's method; a ray starts where it has risen clear of its surface
+// MODE linespace (PN_VARIANT_LINESPACE): the paper's method; a ray starts where it has risen clear of its surface
 // (t_rise, shadow_frame.glsl) and the last-level nodes where it starts or ends are skipped.
-// MODE 1 (hybrid): the same, but the ray starts at its origin, and the last-level nodes the line
+// MODE hybrid: the same, but the ray starts at its origin, and the last-level nodes the line
 // space cannot decide (entered before t_rise, or holding the ray's end) have their triangles tested
-// exactly. MODE 2 (exact-ls): line spaces only skip empty space; wherever a last-level shaft is set,
+// exactly. MODE exact-ls: line spaces only skip empty space; wherever a last-level shaft is set,
 // or a node holds the ray's start or end, its triangles are tested exactly: the result is exact.
 #include "shadow_common.glsl"
 #include "shadow_frame.glsl"
 #include "exact.glsl"
 #include "linespace_trace.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
-layout(constant_id = 0) const int TRAVERSAL = 0;
-layout(constant_id = 1) const int MODE = 0;
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_ID;
+layout(constant_id = PN_SPEC_VARIANT) const int MODE = PN_VARIANT_LINESPACE;
+const bool LINESPACE = MODE == PN_VARIANT_LINESPACE;
+const bool EXACT_LS = MODE == PN_VARIANT_EXACT_LS;
 
-const int MAX_DEPTH = 6;
+const int MAX_DEPTH = PN_NTREE_MAX_DEPTH;
 
 // Where ray i's segment starts, and from where the line space may answer for it (see MODE).
-float ray_start(uint i) { return MODE == 0 ? t_rise[i] : 0.0; }
-float ray_trust(uint i) { return MODE == 2 ? 0.0 : t_rise[i]; }
+float ray_start(uint i) { return LINESPACE ? t_rise[i] : 0.0; }
+float ray_trust(uint i) { return EXACT_LS ? 0.0 : t_rise[i]; }
 
 // A last-level verdict per mode. LS_BLOCKED blocks, except in exact-ls where the ray walks the
 // node's leaves instead; LS_INSIDE is skipped by the paper's rule, and walked in hybrid and
 // exact-ls. A walked last-level node tests the triangles of each filled leaf the ray crosses
 // (leaf_blocked): in those modes a filled leaf decides exactly.
-bool ls_blocks(int c) { return c == LS_BLOCKED && MODE != 2; }
-bool ls_walks(int c) { return c == LS_DESCEND || (MODE != 0 && c == LS_INSIDE) || (MODE == 2 && c == LS_BLOCKED); }
+bool ls_blocks(int c) { return c == LS_BLOCKED && !EXACT_LS; }
+bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) || (EXACT_LS && c == LS_BLOCKED); }
 
 // ---------------------------------------------------------------------------------------------
 // Per-ray traversal
@@ -136,7 +138,7 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             // (where only rays in a face plane walk them) it blocks, in the others its triangles
             // decide. The DDA has moved on: the leaf is the cell it left.
             if (entry == CELL_FILLED)
-                blocked = MODE == 0 || leaf_blocked(f.node, child, n3, wray(o, d), 0.0, 1.0);
+                blocked = LINESPACE || leaf_blocked(f.node, child, n3, wray(o, d), 0.0, 1.0);
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -323,7 +325,7 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     l.o -= vec3(cell);
                     float t_in, t_out;
                     bool hit = ls_slabs(l, 1.0, t_in, t_out) && t_in <= 1.0 && t_out >= ray_start(i);
-                    hit = hit && (MODE == 0 || leaf_blocked(f.node, uint((cell.z * n + cell.y) * n + cell.x), n3,
+                    hit = hit && (LINESPACE || leaf_blocked(f.node, uint((cell.z * n + cell.y) * n + cell.x), n3,
                                                             wray(o, dir[i]), 0.0, 1.0));
                     blocked |= hit ? (1u << i) : 0u;
                 }
@@ -380,15 +382,15 @@ void main()
     // The rays to trace: the valid ones; in linespace mode only those that rise clear of their
     // surface before reaching the light (the others pass within a few leaves of it: unblocked).
     uint traced = valid_rays;
-    for (uint j = 0u; MODE == 0 && j < count; j++)
+    for (uint j = 0u; LINESPACE && j < count; j++)
         traced &= t_rise[j] < 1.0 ? ~0u : ~(1u << j);
     uint blocked = 0u;
-    if (TRAVERSAL == 0) {
+    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID) {
         // The packet's bounding pyramid: over the part of the light that holds this chunk's traced
         // samples rather than the whole light (the light is a parallelogram, so its (s, t) box is
         // one); its footprints have fewer cells to visit, the rays and their decisions are the same.
         // Modes that trace every valid ray use the whole light.
-        if (MODE != 0) {
+        if (!LINESPACE) {
             st_lo = vec2(0.0);
             st_hi = vec2(1.0);
         }

@@ -1,11 +1,14 @@
 #version 460
+#extension GL_GOOGLE_include_directive : require
 // Shadow pass without occlusion: V = 1 on every pixel that holds geometry, 0 on the background.
 // The line-space and exact shadow shaders replace it with the same bindings.
-layout(local_size_x = 8, local_size_y = 8) in;
+#include "interface.h"
 
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D img_p;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D img_n;
-layout(set = 0, binding = 2, r32f) uniform writeonly image2D img_v;
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+
+layout(set = 0, binding = PN_SHADOW_BINDING_P, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = PN_SHADOW_BINDING_N, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = PN_SHADOW_BINDING_V, r32f) uniform writeonly image2D img_v;
 
 void main()
 {

@@ -50,10 +50,10 @@ static bool finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) 
 static void check_render(const pn_render_cmd_opts *o)
 {
     const pn_render_opts *r = &o->r;
-    REQUIRE(o->scene && (!o->ray_dump || r->mode != PN_SHADOW_NONE));
+    REQUIRE(o->scene && pn_shadow_mode_get(r->mode) && (!o->ray_dump || pn_shadow_mode_get(r->mode)->traces));
     REQUIRE(r->width >= 1 && r->width <= 16384 && r->height >= 1 && r->height <= 16384);
     REQUIRE(r->spp >= 1 && r->spp <= 4096 && r->tree_n >= 2 && r->tree_n <= 16 && r->tree_d >= 1 && r->tree_d <= 6);
-    REQUIRE(r->mode >= 0 && pn_mode_names[r->mode] && r->traversal >= 0 && pn_traversal_names[r->traversal]);
+    REQUIRE(r->traversal >= 0 && pn_traversal_names[r->traversal]);
     REQUIRE(r->sampler >= 0 && pn_sampler_names[r->sampler]);
     REQUIRE(isfinite(r->fov) && r->fov > 0 && r->fov < 180 && isfinite(r->exposure) && r->exposure >= 0);
     REQUIRE(o->max_error >= 0 && o->max_error <= 1);

@@ -1,0 +1,37 @@
+// What describes one frame, shared by the renderer and its passes: size, shadow configuration and
+// the acceleration structures the mode reads; and what a frame gives back.
+#pragma once
+#include "gpu/exact_pools.h"
+#include "gpu/pools.h"
+#include "gpu/shadow_modes.h"
+
+// Zero-initialised means: mode none, per-ray traversal, stratified sampler, seed 0; width, height and spp
+// must be set (apps/render_opts.c fills one from the command line).
+typedef struct pn_renderer_desc {
+    uint32_t width, height;
+    pn_shadow_mode mode;
+    pn_traversal traversal;
+    pn_sampler sampler;
+    uint32_t spp;  // shadow rays per pixel
+    uint32_t seed; // fixes the stratified jitter
+    const pn_gpu_pools *pools; // the uploaded N-tree, for the modes whose needs.tree is set
+    double leaf_size;          // edge of a leaf cell of that tree, world units
+    const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools
+    uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
+    bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
+    bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
+} pn_renderer_desc;
+
+typedef struct pn_frame_times {
+    double gbuffer_ms, shadow_ms, shade_ms; // GPU time per pass, from timestamp queries
+} pn_frame_times;
+
+// The frame's images after pn_renderer_render, in the renderer's host-visible readback buffer.
+// All are width*height pixels, row 0 at the top; background pixels are all zero.
+typedef struct pn_frame_images {
+    const float *p;        // rgba: world position, w = 1 where geometry is
+    const float *n;        // rgba: unit normal facing the viewer, w = view depth
+    const float *albedo;   // rgba: linear albedo, w = 1 where geometry is
+    const float *v;        // one float: visibility of the light, 0..1
+    const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
+} pn_frame_images;

@@ -1,0 +1,43 @@
+// The G-buffer pass: the scene's triangles rasterised into P (world position), N (normal, view
+// depth) and albedo, with reversed Z. Owns the scene's GPU copy (vertices, indices, materials,
+// textures) and the graphics pipeline.
+#pragma once
+#include "gpu/compute.h"
+#include "gpu/resources.h"
+#include "interface.h"
+#include "scene/scene.h"
+#include "scene/view.h"
+
+typedef struct pn_gbuffer_pass {
+    pn_gpu_buffer vertices, indices, materials;
+    pn_gpu_image *textures; // at least one (a white texel when the scene has none)
+    uint32_t texture_count;
+    VkSampler sampler;
+    pn_draw *draws;
+    uint32_t draw_count;
+    float scene_min[3], scene_max[3]; // for the clip planes
+    VkDescriptorPool descriptor_pool;
+    VkDescriptorSetLayout set_layout;
+    VkDescriptorSet set;
+    VkPipelineLayout layout;
+    VkPipeline pipeline;
+} pn_gbuffer_pass;
+
+// The targets the pass draws into (colour attachments in GENERAL layout, depth in DEPTH_ATTACHMENT).
+typedef struct pn_gbuffer_targets {
+    const pn_gpu_image *p, *n, *albedo, *depth;
+    uint32_t width, height;
+} pn_gbuffer_targets;
+
+// Uploads the scene and creates the pipeline. All or nothing; logs the reason on failure.
+pn_result pn_gbuffer_pass_create(pn_gpu_device *dev, const pn_scene *scene, pn_gbuffer_pass *out);
+void pn_gbuffer_pass_destroy(pn_gpu_device *dev, pn_gbuffer_pass *g);
+
+// The camera as the pass's push constants for an image of width x height: view-projection with
+// clip planes around the scene's bounding sphere, eye and view direction.
+pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *g, const pn_camera *cam, uint32_t width, uint32_t height);
+
+// Records the draws, with the targets' barriers: before, after any earlier access (their contents
+// are discarded); after, for reads by compute shaders in GENERAL layout.
+void pn_gbuffer_pass_record(VkCommandBuffer cmd, const pn_gbuffer_pass *g, const pn_gbuffer_targets *t,
+                            const pn_gbuffer_push *camera);

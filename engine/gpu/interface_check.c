@@ -1,0 +1,56 @@
+// The C side of the shader interface (shaders/glsl/interface.h) has the layout GLSL gives the
+// same structs: std430 for storage buffers and push constants, std140 for ShadowParams. A wrong
+// offset here fails the build; tests/test_pools.c reads every struct back on the GPU.
+#include <stddef.h>
+
+#include "interface.h"
+
+#define AT(type, field, offset) _Static_assert(offsetof(type, field) == (offset), #type "." #field)
+#define SIZE(type, bytes) _Static_assert(sizeof(type) == (bytes), "sizeof " #type)
+
+AT(pn_gpu_node, min, 0);
+AT(pn_gpu_node, size, 12);
+AT(pn_gpu_node, children, 16);
+AT(pn_gpu_node, parent, 28);
+SIZE(pn_gpu_node, 32);
+
+AT(pn_bvh_node, first, 12);
+AT(pn_bvh_node, max, 16);
+AT(pn_bvh_node, count, 28);
+SIZE(pn_bvh_node, 32);
+
+AT(pn_gpu_tree_info, root_size, 12);
+AT(pn_gpu_tree_info, n, 16);
+AT(pn_gpu_tree_info, node_count, 28);
+AT(pn_gpu_tree_info, node_pool, 32); // 8-byte aligned references
+AT(pn_gpu_tree_info, ls_pool, 48);
+SIZE(pn_gpu_tree_info, 64);
+
+AT(pn_light_gpu, normal, 64);
+AT(pn_light_gpu, radiance, 80);
+SIZE(pn_light_gpu, 96);
+
+AT(pn_material_gpu, texture, 16);
+SIZE(pn_material_gpu, 32); // an array element: a multiple of its 16-byte alignment
+
+AT(pn_gbuffer_push, eye, 64);
+AT(pn_gbuffer_push, forward, 80);
+AT(pn_gbuffer_push, material, 96);
+SIZE(pn_gbuffer_push, 112); // the block's size rounded up to its 16-byte alignment
+
+// std140: the struct member `tree` and vec4 arrays on 16-byte boundaries, references on 8.
+AT(pn_shadow_params, tree, 0);
+AT(pn_shadow_params, corners, 64);
+AT(pn_shadow_params, light_normal, 128);
+AT(pn_shadow_params, spp, 144);
+AT(pn_shadow_params, leaf_size, 164);
+AT(pn_shadow_params, canary, 168);
+AT(pn_shadow_params, tris, 176);
+AT(pn_shadow_params, dump, 216);
+AT(pn_shadow_params, dump_rays, 224);
+AT(pn_shadow_params, cand_first, 228);
+AT(pn_shadow_params, work, 232);
+AT(pn_shadow_params, pad3, 240);
+SIZE(pn_shadow_params, 256);
+
+SIZE(pn_shadow_chunk, 16);

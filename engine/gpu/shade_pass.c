@@ -1,0 +1,62 @@
+#include "gpu/shade_pass.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "shade_comp.h"
+
+pn_light_gpu pn_light_to_gpu(const pn_light *l)
+{
+    float q[4][3];
+    pn_light_corners(l, q);
+    pn_light_gpu g;
+    memset(&g, 0, sizeof g);
+    for (int i = 0; i < 4; i++)
+        memcpy(g.corners[i], q[i], sizeof q[i]);
+    float n = sqrtf(l->normal[0] * l->normal[0] + l->normal[1] * l->normal[1] + l->normal[2] * l->normal[2]);
+    for (int k = 0; k < 3; k++) {
+        g.normal[k] = n > 0 ? l->normal[k] / n : 0;
+        g.radiance[k] = l->radiance[k];
+    }
+    g.radiance[3] = pn_light_is_point(l) ? 1.0f : 0.0f; // light.glsl: radiance is then an intensity
+    return g;
+}
+
+pn_result pn_shade_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
+                               const pn_gpu_image *n, const pn_gpu_image *albedo, const pn_gpu_image *v,
+                               const pn_gpu_image *radiance, pn_shade_pass *out)
+{
+    memset(out, 0, sizeof *out);
+    out->width = width, out->height = height;
+    VkDescriptorSetLayoutBinding bindings[PN_SHADE_BINDING_COUNT];
+    const pn_gpu_image *images[PN_SHADE_BINDING_COUNT];
+    images[PN_SHADE_BINDING_P] = p;
+    images[PN_SHADE_BINDING_N] = n;
+    images[PN_SHADE_BINDING_ALBEDO] = albedo;
+    images[PN_SHADE_BINDING_V] = v;
+    images[PN_SHADE_BINDING_OUT] = radiance;
+    for (uint32_t i = 0; i < PN_SHADE_BINDING_COUNT; i++)
+        bindings[i] = (VkDescriptorSetLayoutBinding){.binding = i, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
+    PN_TRY(pn_gpu_compute_create(dev,
+                                 &(pn_gpu_compute_desc){.spirv = pn_spv_shade_comp,
+                                                        .spirv_size = sizeof pn_spv_shade_comp,
+                                                        .bindings = bindings,
+                                                        .binding_count = PN_SHADE_BINDING_COUNT,
+                                                        .push_size = sizeof(pn_light_gpu)},
+                                 &out->compute));
+    for (uint32_t i = 0; i < PN_SHADE_BINDING_COUNT; i++)
+        pn_gpu_compute_write_image(dev, &out->compute, i, images[i]->view);
+    return PN_OK;
+}
+
+void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)
+{
+    pn_gpu_compute_destroy(dev, &s->compute);
+    memset(s, 0, sizeof *s);
+}
+
+void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_light_gpu *light)
+{
+    uint32_t gx = (s->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (s->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
+    pn_gpu_compute_dispatch(cmd, &s->compute, sizeof *light, light, gx, gy, 1);
+}

@@ -1,0 +1,78 @@
+#include "gpu/shadow_modes.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "core/log.h"
+#include "shadow_exact_comp.h"
+#include "shadow_linespace_comp.h"
+#include "shadow_none_comp.h"
+
+#define SHADER(name) .spirv = pn_spv_##name, .spirv_size = sizeof pn_spv_##name
+
+// In enum order; the cheapest first among those that trace, which is the order --quality auto
+// tries them in. auto_trees counts the standard trees (apps/quality.c) it tries per mode.
+static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
+    [PN_SHADOW_NONE] = {.name = "none", .help = "unshadowed (V = 1)", SHADER(shadow_none_comp)},
+    [PN_SHADOW_LINESPACE] = {.name = "linespace",
+                             .help = "line-space visibility, the paper's method (default)",
+                             SHADER(shadow_linespace_comp),
+                             .variant = PN_VARIANT_LINESPACE,
+                             .needs = {.tree = true},
+                             .traces = true,
+                             .auto_trees = 4},
+    [PN_SHADOW_HYBRID] = {.name = "hybrid",
+                          .help = "line spaces, triangles tested exactly where rays start and end",
+                          SHADER(shadow_linespace_comp),
+                          .variant = PN_VARIANT_HYBRID,
+                          .needs = {.tree = true, .candidates = true, .exact_pools = true},
+                          .traces = true,
+                          .auto_trees = 4},
+    [PN_SHADOW_EXACT_LS] = {.name = "exact-ls",
+                            .help = "line spaces skip empty space, set shafts test triangles (exact)",
+                            SHADER(shadow_linespace_comp),
+                            .variant = PN_VARIANT_EXACT_LS,
+                            .needs = {.tree = true, .candidates = true, .exact_pools = true},
+                            .traces = true,
+                            .exact = true,
+                            .auto_trees = 1},
+    [PN_SHADOW_EXACT] = {.name = "exact",
+                         .help = "BVH and watertight triangle tests (the ground truth)",
+                         SHADER(shadow_exact_comp),
+                         .needs = {.bvh = true, .exact_pools = true},
+                         .traces = true,
+                         .exact = true},
+};
+
+const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet", NULL};
+const char *const pn_sampler_names[] = {[PN_SAMPLER_STRATIFIED] = "stratified", [PN_SAMPLER_GRID] = "grid", NULL};
+
+const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m)
+{
+    return (int)m >= 0 && m < PN_SHADOW_MODE_COUNT ? &MODES[m] : NULL;
+}
+
+int pn_shadow_mode_parse(const char *opt, const char *name)
+{
+    char list[256] = "";
+    for (int i = 0; i < PN_SHADOW_MODE_COUNT; i++) {
+        if (strcmp(name, MODES[i].name) == 0)
+            return i;
+        strncat(list, i ? "|" : "", sizeof list - strlen(list) - 1);
+        strncat(list, MODES[i].name, sizeof list - strlen(list) - 1);
+    }
+    pn_error("%s: expected one of %s, got '%s'", opt, list, name);
+    return -1;
+}
+
+pn_shadow_needs pn_shadow_needs_all(void)
+{
+    pn_shadow_needs all = {0};
+    for (int i = 0; i < PN_SHADOW_MODE_COUNT; i++) {
+        all.tree |= MODES[i].needs.tree;
+        all.candidates |= MODES[i].needs.candidates;
+        all.bvh |= MODES[i].needs.bvh;
+        all.exact_pools |= MODES[i].needs.exact_pools;
+    }
+    return all;
+}

@@ -1,0 +1,60 @@
+// The shadow modes, one row each in one table (shadow_modes.c): name, shader and specialisation,
+// what the mode needs built, whether its answer is exact. The CLI, the renderer, setup, bench, demo
+// and tests all read the table; nothing compares modes by their enum order.
+// Adding a mode: a value here, its row in shadow_modes.c, its shader (compiled by CMakeLists.txt's
+// shader list), its tests.
+#pragma once
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "interface.h" // PN_TRAVERSAL_*, PN_SAMPLER_*: values the shaders test
+
+typedef enum pn_shadow_mode {
+    PN_SHADOW_NONE,      // V = 1: unshadowed
+    PN_SHADOW_LINESPACE, // line-space visibility, the paper's method
+    PN_SHADOW_HYBRID,    // line spaces, and the triangles exactly where the ray starts and ends
+    PN_SHADOW_EXACT_LS,  // line spaces skip empty space; set shafts test their triangles exactly
+    PN_SHADOW_EXACT,     // BVH and watertight triangle tests: the reference
+    PN_SHADOW_MODE_COUNT
+} pn_shadow_mode;
+
+// The mode every error is measured against (bench, --quality auto, the demo's error view).
+#define PN_SHADOW_REFERENCE PN_SHADOW_EXACT
+
+typedef enum pn_traversal { PN_TRAVERSAL_RAY = PN_TRAVERSAL_RAY_ID, PN_TRAVERSAL_PACKET = PN_TRAVERSAL_PACKET_ID } pn_traversal;
+typedef enum pn_sampler { PN_SAMPLER_GRID = PN_SAMPLER_GRID_ID, PN_SAMPLER_STRATIFIED = PN_SAMPLER_STRATIFIED_ID } pn_sampler;
+
+// Command-line names indexed by the enum value, NULL-terminated (for pn_parse_choice).
+extern const char *const pn_traversal_names[];
+extern const char *const pn_sampler_names[];
+
+// What a mode needs built before it can render (apps/setup.c builds it).
+typedef struct pn_shadow_needs {
+    bool tree;        // the N-tree and its line-space pools
+    bool candidates;  // the tree's per-leaf triangle lists
+    bool bvh;         // a BVH over all triangles
+    bool exact_pools; // triangles, BVH and candidate lists on the GPU, for exact triangle tests
+} pn_shadow_needs;
+
+typedef struct pn_shadow_mode_info {
+    const char *name;          // on the command line and in every output
+    const char *help;          // one line for --help
+    const uint32_t *spirv;     // its shadow shader
+    size_t spirv_size;         // bytes
+    int32_t variant;           // the shader's MODE specialisation constant (PN_VARIANT_*)
+    pn_shadow_needs needs;
+    bool traces;               // traces shadow rays (every mode but none)
+    bool exact;                // its V equals exact ray tracing's for the same samples
+    uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
+} pn_shadow_mode_info;
+
+// The row of mode m; NULL for a value outside the table.
+const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m);
+
+// The mode called `name`; -1, with a message naming `opt` and listing the modes, for no mode.
+int pn_shadow_mode_parse(const char *opt, const char *name);
+
+// Every mode's needs together: a set-up from which any mode can render (the demo switches modes
+// without rebuilding).
+pn_shadow_needs pn_shadow_needs_all(void);

@@ -1,0 +1,180 @@
+#include "gpu/shadow_pass.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "core/log.h"
+
+uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 1 : spp; }
+
+double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_light *light, double shadow_ms)
+{
+    return shadow_ms > 0 ? (double)covered_pixels * pn_shadow_samples(spp, light) / (shadow_ms * 1e-3) : 0;
+}
+
+void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
+{
+    uint32_t u = 1;
+    for (uint32_t i = 1; i * i <= spp; i++)
+        if (spp % i == 0)
+            u = i;
+    *grid_u = u;
+    *grid_v = spp / u;
+}
+
+pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
+                                const pn_gpu_image *n, const pn_gpu_image *v, pn_shadow_pass *out)
+{
+    memset(out, 0, sizeof *out);
+    out->mode = pn_shadow_mode_get(desc->mode);
+    out->width = desc->width, out->height = desc->height, out->spp = desc->spp;
+    out->loop_budget = pn_gpu_device_loop_budget(dev);
+    // llvmpipe: samples per dispatch small enough that a pixel's loops stay below the budget of
+    // 65535 iterations (a ray takes tens), halved when that is not enough. PN_MAX_CHUNK (32) runs
+    // 25 spp in one dispatch; the per-ray walk balances its lanes better the more rays each has,
+    // and the packet walk does fewer walks.
+    out->chunk = PN_MAX_CHUNK;
+    const VkDescriptorType IMAGE = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+    // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status.
+    const VkDescriptorSetLayoutBinding bindings[PN_SHADOW_BINDING_COUNT] = {
+        {.binding = PN_SHADOW_BINDING_P, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_N, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_V, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_PARAMS, .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER},
+        {.binding = PN_SHADOW_BINDING_COUNTS, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_STATUS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    };
+    int32_t spec_data[3] = {(int32_t)desc->traversal, out->mode->variant, desc->count_work ? 1 : 0};
+    VkSpecializationMapEntry entries[3] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
+                                           {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
+                                           {.constantID = PN_SPEC_COUNT_WORK, .offset = 8, .size = 4}};
+    VkSpecializationInfo spec = {.mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof spec_data, .pData = spec_data};
+    const VkBufferUsageFlags ADDRESSED = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+    uint64_t px = (uint64_t)desc->width * desc->height;
+    pn_result r = pn_gpu_compute_create(dev,
+                                        &(pn_gpu_compute_desc){.spirv = out->mode->spirv,
+                                                               .spirv_size = out->mode->spirv_size,
+                                                               .bindings = bindings,
+                                                               .binding_count = PN_SHADOW_BINDING_COUNT,
+                                                               .push_size = sizeof(pn_shadow_chunk),
+                                                               .spec = &spec},
+                                        &out->compute);
+    if (r == PN_OK)
+        r = pn_gpu_buffer_create(dev, sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
+                                 &out->params);
+    if (r == PN_OK)
+        r = pn_gpu_buffer_create(dev, sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
+                                 &out->status);
+    if (r == PN_OK && desc->count_work)
+        r = pn_gpu_buffer_create(dev, px * 16, ADDRESSED, PN_GPU_HOST_READBACK, &out->work);
+    if (r == PN_OK && desc->dump_rays) {
+        r = pn_gpu_buffer_create(dev, px * (1 + desc->spp) * 16, ADDRESSED, PN_GPU_HOST_READBACK, &out->ray_dump);
+        if (r == PN_OK)
+            memset(out->ray_dump.mapped, 0, px * (1 + desc->spp) * 16);
+    }
+    if (r == PN_OK)
+        r = pn_gpu_image_create(dev,
+                                &(pn_gpu_image_desc){.format = VK_FORMAT_R32G32_UINT,
+                                                     .width = desc->width,
+                                                     .height = desc->height,
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT},
+                                &out->counts);
+    if (r != PN_OK) {
+        pn_shadow_pass_destroy(dev, out);
+        return r;
+    }
+    pn_gpu_compute *c = &out->compute;
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_P, p->view);
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_N, n->view);
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_V, v->view);
+    pn_gpu_compute_write_uniform(dev, c, PN_SHADOW_BINDING_PARAMS, out->params.buffer);
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_COUNTS, out->counts.view);
+    pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_STATUS, out->status.buffer);
+    return PN_OK;
+}
+
+void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
+{
+    pn_gpu_compute_destroy(dev, &s->compute);
+    pn_gpu_image_destroy(dev, &s->counts);
+    pn_gpu_buffer_destroy(dev, &s->params);
+    pn_gpu_buffer_destroy(dev, &s->status);
+    pn_gpu_buffer_destroy(dev, &s->work);
+    pn_gpu_buffer_destroy(dev, &s->ray_dump);
+    memset(s, 0, sizeof *s);
+}
+
+void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *light)
+{
+    pn_shadow_params sp = {0};
+    if (desc->pools)
+        sp.tree = desc->pools->info;
+    memcpy(sp.corners, light->corners, sizeof sp.corners);
+    memcpy(sp.light_normal, light->normal, sizeof sp.light_normal);
+    sp.spp = desc->spp ? desc->spp : 1;
+    pn_sample_grid(sp.spp, &sp.grid_u, &sp.grid_v);
+    sp.sampler_kind = (uint32_t)desc->sampler;
+    sp.seed = desc->seed;
+    sp.leaf_size = (float)desc->leaf_size;
+    sp.canary = 2;
+    if (desc->exact) {
+        const pn_gpu_exact_pools *e = desc->exact;
+        sp.tris = e->tris.address;
+        sp.bvh = e->bvh_nodes.address;
+        sp.bvh_tris = e->bvh_tris.address;
+        sp.cand_offset = e->cand_offset.address;
+        sp.cand_tris = e->cand_tris.address;
+    }
+    sp.dump = s->ray_dump.address;
+    sp.cand_first = desc->cand_first_node;
+    sp.dump_rays = desc->dump_rays;
+    sp.work = s->work.address;
+    memcpy(s->params.mapped, &sp, sizeof sp);
+}
+
+void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples)
+{
+    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    // The counts are rewritten from the first chunk on: discard what the previous frame left.
+    VkImageMemoryBarrier2 counts = pn_gpu_image_barrier(
+        &s->counts, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE,
+        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+        VK_IMAGE_LAYOUT_GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 1, &counts);
+    uint32_t gx = (s->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (s->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
+    uint32_t spp = s->mode->traces ? samples : 1;
+    // Each chunk reads the counts the previous one wrote (see ShadowChunk in interface.h).
+    for (uint32_t begin = 0; begin < spp; begin += s->chunk) {
+        pn_shadow_chunk ch = {begin, begin + s->chunk < spp ? begin + s->chunk : spp, begin == 0, begin + s->chunk >= spp};
+        if (begin > 0)
+            pn_gpu_cmd_barrier(cmd,
+                               &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                                   .srcStageMask = COMPUTE,
+                                                   .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                                   .dstStageMask = COMPUTE,
+                                                   .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                                                                    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT},
+                               0, NULL);
+        pn_gpu_compute_dispatch(cmd, &s->compute, sizeof ch, &ch, gx, gy, 1);
+    }
+}
+
+void pn_shadow_pass_begin_frame(pn_shadow_pass *s) { *(volatile uint32_t *)s->status.mapped = 0; }
+
+pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry)
+{
+    *retry = false;
+    if (*(volatile uint32_t *)s->status.mapped == 0)
+        return PN_OK;
+    // A dispatch ran out of the loop budget: its counts are incomplete, so the frame is rendered
+    // again with half the samples per dispatch. Only llvmpipe has such a budget; elsewhere the
+    // canary never fires, and if it did the frame would be wrong, so it is an error there.
+    if (!s->loop_budget || s->chunk == 1) {
+        pn_error("a single shadow ray's traversal exceeds the device's shader loop budget; try a smaller N or d");
+        return PN_ERR_UNSUPPORTED;
+    }
+    s->chunk /= 2;
+    pn_info("shadow pass cut short by the shader loop budget: retrying with %u samples per dispatch", s->chunk);
+    *retry = true;
+    return PN_OK;
+}

@@ -1,0 +1,53 @@
+// The shadow pass: one compute invocation per pixel traces the pixel's shadow rays to the light
+// with the mode's shader (shadow_modes.c) and writes V, the visible fraction of the light samples.
+// Light samples run in chunks of at most PN_MAX_CHUNK per dispatch, counts accumulating between them.
+#pragma once
+#include "gpu/compute.h"
+#include "gpu/frame.h"
+#include "gpu/resources.h"
+#include "scene/view.h"
+
+typedef struct pn_shadow_pass {
+    const pn_shadow_mode_info *mode;
+    pn_gpu_compute compute;
+    pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
+    pn_gpu_buffer status;   // host-visible flag: a dispatch ran out of llvmpipe's loop budget
+    pn_gpu_buffer ray_dump; // with desc.dump_rays
+    pn_gpu_buffer work;     // with desc.count_work
+    pn_gpu_image counts;    // (visible, valid) sample counts between chunks
+    uint32_t width, height, spp;
+    // Light samples per dispatch. llvmpipe: halved whenever a dispatch runs out of the loop budget
+    // (pn_shadow_pass_retry); a device without that budget keeps PN_MAX_CHUNK, the size of the
+    // shader's per-ray arrays.
+    uint32_t chunk;
+    bool loop_budget; // the device ends long-running shader loops (llvmpipe): chunk and retry
+} pn_shadow_pass;
+
+// Light samples the shadow pass traces per pixel for spp: one for a point light, whose samples all
+// coincide (the first decides V), else spp. Shadow rays per second count these.
+uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light);
+
+// Shadow rays per second of a frame: every covered pixel traces pn_shadow_samples rays.
+double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_light *light, double shadow_ms);
+
+// The light-sample grid for spp rays: grid_u * grid_v == spp with grid_u the largest divisor of
+// spp not above its square root (a square grid when spp is a square).
+void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v);
+
+// Creates the mode's pipeline and buffers; p, n (read) and v (written) are the frame's images.
+pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
+                                const pn_gpu_image *n, const pn_gpu_image *v, pn_shadow_pass *out);
+void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
+
+// Writes the frame's parameters (light, samples, pools); the queue must be idle.
+void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *light);
+
+// Records the dispatches of `samples` light samples per pixel (pn_shadow_samples) after P and N are
+// ready; V is written when the last one ends.
+void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples);
+
+// Before a submit: clears the status flag. After it: PN_OK, with *retry set if a dispatch was cut
+// short and the chunk was halved (record and submit the frame again); PN_ERR_UNSUPPORTED, logged,
+// if not even one sample per dispatch fits.
+void pn_shadow_pass_begin_frame(pn_shadow_pass *s);
+pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry);

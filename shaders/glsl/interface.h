@@ -1,0 +1,206 @@
+// The contract between the C side and the shaders, in one file both include: every struct the two
+// share (with its GPU layout), every binding number, specialisation id and constant. C includes it
+// as "interface.h" (engine/gpu/interface_check.c pins the layouts with _Static_assert, and
+// tests/test_pools.c reads every struct back through a GPU probe); GLSL includes it like any
+// other include. Field macros expand to C arrays or GLSL vectors, so a field is written once.
+#ifndef PN_INTERFACE_H
+#define PN_INTERFACE_H
+
+// ---------------------------------------------------------------------------------------------
+// Constants
+
+// Compute work groups are PN_WORKGROUP x PN_WORKGROUP pixels (shadow, shade).
+#define PN_WORKGROUP 8
+// Light samples one shadow dispatch traces at most (the shader's per-ray arrays hold this many).
+#define PN_MAX_CHUNK 32
+// Deepest N-tree (root = depth 0 .. PN_NTREE_MAX_DEPTH); the line-space walk's stack holds one DDA
+// per level.
+#define PN_NTREE_MAX_DEPTH 6
+// Entries of the BVH walk's stack; the builder keeps trees shallower than this (accel/bvh.c).
+#define PN_BVH_STACK 64
+// Tree-pool entries: empty cell, filled leaf, and subdivided child i as PN_CELL_FIRST_NODE + i.
+#define PN_CELL_EMPTY 0u
+#define PN_CELL_FILLED 1u
+#define PN_CELL_FIRST_NODE 2u
+
+// Specialisation constant ids and their values.
+#define PN_SPEC_TRAVERSAL 0 // shadow shaders: how a pixel's rays walk the N-tree
+#define PN_TRAVERSAL_RAY_ID 0    // each ray alone (3D-DDA per level)
+#define PN_TRAVERSAL_PACKET_ID 1 // the pixel's rays together, slice by slice
+#define PN_SPEC_VARIANT 1 // shadow_linespace.comp: which line-space mode
+#define PN_VARIANT_LINESPACE 0 // the paper's method
+#define PN_VARIANT_HYBRID 1    // exact triangles where the ray starts and ends
+#define PN_VARIANT_EXACT_LS 2  // line spaces only skip empty space
+#define PN_SPEC_COUNT_WORK 2   // shadow shaders: count work per pixel (a 32-bit bool)
+#define PN_SPEC_TEXTURE_COUNT 0 // gbuffer.frag: size of the texture array
+
+// ShadowParams.sampler_kind. Zero is each enum's default on the command line.
+#define PN_SAMPLER_STRATIFIED_ID 0 // jittered strata, per-pixel rotated R2 jitters (the default)
+#define PN_SAMPLER_GRID_ID 1 // the paper's uniform grid
+
+// Descriptor bindings, set 0 of each pass.
+#define PN_GBUFFER_BINDING_MATERIALS 0 // storage buffer of Material
+#define PN_GBUFFER_BINDING_TEXTURES 1  // combined image samplers [PN_SPEC_TEXTURE_COUNT]
+#define PN_SHADOW_BINDING_P 0       // rgba32f: world position, w = 1 where geometry is
+#define PN_SHADOW_BINDING_N 1       // rgba32f: normal, w = view depth
+#define PN_SHADOW_BINDING_V 2       // r32f: visibility out
+#define PN_SHADOW_BINDING_PARAMS 3  // uniform ShadowParams
+#define PN_SHADOW_BINDING_COUNTS 4  // rg32ui: (visible, valid) samples so far, between chunks
+#define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe's loop budget)
+#define PN_SHADOW_BINDING_COUNT 6
+#define PN_SHADE_BINDING_P 0
+#define PN_SHADE_BINDING_N 1
+#define PN_SHADE_BINDING_ALBEDO 2
+#define PN_SHADE_BINDING_V 3
+#define PN_SHADE_BINDING_OUT 4 // rgba32f: radiance out
+#define PN_SHADE_BINDING_COUNT 5
+
+// ---------------------------------------------------------------------------------------------
+// Field macros
+
+#ifdef GL_core_profile // GLSL
+#extension GL_EXT_buffer_reference : require
+#define PN_STRUCT(glsl_name, c_name) struct glsl_name
+#define PN_END(glsl_name, c_name) ;
+#define PN_UINT(x) uint x;
+#define PN_INT(x) int x;
+#define PN_FLOAT(x) float x;
+#define PN_VEC3(x) vec3 x;
+#define PN_VEC4(x) vec4 x;
+#define PN_VEC4S(x, n) vec4 x[n];
+#define PN_UVEC2(x) uvec2 x;
+#define PN_UVEC4(x) uvec4 x;
+#define PN_MAT4(x) mat4 x;
+#define PN_ADDR(type, x) type x; // a buffer reference: a 64-bit device address
+#define PN_MEMBER(glsl_type, c_type, x) glsl_type x;
+#else // C
+#include <stdint.h>
+#define PN_STRUCT(glsl_name, c_name) typedef struct c_name
+#define PN_END(glsl_name, c_name) c_name;
+#define PN_UINT(x) uint32_t x;
+#define PN_INT(x) int32_t x;
+#define PN_FLOAT(x) float x;
+#define PN_VEC3(x) float x[3];
+#define PN_VEC4(x) float x[4];
+#define PN_VEC4S(x, n) float x[n][4];
+#define PN_UVEC2(x) uint32_t x[2];
+#define PN_UVEC4(x) uint32_t x[4];
+#define PN_MAT4(x) float x[16]; // column-major, as cglm's mat4
+#define PN_ADDR(type, x) uint64_t x;
+#define PN_MEMBER(glsl_type, c_type, x) c_type x;
+#endif
+
+// ---------------------------------------------------------------------------------------------
+// Structs. Layouts: std430 in storage buffers and push constants, std140 in the uniform block;
+// padding is explicit so that both rules give the C layout (interface_check.c asserts it).
+
+// One subdivided N-tree node in the node pool (accel/pools.h has the pools' layout). 32 bytes.
+PN_STRUCT(Node, pn_gpu_node) {
+    PN_VEC3(min)       // box corner; the box is a cube
+    PN_FLOAT(size)     // edge length
+    PN_UINT(children)  // first entry of its children group in the tree pool
+    PN_UINT(level)     // root = 0
+    PN_UINT(linespace) // first word of its line space in the line-space pool
+    PN_UINT(parent)    // node index, 0xffffffff for the root
+} PN_END(Node, pn_gpu_node)
+
+// A BVH node (accel/bvh.h): a leaf when count > 0 (triangles first..first+count of the BVH's
+// order), else an inner node whose children are first and first + 1. 32 bytes.
+PN_STRUCT(BvhNodeData, pn_bvh_node) {
+    PN_VEC3(min)
+    PN_UINT(first)
+    PN_VEC3(max)
+    PN_UINT(count)
+} PN_END(BvhNodeData, pn_bvh_node)
+
+#ifdef GL_core_profile
+// The pools, reached by address: none is bound by a storage-buffer range limit.
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer NodePool { Node nodes[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer TreePool { uint entries[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer LinespacePool { uint words[]; };
+// Triangles as 3 vec4 each (xyz), scene order.
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer TriPool { vec4 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer BvhPool { BvhNodeData nodes[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) readonly buffer IndexPool { uint ids[]; };
+// Per pixel: origin (xyz) and 1 where geometry is; then per pixel and sample: the light point (xyz)
+// and flags (bit 0 valid, bit 1 blocked) as float bits (pn_renderer_ray_dump).
+layout(buffer_reference, std430, buffer_reference_align = 16) writeonly buffer RayDump { vec4 v[]; };
+// Per pixel: nodes visited, line-space lookups, triangle tests, deepest stack (COUNT_WORK builds).
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer WorkCounts { uvec4 v[]; };
+#endif
+
+// Everything a shader needs to walk the N-tree's pools. 64 bytes.
+PN_STRUCT(TreeInfo, pn_gpu_tree_info) {
+    PN_VEC3(root_min)
+    PN_FLOAT(root_size)
+    PN_UINT(n)
+    PN_UINT(d)
+    PN_UINT(ls_words)   // 32-bit words per line space
+    PN_UINT(node_count)
+    PN_ADDR(NodePool, node_pool)
+    PN_ADDR(TreePool, tree_pool)
+    PN_ADDR(LinespacePool, ls_pool)
+    PN_UVEC2(pad)       // 64 bytes without needing 64-bit integers in GLSL
+} PN_END(TreeInfo, pn_gpu_tree_info)
+
+// The rectangular one-sided Lambertian area light (shade pass push constants). 96 bytes.
+PN_STRUCT(Light, pn_light_gpu) {
+    PN_VEC4S(corners, 4) // counter-clockwise seen from the emitting side (xyz)
+    PN_VEC4(normal)      // unit, the emitting side (xyz)
+    PN_VEC4(radiance)    // rgb; w = 1: a point light (all corners equal), rgb is its intensity (W/sr)
+} PN_END(Light, pn_light_gpu)
+
+// A glTF material as the G-buffer pass reads it. 32 bytes.
+PN_STRUCT(Material, pn_material_gpu) {
+    PN_VEC4(base_color)
+    PN_INT(texture) // -1: none
+    PN_INT(pad0)
+    PN_INT(pad1)
+    PN_INT(pad2)
+} PN_END(Material, pn_material_gpu)
+
+// G-buffer pass push constants, per draw. 112 bytes.
+PN_STRUCT(GBufferPush, pn_gbuffer_push) {
+    PN_MAT4(view_proj) // world -> Vulkan clip space (y down, depth 0..1)
+    PN_VEC4(eye)       // camera position (xyz)
+    PN_VEC4(forward)   // unit view direction (xyz): view depth = dot(P - eye, forward)
+    PN_UINT(material)  // index into the materials
+    PN_UINT(pad0)
+    PN_UINT(pad1)
+    PN_UINT(pad2)
+} PN_END(GBufferPush, pn_gbuffer_push)
+
+// The shadow pass's uniform block (std140). 256 bytes.
+PN_STRUCT(ShadowParams, pn_shadow_params) {
+    PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
+    PN_VEC4S(corners, 4)   // light corners, counter-clockwise seen from the emitting side
+    PN_VEC4(light_normal)  // xyz: emitting side
+    PN_UINT(spp)           // rays per pixel = grid_u * grid_v
+    PN_UINT(grid_u)        // samples across the light's width
+    PN_UINT(grid_v)        // samples across its height
+    PN_UINT(sampler_kind)  // PN_SAMPLER_*_ID
+    PN_UINT(seed)
+    PN_FLOAT(leaf_size)    // edge of a leaf cell (level d), world units
+    PN_UINT(canary)        // 2: the iteration count of the loop-budget canary (shadow_common.glsl)
+    PN_UINT(pad1)
+    PN_ADDR(TriPool, tris)          // triangles of the exact tests
+    PN_ADDR(BvhPool, bvh)           // exact mode
+    PN_ADDR(IndexPool, bvh_tris)    // triangle ids in BVH leaf order
+    PN_ADDR(IndexPool, cand_offset) // per leaf of the last-level N-tree nodes: first candidate (ntree.h)
+    PN_ADDR(IndexPool, cand_tris)   // candidate triangle ids
+    PN_ADDR(RayDump, dump)          // with dump_rays: every ray, for tests against an independent tracer
+    PN_UINT(dump_rays)
+    PN_UINT(cand_first)             // the first last-level node (they are numbered consecutively)
+    PN_ADDR(WorkCounts, work)       // COUNT_WORK builds only
+    PN_UVEC4(pad3)
+} PN_END(ShadowParams, pn_shadow_params)
+
+// The shadow pass's push constants: one chunk of light samples per dispatch. 16 bytes.
+PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
+    PN_UINT(sample_begin) // light samples [sample_begin, sample_end) in this dispatch
+    PN_UINT(sample_end)
+    PN_UINT(first)        // 1: counts start at zero
+    PN_UINT(last)         // 1: write V = visible / valid
+} PN_END(ShadowChunk, pn_shadow_chunk)
+
+#endif
