@@ -1,3 +1,7 @@
+// The N-tree build: triangle-box overlap, culling of triangles that cannot block, the occupancy
+// level by level (parallel chunks of triangle lists), candidate lists and line spaces. Over 500
+// lines because build_occupancy (160 lines) and its chunk/gather workers share the file-local
+// level_node and chunk types; the triangle-box test is the one piece that could move out.
 #include "accel/ntree.h"
 
 #include <float.h>

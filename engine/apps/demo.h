@@ -18,6 +18,18 @@
 #include "apps/setup.h"
 #include "gpu/swapchain.h"
 
+// penumbra demo's command line: render's options (apps/render_opts.h) and the demo's own.
+typedef struct pn_demo_opts {
+    pn_render_opts r;
+    const char *scene, *screenshot, *script, *save_prefix;
+    long long frames; // 0: until the window closes
+    long long accumulate_max;
+    bool accumulate, hud, vsync;
+} pn_demo_opts;
+
+// Parses the command line (demo_opts.c): PN_EXIT_OK, PN_EXIT_USAGE, or -1 after printing the help.
+int pn_demo_parse(int argc, char **argv, pn_demo_opts *o);
+
 typedef enum pn_demo_view {
     PN_DEMO_SHADED = 0,     // tone-mapped radiance
     PN_DEMO_VISIBILITY = 1, // V alone, grey

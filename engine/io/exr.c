@@ -1,4 +1,6 @@
-// OpenEXR output and input through OpenEXRCore, the C API of OpenEXR 3.x.
+// OpenEXR output and input through OpenEXRCore, the C API of OpenEXR 3.x. Over 500 lines because
+// OpenEXRCore's encode and decode pipelines take that much set-up each (chunk loops, channel
+// matching, attribute types); reading and writing share the error handling and stay together.
 //
 // The library keeps the channel list sorted by name whatever order channels were added in, so
 // the encode and decode pipelines are always matched to our planes by channel name.

@@ -2,6 +2,8 @@
 // world-space indexed triangle list, a draw per primitive instance, materials, RGBA8 textures,
 // the first perspective camera). The project's only C++ file; nothing C++ crosses its boundary:
 // every exception is caught here and every array handed out is malloc'd for pn_scene_destroy.
+// Its length is the project's fixed choice of one C++ file for tinygltf: every glTF check and
+// conversion (accessors, nodes, materials, images, cameras) lives behind that one C function.
 //
 // tinygltf checks the JSON structure but not the binary layout, so everything read from a buffer
 // is validated here first, in 64-bit arithmetic, against counts a hostile file may make up.

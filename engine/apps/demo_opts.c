@@ -1,0 +1,97 @@
+// penumbra demo: its help and command line (the window, frames and knobs are in cmd_demo.c).
+#include <stdio.h>
+#include <string.h>
+
+#include "apps/commands.h"
+#include "apps/demo.h"
+#include "core/log.h"
+
+void pn_print_demo_help(void)
+{
+    printf("usage: penumbra demo [SCENE] [options]\n"
+           "  Opens a window and runs render's passes every frame, with the camera, light and shadow\n"
+           "  parameters under live control. SCENE as for render (default builtin:default).\n"
+           "window and run:\n"
+           "  --size WxH            initial window size (default 800x450)\n"
+           "  --frames N            exit after N frames (default: when the window closes)\n"
+           "  --screenshot FILE     save the last frame as PNG (the image as shown, without the text)\n"
+           "  --script FILE         replay key presses and camera moves (format below)\n"
+           "  --no-accumulate       every frame stands alone (default: while nothing changes, frames\n"
+           "                        take new stratified light samples and are averaged)\n"
+           "  --accumulate-max N    frames averaged before the image is held (default 256)\n"
+           "  --no-hud              start without the figures (I toggles them)\n"
+           "  --no-vsync            present without waiting for the display when the surface allows\n"
+           "  --save-prefix P       P saves P-NNNN.exr (every parameter in the header) and P-NNNN.png\n"
+           "                        (default penumbra-demo)\n"
+           "  --exposure E          tone-mapping exposure multiplier (default 1)\n"
+           "  --spp S               as below, but 9 by default: accumulation adds samples over frames\n");
+    pn_render_opts_print_help();
+    char controls[4096];
+    pn_demo_controls_text(controls, sizeof controls);
+    printf("controls:\n%s", controls);
+    printf("script (--script FILE): one event per line, applied before frame N (0 the first) renders;\n"
+           "'#' starts a comment:\n"
+           "  frame N key [shift+]KEY   a key as above (letters, digits, ',-./;=[]', left, right, up,\n"
+           "                            down, pageup, pagedown, escape, space)\n"
+           "  frame N orbit YAW PITCH   turn the camera around its target, degrees (+ right, + up)\n"
+           "  frame N pan X Y           move the scene on screen by X, Y view heights (y down)\n"
+           "  frame N zoom F            multiply the distance to the target by F\n"
+           "  frame N resize W H        resize the window\n"
+           "  frame N screenshot FILE   save frame N (without the text) as PNG\n"
+           "The frame counter counts presented frames. PN_VALIDATION=1 makes any validation message\n"
+           "an exit code of 3, as for render.\n");
+}
+
+int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
+{
+    *o = (pn_demo_opts){.r = pn_render_opts_default(), .accumulate = true, .accumulate_max = 256, .hud = true,
+                     .vsync = true, .save_prefix = "penumbra-demo"};
+    // Render's defaults but a smaller window and fewer rays per frame: accumulation adds samples.
+    o->r.width = 800, o->r.height = 450, o->r.spp = 9;
+    pn_args a = {argc, argv, 0};
+    while (a.i < argc) {
+        const char *v = NULL, *arg = argv[a.i];
+        bool err = false, ok = true;
+        if (pn_args_flag(&a, "--help") || pn_args_flag(&a, "-h")) {
+            pn_print_demo_help();
+            return -1;
+        } else if (pn_args_value(&a, "--frames", &v, &err)) {
+            ok = v && pn_parse_int_range("--frames", v, 1, 1ll << 40, &o->frames);
+        } else if (pn_args_value(&a, "--screenshot", &v, &err)) {
+            o->screenshot = v;
+        } else if (pn_args_value(&a, "--script", &v, &err)) {
+            o->script = v;
+        } else if (pn_args_value(&a, "--save-prefix", &v, &err)) {
+            o->save_prefix = v;
+        } else if (pn_args_value(&a, "--accumulate-max", &v, &err)) {
+            ok = v && pn_parse_int_range("--accumulate-max", v, 1, 1 << 20, &o->accumulate_max);
+        } else if (pn_args_flag(&a, "--no-accumulate")) {
+            o->accumulate = false;
+        } else if (pn_args_flag(&a, "--no-hud")) {
+            o->hud = false;
+        } else if (pn_args_flag(&a, "--no-vsync")) {
+            o->vsync = false;
+        } else if (pn_render_opts_parse(&a, &o->r, &err)) {
+            // a shared option
+        } else if (arg[0] == '-' && arg[1] != '\0') {
+            pn_error("demo: unknown option '%s' (see penumbra demo --help)", arg);
+            return PN_EXIT_USAGE;
+        } else if (!o->scene) {
+            o->scene = arg;
+            a.i++;
+        } else {
+            pn_error("demo: more than one scene given ('%s' and '%s')", o->scene, arg);
+            return PN_EXIT_USAGE;
+        }
+        if (err || !ok)
+            return PN_EXIT_USAGE;
+    }
+    if (!o->scene)
+        o->scene = "builtin:default";
+    if (!pn_shadow_mode_get(o->r.mode)->traces) {
+        pn_error("demo: --mode %s casts no shadows to look at; pick a mode that traces rays (penumbra render --help)",
+                 pn_shadow_mode_get(o->r.mode)->name);
+        return PN_EXIT_USAGE;
+    }
+    return PN_EXIT_OK;
+}
