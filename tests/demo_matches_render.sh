@@ -3,8 +3,9 @@
 # parameters: same camera, light, tree, mode, sampler, spp and seed, accumulation off.
 #
 # Tolerance: zero. Both commands run the same passes (pn_renderer) on the same inputs with the same
-# seed on the same device, and tone-map with the same function (pn_tonemap_srgb8); lavapipe is
-# deterministic for a fixed input. The demo adds a camera that must stay bit-identical when nothing
+# seed on the same device, and tone-map with the same function (pn_tonemap_srgb8).
+# llvmpipe: deterministic for a fixed input (other drivers: assumed, not checked).
+# The demo adds a camera that must stay bit-identical when nothing
 # moves, a tree built the same way (culled for the same light; its candidate lists do not change
 # the tree), a BGRA swapchain copy and a CPU composition; any difference, even one 8-bit step,
 # means one of those changed the image, which is what this test is for.

@@ -107,8 +107,8 @@ int main(void)
         probe(&dev, &tree, what);
         pn_ntree_destroy(&tree);
     }
-    // Over lavapipe's 128 MiB per binding: LS(10,3) of the default scene with its ground has about
-    // 170 MiB of line space; the last nodes' words lie past 128 MiB.
+    // llvmpipe: over its 128 MiB per binding (maxStorageBufferRange): LS(10,3) of the default scene
+    // with its ground has about 170 MiB of line space; the last nodes' words lie past 128 MiB.
     pn_ntree big;
     CHECK(pn_ntree_build(&scene, &(pn_ntree_desc){.n = 10, .d = 3}, &big) == PN_OK);
     pn_pool_bytes pb = pn_ntree_pool_bytes(big.n, big.node_count);

@@ -7,9 +7,9 @@
 //   node pool:      one pn_gpu_node per subdivided node, breadth-first, root = 0.
 //   line-space pool: node i's line space is 32-bit words [i * W, (i+1) * W), W = 2 * pn_ls_words64(N);
 //                   bit layout in accel/linespace.h.
-// Pools are reached through buffer device addresses, so none is bound by the 128 MiB
-// maxStorageBufferRange of lavapipe; a pool larger than the device's maxMemoryAllocationSize is
-// refused (never truncated).
+// Pools are reached through buffer device addresses, so none is bound by maxStorageBufferRange; a
+// pool larger than the device's maxMemoryAllocationSize is refused (never truncated).
+// llvmpipe: maxStorageBufferRange is 128 MiB per binding (Mesa 22.3 and 25), below a large pool.
 #pragma once
 #include <stdint.h>
 

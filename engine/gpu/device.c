@@ -393,6 +393,7 @@ uint32_t pn_gpu_memory_type(const pn_gpu_device *dev, uint32_t type_bits, VkMemo
     return UINT32_MAX;
 }
 
+// llvmpipe: lavapipe names its device "llvmpipe (LLVM ...)"; see device.h.
 bool pn_gpu_device_loop_budget(const pn_gpu_device *dev) { return strstr(dev->props.deviceName, "llvmpipe") != NULL; }
 
 VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev)

@@ -52,9 +52,10 @@ void pn_gpu_device_destroy(pn_gpu_device *dev);
 // 1.3. Writes its index in the enumeration order; logs and fails if none fits.
 pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32_t *index);
 
-// llvmpipe (lavapipe): every shader invocation has one budget of 65,535 loop iterations, after
+// llvmpipe (Mesa 22.3): every shader invocation has one budget of 65,535 loop iterations, after
 // which all its loops silently end (Mesa's loop_limiter). The shadow pass then splits its work
-// into chunks and retries (shadow_pass.c). False on every other driver.
+// into chunks and retries (shadow_pass.c). True on llvmpipe of any Mesa version (by device name;
+// re-check the budget on Mesa 25), false on every other driver. engine/gpu/llvmpipe.md.
 bool pn_gpu_device_loop_budget(const pn_gpu_device *dev);
 
 // Size of the largest device-local heap.

@@ -215,6 +215,8 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     pn_light_gpu l = pn_light_to_gpu(light);
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, &l);
+    // llvmpipe: the frame is recorded again only when the shadow pass ran out of the loop budget
+    // (pn_shadow_pass_end_frame); on other drivers this loop runs once.
     bool retry = true;
     while (retry) {
         pn_shadow_pass_begin_frame(&r->shadow);

@@ -29,10 +29,12 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     out->mode = pn_shadow_mode_get(desc->mode);
     out->width = desc->width, out->height = desc->height, out->spp = desc->spp;
     out->loop_budget = pn_gpu_device_loop_budget(dev);
-    // llvmpipe: samples per dispatch small enough that a pixel's loops stay below the budget of
-    // 65535 iterations (a ray takes tens), halved when that is not enough. PN_MAX_CHUNK (32) runs
-    // 25 spp in one dispatch; the per-ray walk balances its lanes better the more rays each has,
-    // and the packet walk does fewer walks.
+    // Every device: at most PN_MAX_CHUNK (32) samples per dispatch, the size of the shader's per-ray
+    // arrays; 25 spp run in one dispatch.
+    // llvmpipe (Mesa 22.3): small enough that a pixel's loops stay below the budget of 65535
+    // iterations (a ray takes tens), halved by pn_shadow_pass_end_frame when that is not enough.
+    // There the per-ray walk balances its 8 lanes better the more rays each has, and the packet
+    // walk does fewer walks, so the chunk starts at the maximum.
     out->chunk = PN_MAX_CHUNK;
     const VkDescriptorType IMAGE = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status.
@@ -116,7 +118,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.sampler_kind = (uint32_t)desc->sampler;
     sp.seed = desc->seed;
     sp.leaf_size = (float)desc->leaf_size;
-    sp.canary = 2;
+    sp.canary = 2; // llvmpipe: the loop-budget canary's iteration count (shadow_common.glsl)
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;
@@ -166,9 +168,10 @@ pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry)
     *retry = false;
     if (*(volatile uint32_t *)s->status.mapped == 0)
         return PN_OK;
-    // A dispatch ran out of the loop budget: its counts are incomplete, so the frame is rendered
-    // again with half the samples per dispatch. Only llvmpipe has such a budget; elsewhere the
-    // canary never fires, and if it did the frame would be wrong, so it is an error there.
+    // llvmpipe: a dispatch ran out of the loop budget: its counts are incomplete, so the frame is
+    // rendered again with half the samples per dispatch. Only llvmpipe has such a budget
+    // (pn_gpu_device_loop_budget); elsewhere the canary never fires, and if it did the frame would
+    // be wrong, so it is an error there.
     if (!s->loop_budget || s->chunk == 1) {
         pn_error("a single shadow ray's traversal exceeds the device's shader loop budget; try a smaller N or d");
         return PN_ERR_UNSUPPORTED;

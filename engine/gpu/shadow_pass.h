@@ -1,6 +1,8 @@
 // The shadow pass: one compute invocation per pixel traces the pixel's shadow rays to the light
 // with the mode's shader (shadow_modes.c) and writes V, the visible fraction of the light samples.
 // Light samples run in chunks of at most PN_MAX_CHUNK per dispatch, counts accumulating between them.
+// Driver workarounds here and in the shadow shaders (llvmpipe's loop budget, its cost model) are
+// collected in engine/gpu/llvmpipe.md: read it before tuning for another device.
 #pragma once
 #include "gpu/compute.h"
 #include "gpu/frame.h"
@@ -11,16 +13,16 @@ typedef struct pn_shadow_pass {
     const pn_shadow_mode_info *mode;
     pn_gpu_compute compute;
     pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
-    pn_gpu_buffer status;   // host-visible flag: a dispatch ran out of llvmpipe's loop budget
+    pn_gpu_buffer status;   // llvmpipe: host-visible flag, a dispatch ran out of the loop budget
     pn_gpu_buffer ray_dump; // with desc.dump_rays
     pn_gpu_buffer work;     // with desc.count_work
     pn_gpu_image counts;    // (visible, valid) sample counts between chunks
     uint32_t width, height, spp;
-    // Light samples per dispatch. llvmpipe: halved whenever a dispatch runs out of the loop budget
-    // (pn_shadow_pass_retry); a device without that budget keeps PN_MAX_CHUNK, the size of the
-    // shader's per-ray arrays.
+    // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.
+    // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);
+    // a device without that budget keeps PN_MAX_CHUNK.
     uint32_t chunk;
-    bool loop_budget; // the device ends long-running shader loops (llvmpipe): chunk and retry
+    bool loop_budget; // llvmpipe: the device ends long-running shader loops; chunk and retry
 } pn_shadow_pass;
 
 // Light samples the shadow pass traces per pixel for spp: one for a point light, whose samples all
@@ -49,5 +51,6 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
 // Before a submit: clears the status flag. After it: PN_OK, with *retry set if a dispatch was cut
 // short and the chunk was halved (record and submit the frame again); PN_ERR_UNSUPPORTED, logged,
 // if not even one sample per dispatch fits.
+// llvmpipe: only there can a dispatch be cut short (pn_gpu_device_loop_budget).
 void pn_shadow_pass_begin_frame(pn_shadow_pass *s);
 pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry);

@@ -82,8 +82,9 @@ vec3 safe_inverse(vec3 d)
 const int BVH_STACK = PN_BVH_STACK;
 uint bvh_stack[BVH_STACK];
 
-// Any hit of the segment o + t*d, t in (t_min, t_max), against the BVH. `truncated` (declared by
-// the including shader) is set if llvmpipe's loop budget cut the walk short.
+// Any hit of the segment o + t*d, t in (t_min, t_max), against the BVH.
+// llvmpipe: `truncated` (declared by the including shader) is set if the loop budget cut the walk
+// short.
 bool bvh_blocked(vec3 o, vec3 d, float t_min, float t_max)
 {
     WRay r = wray(o, d);

@@ -46,7 +46,7 @@
 #define PN_SHADOW_BINDING_V 2       // r32f: visibility out
 #define PN_SHADOW_BINDING_PARAMS 3  // uniform ShadowParams
 #define PN_SHADOW_BINDING_COUNTS 4  // rg32ui: (visible, valid) samples so far, between chunks
-#define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe's loop budget)
+#define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe: loop budget spent)
 #define PN_SHADOW_BINDING_COUNT 6
 #define PN_SHADE_BINDING_P 0
 #define PN_SHADE_BINDING_N 1
@@ -181,7 +181,7 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(sampler_kind)  // PN_SAMPLER_*_ID
     PN_UINT(seed)
     PN_FLOAT(leaf_size)    // edge of a leaf cell (level d), world units
-    PN_UINT(canary)        // 2: the iteration count of the loop-budget canary (shadow_common.glsl)
+    PN_UINT(canary)        // llvmpipe: 2, the iteration count of the loop-budget canary (shadow_common.glsl)
     PN_UINT(pad1)
     PN_ADDR(TriPool, tris)          // triangles of the exact tests
     PN_ADDR(BvhPool, bvh)           // exact mode

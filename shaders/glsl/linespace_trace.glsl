@@ -46,8 +46,9 @@ Local ls_local_box(vec3 node_min, float node_size, float n, vec3 o, vec3 d)
 Local ls_local(Node node, float n, vec3 o, vec3 d) { return ls_local_box(node.min, node.size, n, o, d); }
 
 // Entry and exit parameters of the line o + t*d through the box [-eps, N+eps]^3; false if it misses.
-// Every function here has a single exit and no break/continue: Mesa 22.3's llvmpipe miscompiles
-// early exits from functions inlined into loops (the caller's loop then ends early).
+// llvmpipe (Mesa 22.3): every function here has a single exit and no break/continue, as that
+// driver miscompiles early exits from functions inlined into loops (the caller's loop then ends
+// early). Harmless on other drivers; re-check on Mesa 25.
 bool ls_slabs(Local l, float n, out float t_in, out float t_out)
 {
     t_in = -1e30;
@@ -85,12 +86,14 @@ uint ls_face_mask(vec3 p, float n, float eps)
     return m;
 }
 
-// Component k of p (k < 3), without dynamic vector indexing (which llvmpipe turns into branches).
+// Component k of p (k < 3).
+// llvmpipe: selects, not dynamic vector indexing, which that driver turns into branches.
 float ls_comp(vec3 p, uint k) { return k == 0u ? p.x : (k == 1u ? p.y : p.z); }
 
 // Shaft bit of patch (fa, ua, va) and patch (fb, ub, vb), fa != fb: ls_shaft without its integer
-// divisions (llvmpipe splits a vector division into one scalar division per lane), since the faces
-// are known here. Shafts are symmetric: the patch on the lower face comes first.
+// divisions, since the faces are known here. Shafts are symmetric: the patch on the lower face
+// comes first.
+// llvmpipe: a vector integer division there becomes one scalar division per lane.
 bool ls_bit_faces(TreeInfo t, uint ls, uint fa, uint ua, uint va, uint fb, uint ub, uint vb)
 {
     uint n = t.n, n2 = n * n;
@@ -104,9 +107,11 @@ bool ls_bit_faces(TreeInfo t, uint ls, uint fa, uint ua, uint va, uint fb, uint 
 // in the line space starting at word `ls`;
 // 0: none has; -1: no pair on different faces (the segment lies in a face plane).
 // One flat loop over the candidate pairs (usually exactly one: each point on one face, away from
-// patch edges): llvmpipe runs every loop body at least once per call, masked, and charges each
-// iteration against the invocation's loop budget, so a nest of loops for the rare case would cost
-// every call several iterations. The candidates: faces fa of pa (set bits of ra, lowest first),
+// patch edges).
+// llvmpipe: every loop body runs at least once per call, masked, and each iteration is charged
+// against the invocation's loop budget, so a nest of loops for the rare case would cost every call
+// several iterations there (on GPUs with real branches an untaken nest may cost little).
+// The candidates: faces fa of pa (set bits of ra, lowest first),
 // faces fb != fa of pb (set bits of rb), and in each face pair every combination of the patch cells
 // the two points may belong to, counted by the odometer `o` (offsets of a_u, a_v, b_u, b_v in their
 // ranges). Stops at the first set bit, which decides the result.

@@ -4,15 +4,18 @@
 
 layout(set = 0, binding = PN_SHADOW_BINDING_PARAMS, std140) uniform ShadowParamsBlock { ShadowParams params; };
 
-// The shadow pass runs in chunks of light samples, one dispatch each, accumulating counts: llvmpipe
-// (Mesa 22.3) gives every shader invocation a budget of 65535 loop iterations summed over all its
-// loops and silently ends every loop once it is spent, so a pixel's whole traversal cannot run in
-// one dispatch. A shader that finds its loops cut short sets `status.truncated`; the host then
-// renders the frame again with smaller chunks (engine/gpu/shadow_pass.c), so a result is never wrong.
+// The shadow pass runs in chunks of at most PN_MAX_CHUNK light samples (the size of the per-ray
+// arrays, on every device), one dispatch each, accumulating counts.
+// llvmpipe (Mesa 22.3): every shader invocation has a budget of 65535 loop iterations summed over
+// all its loops, and every loop silently ends once it is spent, so a pixel's whole traversal may not
+// fit in one dispatch. A shader that finds its loops cut short sets `status.truncated`; the host then
+// renders the frame again with smaller chunks (engine/gpu/shadow_pass.c), so a result is never
+// wrong. Other drivers have no such budget (pn_gpu_device_loop_budget). engine/gpu/llvmpipe.md.
 layout(push_constant) uniform ShadowChunkBlock { ShadowChunk chunk; };
 
-// True if this invocation's loop budget ran out: a loop of `canary` (= 2) iterations, a bound the
-// compiler cannot see, completes only while budget is left. Call it after all other loops.
+// llvmpipe: true if this invocation's loop budget ran out: a loop of `canary` (= 2) iterations, a
+// bound the compiler cannot see, completes only while budget is left. Call it after all other
+// loops. Always false on drivers without the budget.
 bool budget_spent()
 {
     uint iterations = 0u;

@@ -11,7 +11,7 @@ const uint MAX_CHUNK = PN_MAX_CHUNK; // rays of one dispatch (shadow_pass.c keep
 // and rises clear of its own surface at t_rise[i] (see shadow_origin).
 vec3 dir[MAX_CHUNK];
 float t_rise[MAX_CHUNK];
-bool truncated = false; // set when llvmpipe's loop budget ended a loop early
+bool truncated = false; // llvmpipe: set when the loop budget ended a loop early
 
 // Work counters (the bench's --work): a separate build of each shadow shader, with COUNT_WORK on,
 // counts per pixel the nodes visited (N-tree or BVH), line-space lookups, triangle tests and the
@@ -38,8 +38,8 @@ vec3 shadow_origin(vec3 p, vec3 nrm, out float rise)
 
 // Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry
 // light: above the receiver's horizon and in front of the one-sided light). `i` ends at the ray
-// count unless the loop budget ran out. st_lo, st_hi: the box, in the light's (s, t), of the valid
-// samples that rise clear before the light (empty, lo > hi, if none does).
+// count (llvmpipe: unless the loop budget ran out). st_lo, st_hi: the box, in the light's (s, t),
+// of the valid samples that rise clear before the light (empty, lo > hi, if none does).
 uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i, out vec2 st_lo, out vec2 st_hi)
 {
     uint valid_rays = 0u;

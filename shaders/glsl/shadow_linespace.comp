@@ -9,9 +9,10 @@
 // alone, a 3D-DDA per level (PN_TRAVERSAL_* in interface.h). Both decide every (ray, node) pair with ls_classify, so they agree up
 // to rays that graze cell boundaries.
 //
-// Control flow is kept structured (no break, continue or early return in loops): Mesa 22.3's
-// llvmpipe charges every loop iteration against one budget per invocation (see Chunk in
-// shadow_common.glsl), and structured loops keep that count predictable.
+// llvmpipe (Mesa 22.3): control flow is kept structured (no break, continue or early return in
+// loops): that driver miscompiles early exits inside loops (linespace_trace.glsl) and charges every
+// loop iteration against one budget per invocation (see the push constant in shadow_common.glsl);
+// structured loops keep that count predictable. Harmless elsewhere. engine/gpu/llvmpipe.md.
 //
 // MODE linespace (PN_VARIANT_LINESPACE): the paper's method; a ray starts where it has risen clear of its surface
 // (t_rise, shadow_frame.glsl) and the last-level nodes where it starts or ends are skipped.
@@ -46,11 +47,12 @@ bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) 
 // ---------------------------------------------------------------------------------------------
 // Per-ray traversal
 
-// Cost model (Mesa 22.3 llvmpipe): an `if` never branches, both sides run masked on all 8 lanes;
-// only loops branch, and their bodies run until no lane is active (at least once). So a loop
-// iteration costs its whole body, whatever each lane does. The dearest operations are loads from
-// buffers: every component of a load is a loop over the 8 lanes with a branch and a scalar load
-// each. Hence:
+// llvmpipe (Mesa 22.3): this walk is shaped by that driver's cost model (engine/gpu/llvmpipe.md).
+// There an `if` does not branch: both sides run masked on all 8 lanes; only loops branch, and their
+// bodies run until no lane is active (at least once). So a loop iteration costs its whole body,
+// whatever each lane does. The dearest operations are loads from buffers: every component of a
+// load is a loop over the 8 lanes with a branch and a scalar load each. On GPUs with real branches
+// and vector loads the trade-offs below may differ (measure before copying them). Hence:
 // - one loop over all the chunk's rays: a lane whose ray is done takes its next ray in the same
 //   iteration (no lane idles until the slowest ray of the group is finished);
 // - per iteration at most one node is loaded and classified, shared by starting a ray at the root
@@ -64,6 +66,8 @@ bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) 
 // words[4i] = (min.x, min.y) and words[4i+1] = (min.z, size). Typed double only to load 64 bits at
 // once (the device enables shaderFloat64, not shaderInt64): the bits are only unpacked, never used
 // as doubles.
+// llvmpipe: two 64-bit loads, not four 32-bit ones, as each loaded component there is a scalar
+// loop over the lanes (cost model above).
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer NodeBoxes { double words[]; };
 
 // The DDA of a node over its children: the cell the ray is in, its step direction, the parameters
@@ -79,8 +83,8 @@ struct Dda {
     bool done;
 };
 
-// The tree entry of the DDA's current cell, then the DDA advanced to the next cell. Branch-free (no
-// dynamic component index, which llvmpipe turns into divergent branches).
+// The tree entry of the DDA's current cell, then the DDA advanced to the next cell.
+// llvmpipe: branch-free, with no dynamic component index (that driver turns one into branches).
 uint dda_step(TreeInfo t, int n, uint n3, inout Dda f, out uint child)
 {
     child = uint((f.cell.z * n + f.cell.y) * n + f.cell.x);
@@ -126,8 +130,9 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
         } else {
             // Up to 3 cells per iteration: after an empty cell the walk goes on to the next one in
             // the same iteration, which saves the rest of an iteration's cost (above all the node
-            // and line-space loads) for the common empty cells. Written out, not as a loop, so that
-            // it costs no loop budget (measured on lavapipe: 3 beats 2 and 4).
+            // and line-space loads) for the common empty cells.
+            // llvmpipe (Mesa 22.3): written out, not as a loop, so that it costs no loop budget;
+            // 3 beats 2 and 4 as measured there.
             uint child;
             uint entry = dda_step(t, n, n3, f, child);
             if (entry == CELL_EMPTY && !f.done)
@@ -251,7 +256,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
     // The root, classified ray by ray.
     Node root = t.node_pool.nodes[0];
     uint descend = 0u;
-    // Loops over rays visit the set bits only: every iteration counts against llvmpipe's budget.
+    // llvmpipe: loops over rays visit the set bits only, as every iteration counts against the
+    // loop budget there.
     for (uint left = rays; left != 0u; left &= left - 1u) {
         uint i = uint(findLSB(left));
         int r = ls_classify(t, root, o, dir[i], ray_start(i), ray_trust(i));
@@ -259,8 +265,9 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
         descend |= ls_walks(r) ? (1u << i) : 0u;
     }
     // The top frame lives in registers, its ancestors in p<i> for depth i: separate variables with
-    // constant indices, updated by selects (a per-lane indexed array costs a scalar access per lane
-    // and word, and llvmpipe runs that code on every iteration, masked, whether or not a lane needs it).
+    // constant indices, updated by selects.
+    // llvmpipe: a per-lane indexed array costs a scalar access per lane and word there, run on
+    // every iteration, masked, whether or not a lane needs it.
     int depth = descend != 0u ? 0 : -1;
     PacketFrame f = PacketFrame(0u, descend, 0, 0, 0, 0, 0, 0, 0, 0, 0);
     PacketFrame p0 = f, p1 = f, p2 = f, p3 = f, p4 = f;
