@@ -2,7 +2,7 @@
 // (a short explicit stack, any hit) and the triangle pools. Mirrors engine/accel/bvh.h.
 // Include after shadow_common.glsl (uses ShadowParams).
 
-// BvhNodeData (shadow_common.glsl) mirrors pn_bvh_node: interior (count == 0): children first and
+// BvhNodeData (interface.h, pn_bvh_node on the C side): interior (count == 0): children first and
 // first + 1; leaf: triangles bvh_tris[first .. first + count).
 #define BvhNode BvhNodeData
 
