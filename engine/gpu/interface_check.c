@@ -1,6 +1,6 @@
 // The C side of the shader interface (shaders/glsl/interface.h) has the layout GLSL gives the
 // same structs: std430 for storage buffers and push constants, std140 for ShadowParams. A wrong
-// offset here fails the build; tests/test_pools.c reads every struct back on the GPU.
+// offset here fails the build; tests/test_interface.c reads every struct back on the GPU.
 #include <stddef.h>
 
 #include "interface.h"

@@ -1,7 +1,7 @@
 // The contract between the C side and the shaders, in one file both include: every struct the two
 // share (with its GPU layout), every binding number, specialisation id and constant. C includes it
 // as "interface.h" (engine/gpu/interface_check.c pins the layouts with _Static_assert, and
-// tests/test_pools.c reads every struct back through a GPU probe); GLSL includes it like any
+// tests/test_interface.c reads every struct back through a GPU probe); GLSL includes it like any
 // other include. Field macros expand to C arrays or GLSL vectors, so a field is written once.
 #ifndef PN_INTERFACE_H
 #define PN_INTERFACE_H
