@@ -35,13 +35,18 @@ void put_tree(TreeInfo t)
     put(uvec2(t.node_pool)); put(uvec2(t.tree_pool)); put(uvec2(t.ls_pool)); put(t.pad);
 }
 
+void put_light(Light l)
+{
+    for (int k = 0; k < 4; k++)
+        put(l.corners[k]);
+    put(l.normal); put(l.radiance);
+}
+
 void main()
 {
     // Same order as the tables of test_interface.c.
     put_tree(params.tree);
-    for (int k = 0; k < 4; k++)
-        put(params.corners[k]);
-    put(params.light_normal);
+    put_light(params.light);
     put(params.spp); put(params.grid_u); put(params.grid_v); put(params.sampler_kind);
     put(params.seed); put(params.leaf_size); put(params.canary); put(params.pad1);
     put(uvec2(params.tris)); put(uvec2(params.bvh)); put(uvec2(params.bvh_tris));
@@ -58,11 +63,8 @@ void main()
     }
     for (int i = 0; i < 2; i++)
         put_tree(trees[i]);
-    for (int i = 0; i < 2; i++) {
-        for (int k = 0; k < 4; k++)
-            put(lights[i].corners[k]);
-        put(lights[i].normal); put(lights[i].radiance);
-    }
+    for (int i = 0; i < 2; i++)
+        put_light(lights[i]);
     for (int i = 0; i < 2; i++) {
         Material m = materials[i];
         put(m.base_color); put(m.texture); put(m.pad0); put(m.pad1); put(m.pad2);

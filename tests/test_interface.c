@@ -28,8 +28,10 @@ static const field tree_fields[] = {
     F(pn_gpu_tree_info, d),         F(pn_gpu_tree_info, ls_words),  F(pn_gpu_tree_info, node_count),
     F(pn_gpu_tree_info, node_pool), F(pn_gpu_tree_info, tree_pool), F(pn_gpu_tree_info, ls_pool),
     F(pn_gpu_tree_info, pad),       {0}};
+static const field light_fields[] = {F(pn_light_gpu, corners), F(pn_light_gpu, normal), F(pn_light_gpu, radiance),
+                                     {0}};
 static const field params_fields[] = {
-    SUB(pn_shadow_params, tree, tree_fields), F(pn_shadow_params, corners),     F(pn_shadow_params, light_normal),
+    SUB(pn_shadow_params, tree, tree_fields), SUB(pn_shadow_params, light, light_fields),
     F(pn_shadow_params, spp),                 F(pn_shadow_params, grid_u),      F(pn_shadow_params, grid_v),
     F(pn_shadow_params, sampler_kind),        F(pn_shadow_params, seed),        F(pn_shadow_params, leaf_size),
     F(pn_shadow_params, canary),              F(pn_shadow_params, pad1),        F(pn_shadow_params, tris),
@@ -42,8 +44,6 @@ static const field node_fields[] = {F(pn_gpu_node, min),       F(pn_gpu_node, si
                                     {0}};
 static const field bvh_fields[] = {F(pn_bvh_node, min), F(pn_bvh_node, first), F(pn_bvh_node, max),
                                    F(pn_bvh_node, count), {0}};
-static const field light_fields[] = {F(pn_light_gpu, corners), F(pn_light_gpu, normal), F(pn_light_gpu, radiance),
-                                     {0}};
 static const field material_fields[] = {F(pn_material_gpu, base_color), F(pn_material_gpu, texture),
                                         F(pn_material_gpu, pad0),       F(pn_material_gpu, pad1),
                                         F(pn_material_gpu, pad2),       {0}};

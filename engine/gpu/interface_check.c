@@ -40,17 +40,16 @@ SIZE(pn_gbuffer_push, 112); // the block's size rounded up to its 16-byte alignm
 
 // std140: the struct member `tree` and vec4 arrays on 16-byte boundaries, references on 8.
 AT(pn_shadow_params, tree, 0);
-AT(pn_shadow_params, corners, 64);
-AT(pn_shadow_params, light_normal, 128);
-AT(pn_shadow_params, spp, 144);
-AT(pn_shadow_params, leaf_size, 164);
-AT(pn_shadow_params, canary, 168);
-AT(pn_shadow_params, tris, 176);
-AT(pn_shadow_params, dump, 216);
-AT(pn_shadow_params, dump_rays, 224);
-AT(pn_shadow_params, cand_first, 228);
-AT(pn_shadow_params, work, 232);
-AT(pn_shadow_params, pad3, 240);
-SIZE(pn_shadow_params, 256);
+AT(pn_shadow_params, light, 64);
+AT(pn_shadow_params, spp, 160);
+AT(pn_shadow_params, leaf_size, 180);
+AT(pn_shadow_params, canary, 184);
+AT(pn_shadow_params, tris, 192);
+AT(pn_shadow_params, dump, 232);
+AT(pn_shadow_params, dump_rays, 240);
+AT(pn_shadow_params, cand_first, 244);
+AT(pn_shadow_params, work, 248);
+AT(pn_shadow_params, pad3, 256);
+SIZE(pn_shadow_params, 272);
 
 SIZE(pn_shadow_chunk, 16);

@@ -111,8 +111,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     pn_shadow_params sp = {0};
     if (desc->pools)
         sp.tree = desc->pools->info;
-    memcpy(sp.corners, light->corners, sizeof sp.corners);
-    memcpy(sp.light_normal, light->normal, sizeof sp.light_normal);
+    sp.light = *light;
     sp.spp = desc->spp ? desc->spp : 1;
     pn_sample_grid(sp.spp, &sp.grid_u, &sp.grid_v);
     sp.sampler_kind = (uint32_t)desc->sampler;

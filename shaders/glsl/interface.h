@@ -170,11 +170,10 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
     PN_UINT(pad2)
 } PN_END(GBufferPush, pn_gbuffer_push)
 
-// The shadow pass's uniform block (std140). 256 bytes.
+// The shadow pass's uniform block (std140). 272 bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
-    PN_VEC4S(corners, 4)   // light corners, counter-clockwise seen from the emitting side
-    PN_VEC4(light_normal)  // xyz: emitting side
+    PN_MEMBER(Light, pn_light_gpu, light) // the light whose visibility the pass computes
     PN_UINT(spp)           // rays per pixel = grid_u * grid_v
     PN_UINT(grid_u)        // samples across the light's width
     PN_UINT(grid_v)        // samples across its height

@@ -59,8 +59,8 @@ vec2 light_sample(uint k, uvec2 pixel)
 vec3 light_point(vec2 st)
 {
     // Corners 0..3 at (s,t) = (0,0), (1,0), (1,1), (0,1): bilinear = exact point on the parallelogram.
-    vec3 a = mix(params.corners[0].xyz, params.corners[1].xyz, st.x);
-    vec3 b = mix(params.corners[3].xyz, params.corners[2].xyz, st.x);
+    vec3 a = mix(params.light.corners[0].xyz, params.light.corners[1].xyz, st.x);
+    vec3 b = mix(params.light.corners[3].xyz, params.light.corners[2].xyz, st.x);
     return mix(a, b, st.y);
 }
 
