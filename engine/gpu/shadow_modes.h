@@ -1,8 +1,8 @@
 // The shadow modes, one row each in one table (shadow_modes.c): name, shader and specialisation,
 // what the mode needs built, whether its answer is exact. The CLI, the renderer, setup, bench, demo
 // and tests all read the table; nothing compares modes by their enum order.
-// Adding a mode: a value here, its row in shadow_modes.c, its shader (compiled by CMakeLists.txt's
-// shader list), its tests.
+// Adding a mode: a value here, its row in shadow_modes.c, its shader in shaders/glsl (every .comp
+// there is compiled and embedded as pn_spv_<name>_comp), its tests.
 #pragma once
 #include <stdbool.h>
 #include <stddef.h>
