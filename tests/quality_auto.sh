@@ -5,7 +5,11 @@
 #  - with --max-error 0.02 its pilot error (a quarter of the pixels) is within the budget, and the full
 #    render's MAE against exact is within 1.5x the budget: the pilot estimates the MAE from a
 #    quarter of the pixels, which the 1.5 allows for (measured here: pilot and full MAE agree to a
-#    few percent), and it picks something faster than exact.
+#    few percent);
+#  - at every budget the pick is the fastest of the pilots it reports (exact included) whose error
+#    is within the budget, and at 0.02 at least one line-space configuration is within it. Which
+#    one is fastest depends on the driver: on Mesa 25's lavapipe exact beats line space on this
+#    small scene, on Mesa 22.3 it does not.
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/quality_auto
@@ -29,7 +33,13 @@ if budget == 0:
     assert d["max"] == 0, d
 else:
     assert d["mae"] <= 1.5 * budget, d
-    assert run["mode"] != "exact" and q["pilot_shadow_ms"] < q["pilot_exact_ms"], q
+    assert any(t["pilot_mae"] <= budget for t in q["tried"]), q["tried"]
+fits = [("exact", None, q["pilot_exact_ms"])] + [
+    (t["mode"], t["tree"], t["pilot_shadow_ms"]) for t in q["tried"] if t["pilot_mae"] <= budget]
+best = min(fits, key=lambda f: f[2])
+assert q["candidates"] == len(q["tried"]) and q["candidates"] >= 9, q
+assert (run["mode"], run["tree"] if run["mode"] != "exact" else None) == best[:2], (run["mode"], run["tree"], best)
+assert q["pilot_shadow_ms"] == best[2], (q, best)
 PY
 done
 exit $fail

@@ -619,14 +619,14 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     // pools. d = 0 finds the largest depth that fits.
     float corners[4][3];
     pn_light_corners(&light, corners);
-    uint64_t max_bytes = pn_gpu_device_heap(dev) / 2;
+    uint64_t max_bytes = pn_gpu_device_pool_budget(dev), max_pool = pn_gpu_device_max_buffer(dev);
     pn_shadow_accel acc;
     memset(&acc, 0, sizeof acc);
     int d = c->tree_d;
     pn_result tr = PN_ERR_INVALID;
     for (int try_d = d ? d : PN_NTREE_MAX_DEPTH; try_d >= (d ? d : 1); try_d--) {
         pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(), .tree_n = c->tree_n, .tree_d = try_d,
-                                   .max_bytes = max_bytes, .light = &light};
+                                   .max_bytes = max_bytes, .max_pool_bytes = max_pool, .light = &light};
         pn_log_level level = pn_log_get_level();
         if (!d)
             pn_log_set_level(PN_LOG_QUIET); // the deeper trees' refusals are expected here
@@ -647,9 +647,23 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     if (tr != PN_OK) { // the modes without a tree still render
         pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(), .light = &light};
         ad.needs.tree = ad.needs.candidates = false;
-        CHECK(pn_shadow_accel_build(&scene, &ad, &acc) == PN_OK);
+        tr = pn_shadow_accel_build(&scene, &ad, &acc);
+        CHECK_MSG(tr == PN_OK, "%s: BVH build failed", c->name);
+        if (tr != PN_OK) { // nothing to render: the case has failed, the next one runs
+            pn_scene_destroy(&scene);
+            return;
+        }
+        tr = PN_ERR_INVALID; // still: no tree
     }
-    CHECK(pn_shadow_accel_upload(dev, &scene, &acc) == PN_OK);
+    // The build kept every pool within the device's limits, so the upload must succeed; if it does
+    // not, the case has failed and is left (rendering without pools would crash).
+    pn_result up = pn_shadow_accel_upload(dev, &scene, &acc);
+    CHECK_MSG(up == PN_OK, "%s: upload failed: %s", c->name, pn_result_str(up));
+    if (up != PN_OK) {
+        pn_shadow_accel_destroy(dev, &acc);
+        pn_scene_destroy(&scene);
+        return;
+    }
     const pn_ntree *tree = tr == PN_OK ? &acc.tree : NULL;
 
     float *P = malloc(sizeof(float) * 4 * SIZE * SIZE), *N = malloc(sizeof(float) * 4 * SIZE * SIZE);

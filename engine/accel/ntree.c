@@ -243,20 +243,35 @@ static void gather_nodes(void *ctx, uint64_t begin, uint64_t end, unsigned threa
     }
 }
 
-static void refuse(const pn_ntree_desc *desc, uint64_t subdivided, bool partial)
+// True if pools of `subdivided` nodes fit the limits of desc; else logs why not.
+static bool fits(const pn_ntree_desc *desc, uint64_t subdivided, bool partial)
 {
     pn_pool_bytes pb = pn_ntree_pool_bytes(desc->n, subdivided);
+    uint64_t largest = pb.linespace > pb.tree ? pb.linespace : pb.tree;
+    largest = pb.node > largest ? pb.node : largest;
+    bool total_ok = !desc->max_bytes || pb.total <= desc->max_bytes;
+    bool pool_ok = !desc->max_pool_bytes || largest <= desc->max_pool_bytes;
+    if (total_ok && pool_ok)
+        return true;
     char hint[128];
     if (desc->d > 1)
         snprintf(hint, sizeof hint, "--tree %d,%d or --tree %d,%d", desc->n > 2 ? desc->n - 1 : 2, desc->d,
                  desc->n, desc->d - 1);
     else
         snprintf(hint, sizeof hint, "--tree %d,%d", desc->n > 2 ? desc->n - 1 : 2, desc->d);
-    pn_error("LS(%d,%d) needs %s%.1f MiB of pools (%llu subdivided nodes x %.1f KiB of line space), over the "
-             "limit of %.1f MiB (--max-memory); try a smaller N or d, e.g. %s",
-             desc->n, desc->d, partial ? "at least " : "", (double)pb.total / 1048576.0,
-             (unsigned long long)subdivided, (double)pn_ls_words64(desc->n) * 8 / 1024.0,
-             (double)desc->max_bytes / 1048576.0, hint);
+    if (!total_ok)
+        pn_error("LS(%d,%d) needs %s%.1f MiB of pools (%llu subdivided nodes x %.1f KiB of line space), over the "
+                 "limit of %.1f MiB (--max-memory); try a smaller N or d, e.g. %s",
+                 desc->n, desc->d, partial ? "at least " : "", (double)pb.total / 1048576.0,
+                 (unsigned long long)subdivided, (double)pn_ls_words64(desc->n) * 8 / 1024.0,
+                 (double)desc->max_bytes / 1048576.0, hint);
+    else
+        pn_error("LS(%d,%d) needs a pool of %s%.1f MiB (%llu subdivided nodes x %.1f KiB of line space), more than "
+                 "one buffer of this device can hold (%.1f MiB); try a smaller N or d, e.g. %s",
+                 desc->n, desc->d, partial ? "at least " : "", (double)largest / 1048576.0,
+                 (unsigned long long)subdivided, (double)pn_ls_words64(desc->n) * 8 / 1024.0,
+                 (double)desc->max_pool_bytes / 1048576.0, hint);
+    return false;
 }
 
 // Copies the triangles into flat arrays (vertices, bounds) for the build's inner loops.
@@ -491,8 +506,7 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
         t->filled_per_level[level + 1] = filled;
         bool last = level + 1 == t->d;
         uint64_t subdivided = t->node_count + (last ? 0 : filled);
-        if (desc->max_bytes && pn_ntree_pool_bytes(t->n, subdivided).total > desc->max_bytes) {
-            refuse(desc, subdivided, !last);
+        if (!fits(desc, subdivided, !last)) {
             free_lists(lists, lcount);
             r = PN_ERR_MEMORY;
             break;
@@ -610,7 +624,7 @@ pn_result pn_ntree_build(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree 
     }
     pn_ls_masks_destroy(&masks);
     if (r != PN_OK) {
-        if (r == PN_ERR_MEMORY && t->node_count && !desc->max_bytes)
+        if (r == PN_ERR_MEMORY && t->node_count && !desc->max_bytes && !desc->max_pool_bytes)
             pn_error("N-tree LS(%d,%d): out of memory", desc->n, desc->d);
         pn_ntree_destroy(t);
         return r;

@@ -16,6 +16,8 @@
 typedef struct pn_ntree_desc {
     int n, d;           // branching factor 2..16, depth 1..6
     uint64_t max_bytes; // refuse a tree whose pools would exceed this; 0 = no limit
+    uint64_t max_pool_bytes; // refuse a tree with a pool larger than this (the device's largest
+                             // buffer, pn_gpu_device_max_buffer); 0 = no limit
     // With the light's corners: leave out triangles that cannot block any shadow ray, i.e. those
     // whose plane has the whole scene and the light on one closed side (a ground plane under
     // everything, the outer walls of a room lit from inside). NULL keeps every triangle.

@@ -102,14 +102,15 @@ int pn_cmd_build(int argc, char **argv)
         pn_scene_destroy(&scene);
         return PN_EXIT_FAILURE;
     }
-    if (!max_bytes) // default: half the device's memory, leaving room for the frame's images
-        max_bytes = upload ? pn_gpu_device_heap(&dev) / 2 : (1ull << 30);
+    if (!max_bytes) // default: the device's pool budget, leaving room for the frame's images
+        max_bytes = upload ? pn_gpu_device_pool_budget(&dev) : (1ull << 30);
+    uint64_t max_pool = upload ? pn_gpu_device_max_buffer(&dev) : 0; // every pool is one buffer
 
     int rc = PN_EXIT_FAILURE;
     pn_ntree tree;
     pn_pools pools = {0};
     pn_gpu_pools gpu = {0};
-    if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes, .cull_light = cull ? (const float(*)[3])corners : NULL}, &tree) == PN_OK) {
+    if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes, .max_pool_bytes = max_pool, .cull_light = cull ? (const float(*)[3])corners : NULL}, &tree) == PN_OK) {
         if (pn_pools_pack(&tree, &pools) == PN_OK && (!upload || pn_gpu_pools_create(&dev, &pools, &gpu) == PN_OK))
             rc = PN_EXIT_OK;
         double share = tree.node_count ? (double)tree.set_bits / ((double)tree.node_count * pn_ls_bits(n)) : 0;

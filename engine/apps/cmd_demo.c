@@ -66,7 +66,8 @@ static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
         .needs = pn_shadow_needs_all(),
         .tree_n = n,
         .tree_d = depth,
-        .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_heap(&d->dev) / 2,
+        .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_pool_budget(&d->dev),
+        .max_pool_bytes = pn_gpu_device_max_buffer(&d->dev),
         .light = &d->light,
         .reuse_bvh = &d->bvh,
     };

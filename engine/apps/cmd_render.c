@@ -222,11 +222,17 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         else
             printf("\"tree\": null, \"build_ms\": %.3f, \"pool_bytes\": null, ", st->build_ms);
         printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);
-        if (st->quality_auto)
+        if (st->quality_auto) {
+            const pn_quality_choice *q = &st->quality;
             printf("\"quality\": {\"max_error\": %.6g, \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f, "
-                   "\"pilot_exact_ms\": %.4f, \"candidates\": %d, \"pilot\": [%u, %u]}, ",
-                   o->max_error, st->quality.pilot_mae, st->quality.pilot_ms, st->quality.exact_ms, st->quality.candidates,
-                   st->quality.pilot_width, st->quality.pilot_height);
+                   "\"pilot_exact_ms\": %.4f, \"candidates\": %d, \"pilot\": [%u, %u], \"tried\": [",
+                   o->max_error, q->pilot_mae, q->pilot_ms, q->exact_ms, q->candidates, q->pilot_width, q->pilot_height);
+            for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++)
+                printf("%s{\"mode\": \"%s\", \"tree\": [%d, %d], \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f}",
+                       i ? ", " : "", pn_shadow_mode_get(q->tried[i].mode)->name, q->tried[i].tree_n, q->tried[i].tree_d,
+                       q->tried[i].pilot_mae, q->tried[i].pilot_ms);
+            printf("]}, ");
+        }
         printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
                "\"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",
                load_ms, t->gbuffer_ms, t->shadow_ms, t->shade_ms, (unsigned long long)st->covered, st->rays_per_s,

@@ -70,12 +70,14 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
             double ms;
             if (pilot(dev, scene, cam, light, &sd, v, NULL, &ms) != PN_OK)
                 continue; // does not fit: try the next
-            out->candidates++;
             pn_error_metrics e;
             if (!pn_error_compare(v, ref, mask, px, NULL, &e)) {
                 r = PN_ERR_MEMORY;
                 break;
             }
+            if (out->candidates < PN_QUALITY_MAX_TRIED)
+                out->tried[out->candidates] = (pn_quality_tried){(pn_shadow_mode)m, sd.tree_n, sd.tree_d, e.mae, ms};
+            out->candidates++;
             pn_debug("quality: %s LS(%d,%d): pilot MAE %.4f in %.1f ms", info->name, sd.tree_n, sd.tree_d, e.mae, ms);
             if (e.mae <= max_error && ms < out->pilot_ms) {
                 out->mode = (pn_shadow_mode)m;

@@ -4,13 +4,23 @@
 #include "gpu/renderer.h"
 #include "scene/view.h"
 
+enum { PN_QUALITY_MAX_TRIED = 32 };
+
+// One configuration a pilot rendered.
+typedef struct pn_quality_tried {
+    pn_shadow_mode mode;
+    int tree_n, tree_d;
+    double pilot_mae, pilot_ms;
+} pn_quality_tried;
+
 typedef struct pn_quality_choice {
     pn_shadow_mode mode;
     int tree_n, tree_d;   // for the tree modes
     double pilot_mae;     // mean |V - V_exact| over the pilot's pixels
     double pilot_ms;      // its shadow pass
     double exact_ms;      // exact's shadow pass on the pilot
-    int candidates;       // configurations tried
+    int candidates;       // configurations tried (besides exact)
+    pn_quality_tried tried[PN_QUALITY_MAX_TRIED]; // the first of them, in the order tried
     uint32_t pilot_width, pilot_height;
 } pn_quality_choice;
 

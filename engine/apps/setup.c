@@ -16,6 +16,7 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
         pn_ntree_desc td = {.n = desc->tree_n,
                             .d = desc->tree_d,
                             .max_bytes = desc->max_bytes,
+                            .max_pool_bytes = desc->max_pool_bytes,
                             .cull_light = (const float(*)[3])corners,
                             .keep_box = desc->keep_box,
                             .keep_candidates = desc->needs.candidates};
@@ -83,7 +84,8 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         .needs = mode->needs,
         .tree_n = desc->tree_n,
         .tree_d = desc->tree_d,
-        .max_bytes = desc->max_bytes ? desc->max_bytes : pn_gpu_device_heap(dev) / 2,
+        .max_bytes = desc->max_bytes ? desc->max_bytes : pn_gpu_device_pool_budget(dev),
+        .max_pool_bytes = pn_gpu_device_max_buffer(dev),
         .light = light,
     };
     float box[6];

@@ -19,6 +19,8 @@ typedef struct pn_shadow_accel_desc {
     pn_shadow_needs needs;  // what to build: a mode's (gpu/shadow_modes.h) or several modes' together
     int tree_n, tree_d;
     uint64_t max_bytes;     // refuse a tree whose pools exceed this (0: no limit)
+    uint64_t max_pool_bytes; // ... or with one pool larger than this (0: no limit; set it to
+                             // pn_gpu_device_max_buffer: every pool is one buffer)
     const pn_light *light;  // the tree leaves out triangles that cannot block a ray to it
     const float *keep_box;  // and, when given (lo xyz, hi xyz), those wholly outside this box
     const pn_bvh *reuse_bvh; // for needs.bvh: put this one in the exact pools instead of building one

@@ -230,7 +230,11 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
     if (vr != VK_SUCCESS && vr != VK_INCOMPLETE)
         VK_CHECK(vr);
 
-    dev->maintenance3 = (VkPhysicalDeviceMaintenance3Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+    dev->driver = (VkPhysicalDeviceDriverProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+    dev->maintenance4 = (VkPhysicalDeviceMaintenance4Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_4_PROPERTIES,
+                                                                 .pNext = &dev->driver};
+    dev->maintenance3 = (VkPhysicalDeviceMaintenance3Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES,
+                                                                 .pNext = &dev->maintenance4};
     dev->subgroup = (VkPhysicalDeviceSubgroupProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES,
                                                          .pNext = &dev->maintenance3};
     VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->subgroup};
@@ -395,6 +399,14 @@ uint32_t pn_gpu_memory_type(const pn_gpu_device *dev, uint32_t type_bits, VkMemo
 
 // llvmpipe: lavapipe names its device "llvmpipe (LLVM ...)"; see device.h.
 bool pn_gpu_device_loop_budget(const pn_gpu_device *dev) { return strstr(dev->props.deviceName, "llvmpipe") != NULL; }
+
+VkDeviceSize pn_gpu_device_max_buffer(const pn_gpu_device *dev)
+{
+    VkDeviceSize a = dev->maintenance3.maxMemoryAllocationSize, b = dev->maintenance4.maxBufferSize;
+    return a && b ? (a < b ? a : b) : (a ? a : b);
+}
+
+VkDeviceSize pn_gpu_device_pool_budget(const pn_gpu_device *dev) { return pn_gpu_device_heap(dev) / 2; }
 
 VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev)
 {

@@ -29,6 +29,8 @@ typedef struct pn_gpu_device {
     VkPhysicalDeviceProperties props;
     VkPhysicalDeviceSubgroupProperties subgroup;
     VkPhysicalDeviceMaintenance3Properties maintenance3; // maxMemoryAllocationSize
+    VkPhysicalDeviceMaintenance4Properties maintenance4; // maxBufferSize
+    VkPhysicalDeviceDriverProperties driver;             // driverName, driverInfo (the Mesa version)
     VkPhysicalDeviceMemoryProperties memory;
     VkDevice device;
     uint32_t queue_family;
@@ -57,6 +59,14 @@ pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32
 // into chunks and retries (shadow_pass.c). True on llvmpipe of any Mesa version (by device name;
 // re-check the budget on Mesa 25), false on every other driver. engine/gpu/llvmpipe.md.
 bool pn_gpu_device_loop_budget(const pn_gpu_device *dev);
+
+// The largest single buffer this device can allocate: min(maxMemoryAllocationSize, maxBufferSize).
+// Every pool is one buffer, so no pool may be larger (Mesa 22.3 and 25 lavapipe: 2 GiB).
+VkDeviceSize pn_gpu_device_max_buffer(const pn_gpu_device *dev);
+
+// The default budget of a tree's pools: half the largest device-local heap, leaving room for the
+// frame's images (lavapipe: Mesa 22.3 reports a 2 GiB heap, Mesa 25 the machine's RAM).
+VkDeviceSize pn_gpu_device_pool_budget(const pn_gpu_device *dev);
 
 // Size of the largest device-local heap.
 VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev);
