@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # --quality auto picks a configuration whose error against exact fits the budget:
-#  - with --max-error 0 it must pick an exact configuration (exact or exact-ls): the full render then
+#  - with --max-error 0 it must pick an exact configuration (exact, exact-ls or rayquery): the full render then
 #    equals exact, MAE 0;
 #  - with --max-error 0.02 its pilot error (a quarter of the pixels) is within the budget, and the full
 #    render's MAE against exact is within 1.5x the budget: the pilot estimates the MAE from a
@@ -29,7 +29,7 @@ print("budget %g: chose %s %s, pilot MAE %.5f, full MAE %.5f, pilot shadow %.1f 
       % (budget, run["mode"], run["tree"], q["pilot_mae"], d["mae"], q["pilot_shadow_ms"], q["pilot_exact_ms"]))
 assert q["pilot_mae"] <= budget, q
 if budget == 0:
-    assert run["mode"] in ("exact", "exact-ls"), run["mode"]
+    assert run["mode"] in ("exact", "exact-ls", "rayquery"), run["mode"]
     assert d["max"] == 0, d
 else:
     assert d["mae"] <= 1.5 * budget, d
@@ -38,7 +38,7 @@ fits = [("exact", None, q["pilot_exact_ms"])] + [
     (t["mode"], t["tree"], t["pilot_shadow_ms"]) for t in q["tried"] if t["pilot_mae"] <= budget]
 best = min(fits, key=lambda f: f[2])
 assert q["candidates"] == len(q["tried"]) and q["candidates"] >= 9, q
-assert (run["mode"], run["tree"] if run["mode"] != "exact" else None) == best[:2], (run["mode"], run["tree"], best)
+assert (run["mode"], run["tree"]) == best[:2], (run["mode"], run["tree"], best)
 assert q["pilot_shadow_ms"] == best[2], (q, best)
 PY
 done

@@ -625,7 +625,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     int d = c->tree_d;
     pn_result tr = PN_ERR_INVALID;
     for (int try_d = d ? d : PN_NTREE_MAX_DEPTH; try_d >= (d ? d : 1); try_d--) {
-        pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(), .tree_n = c->tree_n, .tree_d = try_d,
+        pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(dev), .tree_n = c->tree_n, .tree_d = try_d,
                                    .max_bytes = max_bytes, .max_pool_bytes = max_pool, .light = &light};
         pn_log_level level = pn_log_get_level();
         if (!d)
@@ -645,7 +645,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
     if (!c->tree_d && tr == PN_OK)
         fprintf(stderr, "  largest depth for N=%d: %d (%u subdivided nodes)\n", c->tree_n, d, acc.tree.node_count);
     if (tr != PN_OK) { // the modes without a tree still render
-        pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(), .light = &light};
+        pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(dev), .light = &light};
         ad.needs.tree = ad.needs.candidates = false;
         tr = pn_shadow_accel_build(&scene, &ad, &acc);
         CHECK_MSG(tr == PN_OK, "%s: BVH build failed", c->name);
@@ -714,6 +714,11 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
         int mi = order[oi];
         pn_shadow_mode mode = (pn_shadow_mode)mi;
         bool tree_mode = pn_shadow_mode_get(mode)->needs.tree;
+        const char *lack;
+        if (!pn_shadow_mode_available(dev, mode, &lack)) {
+            fprintf(stderr, "  %-9s skipped: the device lacks %s\n", MODE_NAME(mi), lack);
+            continue;
+        }
         if (tree_mode && !tree)
             continue; // refused above, as expected or reported
         pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = mode,

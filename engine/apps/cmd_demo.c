@@ -63,7 +63,7 @@ static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
     // What every mode needs together (candidate lists, the shared BVH), so that switching modes
     // never needs a rebuild; with the same light it is the tree render builds (culling included).
     return (pn_shadow_accel_desc){
-        .needs = pn_shadow_needs_all(),
+        .needs = pn_shadow_needs_all(&d->dev),
         .tree_n = n,
         .tree_d = depth,
         .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_pool_budget(&d->dev),

@@ -227,10 +227,15 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
             printf("\"quality\": {\"max_error\": %.6g, \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f, "
                    "\"pilot_exact_ms\": %.4f, \"candidates\": %d, \"pilot\": [%u, %u], \"tried\": [",
                    o->max_error, q->pilot_mae, q->pilot_ms, q->exact_ms, q->candidates, q->pilot_width, q->pilot_height);
-            for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++)
-                printf("%s{\"mode\": \"%s\", \"tree\": [%d, %d], \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f}",
-                       i ? ", " : "", pn_shadow_mode_get(q->tried[i].mode)->name, q->tried[i].tree_n, q->tried[i].tree_d,
-                       q->tried[i].pilot_mae, q->tried[i].pilot_ms);
+            for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++) {
+                const pn_quality_tried *c = &q->tried[i];
+                printf("%s{\"mode\": \"%s\", \"tree\": ", i ? ", " : "", pn_shadow_mode_get(c->mode)->name);
+                if (c->tree_n)
+                    printf("[%d, %d]", c->tree_n, c->tree_d);
+                else
+                    printf("null");
+                printf(", \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f}", c->pilot_mae, c->pilot_ms);
+            }
             printf("]}, ");
         }
         printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
@@ -250,6 +255,9 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
                "(they cannot block a shadow ray; %u of them outside the view and light)\n",
                st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled, st->culled_box);
+    if (mode->needs.tlas)
+        printf("  acceleration structure built on the device in %.1f ms (Morton sort included); %.1f MiB\n",
+               st->build_ms, st->exact_bytes / 1048576.0);
     if (mode->needs.bvh)
         printf("  BVH built in %.1f ms; triangle and BVH pools %.1f MiB\n", st->build_ms, st->exact_bytes / 1048576.0);
     printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,

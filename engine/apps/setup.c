@@ -46,6 +46,10 @@ pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_s
         PN_TRY(pn_gpu_pools_create(dev, &a->pools, &a->gpu_pools));
     if (a->desc.needs.exact_pools)
         PN_TRY(pn_gpu_exact_pools_create(dev, scene, a->exact_bvh, &a->tree, &a->exact));
+    if (a->desc.needs.tlas) {
+        PN_TRY(pn_gpu_tlas_create(dev, scene, &a->tlas));
+        a->build_ms += a->tlas.build_ms;
+    }
     return PN_OK;
 }
 
@@ -55,14 +59,19 @@ void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
     rd->leaf_size = a->desc.needs.tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : 0;
     rd->exact = a->desc.needs.exact_pools ? &a->exact : NULL;
     rd->cand_first_node = a->tree.cand_first_node;
+    rd->tlas = a->desc.needs.tlas ? a->tlas.tlas : VK_NULL_HANDLE;
 }
 
-uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a) { return a->pools.bytes.total + a->exact.bytes; }
+uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a)
+{
+    return a->pools.bytes.total + a->exact.bytes + a->tlas.bytes;
+}
 
 void pn_shadow_accel_destroy(pn_gpu_device *dev, pn_shadow_accel *a)
 {
     if (dev) {
         pn_gpu_exact_pools_destroy(dev, &a->exact);
+        pn_gpu_tlas_destroy(dev, &a->tlas);
         pn_gpu_pools_destroy(dev, &a->gpu_pools);
     }
     pn_bvh_destroy(&a->bvh);
@@ -79,6 +88,12 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
     if (!mode) {
         pn_error("shadow mode %d does not exist", (int)desc->frame.mode);
         return PN_ERR_INVALID;
+    }
+    const char *lack;
+    if (!pn_shadow_mode_available(dev, desc->frame.mode, &lack)) {
+        pn_error("%s: mode %s needs %s, which this device lacks (Mesa 25's lavapipe has them: ci/deps.sh)",
+                 dev->props.deviceName, mode->name, lack);
+        return PN_ERR_UNSUPPORTED;
     }
     pn_shadow_accel_desc ad = {
         .needs = mode->needs,
@@ -101,7 +116,8 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
     s->build_ms = s->accel.build_ms;
     s->pool_bytes = s->accel.pools.bytes;
     r = pn_shadow_accel_upload(dev, scene, &s->accel);
-    s->exact_bytes = s->accel.exact.bytes;
+    s->build_ms = s->accel.build_ms; // with the device's acceleration structure
+    s->exact_bytes = s->accel.exact.bytes + s->accel.tlas.bytes;
     pn_renderer_desc rd = desc->frame;
     pn_shadow_accel_bind(&s->accel, &rd);
     if (r == PN_OK)

@@ -7,6 +7,7 @@
 #include "gpu/exact_pools.h"
 #include "gpu/pools.h"
 #include "gpu/renderer.h"
+#include "gpu/tlas.h"
 #include "scene/view.h"
 
 // ---------------------------------------------------------------------------------------------
@@ -36,6 +37,7 @@ typedef struct pn_shadow_accel {
     double build_ms;           // N-tree with line spaces, and BVH
     pn_gpu_pools gpu_pools;    // after upload, with needs.tree
     pn_gpu_exact_pools exact;  // after upload, with needs.exact_pools
+    pn_gpu_tlas tlas;          // after upload, with needs.tlas (built on the device)
 } pn_shadow_accel;
 
 // CPU part: tree, pools and BVH. Thread-safe (no Vulkan). Logs and leaves *out zeroed on failure.

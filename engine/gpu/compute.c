@@ -151,6 +151,24 @@ void pn_gpu_compute_write_uniform(pn_gpu_device *dev, pn_gpu_compute *c, uint32_
     write_buffer(dev, c, binding, buffer, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
 }
 
+void pn_gpu_compute_write_tlas(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkAccelerationStructureKHR tlas)
+{
+    VkWriteDescriptorSetAccelerationStructureKHR as = {
+        .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR,
+        .accelerationStructureCount = 1,
+        .pAccelerationStructures = &tlas,
+    };
+    VkWriteDescriptorSet w = {
+        .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+        .pNext = &as,
+        .dstSet = c->set,
+        .dstBinding = binding,
+        .descriptorCount = 1,
+        .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR,
+    };
+    vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
+}
+
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
                              uint32_t x, uint32_t y, uint32_t z)
 {

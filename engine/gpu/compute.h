@@ -36,6 +36,7 @@ void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c);
 void pn_gpu_compute_write_image(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkImageView view);
 void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer);
 void pn_gpu_compute_write_uniform(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer);
+void pn_gpu_compute_write_tlas(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkAccelerationStructureKHR tlas);
 
 // Binds pipeline and set, pushes `push` (push_size bytes, may be NULL) and dispatches.
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,

@@ -262,7 +262,8 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
             pn_error("%s has no queue with graphics, compute and timestamps", dev->props.deviceName);
         return PN_ERR_VULKAN;
     }
-    const char *device_exts[] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    const char *device_exts[4] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    uint32_t ext_count = desc->present ? 1 : 0;
     if (desc->present) {
         bool swapchain = false;
         PN_TRY(device_extension_available(dev->physical, device_exts[0], &swapchain));
@@ -272,8 +273,37 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         }
     }
 
+    // Ray queries where the device has them: the extensions, then the two features.
+    static const char *const RQ_EXTS[3] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME, VK_KHR_RAY_QUERY_EXTENSION_NAME,
+                                           VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME};
+    bool rq = true;
+    for (int i = 0; i < 3 && rq; i++)
+        PN_TRY(device_extension_available(dev->physical, RQ_EXTS[i], &rq));
+    VkPhysicalDeviceRayQueryFeaturesKHR rq_f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR};
+    VkPhysicalDeviceAccelerationStructureFeaturesKHR as_f = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR, .pNext = &rq_f};
+    if (rq) {
+        VkPhysicalDeviceFeatures2 q = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &as_f};
+        vkGetPhysicalDeviceFeatures2(dev->physical, &q);
+        rq = as_f.accelerationStructure && rq_f.rayQuery;
+    }
+    if (rq) {
+        as_f = (VkPhysicalDeviceAccelerationStructureFeaturesKHR){
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
+            .pNext = &rq_f,
+            .accelerationStructure = VK_TRUE};
+        rq_f = (VkPhysicalDeviceRayQueryFeaturesKHR){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR,
+                                                     .rayQuery = VK_TRUE};
+        for (int i = 0; i < 3; i++)
+            device_exts[ext_count++] = RQ_EXTS[i];
+        dev->as_props = (VkPhysicalDeviceAccelerationStructurePropertiesKHR){
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR};
+        VkPhysicalDeviceProperties2 p2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->as_props};
+        vkGetPhysicalDeviceProperties2(dev->physical, &p2);
+    }
     VkPhysicalDeviceVulkan13Features f13 = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
+        .pNext = rq ? &as_f : NULL,
         .dynamicRendering = VK_TRUE,
         .synchronization2 = VK_TRUE,
     };
@@ -304,10 +334,21 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         .pNext = &f,
         .queueCreateInfoCount = 1,
         .pQueueCreateInfos = &qi,
-        .enabledExtensionCount = desc->present ? 1 : 0,
+        .enabledExtensionCount = ext_count,
         .ppEnabledExtensionNames = device_exts,
     };
     VK_CHECK(vkCreateDevice(dev->physical, &di, NULL, &dev->device));
+    if (rq) {
+        // Extension entry points are not exported by the loader: fetched from the device.
+        dev->as.create = (PFN_vkCreateAccelerationStructureKHR)vkGetDeviceProcAddr(dev->device, "vkCreateAccelerationStructureKHR");
+        dev->as.destroy = (PFN_vkDestroyAccelerationStructureKHR)vkGetDeviceProcAddr(dev->device, "vkDestroyAccelerationStructureKHR");
+        dev->as.build_sizes = (PFN_vkGetAccelerationStructureBuildSizesKHR)vkGetDeviceProcAddr(
+            dev->device, "vkGetAccelerationStructureBuildSizesKHR");
+        dev->as.cmd_build = (PFN_vkCmdBuildAccelerationStructuresKHR)vkGetDeviceProcAddr(dev->device, "vkCmdBuildAccelerationStructuresKHR");
+        dev->as.address = (PFN_vkGetAccelerationStructureDeviceAddressKHR)vkGetDeviceProcAddr(
+            dev->device, "vkGetAccelerationStructureDeviceAddressKHR");
+        dev->ray_query = dev->as.create && dev->as.destroy && dev->as.build_sizes && dev->as.cmd_build && dev->as.address;
+    }
     vkGetDeviceQueue(dev->device, dev->queue_family, 0, &dev->queue);
     VkCommandPoolCreateInfo pi = {
         .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,

@@ -38,6 +38,17 @@ typedef struct pn_gpu_device {
     VkCommandPool cmd_pool;
     bool validation;
     bool present;                 // VK_KHR_swapchain enabled, the queue can present (desc.present)
+    // VK_KHR_ray_query with VK_KHR_acceleration_structure, enabled wherever the device has both
+    // (Mesa 25 lavapipe, RTX, RDNA2+, Arc); the rayquery shadow mode needs them.
+    bool ray_query;
+    VkPhysicalDeviceAccelerationStructurePropertiesKHR as_props; // with ray_query
+    struct {                                                      // loaded with ray_query
+        PFN_vkCreateAccelerationStructureKHR create;
+        PFN_vkDestroyAccelerationStructureKHR destroy;
+        PFN_vkGetAccelerationStructureBuildSizesKHR build_sizes;
+        PFN_vkCmdBuildAccelerationStructuresKHR cmd_build;
+        PFN_vkGetAccelerationStructureDeviceAddressKHR address;
+    } as;
     unsigned validation_messages; // warnings and errors reported by the layer so far
 } pn_gpu_device;
 

@@ -18,6 +18,7 @@ typedef struct pn_renderer_desc {
     double leaf_size;          // edge of a leaf cell of that tree, world units
     const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools
     uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
+    VkAccelerationStructureKHR tlas; // the device-built structure, for needs.tlas (gpu/tlas.h)
     bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
     bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
 } pn_renderer_desc;

@@ -72,6 +72,15 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("shadow mode %d does not exist", (int)desc->mode);
         return PN_ERR_INVALID;
     }
+    const char *lack;
+    if (!pn_shadow_mode_available(dev, desc->mode, &lack)) {
+        pn_error("%s: mode %s needs %s, which this device lacks", dev->props.deviceName, mode->name, lack);
+        return PN_ERR_UNSUPPORTED;
+    }
+    if (mode->needs.tlas && !desc->tlas) {
+        pn_error("%s shadows need the device's acceleration structure", mode->name);
+        return PN_ERR_INVALID;
+    }
     if (mode->needs.tree && !desc->pools) {
         pn_error("%s shadows need the N-tree's pools", mode->name);
         return PN_ERR_INVALID;

@@ -7,6 +7,7 @@
 #include "shadow_exact_comp.h"
 #include "shadow_linespace_comp.h"
 #include "shadow_none_comp.h"
+#include "shadow_rayquery_comp.h"
 
 #define SHADER(name) .spirv = pn_spv_##name, .spirv_size = sizeof pn_spv_##name
 
@@ -42,6 +43,13 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                          .needs = {.bvh = true, .exact_pools = true},
                          .traces = true,
                          .exact = true},
+    [PN_SHADOW_RAYQUERY] = {.name = "rayquery",
+                            .help = "the device's ray queries (VK_KHR_ray_query; Mesa 25 lavapipe, RTX, RDNA2+, Arc)",
+                            SHADER(shadow_rayquery_comp),
+                            .needs = {.tlas = true},
+                            .traces = true,
+                            .exact = true,
+                            .auto_trees = 1},
 };
 
 const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet", NULL};
@@ -65,14 +73,26 @@ int pn_shadow_mode_parse(const char *opt, const char *name)
     return -1;
 }
 
-pn_shadow_needs pn_shadow_needs_all(void)
+bool pn_shadow_mode_available(const pn_gpu_device *dev, pn_shadow_mode m, const char **why)
+{
+    const pn_shadow_mode_info *info = pn_shadow_mode_get(m);
+    const char *lack = !info ? "no such mode" : info->needs.tlas && !dev->ray_query ? "ray queries (VK_KHR_ray_query)" : NULL;
+    if (why)
+        *why = lack;
+    return lack == NULL;
+}
+
+pn_shadow_needs pn_shadow_needs_all(const pn_gpu_device *dev)
 {
     pn_shadow_needs all = {0};
     for (int i = 0; i < PN_SHADOW_MODE_COUNT; i++) {
+        if (!pn_shadow_mode_available(dev, (pn_shadow_mode)i, NULL))
+            continue;
         all.tree |= MODES[i].needs.tree;
         all.candidates |= MODES[i].needs.candidates;
         all.bvh |= MODES[i].needs.bvh;
         all.exact_pools |= MODES[i].needs.exact_pools;
+        all.tlas |= MODES[i].needs.tlas;
     }
     return all;
 }

@@ -8,6 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "gpu/device.h"
 #include "interface.h" // PN_TRAVERSAL_*, PN_SAMPLER_*: values the shaders test
 
 typedef enum pn_shadow_mode {
@@ -16,6 +17,7 @@ typedef enum pn_shadow_mode {
     PN_SHADOW_HYBRID,    // line spaces, and the triangles exactly where the ray starts and ends
     PN_SHADOW_EXACT_LS,  // line spaces skip empty space; set shafts test their triangles exactly
     PN_SHADOW_EXACT,     // BVH and watertight triangle tests: the reference
+    PN_SHADOW_RAYQUERY,  // the device's ray queries through its own acceleration structure
     PN_SHADOW_MODE_COUNT
 } pn_shadow_mode;
 
@@ -35,6 +37,7 @@ typedef struct pn_shadow_needs {
     bool candidates;  // the tree's per-leaf triangle lists
     bool bvh;         // a BVH over all triangles
     bool exact_pools; // triangles, BVH and candidate lists on the GPU, for exact triangle tests
+    bool tlas;        // a device-built acceleration structure (gpu/tlas.h); needs ray queries
 } pn_shadow_needs;
 
 typedef struct pn_shadow_mode_info {
@@ -47,6 +50,7 @@ typedef struct pn_shadow_mode_info {
     bool traces;               // traces shadow rays (every mode but none)
     bool exact;                // its V equals exact ray tracing's for the same samples
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
+                               // (a mode without a tree: 1 tries it, 0 does not)
 } pn_shadow_mode_info;
 
 // The row of mode m; NULL for a value outside the table.
@@ -55,6 +59,9 @@ const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m);
 // The mode called `name`; -1, with a message naming `opt` and listing the modes, for no mode.
 int pn_shadow_mode_parse(const char *opt, const char *name);
 
-// Every mode's needs together: a set-up from which any mode can render (the demo switches modes
-// without rebuilding).
-pn_shadow_needs pn_shadow_needs_all(void);
+// Every mode's needs together, of the modes `dev` can run: a set-up from which any of them can
+// render (the demo switches modes without rebuilding).
+pn_shadow_needs pn_shadow_needs_all(const pn_gpu_device *dev);
+
+// True if `dev` can run mode m; else false with *why (when given) saying what it lacks.
+bool pn_shadow_mode_available(const pn_gpu_device *dev, pn_shadow_mode m, const char **why);

@@ -38,14 +38,16 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     out->chunk = PN_MAX_CHUNK;
     const VkDescriptorType IMAGE = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status.
-    const VkDescriptorSetLayoutBinding bindings[PN_SHADOW_BINDING_COUNT] = {
+    const VkDescriptorSetLayoutBinding bindings[PN_SHADOW_BINDING_COUNT + 1] = {
         {.binding = PN_SHADOW_BINDING_P, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_N, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_V, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_PARAMS, .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER},
         {.binding = PN_SHADOW_BINDING_COUNTS, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_STATUS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+        {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
+    bool tlas = out->mode->needs.tlas; // only those modes have the last binding
     int32_t spec_data[3] = {(int32_t)desc->traversal, out->mode->variant, desc->count_work ? 1 : 0};
     VkSpecializationMapEntry entries[3] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
                                            {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
@@ -57,7 +59,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                         &(pn_gpu_compute_desc){.spirv = out->mode->spirv,
                                                                .spirv_size = out->mode->spirv_size,
                                                                .bindings = bindings,
-                                                               .binding_count = PN_SHADOW_BINDING_COUNT,
+                                                               .binding_count = PN_SHADOW_BINDING_COUNT + tlas,
                                                                .push_size = sizeof(pn_shadow_chunk),
                                                                .spec = &spec},
                                         &out->compute);
@@ -92,6 +94,8 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     pn_gpu_compute_write_uniform(dev, c, PN_SHADOW_BINDING_PARAMS, out->params.buffer);
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_COUNTS, out->counts.view);
     pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_STATUS, out->status.buffer);
+    if (tlas)
+        pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas);
     return PN_OK;
 }
 

@@ -48,6 +48,7 @@
 #define PN_SHADOW_BINDING_COUNTS 4  // rg32ui: (visible, valid) samples so far, between chunks
 #define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe: loop budget spent)
 #define PN_SHADOW_BINDING_COUNT 6
+#define PN_SHADOW_BINDING_TLAS 6    // acceleration structure: only the modes whose needs.tlas is set
 #define PN_SHADE_BINDING_P 0
 #define PN_SHADE_BINDING_N 1
 #define PN_SHADE_BINDING_ALBEDO 2

@@ -1,0 +1,164 @@
+#include "gpu/tlas.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel/morton.h"
+#include "core/log.h"
+#include "core/timer.h"
+
+static const VkBufferUsageFlags BUILD_INPUT =
+    VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+static const VkBufferUsageFlags STORAGE =
+    VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
+
+// Sizes one level, creates its structure and scratch, and records its build.
+static pn_result build_level(pn_gpu_device *dev, VkCommandBuffer cmd, VkAccelerationStructureTypeKHR type,
+                             const VkAccelerationStructureGeometryKHR *geom, uint32_t primitives, pn_gpu_buffer *storage,
+                             VkAccelerationStructureKHR *out, pn_gpu_buffer *scratch)
+{
+    VkAccelerationStructureBuildGeometryInfoKHR bi = {
+        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_GEOMETRY_INFO_KHR,
+        .type = type,
+        .flags = VK_BUILD_ACCELERATION_STRUCTURE_PREFER_FAST_TRACE_BIT_KHR,
+        .mode = VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR,
+        .geometryCount = 1,
+        .pGeometries = geom,
+    };
+    VkAccelerationStructureBuildSizesInfoKHR size = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
+    dev->as.build_sizes(dev->device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &bi, &primitives, &size);
+    VkDeviceSize max_buffer = pn_gpu_device_max_buffer(dev);
+    if (size.accelerationStructureSize > max_buffer || size.buildScratchSize > max_buffer) {
+        pn_error("an acceleration structure of %u primitives needs %.1f MiB (scratch %.1f MiB), more than one buffer "
+                 "of this device can hold (%.1f MiB)",
+                 primitives, size.accelerationStructureSize / 1048576.0, size.buildScratchSize / 1048576.0,
+                 max_buffer / 1048576.0);
+        return PN_ERR_MEMORY;
+    }
+    PN_TRY(pn_gpu_buffer_create(dev, size.accelerationStructureSize, STORAGE, PN_GPU_DEVICE_LOCAL, storage));
+    VkAccelerationStructureCreateInfoKHR ci = {
+        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR,
+        .buffer = storage->buffer,
+        .size = size.accelerationStructureSize,
+        .type = type,
+    };
+    VK_CHECK(dev->as.create(dev->device, &ci, NULL, out));
+    // Scratch addresses must be aligned; the buffer is grown by the alignment to leave room.
+    VkDeviceSize align = dev->as_props.minAccelerationStructureScratchOffsetAlignment;
+    align = align ? align : 1;
+    PN_TRY(pn_gpu_buffer_create(dev, size.buildScratchSize + align,
+                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT,
+                                PN_GPU_DEVICE_LOCAL, scratch));
+    bi.dstAccelerationStructure = *out;
+    bi.scratchData.deviceAddress = (scratch->address + align - 1) / align * align;
+    VkAccelerationStructureBuildRangeInfoKHR range = {.primitiveCount = primitives};
+    const VkAccelerationStructureBuildRangeInfoKHR *ranges = &range;
+    dev->as.cmd_build(cmd, 1, &bi, &ranges);
+    return PN_OK;
+}
+
+static VkDeviceAddress as_address(pn_gpu_device *dev, VkAccelerationStructureKHR as)
+{
+    VkAccelerationStructureDeviceAddressInfoKHR ai = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_DEVICE_ADDRESS_INFO_KHR,
+                                                      .accelerationStructure = as};
+    return dev->as.address(dev->device, &ai);
+}
+
+static pn_result build(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *t, pn_gpu_buffer scratch[2])
+{
+    uint64_t t0 = pn_time_ns();
+    float *xyz;
+    uint32_t count;
+    PN_TRY(pn_triangles_morton(scene, &xyz, NULL, &count));
+    t->sort_ms = pn_ms_since(t0);
+    pn_result r = count ? pn_gpu_buffer_create_with_data(dev, xyz, (VkDeviceSize)count * 36, BUILD_INPUT, &t->vertices)
+                        : PN_ERR_INVALID;
+    free(xyz);
+    if (count == 0)
+        pn_error("%s: no triangles to build an acceleration structure of", scene->name);
+    PN_TRY(r);
+
+    VkCommandBuffer cmd;
+    PN_TRY(pn_gpu_begin_once(dev, &cmd));
+    // Opaque: any hit blocks a shadow ray, no any-hit shader to run. Both faces count.
+    VkAccelerationStructureGeometryKHR tris = {
+        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
+        .geometryType = VK_GEOMETRY_TYPE_TRIANGLES_KHR,
+        .flags = VK_GEOMETRY_OPAQUE_BIT_KHR,
+        .geometry.triangles = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_TRIANGLES_DATA_KHR,
+                               .vertexFormat = VK_FORMAT_R32G32B32_SFLOAT,
+                               .vertexData.deviceAddress = t->vertices.address,
+                               .vertexStride = 12,
+                               .maxVertex = 3 * count - 1,
+                               .indexType = VK_INDEX_TYPE_NONE_KHR},
+    };
+    PN_TRY(build_level(dev, cmd, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, &tris, count, &t->blas_buffer, &t->blas,
+                       &scratch[0]));
+    VkAccelerationStructureInstanceKHR inst = {
+        .transform = {.matrix = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}},
+        .mask = 0xff,
+        .flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR,
+        .accelerationStructureReference = as_address(dev, t->blas),
+    };
+    PN_TRY(pn_gpu_buffer_create_with_data(dev, &inst, sizeof inst, BUILD_INPUT, &t->instances));
+    // The bottom level is written before the top level's build reads it.
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
+                                           .srcAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
+                                           .dstStageMask = VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
+                                           .dstAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR},
+                       0, NULL);
+    VkAccelerationStructureGeometryKHR insts = {
+        .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
+        .geometryType = VK_GEOMETRY_TYPE_INSTANCES_KHR,
+        .flags = VK_GEOMETRY_OPAQUE_BIT_KHR,
+        .geometry.instances = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR,
+                               .data.deviceAddress = t->instances.address},
+    };
+    PN_TRY(build_level(dev, cmd, VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, &insts, 1, &t->tlas_buffer, &t->tlas,
+                       &scratch[1]));
+    // Ready for the shadow pass's ray queries.
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
+                                           .srcAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
+                                           .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                           .dstAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR},
+                       0, NULL);
+    PN_TRY(pn_gpu_submit_wait(dev, cmd));
+    t->bytes = t->vertices.size + t->blas_buffer.size + t->instances.size + t->tlas_buffer.size;
+    t->build_ms = pn_ms_since(t0);
+    return PN_OK;
+}
+
+pn_result pn_gpu_tlas_create(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!dev->ray_query) {
+        pn_error("%s has no ray queries (VK_KHR_ray_query, VK_KHR_acceleration_structure): mode rayquery needs them "
+                 "(Mesa 25's lavapipe has them: see ci/deps.sh)",
+                 dev->props.deviceName);
+        return PN_ERR_UNSUPPORTED;
+    }
+    pn_gpu_buffer scratch[2] = {{0}};
+    pn_result r = build(dev, scene, out, scratch);
+    pn_gpu_buffer_destroy(dev, &scratch[0]);
+    pn_gpu_buffer_destroy(dev, &scratch[1]);
+    if (r != PN_OK)
+        pn_gpu_tlas_destroy(dev, out);
+    return r;
+}
+
+void pn_gpu_tlas_destroy(pn_gpu_device *dev, pn_gpu_tlas *t)
+{
+    if (t->tlas)
+        dev->as.destroy(dev->device, t->tlas, NULL);
+    if (t->blas)
+        dev->as.destroy(dev->device, t->blas, NULL);
+    pn_gpu_buffer_destroy(dev, &t->tlas_buffer);
+    pn_gpu_buffer_destroy(dev, &t->instances);
+    pn_gpu_buffer_destroy(dev, &t->blas_buffer);
+    pn_gpu_buffer_destroy(dev, &t->vertices);
+    memset(t, 0, sizeof *t);
+}

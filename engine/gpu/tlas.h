@@ -1,0 +1,19 @@
+// The scene's triangles in a device-built acceleration structure (VK_KHR_acceleration_structure):
+// one bottom level over every triangle in Morton order (accel/morton.h), one top-level instance.
+// Traced by the rayquery shadow mode through VK_KHR_ray_query. Needs pn_gpu_device.ray_query.
+#pragma once
+#include "gpu/resources.h"
+#include "scene/scene.h"
+
+typedef struct pn_gpu_tlas {
+    VkAccelerationStructureKHR blas, tlas;
+    pn_gpu_buffer vertices, blas_buffer, instances, tlas_buffer;
+    uint64_t bytes;  // the structures' and their inputs' buffers
+    double build_ms; // Morton sort and device build, wall clock
+    double sort_ms;  // of which the Morton sort
+} pn_gpu_tlas;
+
+// Sorts, uploads and builds; waits until the structure is ready for compute shaders. Logs and
+// fails (PN_ERR_UNSUPPORTED) on a device without ray queries.
+pn_result pn_gpu_tlas_create(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *out);
+void pn_gpu_tlas_destroy(pn_gpu_device *dev, pn_gpu_tlas *t);

@@ -1,0 +1,40 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_ray_query : require
+// Exact soft shadows through the device's ray queries (--mode rayquery): every shadow ray is one
+// query against the acceleration structure the device built (engine/gpu/tlas.c), opaque, ending
+// at the first hit. Same rays as exact mode (origin, samples, segment); only the traversal and the
+// triangle test are the driver's.
+#include "shadow_common.glsl"
+#include "shadow_frame.glsl"
+
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+layout(set = 0, binding = PN_SHADOW_BINDING_TLAS) uniform accelerationStructureEXT scene_as;
+
+// Any hit of the segment o + t*d, t in [0, 1]: d is not normalised, so t is the same parameter
+// as exact mode's (the light sample at t = 1).
+bool rq_blocked(vec3 o, vec3 d)
+{
+    rayQueryEXT q;
+    rayQueryInitializeEXT(q, scene_as, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xffu, o, 0.0, d, 1.0);
+    while (rayQueryProceedEXT(q)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(q, true) != gl_RayQueryCommittedIntersectionNoneEXT;
+}
+
+void main()
+{
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    vec3 p, nrm;
+    if (!shadow_pixel(px, p, nrm))
+        return;
+    float rise;
+    vec3 o = shadow_origin(p, nrm, rise);
+    uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
+    vec2 st_lo, st_hi;
+    uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
+    uint blocked = 0u;
+    for (uint j = 0u; j < count; j++)
+        blocked |= (valid_rays & (1u << j)) != 0u && rq_blocked(o, dir[j]) ? (1u << j) : 0u;
+    shadow_finish(px, o, count, valid_rays, blocked, i < count);
+}
