@@ -241,19 +241,31 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
                 push_row(rows, &exact_row);
             // Every other mode and tree against it.
             for (int m = 0; m < o->mode_count && rc == PN_EXIT_OK; m++) {
+                const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
+                const char *lack;
                 if (o->modes[m] == PN_SHADOW_REFERENCE)
                     continue;
-                for (int ti = 0; ti < o->tree_count && rc == PN_EXIT_OK; ti++) {
+                if (!pn_shadow_mode_available(dev, o->modes[m], &lack)) {
+                    pn_warn("bench: %s skipped: %s lacks %s", info->name, dev->props.deviceName, lack);
+                    continue;
+                }
+                // A mode without a tree is one cell; a tree mode one per tree.
+                int cells = info->needs.tree ? o->tree_count : 1;
+                for (int ti = 0; ti < cells && rc == PN_EXIT_OK; ti++) {
                     pn_setup s;
-                    pn_setup_desc sd = {.frame = frame, .tree_n = o->trees[ti][0], .tree_d = o->trees[ti][1],
+                    int tn = info->needs.tree ? o->trees[ti][0] : 0, td = info->needs.tree ? o->trees[ti][1] : 0;
+                    pn_setup_desc sd = {.frame = frame, .tree_n = tn, .tree_d = td,
                                         .view = o->gbuffer ? NULL : &cam}; // the tree models what the picture needs
                     sd.frame.mode = (pn_shadow_mode)o->modes[m];
                     bench_row row = base;
                     row.mode = o->modes[m];
-                    row.n = o->trees[ti][0], row.d = o->trees[ti][1];
-                    fprintf(stderr, "bench: %s %s LS(%d,%d)\n", scene.name, MODE_NAME(row.mode), row.n, row.d);
+                    row.n = tn, row.d = td;
+                    char cell[64] = "";
+                    if (row.n)
+                        snprintf(cell, sizeof cell, " LS(%d,%d)", row.n, row.d);
+                    fprintf(stderr, "bench: %s %s%s\n", scene.name, MODE_NAME(row.mode), cell);
                     if (pn_setup_create(dev, &scene, &light, &sd, &s) != PN_OK) {
-                        pn_warn("bench: %s LS(%d,%d) skipped (see above)", MODE_NAME(row.mode), row.n, row.d);
+                        pn_warn("bench: %s%s skipped (see above)", MODE_NAME(row.mode), cell);
                         continue;
                     }
                     if (o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK)

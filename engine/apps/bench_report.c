@@ -98,6 +98,12 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
     cpu_name(cpu, sizeof cpu);
     fprintf(f, "{\"context\": {\"device\": ");
     pn_json_string(f, dev->props.deviceName);
+    // The driver by name and version (e.g. llvmpipe, "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"), so that
+    // figures from two drivers are never mixed.
+    fprintf(f, ", \"driver\": ");
+    pn_json_string(f, dev->driver.driverName);
+    fprintf(f, ", \"driver_info\": ");
+    pn_json_string(f, dev->driver.driverInfo);
     fprintf(f, ", \"driver_version\": %u, \"api_version\": \"%u.%u.%u\", \"cpu\": ", dev->props.driverVersion,
             VK_API_VERSION_MAJOR(dev->props.apiVersion), VK_API_VERSION_MINOR(dev->props.apiVersion),
             VK_API_VERSION_PATCH(dev->props.apiVersion));

@@ -70,6 +70,8 @@ int pn_cmd_bench(int argc, char **argv)
     pn_bench_embree *rtc = o.embree ? pn_bench_embree_create() : NULL;
     if (o.embree && !rtc)
         pn_warn("Embree could not start: the CPU peer is skipped");
+    fprintf(stderr, "bench: %s, driver %s %s, Vulkan %u.%u\n", dev.props.deviceName, dev.driver.driverName,
+            dev.driver.driverInfo, VK_API_VERSION_MAJOR(dev.props.apiVersion), VK_API_VERSION_MINOR(dev.props.apiVersion));
     pn_bench_print_header();
     bench_rows rows = {0};
     uint64_t t0 = pn_time_ns();
