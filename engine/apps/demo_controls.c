@@ -146,12 +146,13 @@ static void light_rotate(pn_demo *d, float deg)
 // ---------------------------------------------------------------------------------------------
 // Shadow parameters and views
 
-// The modes the demo offers: those that trace, in table order (gpu/shadow_modes.c).
-static int tracing_modes(pn_shadow_mode out[PN_SHADOW_MODE_COUNT])
+// The modes the demo offers: those that trace and that the device can run, in table order
+// (gpu/shadow_modes.c).
+static int tracing_modes(const pn_demo *d, pn_shadow_mode out[PN_SHADOW_MODE_COUNT])
 {
     int count = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
-        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces)
+        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces && pn_shadow_mode_available(&d->dev, (pn_shadow_mode)m, NULL))
             out[count++] = (pn_shadow_mode)m;
     return count;
 }
@@ -160,7 +161,7 @@ static int tracing_modes(pn_shadow_mode out[PN_SHADOW_MODE_COUNT])
 static void set_mode(pn_demo *d, float place)
 {
     pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
-    int count = tracing_modes(modes);
+    int count = tracing_modes(d, modes);
     if ((int)place < 1 || (int)place > count)
         return;
     d->opts.mode = modes[(int)place - 1];
@@ -170,7 +171,7 @@ static void set_mode(pn_demo *d, float place)
 static void next_mode(pn_demo *d, float step)
 {
     pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
-    int count = tracing_modes(modes), at = 0;
+    int count = tracing_modes(d, modes), at = 0;
     for (int i = 0; i < count; i++)
         if (modes[i] == d->opts.mode)
             at = i;
