@@ -54,6 +54,9 @@ int pn_cmd_info(int argc, char **argv)
         if (dev.memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT && dev.memory.memoryHeaps[i].size > heap)
             heap = dev.memory.memoryHeaps[i].size;
     printf("chosen: %s\n", dev.props.deviceName);
+    printf("  driver:                     %s %s\n", dev.driver.driverName, dev.driver.driverInfo);
+    printf("  largest buffer:             %.0f MiB\n", (double)pn_gpu_device_max_buffer(&dev) / 1048576.0);
+    printf("  ray queries:                %s\n", dev.ray_query ? "yes (--mode rayquery)" : "no (--mode rayquery is refused)");
     printf("  max storage buffer range:   %u bytes (%.0f MiB)\n", l->maxStorageBufferRange,
            l->maxStorageBufferRange / 1048576.0);
     printf("  device-local heap:          %.0f MiB\n", (double)heap / 1048576.0);
