@@ -91,9 +91,12 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
         if (q.tree_n)
             printf(" LS(%d,%d)", q.tree_n, q.tree_d);
         printf(", shadow %.1f ms, MAE %.4f (pilot %.4f)", row.shadow_ms, row.err.mae, q.pilot_mae);
+        char tree[32] = "";
+        if (best && best->n)
+            snprintf(tree, sizeof tree, " LS(%d,%d)", best->n, best->d);
         if (best)
-            printf("; the matrix's fastest within the budget: %s LS(%d,%d) %.1f ms: auto takes %.2fx its time\n",
-                   MODE_NAME(best->mode), best->n, best->d, best->shadow_ms, row.shadow_ms / best->shadow_ms);
+            printf("; the matrix's fastest within the budget: %s%s %.1f ms: auto takes %.2fx its time\n",
+                   MODE_NAME(best->mode), tree, best->shadow_ms, row.shadow_ms / best->shadow_ms);
         else
             printf("; no cell of the matrix meets the budget\n");
     }
@@ -191,8 +194,12 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
             bench_row base = {.width = w, .height = h, .spp = spp, .triangles = pn_scene_triangle_count(&scene)};
             snprintf(base.scene, sizeof base.scene, "%s", base_name(scene.name));
             fprintf(stderr, "bench: %s %ux%u %u spp: exact reference\n", scene.name, w, h, spp);
-            if (pn_setup_create(dev, &scene, &light, &rd, &ref) != PN_OK ||
-                (o->gbuffer && pn_renderer_set_gbuffer(&ref.renderer, o->gb_p, o->gb_n) != PN_OK)) {
+            if (pn_setup_create(dev, &scene, &light, &rd, &ref) != PN_OK) {
+                rc = PN_EXIT_FAILURE;
+                break;
+            }
+            if (o->gbuffer && pn_renderer_set_gbuffer(&ref.renderer, o->gb_p, o->gb_n) != PN_OK) {
+                pn_setup_destroy(dev, &ref);
                 rc = PN_EXIT_FAILURE;
                 break;
             }
@@ -268,8 +275,11 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
                         pn_warn("bench: %s%s skipped (see above)", MODE_NAME(row.mode), cell);
                         continue;
                     }
-                    if (o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK)
+                    if (o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK) {
+                        pn_setup_destroy(dev, &s);
                         rc = PN_EXIT_FAILURE;
+                        break;
+                    }
                     if (time_frames(o, &s.renderer, &cam, &light, &row) == PN_OK) {
                         pn_renderer_images(&s.renderer, &img);
                         row.build_ms = s.build_ms;

@@ -56,10 +56,15 @@ static bool add_scene_arg(bench_opts *o, const char *s)
                     found[i] = found[j];
                     found[j] = t;
                 }
+        // Kept in `owned` (freed at exit) while it has room; scenes beyond MAX_LIST are not used.
+        int owned_cap = (int)(sizeof o->owned / sizeof o->owned[0]);
         for (int i = 0; i < n; i++) {
-            o->owned[o->owned_count++] = found[i];
-            if (o->scene_count < MAX_LIST)
+            if (o->scene_count < MAX_LIST && o->owned_count < owned_cap) {
+                o->owned[o->owned_count++] = found[i];
                 o->scenes[o->scene_count++] = found[i];
+            } else {
+                free(found[i]);
+            }
         }
         if (n == 0)
             pn_warn("%s: no .glb files", s);

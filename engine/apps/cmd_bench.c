@@ -45,6 +45,15 @@ void pn_print_bench_help(void)
            "                       LS(7,3), 3 repeats): under two minutes on a 2-core CPU with lavapipe\n");
 }
 
+// What parsing and --gbuffer allocated.
+static void free_opts(bench_opts *o)
+{
+    for (int i = 0; i < o->owned_count; i++)
+        free(o->owned[i]);
+    free(o->gb_p);
+    free(o->gb_n);
+}
+
 int pn_cmd_bench(int argc, char **argv)
 {
     bench_opts o;
@@ -55,18 +64,20 @@ int pn_cmd_bench(int argc, char **argv)
         return rc < 0 ? PN_EXIT_OK : rc;
     }
     if (o.gbuffer && pn_bench_load_gbuffer(&o) != PN_OK) {
-        for (int i = 0; i < o.owned_count; i++)
-            free(o.owned[i]);
+        free_opts(&o);
         return PN_EXIT_FAILURE;
     }
     if (mkdir(o.out_dir, 0755) != 0 && errno != EEXIST) {
         pn_error("%s: cannot create the output folder: %s", o.out_dir, strerror(errno));
+        free_opts(&o);
         return PN_EXIT_FAILURE;
     }
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
-    if (pn_gpu_device_create(&desc, &dev) != PN_OK)
+    if (pn_gpu_device_create(&desc, &dev) != PN_OK) {
+        free_opts(&o);
         return PN_EXIT_FAILURE;
+    }
     pn_bench_embree *rtc = o.embree ? pn_bench_embree_create() : NULL;
     if (o.embree && !rtc)
         pn_warn("Embree could not start: the CPU peer is skipped");
@@ -86,10 +97,7 @@ int pn_cmd_bench(int argc, char **argv)
     if (rtc)
         pn_bench_embree_destroy(rtc);
     pn_gpu_device_destroy(&dev);
-    for (int i = 0; i < o.owned_count; i++)
-        free(o.owned[i]);
-    free(o.gb_p);
-    free(o.gb_n);
+    free_opts(&o);
     if (dev.validation_messages) {
         pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);
         return PN_EXIT_VALIDATION;

@@ -64,6 +64,8 @@ static VkDeviceAddress as_address(pn_gpu_device *dev, VkAccelerationStructureKHR
     return dev->as.address(dev->device, &ai);
 }
 
+static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t, uint32_t count, pn_gpu_buffer scratch[2]);
+
 static pn_result build(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *t, pn_gpu_buffer scratch[2])
 {
     uint64_t t0 = pn_time_ns();
@@ -80,6 +82,20 @@ static pn_result build(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *t
 
     VkCommandBuffer cmd;
     PN_TRY(pn_gpu_begin_once(dev, &cmd));
+    r = record(dev, cmd, t, count, scratch);
+    if (r != PN_OK) { // never submitted: freed here (freeing a recording command buffer is valid)
+        vkFreeCommandBuffers(dev->device, dev->cmd_pool, 1, &cmd);
+        return r;
+    }
+    PN_TRY(pn_gpu_submit_wait(dev, cmd));
+    t->bytes = t->vertices.size + t->blas_buffer.size + t->instances.size + t->tlas_buffer.size;
+    t->build_ms = pn_ms_since(t0);
+    return PN_OK;
+}
+
+// Records both levels' builds and the barriers that order them and the shadow pass's reads.
+static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t, uint32_t count, pn_gpu_buffer scratch[2])
+{
     // Opaque: any hit blocks a shadow ray, no any-hit shader to run. Both faces count.
     VkAccelerationStructureGeometryKHR tris = {
         .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
@@ -126,9 +142,6 @@ static pn_result build(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *t
                                            .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                                            .dstAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR},
                        0, NULL);
-    PN_TRY(pn_gpu_submit_wait(dev, cmd));
-    t->bytes = t->vertices.size + t->blas_buffer.size + t->instances.size + t->tlas_buffer.size;
-    t->build_ms = pn_ms_since(t0);
     return PN_OK;
 }
 
