@@ -65,8 +65,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
         const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
         if (!pn_shadow_mode_available(dev, (pn_shadow_mode)m, NULL))
             continue; // e.g. rayquery without ray queries: not a candidate here
-        int tries = info->needs.tree ? info->auto_trees : info->auto_trees > 0;
-        for (int t = 0; r == PN_OK && t < tries && t < (int)(sizeof TREES / sizeof TREES[0]); t++) {
+        for (int t = 0; r == PN_OK && t < info->auto_trees && t < (int)(sizeof TREES / sizeof TREES[0]); t++) {
             sd.frame.mode = (pn_shadow_mode)m;
             sd.tree_n = info->needs.tree ? TREES[t][0] : 0;
             sd.tree_d = info->needs.tree ? TREES[t][1] : 0;

@@ -25,8 +25,9 @@ typedef struct pn_quality_choice {
 } pn_quality_choice;
 
 // Renders a pilot (a quarter of the pixels: half the width and height, at least 64 wide) with
-// exact, then with candidate configurations from the fastest kind (line space, coarse to fine
-// trees) to the most accurate (hybrid, exact-ls), and picks the fastest whose pilot error (MAE of
+// exact, then with the candidate configurations of the mode table (gpu/shadow_modes.c: line space,
+// coarse to fine trees, hybrid, exact-ls, and rayquery where the device has ray queries), and
+// picks the fastest whose pilot error (MAE of
 // V against exact, over pixels with geometry) is at most max_error; exact when none is.
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, pn_quality_choice *out);

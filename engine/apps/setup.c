@@ -89,12 +89,6 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         pn_error("shadow mode %d does not exist", (int)desc->frame.mode);
         return PN_ERR_INVALID;
     }
-    const char *lack;
-    if (!pn_shadow_mode_available(dev, desc->frame.mode, &lack)) {
-        pn_error("%s: mode %s needs %s, which this device lacks (Mesa 25's lavapipe has them: ci/deps.sh)",
-                 dev->props.deviceName, mode->name, lack);
-        return PN_ERR_UNSUPPORTED;
-    }
     pn_shadow_accel_desc ad = {
         .needs = mode->needs,
         .tree_n = desc->tree_n,
@@ -113,7 +107,6 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         r = pn_shadow_accel_build(scene, &ad, &s->accel);
     if (r != PN_OK)
         return r;
-    s->build_ms = s->accel.build_ms;
     s->pool_bytes = s->accel.pools.bytes;
     r = pn_shadow_accel_upload(dev, scene, &s->accel);
     s->build_ms = s->accel.build_ms; // with the device's acceleration structure

@@ -74,7 +74,8 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     }
     const char *lack;
     if (!pn_shadow_mode_available(dev, desc->mode, &lack)) {
-        pn_error("%s: mode %s needs %s, which this device lacks", dev->props.deviceName, mode->name, lack);
+        pn_error("%s: mode %s needs %s, which this device lacks (Mesa 25's lavapipe has them: ci/deps.sh)",
+                 dev->props.deviceName, mode->name, lack);
         return PN_ERR_UNSUPPORTED;
     }
     if (mode->needs.tlas && !desc->tlas) {

@@ -50,7 +50,7 @@ typedef struct pn_shadow_mode_info {
     bool traces;               // traces shadow rays (every mode but none)
     bool exact;                // its V equals exact ray tracing's for the same samples
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
-                               // (a mode without a tree: 1 tries it, 0 does not)
+                               // (a mode without a tree: 1 tries it once, 0 not at all)
 } pn_shadow_mode_info;
 
 // The row of mode m; NULL for a value outside the table.

@@ -37,7 +37,8 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     // walk does fewer walks, so the chunk starts at the maximum.
     out->chunk = PN_MAX_CHUNK;
     const VkDescriptorType IMAGE = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
-    // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status.
+    // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status;
+    // the modes that trace the device's acceleration structure also see it.
     const VkDescriptorSetLayoutBinding bindings[PN_SHADOW_BINDING_COUNT + 1] = {
         {.binding = PN_SHADOW_BINDING_P, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_N, .descriptorType = IMAGE},
