@@ -48,7 +48,7 @@ void main()
     put_tree(params.tree);
     put_light(params.light);
     put(params.spp); put(params.grid_u); put(params.grid_v); put(params.sampler_kind);
-    put(params.seed); put(params.leaf_size); put(params.canary); put(params.pad1);
+    put(params.seed); put(params.leaf_size); put(params.canary); put(params.scene_mag);
     put(uvec2(params.tris)); put(uvec2(params.bvh)); put(uvec2(params.bvh_tris));
     put(uvec2(params.cand_offset)); put(uvec2(params.cand_tris)); put(uvec2(params.dump));
     put(params.dump_rays); put(params.cand_first); put(uvec2(params.work)); put(params.pad3);

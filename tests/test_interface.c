@@ -34,7 +34,7 @@ static const field params_fields[] = {
     SUB(pn_shadow_params, tree, tree_fields), SUB(pn_shadow_params, light, light_fields),
     F(pn_shadow_params, spp),                 F(pn_shadow_params, grid_u),      F(pn_shadow_params, grid_v),
     F(pn_shadow_params, sampler_kind),        F(pn_shadow_params, seed),        F(pn_shadow_params, leaf_size),
-    F(pn_shadow_params, canary),              F(pn_shadow_params, pad1),        F(pn_shadow_params, tris),
+    F(pn_shadow_params, canary),              F(pn_shadow_params, scene_mag),       F(pn_shadow_params, tris),
     F(pn_shadow_params, bvh),                 F(pn_shadow_params, bvh_tris),    F(pn_shadow_params, cand_offset),
     F(pn_shadow_params, cand_tris),           F(pn_shadow_params, dump),        F(pn_shadow_params, dump_rays),
     F(pn_shadow_params, cand_first),          F(pn_shadow_params, work),        F(pn_shadow_params, pad3),

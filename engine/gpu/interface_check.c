@@ -44,6 +44,7 @@ AT(pn_shadow_params, light, 64);
 AT(pn_shadow_params, spp, 160);
 AT(pn_shadow_params, leaf_size, 180);
 AT(pn_shadow_params, canary, 184);
+AT(pn_shadow_params, scene_mag, 188);
 AT(pn_shadow_params, tris, 192);
 AT(pn_shadow_params, dump, 232);
 AT(pn_shadow_params, dump_rays, 240);

@@ -1,5 +1,6 @@
 #include "gpu/renderer.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "core/log.h"
@@ -105,9 +106,13 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         r = create_targets(out);
     if (r == PN_OK)
         r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v, &out->shadow);
-    if (r == PN_OK)
+    if (r == PN_OK) {
+        for (int k = 0; k < 3; k++)
+            out->shadow.scene_mag = fmaxf(out->shadow.scene_mag,
+                                          fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo, &out->v,
                                  &out->radiance, &out->shade);
+    }
     if (r != PN_OK)
         pn_renderer_destroy(out);
     return r;

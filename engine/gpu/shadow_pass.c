@@ -122,6 +122,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.sampler_kind = (uint32_t)desc->sampler;
     sp.seed = desc->seed;
     sp.leaf_size = (float)desc->leaf_size;
+    sp.scene_mag = s->scene_mag;
     sp.canary = 2; // llvmpipe: the loop-budget canary's iteration count (shadow_common.glsl)
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;

@@ -22,6 +22,7 @@ typedef struct pn_shadow_pass {
     // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);
     // a device without that budget keeps PN_MAX_CHUNK.
     uint32_t chunk;
+    float scene_mag; // largest |coordinate| of the scene's bounds (ShadowParams.scene_mag); set by the renderer
     bool loop_budget; // llvmpipe: the device ends long-running shader loops; chunk and retry
 } pn_shadow_pass;
 

@@ -182,7 +182,7 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(seed)
     PN_FLOAT(leaf_size)    // edge of a leaf cell (level d), world units
     PN_UINT(canary)        // llvmpipe: 2, the iteration count of the loop-budget canary (shadow_common.glsl)
-    PN_UINT(pad1)
+    PN_FLOAT(scene_mag)    // largest |coordinate| of the scene's bounds: bounds every vertex (shadow_origin)
     PN_ADDR(TriPool, tris)          // triangles of the exact tests
     PN_ADDR(BvhPool, bvh)           // exact mode
     PN_ADDR(IndexPool, bvh_tris)    // triangle ids in BVH leaf order

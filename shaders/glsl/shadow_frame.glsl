@@ -20,9 +20,13 @@ layout(constant_id = PN_SPEC_COUNT_WORK) const bool COUNT_WORK = false;
 uvec4 work = uvec4(0u); // nodes, lookups, triangle tests, stack depth (max)
 
 // Surface offsets against self-shadowing.
-// 1. Float precision: the G-buffer position is interpolated in float, so it is only known to a few
-//    ulps of its magnitude; lifting the origin by 8 ulps along the normal puts it on the lit side of
-//    its own triangle. Every mode starts its rays there.
+// 1. Float precision: the rasterizer interpolates the G-buffer position from the triangle's
+//    vertices, so its error is a few ulps of the vertices' magnitude, not of p's own: on the seam of
+//    the ground's two triangles lavapipe puts p 1.2e-7 below the plane, 2 ulps of the ground's
+//    corners (0.6) but 14 of p (0.087), which an offset of 8 ulps of |p| left in shadow (a dark line
+//    along the seam in exact mode). The scene's largest coordinate bounds every vertex's, so lifting
+//    the origin by 8 ulps of max(|p|, scene_mag) along the normal puts it on the lit side of its own
+//    triangle. Every mode starts its rays there.
 // 2. Cell size (line-space modes): a shaft entered through a patch touches every cell within one
 //    leaf (edge s) of the ray (its cross-section is one patch wide and cells are closed), and the
 //    surface's own filled leaves reach one leaf beyond the surface. So no shaft of a node the ray
@@ -31,7 +35,7 @@ uvec4 work = uvec4(0u); // nodes, lookups, triangle tests, stack depth (max)
 //    normal, which would move the penumbrae).
 vec3 shadow_origin(vec3 p, vec3 nrm, out float rise)
 {
-    float mag = max(max(abs(p.x), abs(p.y)), abs(p.z));
+    float mag = max(max(max(abs(p.x), abs(p.y)), abs(p.z)), params.scene_mag);
     rise = 3.0 * params.leaf_size * (abs(nrm.x) + abs(nrm.y) + abs(nrm.z));
     return p + nrm * (8.0 * ulp_bound(mag));
 }
