@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# penumbra bench end to end on a small matrix: it writes the CSV, JSON and plot; exact-ls, which
-# is exact by construction, measures zero error against exact; line-space rows measure an error
-# above zero (the method over-occludes); every row has a positive time and an Embree ratio; the
-# context names the driver. rayquery is a row wherever the device has ray queries (penumbra info
+# penumbra bench end to end on a small matrix: it writes the CSV, JSON, time-to-error table and
+# plot; exact-ls, which is exact by construction, measures zero bias (against exact with the same
+# samples); line-space rows measure a bias above zero (the method over-occludes); every row has a
+# reference error above zero (9 samples are noisy against the converged reference); every row has a
+# positive time and an Embree ratio; the context names the driver and the reference. rayquery is a row wherever the device has ray queries (penumbra info
 # says), with an error near zero: it traces exact's rays with the driver's own triangle test, which
 # may decide a ray grazing an edge the other way (test_exact_oracle checks it ray for ray).
 set -u
@@ -12,7 +13,7 @@ rm -rf "$OUT"
 "$BIN" bench --scenes builtin:default --size 64x48 --spp 9 --trees 5,2:6,3 --repeat 2 --warmup 1 --out "$OUT" \
   || { echo "FAIL: bench exited $?"; exit 1; }
 fail=0
-for f in bench.csv bench.json builtin_default_64x48_9spp.dat builtin_default_64x48_9spp.png; do
+for f in bench.csv bench.json time_to_error.md builtin_default_64x48.dat builtin_default_64x48.png; do
   [ -s "$OUT/$f" ] || { echo "FAIL: $f missing"; fail=1; }
 done
 rq=0
@@ -23,17 +24,21 @@ j = json.load(open(sys.argv[1]))
 rq = sys.argv[2] == "1"
 ctx, rows = j["context"], j["results"]
 assert ctx["device"] and ctx["threads"] >= 1 and ctx["driver"] and ctx["driver_info"], ctx
+assert ctx["reference"]["mode"] == "exact" and ctx["reference"]["spp"] == 1024 and ctx["reference"]["seed"] != 1, ctx
 modes = {r["mode"] for r in rows}
 assert modes == {"exact", "exact-ls", "hybrid", "linespace"} | ({"rayquery"} if rq else set()), modes
 assert len(rows) == 1 + 3 * 2 + rq, len(rows)  # exact, three tree modes x two trees, rayquery
 for r in rows:
     assert r["gpu_ms"]["shadow"] > 0 and r["shadow_rays_per_s"] > 0 and r["vs_embree"] > 0, r
+    assert r["spp"] == 9 and r["reference"]["mae"] > 0 and r["reference"]["max"] >= r["reference"]["p99"], r
     if r["mode"] in ("exact", "exact-ls"):
-        assert r["error"]["max"] == 0, r
+        assert r["bias"]["max"] == 0, r
     if r["mode"] == "linespace":
-        assert r["error"]["mae"] > 0, r
+        assert r["bias"]["mae"] > 0, r
     if r["mode"] == "rayquery":
-        assert r["error"]["mae"] <= 1e-3, r
+        assert r["bias"]["mae"] <= 1e-3, r
+# The time-to-error table: one entry per error level for the one view and size.
+assert [t["level"] for t in j["time_to_error"]] == [0.05, 0.02, 0.01, 0.005], j["time_to_error"]
 print("bench rows ok:", len(rows))
 PY
 # Shader level: the shadow pass alone over a G-buffer from render --aovs; the V it computes for the
@@ -50,7 +55,7 @@ python3 - "$OUT/shader/bench.json" <<'PY' || fail=1
 import json, sys
 rows = json.load(open(sys.argv[1]))["results"]
 assert [r["mode"] for r in rows] == ["exact", "exact-ls"], rows
-assert all(r["width"] == 64 and r["height"] == 48 and r["error"]["max"] == 0 for r in rows), rows
+assert all(r["width"] == 64 and r["height"] == 48 and r["bias"]["max"] == 0 for r in rows), rows
 print("shader-level rows ok")
 PY
 exit $fail

@@ -2,7 +2,9 @@
 //
 //   cmd_bench.c     help text and the command's entry (parse, device, scenes, reports)
 //   bench_opts.c    the command line and --gbuffer
-//   bench_matrix.c  one scene's matrix: timed frames, error against exact, --work, --max-error
+//   bench_views.c   the standard views, and the scenes of --scenes
+//   bench_reference.c  the converged reference per view and size, cached on disk
+//   bench_matrix.c  one view's matrix: timed frames, the two errors, --work, --max-error
 //   bench_peer.c    the CPU peer, Embree 3 (the only file of the bench that includes Embree)
 //   bench_report.c  console table, bench.csv, bench.json and gnuplot plots
 #pragma once
@@ -10,42 +12,61 @@
 #include <stdint.h>
 
 #include "apps/metrics.h"
+#include "apps/quality.h"
 #include "apps/render_opts.h"
 #include "apps/setup.h"
 
 // A cell's mode name.
 #define MODE_NAME(m) (pn_shadow_mode_get(m)->name)
 
-enum { MAX_LIST = 32 };
+enum { MAX_LIST = 32, MAX_BUDGETS = 8, MAX_QUALITY = 64 };
+
+// A standard view (bench_views.c): camera and light in units of the object's bounding-sphere radius
+// r, from its centre.
+typedef struct pn_bench_view_spec {
+    const char *name; // bunny, dragon, buddha, sponza
+    const char *file; // in the assets folder (pn_bench_assets_dir)
+    float camera[3], target[3], fov;
+    float light[3], aim[3]; // the light's centre and the point its normal faces
+    float light_size;       // width = height
+    bool ground;            // add render's ground plane under the object
+} pn_bench_view_spec;
+
+// What one group of the matrix renders: a scene and how it is seen.
+typedef struct bench_view {
+    char name[64];     // the standard view's name, or the scene file's base name
+    char source[1024]; // glTF file or builtin:NAME
+    const pn_bench_view_spec *spec; // NULL: render's default camera and light (--scenes)
+} bench_view;
 
 typedef struct bench_opts {
-    const char *scenes[MAX_LIST];
-    int scene_count;
+    bench_view views[MAX_LIST];
+    int view_count;
     pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
     int mode_count;
     int trees[MAX_LIST][2];
     int tree_count;
-    uint32_t spps[MAX_LIST];
+    uint32_t spps[MAX_LIST]; // ascending
     int spp_count;
     uint32_t sizes[MAX_LIST][2];
     int size_count;
     int repeat, warmup;
     pn_traversal traversal;
     pn_sampler sampler;
+    uint32_t reference_spp; // of the converged reference (PN_REFERENCE_SPP)
     const char *out_dir;
     bool embree;
-    double max_error; // > 0: check --quality auto against the matrix at this budget
+    double max_errors[MAX_BUDGETS]; // --max-error: check --quality auto against the matrix at each
+    int max_error_count;
     bool work;           // --work: count each cell's work per pixel with the counting shader builds
     const char *gbuffer; // --shader shadow --gbuffer FILE.exr: P and N from a render's AOVs
     float *gb_p, *gb_n;  // its P (w = A) and N as RGBA planes
     uint32_t gb_width, gb_height;
-    char *owned[256]; // scene paths found in --scenes folders
-    int owned_count;
 } bench_opts;
 
 // One cell of the matrix.
 typedef struct bench_row {
-    char scene[256];
+    char scene[64]; // the view's name
     uint32_t width, height, spp;
     pn_shadow_mode mode;
     int n, d;
@@ -54,20 +75,44 @@ typedef struct bench_row {
     double gbuffer_ms, shadow_ms, shade_ms;       // medians
     double shadow_min_ms, shadow_max_ms;          // spread
     double rays_per_s;
-    pn_error_metrics err;                         // against exact
+    pn_error_metrics ref;  // against the converged reference: what the user sees (bias and noise)
+    pn_error_metrics bias; // against exact with the same pixels and light samples: the mode's bias
     double vs_exact, vs_embree;                   // shadow time ratios (lower is faster)
+    double embree_ms;                             // Embree on exact's rays at this spp (0: not run)
 } bench_row;
+
+// --max-error: what --quality auto picked for one view, size and budget, next to the matrix's front.
+typedef struct bench_quality {
+    char scene[64];
+    uint32_t width, height;
+    double budget;
+    pn_shadow_mode mode;     // the pick
+    int n, d;
+    uint32_t spp;
+    double pilot_mae;        // its pilot's estimate of the reference error
+    pn_error_metrics ref;    // the pick rendered at full size, against the converged reference
+    double shadow_ms;        // the pick's shadow pass at full size
+    double choose_ms;        // the pilots' wall time
+    pn_quality_choice choice; // all of --quality auto's pilots
+    bool has_best;           // the matrix has a cell within the budget:
+    pn_shadow_mode best_mode; // the fastest such cell
+    int best_n, best_d;
+    uint32_t best_spp;
+    double best_ms, best_mae;
+} bench_quality;
 
 typedef struct bench_rows {
     bench_row *rows;
     int count, cap;
+    bench_quality quality[MAX_QUALITY];
+    int quality_count;
 } bench_rows;
 
 // ---------------------------------------------------------------------------------------------
 // Options (bench_opts.c)
 
 // Parses the command line into *o (defaults filled in; --quick applied): PN_EXIT_OK, -1 after
-// --help, or an exit code; o->owned must be freed in every case.
+// --help, or an exit code.
 int pn_bench_parse(int argc, char **argv, bench_opts *o);
 
 // Reads o->gbuffer's P, A and N layers into o->gb_p and o->gb_n and sets the only size to the EXR's.
@@ -81,8 +126,33 @@ typedef struct pn_bench_embree pn_bench_embree; // an Embree device (bench_peer.
 // Median of v[0..n) (sorts v).
 double pn_bench_median(double *v, int n);
 
-// One scene's matrix: appends (and prints) a row per cell; rtc may be NULL (no CPU peer). An exit code.
-int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const char *source, bench_rows *rows);
+// One view's matrix: appends (and prints) a row per cell; rtc may be NULL (no CPU peer). An exit code.
+int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const bench_view *view,
+                  bench_rows *rows);
+
+// ---------------------------------------------------------------------------------------------
+// Views (bench_views.c)
+
+// Where the standard views' meshes are: $PN_ASSETS, else ../shared/assets.
+const char *pn_bench_assets_dir(void);
+// The standard view of that name, or NULL; pn_bench_view_spec_at(i) for i = 0.. until NULL.
+const pn_bench_view_spec *pn_bench_view_spec_find(const char *name);
+const pn_bench_view_spec *pn_bench_view_spec_at(int i);
+// Fills *v with a standard view; false when its mesh is not in the assets folder.
+bool pn_bench_view_standard(bench_view *v, const pn_bench_view_spec *spec);
+// Fills *v with a scene file (or builtin:NAME) under render's default framing.
+void pn_bench_view_scene(bench_view *v, const char *source);
+// Loads the view's scene, places camera and light, adds the ground: pn_render_prepare's contract.
+int pn_bench_view_prepare(const bench_view *v, pn_prepared_scene *out);
+
+// ---------------------------------------------------------------------------------------------
+// The converged reference (bench_reference.c)
+
+// Exact at o->reference_spp stratified samples with PN_REFERENCE_SEED, from the cache under
+// o->out_dir/reference or rendered (and cached): its V and coverage mask (w*h each).
+pn_result pn_bench_reference(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const char *view,
+                             const pn_camera *cam, const pn_light *light, uint32_t w, uint32_t h, float *v,
+                             uint8_t *mask);
 
 // ---------------------------------------------------------------------------------------------
 // The CPU peer: Embree 3 (bench_peer.c)
@@ -121,6 +191,16 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows);
 // Writes dir/bench.json: the device, CPU and options, then the rows. False (logged) on failure.
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows);
 
-// Writes per scene, size and spp a gnuplot .dat and .gp (error vs shadow time with the Pareto
-// front) and draws them as PNG with gnuplot when present. False (logged) on failure.
+// Writes per view and size a gnuplot .dat and .gp (reference error vs shadow time, log-log: a curve
+// per mode and tree through its spp points, the Pareto front, Embree's time on exact's rays) and
+// draws them as PNG with gnuplot when present. False (logged) on failure.
 bool pn_bench_write_plots(const char *dir, const bench_rows *rows);
+
+// The error levels of the time-to-error table.
+extern const double pn_bench_error_levels[];
+enum { PN_BENCH_ERROR_LEVELS = 4 };
+
+// Prints and writes dir/time_to_error.md: per view and size, for each mode the fastest cell whose
+// reference MAE reaches each level, its time relative to exact's, and Embree's on the same rays as
+// exact's. False (logged) on failure.
+bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows);

@@ -1,5 +1,6 @@
-// penumbra bench's matrix: per scene, the exact reference and its Embree peer for each size and
-// spp, then every mode and tree timed and compared with it; --work counters and --max-error checks.
+// penumbra bench's matrix: per view and size, the converged reference (bench_reference.c), exact at
+// every spp with its Embree peer, then every mode and tree at every spp, timed, with both errors;
+// --work counters and --max-error checks of --quality auto.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,6 +11,7 @@
 #include "apps/quality.h"
 #include "apps/setup.h"
 #include "core/log.h"
+#include "core/timer.h"
 #include "io/exr.h"
 
 static int cmp_double(const void *a, const void *b)
@@ -62,45 +64,85 @@ static bool push_row(bench_rows *rows, const bench_row *r)
     return true;
 }
 
-// --quality auto against the matrix: the configuration it picks from its pilot, rendered in full and
-// measured against exact, next to the fastest cell of this group that meets the same budget.
-static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
-                          const pn_light *light, const pn_renderer_desc *frame, const float *v_ref, const uint8_t *mask,
-                          bench_rows *rows, int first_row)
+static void tree_label(char *out, size_t n, int tn, int td)
 {
-    const bench_row *best = NULL;
+    if (tn)
+        snprintf(out, n, " LS(%d,%d)", tn, td);
+    else
+        out[0] = '\0';
+}
+
+// --quality auto against the matrix at one budget: the configuration it picks from its pilots, at
+// full size against the converged reference, next to the fastest cell of this group within the
+// budget. A pick that is a cell of the matrix is that cell (measured in this run); another is
+// rendered and timed here.
+static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                          const pn_light *light, const pn_renderer_desc *frame, const float *v_conv,
+                          const uint8_t *mask, double budget, bench_rows *rows, int first_row)
+{
+    if (rows->quality_count == MAX_QUALITY)
+        return;
+    bench_quality bq = {.width = frame->width, .height = frame->height, .budget = budget};
+    snprintf(bq.scene, sizeof bq.scene, "%s", rows->rows[first_row].scene);
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        if (r->err.mae <= o->max_error && (!best || r->shadow_ms < best->shadow_ms))
-            best = r;
+        if (r->ref.mae <= budget && (!bq.has_best || r->shadow_ms < bq.best_ms)) {
+            bq.has_best = true;
+            bq.best_mode = r->mode, bq.best_n = r->n, bq.best_d = r->d, bq.best_spp = r->spp;
+            bq.best_ms = r->shadow_ms, bq.best_mae = r->ref.mae;
+        }
     }
     pn_quality_choice q;
-    if (pn_quality_choose(dev, scene, cam, light, frame, o->max_error, 0, &q) != PN_OK)
+    uint64_t t0 = pn_time_ns();
+    if (pn_quality_choose(dev, scene, cam, light, frame, budget, 0, &q) != PN_OK)
         return;
-    pn_setup s;
-    pn_setup_desc sd = {.frame = *frame, .tree_n = q.tree_n, .tree_d = q.tree_d, .view = cam};
-    sd.frame.mode = (pn_shadow_mode)q.mode;
-    bench_row row = rows->rows[first_row < rows->count ? first_row : 0];
-    if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
-        return;
-    if (time_frames(o, &s.renderer, cam, light, &row) == PN_OK) {
-        pn_frame_images img;
-        pn_renderer_images(&s.renderer, &img);
-        pn_error_compare(img.v, v_ref, mask, (size_t)frame->width * frame->height, NULL, &row.err);
-        printf("quality auto (max error %.4g): %s", o->max_error, MODE_NAME(q.mode));
-        if (q.tree_n)
-            printf(" LS(%d,%d)", q.tree_n, q.tree_d);
-        printf(", shadow %.1f ms, MAE %.4f (pilot %.4f)", row.shadow_ms, row.err.mae, q.pilot_mae);
-        char tree[32] = "";
-        if (best && best->n)
-            snprintf(tree, sizeof tree, " LS(%d,%d)", best->n, best->d);
-        if (best)
-            printf("; the matrix's fastest within the budget: %s%s %.1f ms: auto takes %.2fx its time\n",
-                   MODE_NAME(best->mode), tree, best->shadow_ms, row.shadow_ms / best->shadow_ms);
-        else
-            printf("; no cell of the matrix meets the budget\n");
+    bq.choose_ms = pn_ms_since(t0);
+    bq.choice = q;
+    bq.mode = q.mode, bq.n = q.tree_n, bq.d = q.tree_d, bq.spp = q.spp, bq.pilot_mae = q.pilot_mae;
+    const bench_row *cell = NULL;
+    for (int i = first_row; i < rows->count; i++) {
+        const bench_row *r = &rows->rows[i];
+        if (r->mode == q.mode && r->n == q.tree_n && r->d == q.tree_d && r->spp == q.spp)
+            cell = r;
     }
-    pn_setup_destroy(dev, &s);
+    if (cell) {
+        bq.shadow_ms = cell->shadow_ms;
+        bq.ref = cell->ref;
+    } else {
+        pn_setup s;
+        pn_setup_desc sd = {.frame = *frame, .tree_n = q.tree_n, .tree_d = q.tree_d, .view = cam};
+        sd.frame.mode = q.mode;
+        sd.frame.spp = q.spp;
+        sd.frame.dump_rays = false;
+        bench_row row = {0};
+        if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
+            return;
+        bool ok = time_frames(o, &s.renderer, cam, light, &row) == PN_OK;
+        if (ok) {
+            pn_frame_images img;
+            pn_renderer_images(&s.renderer, &img);
+            ok = pn_error_compare(img.v, v_conv, mask, (size_t)frame->width * frame->height, NULL, &bq.ref);
+            bq.shadow_ms = row.shadow_ms;
+        }
+        pn_setup_destroy(dev, &s);
+        if (!ok)
+            return;
+    }
+    rows->quality[rows->quality_count++] = bq;
+    char tree[32], best_tree[32];
+    tree_label(tree, sizeof tree, q.tree_n, q.tree_d);
+    printf("quality auto (max error %.4g): %s%s %u spp%s, shadow %.1f ms, reference MAE %.4f (pilot %.4f; chosen in "
+           "%.1f s)",
+           budget, MODE_NAME(q.mode), tree, q.spp, cell ? " (a cell of the matrix)" : "", bq.shadow_ms, bq.ref.mae,
+           q.pilot_mae, bq.choose_ms * 1e-3);
+    if (bq.has_best) {
+        tree_label(best_tree, sizeof best_tree, bq.best_n, bq.best_d);
+        printf("; the matrix's fastest within the budget: %s%s %u spp %.1f ms (MAE %.4f): auto takes %.2fx its time\n",
+               MODE_NAME(bq.best_mode), best_tree, bq.best_spp, bq.best_ms, bq.best_mae, bq.shadow_ms / bq.best_ms);
+    } else {
+        printf("; no cell of the matrix meets the budget\n");
+    }
+    fflush(stdout);
 }
 
 static int cmp_u32(const void *a, const void *b)
@@ -160,19 +202,107 @@ static void report_work(const bench_opts *o, pn_gpu_device *dev, const pn_scene 
     pn_setup_destroy(dev, &s);
 }
 
-static const char *base_name(const char *path)
+// One configuration (a mode and tree) at every spp of the matrix over one set-up: a row per spp with
+// both errors. v_exact holds exact's V per spp (the bias reference), NULL for exact itself, whose
+// V is stored there instead. embree_ms per spp (0: no peer).
+typedef struct group {
+    const bench_opts *o;
+    pn_gpu_device *dev;
+    const pn_scene *scene;
+    const pn_camera *cam;
+    const pn_light *light;
+    bench_row base;
+    pn_renderer_desc frame;
+    const float *v_conv;
+    const uint8_t *mask;
+    uint64_t covered;
+    float *v_exact;
+    double exact_ms[MAX_LIST], embree_ms[MAX_LIST];
+    pn_bench_embree_scene *rtc; // traces exact's rays
+} group;
+
+static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows *rows, bool push)
 {
-    const char *s = strrchr(path, '/');
-    return s ? s + 1 : path;
+    const bench_opts *o = g->o;
+    size_t px = (size_t)g->frame.width * g->frame.height;
+    bool exact = mode == PN_SHADOW_REFERENCE;
+    pn_setup s;
+    pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td,
+                        .view = o->gbuffer ? NULL : g->cam}; // the tree models what the picture needs
+    sd.frame.mode = mode;
+    sd.frame.spp = o->spps[o->spp_count - 1]; // the most: the ray dump holds that many rays per pixel
+    sd.frame.dump_rays = exact && g->rtc;
+    char cell[64];
+    tree_label(cell, sizeof cell, tn, td);
+    fprintf(stderr, "bench: %s %ux%u %s%s\n", g->base.scene, g->frame.width, g->frame.height, MODE_NAME(mode), cell);
+    if (pn_setup_create(g->dev, g->scene, g->light, &sd, &s) != PN_OK) {
+        if (exact)
+            return PN_EXIT_FAILURE;
+        pn_warn("bench: %s%s skipped (see above)", MODE_NAME(mode), cell);
+        return PN_EXIT_OK;
+    }
+    int rc = PN_EXIT_OK;
+    for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
+        uint32_t spp = o->spps[pi];
+        sd.frame.spp = spp;
+        if (pn_renderer_set_spp(&s.renderer, spp) != PN_OK ||
+            (pi == 0 && o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK)) {
+            rc = PN_EXIT_FAILURE;
+            break;
+        }
+        bench_row row = g->base;
+        row.spp = spp;
+        row.mode = mode;
+        row.n = tn, row.d = td;
+        if (time_frames(o, &s.renderer, g->cam, g->light, &row) != PN_OK) {
+            rc = PN_EXIT_FAILURE;
+            break;
+        }
+        pn_frame_images img;
+        pn_renderer_images(&s.renderer, &img);
+        float *same = g->v_exact + (size_t)pi * px; // exact at this spp
+        if (exact) {
+            memcpy(same, img.v, px * sizeof *same);
+            g->exact_ms[pi] = row.shadow_ms;
+            if (g->rtc) {
+                uint64_t floats;
+                const float *dump = pn_renderer_ray_dump(&s.renderer, &floats);
+                g->embree_ms[pi] = pn_bench_embree_time(o, g->rtc, dump, px, spp);
+            }
+        }
+        row.build_ms = s.build_ms;
+        row.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
+        row.rays_per_s = pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
+        row.vs_exact = row.shadow_ms / g->exact_ms[pi];
+        row.embree_ms = g->embree_ms[pi];
+        row.vs_embree = row.embree_ms > 0 ? row.shadow_ms / row.embree_ms : 0;
+        if (!pn_error_compare(img.v, g->v_conv, g->mask, px, NULL, &row.ref) ||
+            !pn_error_compare(img.v, same, g->mask, px, NULL, &row.bias)) {
+            rc = PN_EXIT_FAILURE;
+            break;
+        }
+        if (push && !push_row(rows, &row))
+            rc = PN_EXIT_FAILURE;
+        if (o->work) {
+            char label[512];
+            snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s", g->base.scene, g->frame.width, g->frame.height, spp,
+                     MODE_NAME(mode));
+            if (tn)
+                snprintf(label + strlen(label), sizeof label - strlen(label), "_LS%d_%d", tn, td);
+            report_work(o, g->dev, g->scene, g->cam, g->light, sd, label);
+        }
+    }
+    pn_setup_destroy(g->dev, &s);
+    return rc;
 }
 
-// One scene: its exact reference and Embree peer per size and spp, then every mode and tree.
-int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const char *source, bench_rows *rows)
+// One view: per size its converged reference, exact at every spp (the bias reference, and Embree's
+// rays), then every other mode and tree at every spp.
+int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const bench_view *view,
+                  bench_rows *rows)
 {
-    // Reproducible camera and light from the bounds, and the ground plane: render's defaults.
-    pn_render_opts defaults = pn_render_opts_default();
     pn_prepared_scene prep;
-    int prc = pn_render_prepare(&defaults, source, &prep);
+    int prc = pn_bench_view_prepare(view, &prep);
     if (prc != PN_EXIT_OK)
         return prc;
     pn_scene scene = prep.scene;
@@ -180,132 +310,55 @@ int pn_bench_scene(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc
     pn_light light = prep.light;
     pn_bench_embree_scene *rs = rtc ? pn_bench_embree_scene_create(rtc, &scene) : NULL;
     int rc = PN_EXIT_OK;
-    for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++)
-        for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
-            uint32_t w = o->sizes[si][0], h = o->sizes[si][1], spp = o->spps[pi];
-            size_t px = (size_t)w * h;
-            pn_renderer_desc frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler,
-                                      .spp = spp, .seed = 1};
-            // The reference: exact, with its rays kept for Embree.
-            pn_setup ref;
-            pn_setup_desc rd = {.frame = frame};
-            rd.frame.mode = PN_SHADOW_REFERENCE;
-            rd.frame.dump_rays = rtc != NULL;
-            bench_row base = {.width = w, .height = h, .spp = spp, .triangles = pn_scene_triangle_count(&scene)};
-            snprintf(base.scene, sizeof base.scene, "%s", base_name(scene.name));
-            fprintf(stderr, "bench: %s %ux%u %u spp: exact reference\n", scene.name, w, h, spp);
-            if (pn_setup_create(dev, &scene, &light, &rd, &ref) != PN_OK) {
-                rc = PN_EXIT_FAILURE;
-                break;
-            }
-            if (o->gbuffer && pn_renderer_set_gbuffer(&ref.renderer, o->gb_p, o->gb_n) != PN_OK) {
-                pn_setup_destroy(dev, &ref);
-                rc = PN_EXIT_FAILURE;
-                break;
-            }
-            bench_row exact_row = base;
-            exact_row.mode = PN_SHADOW_REFERENCE;
-            float *v_ref = malloc(px * sizeof *v_ref);
-            uint8_t *mask = malloc(px);
-            if (!v_ref || !mask || time_frames(o, &ref.renderer, &cam, &light, &exact_row) != PN_OK) {
-                free(v_ref), free(mask);
-                pn_setup_destroy(dev, &ref);
-                rc = PN_EXIT_FAILURE;
-                break;
-            }
-            pn_frame_images img;
-            pn_renderer_images(&ref.renderer, &img);
-            uint64_t covered = 0;
-            for (size_t i = 0; i < px; i++) {
-                v_ref[i] = img.v[i];
-                mask[i] = img.p[4 * i + 3] > 0;
-                covered += mask[i];
-            }
-            double embree_ms = 0;
-            if (rs) {
-                uint64_t floats;
-                const float *dump = pn_renderer_ray_dump(&ref.renderer, &floats);
-                embree_ms = pn_bench_embree_time(o, rs, dump, px, spp);
-            }
-            double exact_ms = exact_row.shadow_ms;
-            exact_row.build_ms = ref.build_ms;
-            exact_row.pool_mb = ref.exact_bytes / 1048576.0;
-            exact_row.rays_per_s = pn_shadow_rays_per_s(covered, spp, &light, exact_ms);
-            exact_row.vs_exact = 1.0;
-            exact_row.vs_embree = embree_ms > 0 ? exact_ms / embree_ms : 0;
-            pn_error_compare(v_ref, v_ref, mask, px, NULL, &exact_row.err);
-            pn_setup_destroy(dev, &ref);
-            int first_row = rows->count; // this group's rows start here
-            if (o->work) {
-                char label[512];
-                snprintf(label, sizeof label, "%s_%ux%u_%uspp_exact", base.scene, w, h, spp);
-                report_work(o, dev, &scene, &cam, &light, rd, label);
-            }
-            bool want_exact = false;
-            for (int m = 0; m < o->mode_count; m++)
-                want_exact = want_exact || o->modes[m] == PN_SHADOW_REFERENCE;
-            if (want_exact)
-                push_row(rows, &exact_row);
-            // Every other mode and tree against it.
-            for (int m = 0; m < o->mode_count && rc == PN_EXIT_OK; m++) {
-                const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
-                const char *lack;
-                if (o->modes[m] == PN_SHADOW_REFERENCE)
-                    continue;
-                if (!pn_shadow_mode_available(dev, o->modes[m], &lack)) {
-                    pn_warn("bench: %s skipped: %s lacks %s", info->name, dev->props.deviceName, lack);
-                    continue;
-                }
-                // A mode without a tree is one cell; a tree mode one per tree.
-                int cells = info->needs.tree ? o->tree_count : 1;
-                for (int ti = 0; ti < cells && rc == PN_EXIT_OK; ti++) {
-                    pn_setup s;
-                    int tn = info->needs.tree ? o->trees[ti][0] : 0, td = info->needs.tree ? o->trees[ti][1] : 0;
-                    pn_setup_desc sd = {.frame = frame, .tree_n = tn, .tree_d = td,
-                                        .view = o->gbuffer ? NULL : &cam}; // the tree models what the picture needs
-                    sd.frame.mode = (pn_shadow_mode)o->modes[m];
-                    bench_row row = base;
-                    row.mode = o->modes[m];
-                    row.n = tn, row.d = td;
-                    char cell[64] = "";
-                    if (row.n)
-                        snprintf(cell, sizeof cell, " LS(%d,%d)", row.n, row.d);
-                    fprintf(stderr, "bench: %s %s%s\n", scene.name, MODE_NAME(row.mode), cell);
-                    if (pn_setup_create(dev, &scene, &light, &sd, &s) != PN_OK) {
-                        pn_warn("bench: %s%s skipped (see above)", MODE_NAME(row.mode), cell);
-                        continue;
-                    }
-                    if (o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK) {
-                        pn_setup_destroy(dev, &s);
-                        rc = PN_EXIT_FAILURE;
-                        break;
-                    }
-                    if (time_frames(o, &s.renderer, &cam, &light, &row) == PN_OK) {
-                        pn_renderer_images(&s.renderer, &img);
-                        row.build_ms = s.build_ms;
-                        row.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
-                        row.rays_per_s = pn_shadow_rays_per_s(covered, spp, &light, row.shadow_ms);
-                        row.vs_exact = row.shadow_ms / exact_ms;
-                        row.vs_embree = embree_ms > 0 ? row.shadow_ms / embree_ms : 0;
-                        pn_error_compare(img.v, v_ref, mask, px, NULL, &row.err);
-                        push_row(rows, &row);
-                        if (o->work) {
-                            char label[512];
-                            snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s_LS%d_%d", base.scene, w, h, spp,
-                                     MODE_NAME(row.mode), row.n, row.d);
-                            report_work(o, dev, &scene, &cam, &light, sd, label);
-                        }
-                    } else {
-                        rc = PN_EXIT_FAILURE;
-                    }
-                    pn_setup_destroy(dev, &s);
-                }
-            }
-            if (o->max_error > 0 && rc == PN_EXIT_OK)
-                check_quality(o, dev, &scene, &cam, &light, &frame, v_ref, mask, rows, first_row);
-            free(v_ref);
-            free(mask);
+    bool want_exact = false;
+    for (int m = 0; m < o->mode_count; m++)
+        want_exact = want_exact || o->modes[m] == PN_SHADOW_REFERENCE;
+    for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++) {
+        uint32_t w = o->sizes[si][0], h = o->sizes[si][1];
+        size_t px = (size_t)w * h;
+        group g = {.o = o, .dev = dev, .scene = &scene, .cam = &cam, .light = &light, .rtc = rs,
+                   .frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler, .seed = 1}};
+        g.base = (bench_row){.width = w, .height = h, .triangles = pn_scene_triangle_count(&scene)};
+        snprintf(g.base.scene, sizeof g.base.scene, "%s", view->name);
+        float *v_conv = malloc(px * sizeof *v_conv);
+        uint8_t *mask = malloc(px);
+        g.v_exact = malloc(px * (size_t)o->spp_count * sizeof *g.v_exact);
+        if (!v_conv || !mask || !g.v_exact ||
+            pn_bench_reference(o, dev, &scene, view->name, &cam, &light, w, h, v_conv, mask) != PN_OK) {
+            free(v_conv), free(mask), free(g.v_exact);
+            rc = PN_EXIT_FAILURE;
+            break;
         }
+        g.v_conv = v_conv;
+        g.mask = mask;
+        for (size_t i = 0; i < px; i++)
+            g.covered += mask[i];
+        int first_row = rows->count; // this group's rows start here
+        rc = run_config(&g, PN_SHADOW_REFERENCE, 0, 0, rows, want_exact);
+        for (int m = 0; m < o->mode_count && rc == PN_EXIT_OK; m++) {
+            const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
+            const char *lack;
+            if (o->modes[m] == PN_SHADOW_REFERENCE)
+                continue;
+            if (!pn_shadow_mode_available(dev, o->modes[m], &lack)) {
+                if (si == 0)
+                    pn_warn("bench: %s skipped: %s lacks %s", info->name, dev->props.deviceName, lack);
+                continue;
+            }
+            // A mode without a tree is one configuration; a tree mode one per tree.
+            int configs = info->needs.tree ? o->tree_count : 1;
+            for (int ti = 0; ti < configs && rc == PN_EXIT_OK; ti++)
+                rc = run_config(&g, o->modes[m], info->needs.tree ? o->trees[ti][0] : 0,
+                                info->needs.tree ? o->trees[ti][1] : 0, rows, true);
+        }
+        if (o->gbuffer && o->max_error_count)
+            pn_warn("bench: --max-error is not checked with --gbuffer (--quality auto renders its own G-buffer)");
+        for (int b = 0; b < o->max_error_count && rc == PN_EXIT_OK && !o->gbuffer && rows->count > first_row; b++)
+            check_quality(o, dev, &scene, &cam, &light, &g.frame, v_conv, mask, o->max_errors[b], rows, first_row);
+        free(v_conv);
+        free(mask);
+        free(g.v_exact);
+    }
     if (rs)
         pn_bench_embree_scene_destroy(rs);
     pn_scene_destroy(&scene);

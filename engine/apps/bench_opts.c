@@ -27,8 +27,20 @@ static bool parse_list_u32(const char *opt, const char *s, uint32_t *out, int *c
     return *count > 0;
 }
 
+static bool add_view(bench_opts *o, const bench_view *v)
+{
+    if (o->view_count == MAX_LIST) {
+        pn_error("bench: more than %d views and scenes", MAX_LIST);
+        return false;
+    }
+    o->views[o->view_count++] = *v;
+    return true;
+}
+
+// A scene file, builtin:NAME, or a folder of .glb files (sorted, for a reproducible order).
 static bool add_scene_arg(bench_opts *o, const char *s)
 {
+    bench_view v;
     struct stat st;
     if (strncmp(s, "builtin:", 8) != 0 && stat(s, &st) == 0 && S_ISDIR(st.st_mode)) {
         DIR *dir = opendir(s);
@@ -36,51 +48,71 @@ static bool add_scene_arg(bench_opts *o, const char *s)
             pn_error("%s: cannot read the folder: %s", s, strerror(errno));
             return false;
         }
-        // Sorted for a reproducible order.
-        char *found[256];
-        int n = 0;
-        for (struct dirent *e; (e = readdir(dir)) && n < 256;) {
+        int first = o->view_count, n = 0;
+        bool ok = true;
+        for (struct dirent *e; ok && (e = readdir(dir));) {
             size_t len = strlen(e->d_name);
             if (len > 4 && strcmp(e->d_name + len - 4, ".glb") == 0) {
-                size_t sz = strlen(s) + len + 2;
-                found[n] = malloc(sz);
-                if (found[n])
-                    snprintf(found[n++], sz, "%s/%s", s, e->d_name);
+                char path[1024];
+                snprintf(path, sizeof path, "%s/%s", s, e->d_name);
+                pn_bench_view_scene(&v, path);
+                ok = add_view(o, &v);
+                n++;
             }
         }
         closedir(dir);
-        for (int i = 0; i < n; i++)
-            for (int j = i + 1; j < n; j++)
-                if (strcmp(found[j], found[i]) < 0) {
-                    char *t = found[i];
-                    found[i] = found[j];
-                    found[j] = t;
+        for (int i = first; i < o->view_count; i++)
+            for (int j = i + 1; j < o->view_count; j++)
+                if (strcmp(o->views[j].source, o->views[i].source) < 0) {
+                    bench_view t = o->views[i];
+                    o->views[i] = o->views[j];
+                    o->views[j] = t;
                 }
-        // Kept in `owned` (freed at exit) while it has room; scenes beyond MAX_LIST are not used.
-        int owned_cap = (int)(sizeof o->owned / sizeof o->owned[0]);
-        for (int i = 0; i < n; i++) {
-            if (o->scene_count < MAX_LIST && o->owned_count < owned_cap) {
-                o->owned[o->owned_count++] = found[i];
-                o->scenes[o->scene_count++] = found[i];
-            } else {
-                free(found[i]);
-            }
-        }
         if (n == 0)
             pn_warn("%s: no .glb files", s);
+        return ok;
+    }
+    pn_bench_view_scene(&v, s);
+    return add_view(o, &v);
+}
+
+// A standard view by name, or `all` of them; a view whose mesh is missing is an error when named.
+static bool add_view_arg(bench_opts *o, const char *name)
+{
+    bench_view v;
+    if (strcmp(name, "all") == 0) {
+        for (int i = 0; pn_bench_view_spec_at(i); i++)
+            if (!pn_bench_view_standard(&v, pn_bench_view_spec_at(i)))
+                pn_warn("bench: view %s skipped: %s is missing", v.name, v.source);
+            else if (!add_view(o, &v))
+                return false;
         return true;
     }
-    if (o->scene_count < MAX_LIST)
-        o->scenes[o->scene_count++] = s;
-    return true;
+    const pn_bench_view_spec *spec = pn_bench_view_spec_find(name);
+    if (!spec) {
+        pn_error("--views: no standard view '%s' (have: bunny, dragon, buddha, sponza, all)", name);
+        return false;
+    }
+    if (!pn_bench_view_standard(&v, spec)) {
+        pn_error("--views: %s: its mesh %s is missing (set PN_ASSETS to the folder of ../shared/assets)", name,
+                 v.source);
+        return false;
+    }
+    return add_view(o, &v);
+}
+
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
 }
 
 int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {
-    *o = (bench_opts){.repeat = 5, .warmup = 1, .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
-                      .out_dir = "bench-out", .embree = true};
+    *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
+                      .reference_spp = PN_REFERENCE_SPP, .out_dir = "bench-out", .embree = true};
     bool quick = false;
-    char scenes_buf[4096] = "";
+    char scenes_buf[4096] = "", views_buf[512] = "";
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL, *arg = argv[a.i];
@@ -96,6 +128,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             o->embree = false;
         } else if (pn_args_value(&a, "--scenes", &v, &err)) {
             snprintf(scenes_buf, sizeof scenes_buf, "%s", v ? v : "");
+        } else if (pn_args_value(&a, "--views", &v, &err)) {
+            snprintf(views_buf, sizeof views_buf, "%s", v ? v : "");
         } else if (pn_args_value(&a, "--modes", &v, &err)) {
             char buf[256];
             snprintf(buf, sizeof buf, "%s", v ? v : "");
@@ -118,6 +152,11 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             }
         } else if (pn_args_value(&a, "--spp", &v, &err)) {
             ok = v && parse_list_u32("--spp", v, o->spps, &o->spp_count, 1, 4096);
+            qsort(o->spps, (size_t)o->spp_count, sizeof o->spps[0], cmp_u32);
+        } else if (pn_args_value(&a, "--reference-spp", &v, &err)) {
+            long long x = 0;
+            ok = v && pn_parse_int_range("--reference-spp", v, 16, 4096, &x);
+            o->reference_spp = (uint32_t)x;
         } else if (pn_args_value(&a, "--size", &v, &err)) {
             char buf[512];
             snprintf(buf, sizeof buf, "%s", v ? v : "");
@@ -143,9 +182,15 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             ok = m >= 0;
             o->sampler = ok ? (pn_sampler)m : o->sampler;
         } else if (pn_args_value(&a, "--max-error", &v, &err)) {
-            float e = 0;
-            ok = v && pn_parse_float_range("--max-error", v, 0.0f, 1.0f, &e);
-            o->max_error = e;
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v ? v : "");
+            o->max_error_count = 0;
+            for (char *tok = strtok(buf, ","); tok && ok && o->max_error_count < MAX_BUDGETS; tok = strtok(NULL, ",")) {
+                float e = 0;
+                ok = pn_parse_float_range("--max-error", tok, 1e-6f, 1.0f, &e);
+                o->max_errors[o->max_error_count++] = e;
+            }
+            ok = ok && o->max_error_count > 0;
         } else if (pn_args_value(&a, "--shader", &v, &err)) {
             ok = v && pn_parse_choice("--shader", v, (const char *const[]){"shadow", NULL}) == 0;
         } else if (pn_args_value(&a, "--gbuffer", &v, &err)) {
@@ -160,29 +205,35 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             return PN_EXIT_USAGE;
     }
     if (quick) {
-        static const char *bunny = "../shared/assets/stanford-bunny-69k.glb";
-        struct stat st;
-        if (!scenes_buf[0])
-            snprintf(scenes_buf, sizeof scenes_buf, "%s", stat(bunny, &st) == 0 ? bunny : "builtin:default");
+        if (!scenes_buf[0] && !views_buf[0]) {
+            bench_view bunny;
+            if (pn_bench_view_standard(&bunny, pn_bench_view_spec_find("bunny")))
+                snprintf(views_buf, sizeof views_buf, "bunny");
+            else
+                snprintf(scenes_buf, sizeof scenes_buf, "builtin:default");
+        }
         if (!o->size_count)
             o->sizes[0][0] = o->sizes[0][1] = 256, o->size_count = 1;
         if (!o->spp_count)
-            o->spps[0] = 16, o->spp_count = 1;
+            o->spps[0] = 4, o->spps[1] = 16, o->spp_count = 2;
         if (!o->tree_count)
             o->trees[0][0] = 6, o->trees[0][1] = 3, o->trees[1][0] = 7, o->trees[1][1] = 3, o->tree_count = 2;
-        if (o->repeat == 5)
-            o->repeat = 3;
     }
-    if (!scenes_buf[0])
-        snprintf(scenes_buf, sizeof scenes_buf, "builtin:default");
-    // Scenes are comma-separated; the strings must outlive parsing, so they are kept in `owned`.
-    char *copy = strdup(scenes_buf);
-    if (!copy)
-        return PN_EXIT_FAILURE;
-    o->owned[o->owned_count++] = copy;
-    for (char *tok = strtok(copy, ","); tok; tok = strtok(NULL, ","))
+    // The standard views unless scenes or views were named; builtin:default when none is here.
+    if (!scenes_buf[0] && !views_buf[0])
+        snprintf(views_buf, sizeof views_buf, "all");
+    for (char *tok = strtok(views_buf, ","); tok; tok = strtok(NULL, ","))
+        if (!add_view_arg(o, tok))
+            return PN_EXIT_USAGE;
+    for (char *tok = strtok(scenes_buf, ","); tok; tok = strtok(NULL, ","))
         if (!add_scene_arg(o, tok))
             return PN_EXIT_USAGE;
+    if (!o->view_count) {
+        pn_warn("bench: none of the standard views' meshes is in %s: measuring builtin:default",
+                pn_bench_assets_dir());
+        if (!add_scene_arg(o, "builtin:default"))
+            return PN_EXIT_USAGE;
+    }
     if (!o->mode_count) {
         // Every mode that traces, the most expensive first (the table lists the cheapest first).
         for (int m = PN_SHADOW_MODE_COUNT - 1; m >= 0; m--)
@@ -193,7 +244,7 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         o->trees[0][0] = 6, o->trees[0][1] = 3, o->trees[1][0] = 7, o->trees[1][1] = 3, o->trees[2][0] = 8,
         o->trees[2][1] = 3, o->tree_count = 3;
     if (!o->spp_count)
-        o->spps[0] = 25, o->spp_count = 1;
+        o->spps[0] = 1, o->spps[1] = 4, o->spps[2] = 16, o->spps[3] = 64, o->spp_count = 4;
     if (!o->size_count)
         o->sizes[0][0] = o->sizes[0][1] = 512, o->size_count = 1;
     return PN_EXIT_OK;

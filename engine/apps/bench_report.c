@@ -1,5 +1,5 @@
-// penumbra bench's reports: the console table, bench.csv, bench.json, and per scene, size and spp
-// a gnuplot plot of error against shadow time with the Pareto front.
+// penumbra bench's reports: the console table, bench.csv, bench.json, time_to_error.md, and per
+// view and size a log-log gnuplot plot of reference error against shadow time with the Pareto front.
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -12,11 +12,13 @@
 #include "io/file.h"
 #include "io/json.h"
 
-// The console table: this header, then one pn_bench_print_row per cell as it is measured.
+// The console table: this header, then one pn_bench_print_row per cell as it is measured. Errors:
+// "ref" against the converged reference, "bias" against exact with the same samples.
 void pn_bench_print_header(void)
 {
-    printf("%-28s %-9s %4s %-9s %-5s %8s %7s %9s [%7s %7s] %7s %8s %7s %6s %6s %6s\n", "scene", "size", "spp", "mode",
-           "tree", "build ms", "MB", "shadow ms", "min", "max", "Mray/s", "MAE", "p99", "max", "/exact", "/embree");
+    printf("%-16s %-9s %4s %-9s %-5s %8s %7s %9s [%7s %7s] %7s %8s %7s %8s %6s %6s %7s\n", "view", "size", "spp", "mode",
+           "tree", "build ms", "MB", "shadow ms", "min", "max", "Mray/s", "ref MAE", "ref p99", "bias MAE", "bias mx",
+           "/exact", "/embree");
 }
 
 void pn_bench_print_row(const bench_row *r)
@@ -24,10 +26,10 @@ void pn_bench_print_row(const bench_row *r)
     char tree[16] = "-";
     if (r->n)
         snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
-    printf("%-28.28s %4ux%-4u %4u %-9s %-5s %8.1f %7.1f %9.1f [%7.1f %7.1f] %7.2f %8.4f %7.4f %6.3f %6.2f %6.2f\n",
+    printf("%-16.16s %4ux%-4u %4u %-9s %-5s %8.1f %7.1f %9.1f [%7.1f %7.1f] %7.2f %8.4f %7.4f %8.4f %6.3f %6.2f %7.2f\n",
            r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, r->build_ms, r->pool_mb, r->shadow_ms,
-           r->shadow_min_ms, r->shadow_max_ms, r->rays_per_s / 1e6, r->err.mae, r->err.p99, r->err.max, r->vs_exact,
-           r->vs_embree);
+           r->shadow_min_ms, r->shadow_max_ms, r->rays_per_s / 1e6, r->ref.mae, r->ref.p99, r->bias.mae, r->bias.max,
+           r->vs_exact, r->vs_embree);
     fflush(stdout);
 }
 
@@ -77,16 +79,82 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
     FILE *f = open_out(dir, "bench.csv", path, tmp);
     if (!f)
         return false;
-    fprintf(f, "scene,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
-               "shadow_max_ms,shade_ms,rays_per_s,mae,rmse,p99,max,over005,over02,vs_exact,vs_embree\n");
+    fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
+               "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
+               "bias_max,vs_exact,vs_embree,embree_ms\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.4f,%.4f\n",
+        fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
+                   "%.6g,%.4f,%.4f,%.4f\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
-                r->err.mae, r->err.rmse, r->err.p99, r->err.max, r->err.over005, r->err.over02, r->vs_exact, r->vs_embree);
+                r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
+                r->vs_exact, r->vs_embree, r->embree_ms);
     }
     return close_out(f, path, tmp);
+}
+
+static void json_metrics(FILE *f, const char *name, const pn_error_metrics *m)
+{
+    fprintf(f, "\"%s\": {\"mae\": %.6g, \"rmse\": %.6g, \"p99\": %.6g, \"max\": %.6g}", name, m->mae, m->rmse, m->p99,
+            m->max);
+}
+
+static void json_tree(FILE *f, int n, int d)
+{
+    if (n)
+        fprintf(f, "[%d, %d]", n, d);
+    else
+        fprintf(f, "null");
+}
+
+// The same view and size: one group of the matrix (all its modes, trees and spp).
+static bool same_group(const bench_row *a, const bench_row *b)
+{
+    return !strcmp(a->scene, b->scene) && a->width == b->width && a->height == b->height;
+}
+
+const double pn_bench_error_levels[PN_BENCH_ERROR_LEVELS] = {0.05, 0.02, 0.01, 0.005};
+
+// The fastest row of the group starting at `first` with mode m (or any exact row for Embree's column)
+// whose reference MAE is at most `level`; NULL when none reaches it.
+static const bench_row *fastest_within(const bench_rows *rows, int first, pn_shadow_mode m, double level)
+{
+    const bench_row *best = NULL;
+    for (int j = first; j < rows->count; j++) {
+        const bench_row *r = &rows->rows[j];
+        if (same_group(r, &rows->rows[first]) && r->mode == m && r->ref.mae <= level &&
+            (!best || r->shadow_ms < best->shadow_ms))
+            best = r;
+    }
+    return best;
+}
+
+// The modes present in the group starting at `first`, in the order of the mode table.
+static int group_modes(const bench_rows *rows, int first, pn_shadow_mode *out)
+{
+    int n = 0;
+    for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
+        for (int j = first; j < rows->count; j++)
+            if (same_group(&rows->rows[j], &rows->rows[first]) && rows->rows[j].mode == (pn_shadow_mode)m) {
+                out[n++] = (pn_shadow_mode)m;
+                break;
+            }
+    return n;
+}
+
+// The first row of each group, in order: groups[i].
+static int group_starts(const bench_rows *rows, int *starts, int cap)
+{
+    int n = 0;
+    for (int i = 0; i < rows->count && n < cap; i++) {
+        bool seen = false;
+        for (int g = 0; g < n && !seen; g++)
+            seen = same_group(&rows->rows[starts[g]], &rows->rows[i]);
+        if (!seen)
+            starts[n++] = i;
+    }
+    return n;
 }
 
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows)
@@ -109,12 +177,16 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             VK_API_VERSION_PATCH(dev->props.apiVersion));
     pn_json_string(f, cpu);
     fprintf(f, ", \"threads\": %u, \"repeat\": %d, \"warmup\": %d, \"traversal\": \"%s\", \"sampler\": \"%s\", "
-               "\"scenes\": [",
+               "\"seed\": 1, \"reference\": {\"mode\": \"%s\", \"spp\": %u, \"sampler\": \"stratified\", \"seed\": %u}, "
+               "\"views\": [",
             pn_parallel_threads(), o->repeat, o->warmup, pn_traversal_names[o->traversal],
-            pn_sampler_names[o->sampler]);
-    for (int i = 0; i < o->scene_count; i++) {
-        fprintf(f, "%s", i ? ", " : "");
-        pn_json_string(f, o->scenes[i]);
+            pn_sampler_names[o->sampler], MODE_NAME(PN_SHADOW_REFERENCE), o->reference_spp, PN_REFERENCE_SEED);
+    for (int i = 0; i < o->view_count; i++) {
+        fprintf(f, "%s{\"name\": ", i ? ", " : "");
+        pn_json_string(f, o->views[i].name);
+        fprintf(f, ", \"source\": ");
+        pn_json_string(f, o->views[i].source);
+        fprintf(f, ", \"standard\": %s}", o->views[i].spec ? "true" : "false");
     }
     fprintf(f, "]}, \"results\": [\n");
     for (int i = 0; i < rows->count; i++) {
@@ -123,92 +195,301 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         pn_json_string(f, r->scene);
         fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"mode\": \"%s\", \"tree\": ", r->width, r->height,
                 r->spp, MODE_NAME(r->mode));
-        if (r->n)
-            fprintf(f, "[%d, %d]", r->n, r->d);
-        else
-            fprintf(f, "null");
+        json_tree(f, r->n, r->d);
         fprintf(f, ", \"triangles\": %u, \"build_ms\": %.3f, \"pool_mb\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, "
                    "\"shadow\": %.4f, \"shadow_min\": %.4f, \"shadow_max\": %.4f, \"shade\": %.4f}, \"shadow_rays_per_s\": "
-                   "%.6g, \"error\": {\"mae\": %.6g, \"rmse\": %.6g, \"p99\": %.6g, \"max\": %.6g, \"over005\": %.6g, "
-                   "\"over02\": %.6g}, \"vs_exact\": %.4f, \"vs_embree\": %.4f}%s\n",
+                   "%.6g, ",
                 r->triangles, r->build_ms, r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms,
-                r->shade_ms, r->rays_per_s, r->err.mae, r->err.rmse, r->err.p99, r->err.max, r->err.over005,
-                r->err.over02, r->vs_exact, r->vs_embree, i + 1 < rows->count ? "," : "");
+                r->shade_ms, r->rays_per_s);
+        json_metrics(f, "reference", &r->ref);
+        fprintf(f, ", ");
+        json_metrics(f, "bias", &r->bias);
+        fprintf(f, ", \"vs_exact\": %.4f, \"vs_embree\": %.4f, \"embree_ms\": %.4f}%s\n", r->vs_exact, r->vs_embree,
+                r->embree_ms, i + 1 < rows->count ? "," : "");
+    }
+    fprintf(f, "], \"time_to_error\": [");
+    int starts[256], groups = group_starts(rows, starts, 256);
+    const char *sep = "\n";
+    for (int g = 0; g < groups; g++) {
+        const bench_row *g0 = &rows->rows[starts[g]];
+        pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
+        int nm = group_modes(rows, starts[g], modes);
+        for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
+            double level = pn_bench_error_levels[l];
+            fprintf(f, "%s  {\"scene\": ", sep);
+            sep = ",\n";
+            pn_json_string(f, g0->scene);
+            fprintf(f, ", \"width\": %u, \"height\": %u, \"level\": %g, \"modes\": [", g0->width, g0->height, level);
+            const bench_row *ex = fastest_within(rows, starts[g], PN_SHADOW_REFERENCE, level);
+            int k = 0;
+            for (int m = 0; m < nm; m++) {
+                const bench_row *r = fastest_within(rows, starts[g], modes[m], level);
+                if (!r)
+                    continue;
+                fprintf(f, "%s{\"mode\": \"%s\", \"tree\": ", k++ ? ", " : "", MODE_NAME(r->mode));
+                json_tree(f, r->n, r->d);
+                fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g, \"vs_exact\": ", r->spp, r->shadow_ms,
+                        r->ref.mae);
+                if (ex)
+                    fprintf(f, "%.4f}", r->shadow_ms / ex->shadow_ms);
+                else
+                    fprintf(f, "null}");
+            }
+            fprintf(f, "], \"embree_ms\": ");
+            if (ex && ex->embree_ms > 0)
+                fprintf(f, "%.4f}", ex->embree_ms);
+            else
+                fprintf(f, "null}");
+        }
+    }
+    fprintf(f, "], \"quality\": [");
+    for (int i = 0; i < rows->quality_count; i++) {
+        const bench_quality *q = &rows->quality[i];
+        fprintf(f, "%s\n  {\"scene\": ", i ? "," : "");
+        pn_json_string(f, q->scene);
+        fprintf(f, ", \"width\": %u, \"height\": %u, \"budget\": %g, \"pick\": {\"mode\": \"%s\", \"tree\": ", q->width,
+                q->height, q->budget, MODE_NAME(q->mode));
+        json_tree(f, q->n, q->d);
+        fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.6g, \"shadow_ms\": %.4f, ", q->spp, q->pilot_mae, q->shadow_ms);
+        json_metrics(f, "reference", &q->ref);
+        fprintf(f, "}, \"choose_ms\": %.1f, \"pilot\": [%u, %u], \"confirm\": [%u, %u], \"tried\": [", q->choose_ms,
+                q->choice.pilot_width, q->choice.pilot_height, q->choice.confirm_width, q->choice.confirm_height);
+        for (int t = 0; t < q->choice.candidates && t < PN_QUALITY_MAX_TRIED; t++) {
+            const pn_quality_tried *c = &q->choice.tried[t];
+            fprintf(f, "%s{\"mode\": \"%s\", \"tree\": ", t ? ", " : "", MODE_NAME(c->mode));
+            json_tree(f, c->tree_n, c->tree_d);
+            fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"confirm_mae\": %.6g, \"within\": %s, "
+                       "\"pilot_shadow_ms\": %.4f}",
+                    c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms);
+        }
+        fprintf(f, "], \"front\": ");
+        if (q->has_best) {
+            fprintf(f, "{\"mode\": \"%s\", \"tree\": ", MODE_NAME(q->best_mode));
+            json_tree(f, q->best_n, q->best_d);
+            fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g}, \"vs_front\": %.4f}", q->best_spp,
+                    q->best_ms, q->best_mae, q->shadow_ms / q->best_ms);
+        } else {
+            fprintf(f, "null, \"vs_front\": null}");
+        }
     }
     fprintf(f, "]}\n");
     return close_out(f, path, tmp);
 }
 
-// Per scene, size and spp: MAE against shadow time, one labelled point per configuration, and the
-// Pareto front (no other point is both faster and more accurate) as a line.
+static void config_label(char *out, size_t n, const bench_row *r)
+{
+    if (r->n)
+        snprintf(out, n, "%s LS(%d,%d)", MODE_NAME(r->mode), r->n, r->d);
+    else
+        snprintf(out, n, "%s", MODE_NAME(r->mode));
+}
+
+bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
+{
+    char path[4096], tmp[4096];
+    FILE *f = open_out(dir, "time_to_error.md", path, tmp);
+    if (!f)
+        return false;
+    int starts[256], groups = group_starts(rows, starts, 256);
+    for (int g = 0; g < groups; g++) {
+        const bench_row *g0 = &rows->rows[starts[g]];
+        pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
+        int nm = group_modes(rows, starts[g], modes);
+        for (int pass = 0; pass < 2; pass++) { // the file, then the console
+            FILE *out = pass ? stdout : f;
+            fprintf(out, "\n%s %ux%u (%u triangles): the fastest cell reaching each reference MAE, shadow pass ms "
+                         "(configuration, x exact's time)\n\n| MAE <= |",
+                    g0->scene, g0->width, g0->height, g0->triangles);
+            for (int m = 0; m < nm; m++)
+                fprintf(out, " %s |", MODE_NAME(modes[m]));
+            fprintf(out, " Embree 3, exact's rays |\n|---|");
+            for (int m = 0; m <= nm; m++)
+                fprintf(out, "---|");
+            fprintf(out, "\n");
+            for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
+                double level = pn_bench_error_levels[l];
+                const bench_row *ex = fastest_within(rows, starts[g], PN_SHADOW_REFERENCE, level);
+                fprintf(out, "| %g |", level);
+                for (int m = 0; m < nm; m++) {
+                    const bench_row *r = fastest_within(rows, starts[g], modes[m], level);
+                    if (!r) {
+                        fprintf(out, " - |");
+                        continue;
+                    }
+                    char tree[32] = "";
+                    if (r->n)
+                        snprintf(tree, sizeof tree, "LS(%d,%d) ", r->n, r->d);
+                    fprintf(out, " %.1f (%s%u spp", r->shadow_ms, tree, r->spp);
+                    if (ex)
+                        fprintf(out, ", %.2fx", r->shadow_ms / ex->shadow_ms);
+                    fprintf(out, ") |");
+                }
+                if (ex && ex->embree_ms > 0)
+                    fprintf(out, " %.1f (%u spp, %.2fx) |\n", ex->embree_ms, ex->spp, ex->embree_ms / ex->shadow_ms);
+                else
+                    fprintf(out, " - |\n");
+            }
+        }
+    }
+    return close_out(f, path, tmp);
+}
+
+// Log-log position of a point in [0,1]^2 of the plot's ranges, for label placement.
+typedef struct plot_box {
+    double x0, x1, y0, y1;
+} plot_box;
+
+static void to_unit(const plot_box *b, double x, double y, double *u, double *v)
+{
+    *u = (log10(x) - b->x0) / fmax(b->x1 - b->x0, 1e-9);
+    *v = (log10(y) - b->y0) / fmax(b->y1 - b->y0, 1e-9);
+}
+
+// Errors of 0 (an exact mode against itself) cannot sit on a log axis: they are drawn at this floor.
+static double plot_err(double e) { return fmax(e, 1e-5); }
+
+// Per view and size: reference MAE against shadow time, log-log; a curve per mode and tree through
+// its spp points (labelled with the spp where the label does not overlap another), the Pareto front
+// over every cell (no other cell both faster and more accurate), and Embree on exact's rays.
 bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
 {
+    int starts[256], groups = group_starts(rows, starts, 256);
     bool ok = true;
-    bool *done = calloc((size_t)rows->count + 1, 1);
-    if (!done)
+    int *idx = malloc(((size_t)rows->count + 1) * sizeof *idx);
+    if (!idx)
         return false;
-    for (int i = 0; i < rows->count && ok; i++) {
-        if (done[i])
-            continue;
-        const bench_row *g = &rows->rows[i];
-        char stem[512], path[4096], tmp[4096];
-        snprintf(stem, sizeof stem, "%s_%ux%u_%uspp", g->scene, g->width, g->height, g->spp);
+    for (int g = 0; g < groups && ok; g++) {
+        const bench_row *g0 = &rows->rows[starts[g]];
+        int n = 0;
+        for (int j = starts[g]; j < rows->count; j++)
+            if (same_group(&rows->rows[j], g0))
+                idx[n++] = j;
+        char stem[512], path[4096], tmp[4096], name[600];
+        snprintf(stem, sizeof stem, "%s_%ux%u", g0->scene, g0->width, g0->height);
         for (char *c = stem; *c; c++)
-            if (*c == ':' || *c == '/')
+            if (*c == ':' || *c == '/' || *c == ' ')
                 *c = '_';
-        char name[600];
         snprintf(name, sizeof name, "%s.dat", stem);
         FILE *f = open_out(dir, name, path, tmp);
-        if (!f)
-            return free(done), false;
-        // The group's points, then the front: sorted by time, keeping each point more accurate than
-        // all faster ones.
-        int idx[256], n = 0;
-        for (int j = i; j < rows->count && n < 256; j++) {
-            const bench_row *r = &rows->rows[j];
-            if (!strcmp(r->scene, g->scene) && r->width == g->width && r->height == g->height && r->spp == g->spp) {
-                done[j] = true;
-                idx[n++] = j;
+        if (!f) {
+            ok = false;
+            break;
+        }
+        // Blocks (gnuplot indices): one per configuration, in the order measured (spp ascending
+        // within each); then the front; then Embree.
+        plot_box box = {INFINITY, -INFINITY, INFINITY, -INFINITY};
+        int configs = 0;
+        char titles[64][48];
+        for (int a = 0; a < n; a++) {
+            const bench_row *r = &rows->rows[idx[a]];
+            box.x0 = fmin(box.x0, log10(fmax(r->shadow_ms, 1e-3)));
+            box.x1 = fmax(box.x1, log10(fmax(r->shadow_ms, 1e-3)));
+            box.y0 = fmin(box.y0, log10(plot_err(r->ref.mae)));
+            box.y1 = fmax(box.y1, log10(plot_err(r->ref.mae)));
+            if (r->embree_ms > 0) {
+                box.x0 = fmin(box.x0, log10(r->embree_ms));
+                box.x1 = fmax(box.x1, log10(r->embree_ms));
             }
+            bool first = a == 0 || rows->rows[idx[a - 1]].mode != r->mode || rows->rows[idx[a - 1]].n != r->n ||
+                         rows->rows[idx[a - 1]].d != r->d;
+            if (first) {
+                if (configs)
+                    fprintf(f, "\n\n");
+                if (configs < 64)
+                    config_label(titles[configs], sizeof titles[0], r);
+                fprintf(f, "# %s: shadow_ms reference_mae spp\n", titles[configs < 64 ? configs : 63]);
+                configs++;
+            }
+            fprintf(f, "%.4f %.6g %u\n", fmax(r->shadow_ms, 1e-3), plot_err(r->ref.mae), r->spp);
+        }
+        // The front: sorted by time, each cell more accurate than every faster one.
+        int *order = malloc((size_t)n * sizeof *order);
+        if (!order) {
+            fclose(f);
+            pn_file_discard(tmp);
+            ok = false;
+            break;
         }
         for (int a = 0; a < n; a++)
+            order[a] = idx[a];
+        for (int a = 0; a < n; a++)
             for (int b = a + 1; b < n; b++)
-                if (rows->rows[idx[b]].shadow_ms < rows->rows[idx[a]].shadow_ms) {
-                    int t = idx[a];
-                    idx[a] = idx[b];
-                    idx[b] = t;
+                if (rows->rows[order[b]].shadow_ms < rows->rows[order[a]].shadow_ms) {
+                    int t = order[a];
+                    order[a] = order[b];
+                    order[b] = t;
                 }
-        fprintf(f, "# shadow_ms mae label\n");
-        for (int a = 0; a < n; a++) {
-            const bench_row *r = &rows->rows[idx[a]];
-            if (r->n)
-                fprintf(f, "%.4f %.6g %s-LS(%d,%d)\n", r->shadow_ms, r->err.mae, MODE_NAME(r->mode), r->n, r->d);
-            else
-                fprintf(f, "%.4f %.6g %s\n", r->shadow_ms, r->err.mae, MODE_NAME(r->mode));
-        }
-        fprintf(f, "\n\n# Pareto front\n");
+        fprintf(f, "\n\n# Pareto front: shadow_ms reference_mae\n");
         double best = INFINITY;
         for (int a = 0; a < n; a++) {
-            const bench_row *r = &rows->rows[idx[a]];
-            if (r->err.mae < best) {
-                best = r->err.mae;
-                fprintf(f, "%.4f %.6g\n", r->shadow_ms, r->err.mae);
+            const bench_row *r = &rows->rows[order[a]];
+            if (r->ref.mae < best) {
+                best = r->ref.mae;
+                fprintf(f, "%.4f %.6g\n", fmax(r->shadow_ms, 1e-3), plot_err(r->ref.mae));
             }
         }
+        fprintf(f, "\n\n# Embree 3 on exact's rays: embree_ms reference_mae spp\n");
+        int embree_points = 0;
+        for (int a = 0; a < n; a++) {
+            const bench_row *r = &rows->rows[idx[a]];
+            if (r->mode == PN_SHADOW_REFERENCE && r->embree_ms > 0) {
+                fprintf(f, "%.4f %.6g %u\n", r->embree_ms, plot_err(r->ref.mae), r->spp);
+                embree_points++;
+            }
+        }
+        if (!embree_points)
+            fprintf(f, "nan nan 0\n");
         ok = close_out(f, path, tmp);
         snprintf(name, sizeof name, "%s.gp", stem);
         char gp_path[4096];
         f = ok ? open_out(dir, name, gp_path, tmp) : NULL;
-        if (!f)
-            return free(done), false;
-        // MAE is 0 for exact modes: the y axis is linear so that they show, at the bottom.
-        fprintf(f, "set terminal pngcairo size 900,600\nset output '%s.png'\nset title '%s: error against exact vs shadow pass time'\n"
-                   "set xlabel 'shadow pass (ms, median)'\nset ylabel 'mean absolute error of V'\nset logscale x\n"
-                   "set grid\nset key top right\n"
-                   "plot '%s.dat' index 0 using 1:2 with points pt 7 ps 1.5 title 'configurations', \\\n"
-                   "     '' index 0 using 1:2:3 with labels offset 0,1 font ',8' notitle, \\\n"
-                   "     '' index 1 using 1:2 with lines lw 2 title 'Pareto front'\n",
-                stem, g->scene, stem);
+        if (!f) {
+            free(order);
+            ok = false;
+            break;
+        }
+        fprintf(f, "set terminal pngcairo size 1000,700\nset output '%s.png'\n"
+                   "set title '%s %ux%u: error against the converged reference vs shadow pass time'\n"
+                   "set xlabel 'shadow pass (ms, median)'\nset ylabel 'mean absolute error of V (reference)'\n"
+                   "set logscale xy\nset grid\nset key outside right top\n",
+                stem, g0->scene, g0->width, g0->height);
+        // spp labels, greedily: the front's cells first, then the rest in order; a label is kept only
+        // if its box (in the plot's log-log unit square) overlaps no label kept before it.
+        double placed[512][2];
+        int np = 0;
+        const double lw = 0.045, lh = 0.035; // a label's box, as a share of the axes
+        for (int pass = 0; pass < 2; pass++)
+            for (int a = 0; a < n && np < 512; a++) {
+                const bench_row *r = &rows->rows[order[a]];
+                bool on_front = true;
+                for (int b = 0; b < a && on_front; b++)
+                    on_front = rows->rows[order[b]].ref.mae > r->ref.mae;
+                if (on_front != (pass == 0))
+                    continue;
+                double u, v;
+                to_unit(&box, fmax(r->shadow_ms, 1e-3), plot_err(r->ref.mae), &u, &v);
+                u += 0.01, v += 0.01; // the label sits above and right of its point
+                bool clear = true;
+                for (int k = 0; k < np && clear; k++)
+                    clear = fabs(placed[k][0] - u) > lw || fabs(placed[k][1] - v) > lh;
+                if (!clear)
+                    continue;
+                placed[np][0] = u, placed[np][1] = v, np++;
+                fprintf(f, "set label '%u' at %.4f,%.6g offset 0.5,0.5 font ',8'\n", r->spp, fmax(r->shadow_ms, 1e-3),
+                        plot_err(r->ref.mae));
+            }
+        fprintf(f, "plot ");
+        for (int c = 0; c < configs && c < 64; c++)
+            fprintf(f, "'%s.dat' index %d using 1:2 with linespoints pt %d ps 1.2 title '%s', \\\n     ", stem, c,
+                    5 + c % 9, titles[c]);
+        fprintf(f, "'%s.dat' index %d using 1:2 with lines lw 3 lc rgb 'black' dt 2 title 'Pareto front'", stem,
+                configs);
+        if (embree_points)
+            fprintf(f, ", \\\n     '%s.dat' index %d using 1:2 with points pt 3 ps 2 lc rgb 'red' "
+                       "title 'Embree 3 (CPU), exact''s rays'",
+                    stem, configs + 1);
+        fprintf(f, "\n");
+        free(order);
         ok = close_out(f, gp_path, tmp);
         if (ok) {
             char cmd[8192];
@@ -217,6 +498,6 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 pn_warn("gnuplot could not draw %s.gp (is gnuplot-nox installed?)", stem);
         }
     }
-    free(done);
+    free(idx);
     return ok;
 }

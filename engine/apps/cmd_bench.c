@@ -1,6 +1,7 @@
-// penumbra bench: the speed/accuracy trade measured side by side. A matrix of scenes x sizes x
-// samples x modes x trees; every cell renders warm-up and repeated frames (GPU timestamps per pass,
-// median and spread), and is compared with the exact mode on the same pixels and light samples.
+// penumbra bench: the speed/accuracy trade measured side by side. A matrix of views x sizes x
+// modes x trees x samples; every cell renders warm-up and repeated frames (GPU timestamps per pass,
+// median and spread), and is compared with a converged exact reference (what the user sees) and
+// with exact on the same pixels and light samples (the bias alone).
 // Embree 3's rtcOccluded1 traces the very same rays on all cores as the CPU peer.
 //
 // This file: the help text and the command's entry; see bench.h for the other files.
@@ -19,19 +20,26 @@
 void pn_print_bench_help(void)
 {
     printf("usage: penumbra bench [options]\n"
-           "  Renders a matrix of scenes x sizes x samples x modes x trees, each with warm-up and repeated\n"
-           "  frames timed by GPU timestamps (median and spread), compares every cell with exact on the\n"
-           "  same pixels and light samples (MAE, RMSE, p99, max) and traces the same rays with Embree 3\n"
-           "  on all cores. Writes a console table, bench.csv, bench.json and gnuplot plots of error vs\n"
-           "  shadow time with the Pareto front.\n"
-           "  --scenes A,B,...     scenes (files or builtin:NAME) or folders of .glb (default builtin:default)\n"
-           "  --modes M,...        of linespace, hybrid, exact-ls, exact (default: all four)\n"
+           "  Renders a matrix of views x sizes x modes x trees x samples per pixel, each cell with warm-up\n"
+           "  and repeated frames timed by GPU timestamps (median and spread), and measures two errors of\n"
+           "  its V over the pixels with geometry (MAE, RMSE, p99, max):\n"
+           "    reference: against the converged reference, exact at --reference-spp samples with a seed\n"
+           "               of its own (cached in OUT/reference): what the user sees, bias and noise;\n"
+           "    bias:      against exact with the same pixels and light samples: the mode's bias alone.\n"
+           "  Embree 3 traces exact's rays on all cores as the CPU peer. Writes a console table, bench.csv,\n"
+           "  bench.json, time_to_error.md (per mode the fastest cell reaching each error level) and a\n"
+           "  log-log plot of reference error vs shadow time per view and size with the Pareto front.\n"
+           "  --views V,...        standard views: bunny, dragon, buddha, sponza or all (default: all whose\n"
+           "                       mesh is in $PN_ASSETS, else ../shared/assets)\n"
+           "  --scenes A,B,...     other scenes (files, builtin:NAME, folders of .glb), framed as render does\n"
+           "  --modes M,...        of the modes that trace (default: all the device can run)\n"
            "  --trees N,d:N,d:...  trees for the line-space modes (default 6,3:7,3:8,3)\n"
-           "  --spp S,...          rays per pixel (default 25)\n"
+           "  --spp S,...          samples per pixel, an axis of the matrix (default 1,4,16,64)\n"
+           "  --reference-spp S    samples of the converged reference (default %d)\n"
            "  --size WxH,...       image sizes (default 512x512)\n"
-           "  --repeat R --warmup W   timed and untimed frames per cell (default 5 and 1)\n"
+           "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"
            "  --traversal ray|packet  --sampler grid|stratified   (default ray, stratified)\n"
-           "  --out DIR            where the CSV, JSON and plots go (default bench-out)\n"
+           "  --out DIR            where the CSV, JSON, tables, plots and reference cache go (default bench-out)\n"
            "  --no-embree          skip the CPU peer\n"
            "  --shader shadow --gbuffer FILE.exr\n"
            "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"
@@ -39,17 +47,16 @@ void pn_print_bench_help(void)
            "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
            "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
            "                       stack; their distribution is printed and written as EXR layers work.*\n"
-           "  --max-error E        also run --quality auto at this budget and compare its pick with the\n"
-           "                       matrix's fastest cell within the budget\n"
-           "  --quick              a small matrix (bunny or builtin:default, 256x256, 16 spp, LS(6,3) and\n"
-           "                       LS(7,3), 3 repeats): under two minutes on a 2-core CPU with lavapipe\n");
+           "  --max-error E,...    also run --quality auto at each budget (reference MAE), render its pick at\n"
+           "                       full size and compare it with the matrix's fastest cell within the budget\n"
+           "  --quick              a small matrix (the bunny view or builtin:default, 256x256, 4 and 16 spp,\n"
+           "                       LS(6,3) and LS(7,3), 3 repeats)\n",
+           PN_REFERENCE_SPP);
 }
 
-// What parsing and --gbuffer allocated.
+// What --gbuffer allocated.
 static void free_opts(bench_opts *o)
 {
-    for (int i = 0; i < o->owned_count; i++)
-        free(o->owned[i]);
     free(o->gb_p);
     free(o->gb_n);
 }
@@ -58,11 +65,8 @@ int pn_cmd_bench(int argc, char **argv)
 {
     bench_opts o;
     int rc = pn_bench_parse(argc, argv, &o);
-    if (rc != PN_EXIT_OK) {
-        for (int i = 0; i < o.owned_count; i++)
-            free(o.owned[i]);
+    if (rc != PN_EXIT_OK)
         return rc < 0 ? PN_EXIT_OK : rc;
-    }
     if (o.gbuffer && pn_bench_load_gbuffer(&o) != PN_OK) {
         free_opts(&o);
         return PN_EXIT_FAILURE;
@@ -86,13 +90,13 @@ int pn_cmd_bench(int argc, char **argv)
     pn_bench_print_header();
     bench_rows rows = {0};
     uint64_t t0 = pn_time_ns();
-    for (int i = 0; i < o.scene_count && rc == PN_EXIT_OK; i++)
-        rc = pn_bench_scene(&o, &dev, rtc, o.scenes[i], &rows);
+    for (int i = 0; i < o.view_count && rc == PN_EXIT_OK; i++)
+        rc = pn_bench_view(&o, &dev, rtc, &o.views[i], &rows);
     if (rows.count && !(pn_bench_write_csv(o.out_dir, &rows) && pn_bench_write_json(o.out_dir, &o, &dev, &rows) &&
-                          pn_bench_write_plots(o.out_dir, &rows)))
+                          pn_bench_write_time_to_error(o.out_dir, &rows) && pn_bench_write_plots(o.out_dir, &rows)))
         rc = PN_EXIT_FAILURE;
-    fprintf(stderr, "bench: %d cells in %.1f s; results in %s/bench.csv, bench.json and *.png\n", rows.count,
-            pn_ms_since(t0) * 1e-3, o.out_dir);
+    fprintf(stderr, "bench: %d cells in %.1f s; results in %s/bench.csv, bench.json, time_to_error.md and *.png\n",
+            rows.count, pn_ms_since(t0) * 1e-3, o.out_dir);
     free(rows.rows);
     if (rtc)
         pn_bench_embree_destroy(rtc);

@@ -5,6 +5,7 @@
 
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/metrics.h"
 #include "apps/options.h"
 #include "apps/quality.h"
 #include "apps/render_opts.h"
@@ -35,10 +36,12 @@ void pn_print_render_help(void)
            "                        for checks against an independent tracer; format in\n"
            "                        engine/apps/cmd_render.c\n"
            "quality:\n"
-           "  --quality auto|manual auto: choose --mode and --tree from pilot renders against exact on\n"
-           "                        a quarter of the pixels: the fastest configuration whose mean absolute\n"
-           "                        error of V stays within --max-error (default manual)\n"
-           "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01)\n"
+           "  --quality auto|manual auto: choose --mode, --tree and --spp from pilot renders (the same\n"
+           "                        framing at about 128x128) against a converged exact reference (1024\n"
+           "                        samples): the fastest configuration whose mean absolute error of V\n"
+           "                        stays within --max-error (default manual)\n"
+           "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01; one\n"
+           "                        no configuration reaches takes the least error found)\n"
            "  --no-view-cull        build the N-tree over all of the scene, not just over the box of\n"
            "                        the visible receivers and the light (which holds every shadow ray)\n");
     pn_render_opts_print_help();
@@ -224,9 +227,11 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);
         if (st->quality_auto) {
             const pn_quality_choice *q = &st->quality;
-            printf("\"quality\": {\"max_error\": %.6g, \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f, "
-                   "\"pilot_exact_ms\": %.4f, \"candidates\": %d, \"pilot\": [%u, %u], \"tried\": [",
-                   o->max_error, q->pilot_mae, q->pilot_ms, q->exact_ms, q->candidates, q->pilot_width, q->pilot_height);
+            printf("\"quality\": {\"max_error\": %.6g, \"within\": %s, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"pilot_shadow_ms\": %.4f, "
+                   "\"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, \"pilot\": [%u, %u], "
+                   "\"tried\": [",
+                   o->max_error, q->within ? "true" : "false", q->pilot_mae, q->pilot_se, q->pilot_ms, q->reference_ms,
+                   PN_REFERENCE_SPP, q->candidates, q->pilot_width, q->pilot_height);
             for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++) {
                 const pn_quality_tried *c = &q->tried[i];
                 printf("%s{\"mode\": \"%s\", \"tree\": ", i ? ", " : "", pn_shadow_mode_get(c->mode)->name);
@@ -234,7 +239,9 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                     printf("[%d, %d]", c->tree_n, c->tree_d);
                 else
                     printf("null");
-                printf(", \"pilot_mae\": %.6g, \"pilot_shadow_ms\": %.4f}", c->pilot_mae, c->pilot_ms);
+                printf(", \"spp\": %u, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"confirm_mae\": %.6g, \"within\": %s, "
+                       "\"pilot_shadow_ms\": %.4f}",
+                       c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms);
             }
             printf("]}, ");
         }
@@ -300,13 +307,18 @@ int pn_cmd_render(int argc, char **argv)
             pn_renderer_desc frame = pn_render_opts_setup(&o.r).frame;
             if (pn_quality_choose(&dev, &scene, &cam, &light, &frame, o.max_error, o.r.max_bytes, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
+                o.r.spp = choice.spp;
                 if (choice.tree_n)
                     o.r.tree_n = choice.tree_n, o.r.tree_d = choice.tree_d;
-                if (!o.json)
-                    printf("quality auto: %s%s (pilot %ux%u, %d configurations: MAE %.4f against exact within %.4f, "
-                           "shadow %.1f ms vs exact %.1f ms)\n",
-                           pn_shadow_mode_get(choice.mode)->name, "", choice.pilot_width, choice.pilot_height,
-                           choice.candidates, choice.pilot_mae, o.max_error, choice.pilot_ms, choice.exact_ms);
+                if (!o.json) {
+                    char tree[32] = "";
+                    if (choice.tree_n)
+                        snprintf(tree, sizeof tree, " LS(%d,%d)", choice.tree_n, choice.tree_d);
+                    printf("quality auto: %s%s at %u spp (pilot %ux%u, %d pilots: MAE %.4f against the converged "
+                           "reference, budget %.4f; shadow %.1f ms on the pilot)\n",
+                           pn_shadow_mode_get(choice.mode)->name, tree, choice.spp, choice.pilot_width,
+                           choice.pilot_height, choice.candidates, choice.pilot_mae, o.max_error, choice.pilot_ms);
+                }
             } else {
                 exit_code = PN_EXIT_FAILURE;
             }

@@ -13,31 +13,132 @@
 // precision) is skipped.
 static const int TREES[][2] = {{6, 3}, {7, 3}, {8, 3}, {5, 4}};
 
-// Renders one pilot frame; its V into v (when given) and its shadow time into ms.
-static pn_result pilot(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                       const pn_setup_desc *sd, float *v, uint8_t *mask, double *ms)
+// The pilot's pixels: at most about 128x128. Errors are per pixel, so a smaller image of the same
+// framing estimates the full image's MAE (bench --max-error checks it at full size); the reference
+// at PN_REFERENCE_SPP costs pixels x 1024 rays, which this keeps to a few seconds. A frame of at
+// most that many pixels is its own pilot: the same pixels, samples and seed, so the same image.
+enum { PILOT_PIXELS = 128 * 128 };
+
+// One pilot size with its converged reference (rendered when first needed).
+typedef struct pilot_size {
+    double scale; // of the frame's width and height; 1: the frame itself
+    pn_setup_desc sd;
+    size_t px;
+    float *ref, *v;
+    uint8_t *mask;
+    double reference_ms;
+    bool ready;
+} pilot_size;
+
+// Renders the set-up's frame twice, the second timed (the first pays for first touches of the
+// pools); its V into v (and the coverage into mask, when given), its shadow time into ms.
+static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, float *v,
+                             uint8_t *mask, double *ms)
 {
-    pn_setup s;
-    pn_log_level level = pn_log_get_level();
-    pn_log_set_level(PN_LOG_ERROR); // a refused candidate is not the user's error
-    pn_result r = pn_setup_create(dev, scene, light, sd, &s);
-    pn_log_set_level(level);
-    if (r != PN_OK)
-        return r;
     pn_frame_times t;
-    r = pn_renderer_render(&s.renderer, cam, light, &t);
-    if (r == PN_OK) {
-        pn_frame_images img;
-        pn_renderer_images(&s.renderer, &img);
-        size_t px = (size_t)sd->frame.width * sd->frame.height;
-        for (size_t i = 0; i < px; i++) {
-            v[i] = img.v[i];
-            if (mask)
-                mask[i] = img.p[4 * i + 3] > 0;
-        }
-        *ms = t.shadow_ms;
+    PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
+    PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
+    pn_frame_images img;
+    pn_renderer_images(&s->renderer, &img);
+    for (size_t i = 0; i < px; i++) {
+        v[i] = img.v[i];
+        if (mask)
+            mask[i] = img.p[4 * i + 3] > 0;
     }
+    *ms = t.shadow_ms;
+    return PN_OK;
+}
+
+// A set-up that may be refused (a tree too large for the budget): quietly, it is not the user's error.
+static pn_result quiet_setup(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *sd,
+                             pn_setup *s)
+{
+    pn_log_level level = pn_log_get_level();
+    pn_log_set_level(PN_LOG_ERROR);
+    pn_result r = pn_setup_create(dev, scene, light, sd, s);
+    pn_log_set_level(level);
+    return r;
+}
+
+static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, double scale, uint64_t max_bytes,
+                                 const pn_camera *cam)
+{
+    memset(p, 0, sizeof *p);
+    p->scale = scale;
+    p->sd = (pn_setup_desc){.frame = *frame, .max_bytes = max_bytes, .view = cam}; // as render builds it
+    p->sd.frame.width = (uint32_t)fmax(1.0, round(frame->width * scale));
+    p->sd.frame.height = (uint32_t)fmax(1.0, round(frame->height * scale));
+    p->sd.frame.dump_rays = false;
+    p->sd.frame.count_work = false;
+    p->px = (size_t)p->sd.frame.width * p->sd.frame.height;
+    p->ref = malloc(p->px * sizeof *p->ref);
+    p->v = malloc(p->px * sizeof *p->v);
+    p->mask = malloc(p->px);
+    return p->ref && p->v && p->mask ? PN_OK : PN_ERR_MEMORY;
+}
+
+static void pilot_size_free(pilot_size *p) { free(p->ref), free(p->v), free(p->mask); }
+
+// The converged reference at this size: exact, PN_REFERENCE_SPP stratified samples, its own seed.
+static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
+                                 pilot_size *p)
+{
+    if (p->ready)
+        return PN_OK;
+    pn_setup_desc rd = p->sd;
+    rd.frame.mode = PN_SHADOW_REFERENCE;
+    rd.frame.sampler = PN_SAMPLER_STRATIFIED;
+    rd.frame.spp = PN_REFERENCE_SPP;
+    rd.frame.seed = PN_REFERENCE_SEED;
+    rd.view = NULL;
+    pn_setup s;
+    PN_TRY(pn_setup_create(dev, scene, light, &rd, &s));
+    pn_result r = pilot_frame(&s, cam, light, p->px, p->ref, p->mask, &p->reference_ms);
     pn_setup_destroy(dev, &s);
+    p->ready = r == PN_OK;
+    return r;
+}
+
+// The error of the set-up's current frame at pilot size p: MAE against p's reference and the
+// standard error of that MAE as an estimate of the full frame's (0 when p is the frame itself: the
+// same image). A smaller pilot's MAE is the mean of a sample of the picture's per-pixel errors.
+static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, double *mae,
+                             double *se, double *ms)
+{
+    PN_TRY(pilot_frame(s, cam, light, p->px, p->v, NULL, ms));
+    pn_error_metrics e;
+    if (!pn_error_compare(p->v, p->ref, p->mask, p->px, NULL, &e))
+        return PN_ERR_MEMORY;
+    *mae = e.mae;
+    *se = p->scale < 1.0 ? sqrt(fmax(e.rmse * e.rmse - e.mae * e.mae, 0.0) / (double)(e.pixels ? e.pixels : 1)) : 0.0;
+    return PN_OK;
+}
+
+// Is the configuration within the budget? Decided at pilot size when its MAE is two standard errors
+// from the budget or more (a one-sided 97.7% bound for the full picture's MAE). Nearer, the pilot
+// cannot tell, and the same configuration is rendered at the confirming size (twice the pilot's
+// width and height, or the frame itself) against that size's reference; still undecided there, it
+// is taken as outside. *confirm_mae: the confirming MAE, or -1 when none was needed.
+static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
+                        const pn_setup_desc *cfg, double mae, double se, double budget, pilot_size *big, bool *within,
+                        double *confirm_mae)
+{
+    *confirm_mae = -1;
+    *within = mae + 2 * se <= budget;
+    if (*within || mae - 2 * se > budget || big->scale == 0)
+        return PN_OK;
+    PN_TRY(pilot_reference(dev, scene, cam, light, big));
+    pn_setup_desc sd = big->sd;
+    sd.frame.mode = cfg->frame.mode;
+    sd.frame.spp = cfg->frame.spp;
+    sd.tree_n = cfg->tree_n;
+    sd.tree_d = cfg->tree_d;
+    pn_setup s;
+    PN_TRY(quiet_setup(dev, scene, light, &sd, &s));
+    double se2, ms;
+    pn_result r = pilot_error(&s, cam, light, big, confirm_mae, &se2, &ms);
+    pn_setup_destroy(dev, &s);
+    *within = r == PN_OK && *confirm_mae + 2 * se2 <= budget;
     return r;
 }
 
@@ -45,51 +146,83 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, pn_quality_choice *out)
 {
     memset(out, 0, sizeof *out);
-    pn_setup_desc sd = {.frame = *frame, .max_bytes = max_bytes, .view = cam}; // as render builds it
-    // A quarter of the pixels: a subsample of the picture at the same light samples per pixel.
-    sd.frame.width = frame->width / 2 > 64 ? frame->width / 2 : (frame->width < 64 ? frame->width : 64);
-    sd.frame.height = (uint32_t)fmax(1.0, round((double)frame->height * sd.frame.width / frame->width));
-    sd.frame.dump_rays = false;
-    out->pilot_width = sd.frame.width;
-    out->pilot_height = sd.frame.height;
-    size_t px = (size_t)sd.frame.width * sd.frame.height;
-    float *ref = malloc(px * sizeof *ref), *v = malloc(px * sizeof *v);
-    uint8_t *mask = malloc(px);
-    pn_result r = ref && v && mask ? PN_OK : PN_ERR_MEMORY;
-    sd.frame.mode = PN_SHADOW_REFERENCE;
+    double scale = fmin(1.0, sqrt(PILOT_PIXELS / ((double)frame->width * frame->height)));
+    pilot_size pilot, big = {0};
+    pn_result r = pilot_size_init(&pilot, frame, scale, max_bytes, cam);
+    if (r == PN_OK && scale < 1.0)
+        r = pilot_size_init(&big, frame, fmin(1.0, 2.0 * scale), max_bytes, cam);
     if (r == PN_OK)
-        r = pilot(dev, scene, cam, light, &sd, ref, mask, &out->exact_ms);
-    out->mode = PN_SHADOW_REFERENCE;
-    out->pilot_ms = out->exact_ms;
+        r = pilot_reference(dev, scene, cam, light, &pilot);
+    out->pilot_width = pilot.sd.frame.width;
+    out->pilot_height = pilot.sd.frame.height;
+    out->reference_ms = pilot.reference_ms;
+    pn_setup_desc sd = pilot.sd;
+    pn_setup s;
+    bool have = false;
     for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
         const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
-        if (!pn_shadow_mode_available(dev, (pn_shadow_mode)m, NULL))
+        if (!info->traces || !pn_shadow_mode_available(dev, (pn_shadow_mode)m, NULL))
             continue; // e.g. rayquery without ray queries: not a candidate here
-        for (int t = 0; r == PN_OK && t < info->auto_trees && t < (int)(sizeof TREES / sizeof TREES[0]); t++) {
+        int trees = info->auto_trees < (int)(sizeof TREES / sizeof TREES[0]) ? info->auto_trees
+                                                                             : (int)(sizeof TREES / sizeof TREES[0]);
+        for (int t = 0; r == PN_OK && t < trees; t++) {
             sd.frame.mode = (pn_shadow_mode)m;
+            sd.frame.spp = 1;
             sd.tree_n = info->needs.tree ? TREES[t][0] : 0;
             sd.tree_d = info->needs.tree ? TREES[t][1] : 0;
-            double ms;
-            if (pilot(dev, scene, cam, light, &sd, v, NULL, &ms) != PN_OK)
+            if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
                 continue; // does not fit: try the next
-            pn_error_metrics e;
-            if (!pn_error_compare(v, ref, mask, px, NULL, &e)) {
-                r = PN_ERR_MEMORY;
-                break;
+            double prev_mae = INFINITY;
+            for (uint32_t spp = 1; r == PN_OK && spp <= PN_QUALITY_MAX_SPP; spp *= 2) {
+                sd.frame.spp = spp;
+                double ms, mae, se, confirm_mae;
+                bool within = false;
+                r = pn_renderer_set_spp(&s.renderer, spp);
+                if (r == PN_OK)
+                    r = pilot_error(&s, cam, light, &pilot, &mae, &se, &ms);
+                if (r == PN_OK)
+                    r = decide(dev, scene, cam, light, &sd, mae, se, max_error, &big, &within, &confirm_mae);
+                if (r != PN_OK)
+                    break;
+                if (out->candidates < PN_QUALITY_MAX_TRIED)
+                    out->tried[out->candidates] = (pn_quality_tried){(pn_shadow_mode)m, sd.tree_n, sd.tree_d, spp,
+                                                                     mae, se, ms, confirm_mae, within};
+                out->candidates++;
+                pn_debug("quality: %s LS(%d,%d) %u spp: pilot MAE %.4f +- %.4f in %.2f ms%s", info->name, sd.tree_n,
+                         sd.tree_d, spp, mae, se, ms, within ? " (within)" : "");
+                // Within the budget: the fastest such pilot wins. Until one is found, the least error.
+                bool better = within ? !out->within || ms < out->pilot_ms : !out->within && (!have || mae < out->pilot_mae);
+                if (better) {
+                    out->mode = (pn_shadow_mode)m;
+                    out->tree_n = sd.tree_n;
+                    out->tree_d = sd.tree_d;
+                    out->spp = spp;
+                    out->pilot_mae = mae;
+                    out->pilot_se = se;
+                    out->confirm_mae = confirm_mae;
+                    out->pilot_ms = ms;
+                    out->within = within;
+                    have = true;
+                }
+                // More samples only cost more: stop once within the budget, once slower than a pick
+                // within it, or once the error no longer falls (doubling the samples of an unbiased
+                // mode cuts its noise by about 1/sqrt(2); 0.9 is far from that and from a floor).
+                if (within || (out->within && ms >= out->pilot_ms) || mae > 0.9 * prev_mae)
+                    break;
+                prev_mae = mae;
             }
-            if (out->candidates < PN_QUALITY_MAX_TRIED)
-                out->tried[out->candidates] = (pn_quality_tried){(pn_shadow_mode)m, sd.tree_n, sd.tree_d, e.mae, ms};
-            out->candidates++;
-            pn_debug("quality: %s LS(%d,%d): pilot MAE %.4f in %.1f ms", info->name, sd.tree_n, sd.tree_d, e.mae, ms);
-            if (e.mae <= max_error && ms < out->pilot_ms) {
-                out->mode = (pn_shadow_mode)m;
-                out->tree_n = sd.tree_n;
-                out->tree_d = sd.tree_d;
-                out->pilot_mae = e.mae;
-                out->pilot_ms = ms;
-            }
+            pn_setup_destroy(dev, &s);
         }
     }
-    free(ref), free(v), free(mask);
+    if (r == PN_OK && !have)
+        r = PN_ERR_UNSUPPORTED;
+    if (r == PN_OK && !out->within)
+        pn_warn("quality auto: no configuration reaches MAE %.4g within %d samples per pixel; taking the least "
+                "error found (%.4f)",
+                max_error, PN_QUALITY_MAX_SPP, out->pilot_mae);
+    if (big.ready)
+        out->confirm_width = big.sd.frame.width, out->confirm_height = big.sd.frame.height;
+    pilot_size_free(&pilot);
+    pilot_size_free(&big);
     return r;
 }

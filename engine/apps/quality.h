@@ -1,33 +1,47 @@
-// --quality auto: choose the shadow mode and N-tree for a scene, a light and an error budget from
-// pilot renders, instead of by hand.
+// --quality auto: choose the shadow mode, N-tree and samples per pixel for a scene, a light and an
+// error budget from pilot renders, instead of by hand.
 #pragma once
 #include "gpu/renderer.h"
 #include "scene/view.h"
 
-enum { PN_QUALITY_MAX_TRIED = 32 };
+enum { PN_QUALITY_MAX_TRIED = 96, PN_QUALITY_MAX_SPP = 256 };
 
 // One configuration a pilot rendered.
 typedef struct pn_quality_tried {
     pn_shadow_mode mode;
     int tree_n, tree_d;
-    double pilot_mae, pilot_ms;
+    uint32_t spp;
+    double pilot_mae, pilot_se, pilot_ms; // se: standard error of the MAE as an estimate of the picture's
+    double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
+    bool within;        // judged within the budget
 } pn_quality_tried;
 
 typedef struct pn_quality_choice {
     pn_shadow_mode mode;
     int tree_n, tree_d;   // for the tree modes
-    double pilot_mae;     // mean |V - V_exact| over the pilot's pixels
+    uint32_t spp;
+    bool within;          // the pick's pilot error is within the budget (else: the least error found)
+    double pilot_mae;     // mean |V - V_ref| over the pilot's pixels with geometry
+    double pilot_se;      // its standard error (0 when the frame is its own pilot)
+    double confirm_mae;   // its MAE at the confirming size, or -1 when the pilot decided
     double pilot_ms;      // its shadow pass
-    double exact_ms;      // exact's shadow pass on the pilot
-    int candidates;       // configurations tried (besides exact)
+    double reference_ms;  // the pilot reference's shadow pass
+    int candidates;       // pilots rendered
     pn_quality_tried tried[PN_QUALITY_MAX_TRIED]; // the first of them, in the order tried
     uint32_t pilot_width, pilot_height;
+    uint32_t confirm_width, confirm_height; // 0 when no pilot needed confirming
 } pn_quality_choice;
 
-// Renders a pilot (a quarter of the pixels: half the width and height, at least 64 wide) with
-// exact, then with the candidate configurations of the mode table (gpu/shadow_modes.c: line space,
-// coarse to fine trees, hybrid, exact-ls, and rayquery where the device has ray queries), and
-// picks the fastest whose pilot error (MAE of
-// V against exact, over pixels with geometry) is at most max_error; exact when none is.
+// Renders a pilot (the frame's framing at about 128x128 pixels, or the frame itself when smaller)
+// with the converged reference (exact, PN_REFERENCE_SPP samples, PN_REFERENCE_SEED), then every
+// configuration of the mode table (gpu/shadow_modes.c: line space, coarse to fine trees, hybrid,
+// exact-ls, exact, rayquery where the device has ray queries) at 1, 2, 4, ... PN_QUALITY_MAX_SPP
+// samples per pixel with frame's sampler and seed, and picks the fastest whose pilot error (MAE of V
+// against the reference, over pixels with geometry) is at most max_error: by two standard errors
+// of margin when the pilot is smaller than the frame, and where the pilot cannot tell, by the same
+// configuration at twice the pilot's width and height (or the frame itself) against that size's
+// reference. A configuration climbs
+// the samples until it meets the budget, is slower than the best pick so far, or its error stops
+// falling (line space's floor). When nothing meets the budget, the least error found (within = false).
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, pn_quality_choice *out);

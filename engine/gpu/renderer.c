@@ -270,6 +270,16 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
 
+pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp)
+{
+    if (spp == 0 || (r->desc.dump_rays && spp > r->shadow.spp)) {
+        pn_error("spp %u: must be at least 1%s", spp, r->desc.dump_rays ? " and at most the ray dump's" : "");
+        return PN_ERR_INVALID;
+    }
+    r->desc.spp = spp;
+    return PN_OK;
+}
+
 const float *pn_renderer_ray_dump(const pn_renderer *r, uint64_t *floats)
 {
     *floats = r->shadow.ray_dump.mapped ? (uint64_t)r->width * r->height * (1 + r->desc.spp) * 4 : 0;

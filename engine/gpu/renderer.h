@@ -49,6 +49,11 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
 // refinement takes new light samples every frame without recreating the renderer.
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
 
+// Changes the light samples per pixel from the next pn_renderer_render on (the bench's spp axis and
+// --quality auto's pilots step through them without new pipelines). With desc.dump_rays, spp may not
+// exceed the desc's (the dump's buffer holds that many rays per pixel): PN_ERR_INVALID, logged.
+pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp);
+
 // With desc.dump_rays, after a frame: per pixel, the ray origin (xyz; w = 1 where geometry is),
 // then per pixel and light sample the sample point (xyz) and flags in w's bits (bit 0: valid, the
 // sample carries light; bit 1: blocked). NULL without dump_rays. Modes exact, hybrid and exact-ls.

@@ -12,7 +12,8 @@
 #define SHADER(name) .spirv = pn_spv_##name, .spirv_size = sizeof pn_spv_##name
 
 // In enum order; the cheapest first among those that trace, which is the order --quality auto
-// tries them in. auto_trees counts the standard trees (apps/quality.c) it tries per mode.
+// tries them in. auto_trees counts the configurations --quality auto tries per mode: the first
+// that many standard trees (apps/quality.c), or 1 for a mode without a tree; 0 never tries it.
 static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
     [PN_SHADOW_NONE] = {.name = "none", .help = "unshadowed (V = 1)", SHADER(shadow_none_comp)},
     [PN_SHADOW_LINESPACE] = {.name = "linespace",
@@ -42,7 +43,8 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                          SHADER(shadow_exact_comp),
                          .needs = {.bvh = true, .exact_pools = true},
                          .traces = true,
-                         .exact = true},
+                         .exact = true,
+                         .auto_trees = 1},
     [PN_SHADOW_RAYQUERY] = {.name = "rayquery",
                             .help = "the device's ray queries (VK_KHR_ray_query; Mesa 25 lavapipe, RTX, RDNA2+, Arc)",
                             SHADER(shadow_rayquery_comp),

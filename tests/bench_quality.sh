@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# --quality auto against the measured front, on two standard views (bunny and buddha, 192x192, so
+# that the pilot, 128x128, is smaller than the picture): at budgets 0.02 and 0.01 its pick,
+# rendered at full size, has a reference error within the budget, and its shadow time is within
+# 15% of the fastest cell of the matrix that meets the budget, both measured in this one run. The
+# matrix's samples per pixel are the pilots' (1, 2, 4, ... 64), so the front has the cells auto
+# can pick.
+set -u
+BIN=${PN_BIN:?PN_BIN not set}
+ASSETS=${PN_ASSETS:?PN_ASSETS not set}
+for f in stanford-bunny-69k.glb happy-buddha-100k-decimated.glb; do
+  [ -f "$ASSETS/$f" ] || { echo "SKIP: $ASSETS/$f is missing"; exit 77; }
+done
+T=${PN_TEST_TMP:-/tmp}/bench_quality
+rm -rf "$T" && mkdir -p "$T"
+"$BIN" bench --views bunny,buddha --size 192x192 --spp 1,2,4,8,16,32,64 --trees 7,3 --repeat 2 --no-embree \
+  --max-error 0.02,0.01 --out "$T" > "$T/bench.txt" 2> "$T/bench.err" \
+  || { echo "FAIL: bench exited $?"; tail -20 "$T/bench.err"; exit 1; }
+grep "quality auto" "$T/bench.txt"
+python3 - "$T/bench.json" <<'PY'
+import json, sys
+q = json.load(open(sys.argv[1]))["quality"]
+assert sorted((e["scene"], e["budget"]) for e in q) == [("buddha", 0.01), ("buddha", 0.02), ("bunny", 0.01),
+                                                       ("bunny", 0.02)], q
+for e in q:
+    p = e["pick"]
+    assert e["pilot"] == [128, 128], e["pilot"]
+    assert p["reference"]["mae"] <= e["budget"], e   # holds at full size
+    assert e["front"] is not None, e                 # the matrix reaches the budget
+    assert e["vs_front"] <= 1.15, e                  # and auto is about as fast as its fastest cell
+print("quality auto within budget and within 15% of the front: ok")
+PY

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# The bench's converged reference checked against itself (builtin:default, 96x96):
+#  - exact's error against it is clearly above zero at 4 samples per pixel and falls from 4 to 16
+#    to 64 (about as 1/sqrt(spp), stratified faster: the fall is asserted, not the slope), and even
+#    exact at 1024 samples differs from it (its seed is its own), while exact's bias (against exact
+#    with the same samples) is exactly zero at every spp;
+#  - the reference is cached: a second run reads the file instead of rendering and measures the
+#    same errors; another size gets another file; a damaged file is rendered again, with a warning.
+set -u
+BIN=${PN_BIN:?PN_BIN not set}
+T=${PN_TEST_TMP:-/tmp}/bench_reference
+rm -rf "$T" && mkdir -p "$T"
+args=(bench --scenes builtin:default --modes exact --spp 4,16,64,1024 --size 96x96 --repeat 1 --warmup 0 --no-embree
+      --out "$T/out")
+fail=0
+"$BIN" "${args[@]}" > "$T/run1.txt" 2> "$T/run1.err" || { echo "FAIL: bench exited $?"; cat "$T/run1.err"; exit 1; }
+grep -q "rendering the converged reference" "$T/run1.err" || { echo "FAIL: no reference rendered"; fail=1; }
+files=("$T"/out/reference/*.exr)
+[ ${#files[@]} = 1 ] && [ -s "${files[0]}" ] || { echo "FAIL: expected one cached reference: ${files[*]}"; exit 1; }
+exrheader "${files[0]}" | grep -q "shadow.V" || { echo "FAIL: the cache lacks shadow.V"; fail=1; }
+cp "$T/out/bench.json" "$T/run1.json"
+"$BIN" "${args[@]}" > "$T/run2.txt" 2> "$T/run2.err" || { echo "FAIL: second bench exited $?"; exit 1; }
+grep -q "from the cache" "$T/run2.err" || { echo "FAIL: the second run did not reuse the cache"; fail=1; }
+grep -q "rendering the converged reference" "$T/run2.err" && { echo "FAIL: the second run rendered again"; fail=1; }
+python3 - "$T/run1.json" "$T/out/bench.json" <<'PY' || fail=1
+import json, sys
+a, b = (json.load(open(p))["results"] for p in sys.argv[1:3])
+err = {r["spp"]: r["reference"]["mae"] for r in a}
+print("exact against the converged reference, MAE by spp:", err)
+assert sorted(err) == [4, 16, 64, 1024], err
+assert err[4] > 0.005, err                         # clearly non-zero
+assert err[16] < 0.8 * err[4] and err[64] < 0.8 * err[16], err  # falls with the samples
+assert err[64] < 0.5 * err[4], err                 # 1/sqrt(16) = 0.25 expected; 0.5 leaves room
+assert 0 < err[1024] < err[64], err                # the reference's own seed: not the cells' image
+for r in a:
+    assert r["bias"]["max"] == 0 and r["bias"]["mae"] == 0, r
+# The cached reference gives the same figures (the renders are deterministic).
+assert [r["reference"] for r in a] == [r["reference"] for r in b], (a, b)
+print("reference machinery ok")
+PY
+# Another size: another key, another file.
+"$BIN" bench --scenes builtin:default --modes exact --spp 4 --size 64x64 --repeat 1 --warmup 0 --no-embree \
+  --out "$T/out" > /dev/null 2> "$T/run3.err" || { echo "FAIL: 64x64 bench"; fail=1; }
+n=$(ls "$T"/out/reference/*.exr | wc -l)
+[ "$n" = 2 ] || { echo "FAIL: expected 2 cached references, have $n"; fail=1; }
+# A damaged cache file: a warning naming it, a new render, the same figures.
+printf 'not an exr' > "${files[0]}"
+"$BIN" "${args[@]}" > /dev/null 2> "$T/run4.err" || { echo "FAIL: bench over a damaged cache exited $?"; fail=1; }
+grep -q "cannot be read" "$T/run4.err" && grep -q "rendering the converged reference" "$T/run4.err" \
+  || { echo "FAIL: a damaged cache was not rendered again"; cat "$T/run4.err"; fail=1; }
+python3 - "$T/run1.json" "$T/out/bench.json" <<'PY' || fail=1
+import json, sys
+a, b = (json.load(open(p))["results"] for p in sys.argv[1:3])
+assert [r["reference"] for r in a] == [r["reference"] for r in b], (a, b)
+PY
+exit $fail
