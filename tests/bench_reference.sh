@@ -38,6 +38,34 @@ for r in a:
 assert [r["reference"] for r in a] == [r["reference"] for r in b], (a, b)
 print("reference machinery ok")
 PY
+# The same view name and size with other content: another key, another file. Two glTF files both
+# named s.gltf, a ground quad under a triangle at two heights (the key must hash the scene).
+for h in 0.3 0.6; do
+  mkdir -p "$T/s$h"
+  python3 - "$T/s$h/s.gltf" "$h" <<'PY'
+import base64, json, struct, sys
+h = float(sys.argv[2])
+pos = [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1), (-0.3, h, -0.3), (0.3, h, -0.3), (0, h, 0.3)]
+idx = [0, 3, 2, 0, 2, 1, 4, 6, 5]
+data = b"".join(struct.pack("<3f", *p) for p in pos) + b"".join(struct.pack("<3f", 0, 1, 0) for _ in pos)
+data += struct.pack("<%dI" % len(idx), *idx)
+n = len(pos) * 12
+uri = "data:application/octet-stream;base64," + base64.b64encode(data).decode()
+json.dump({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+  "buffers": [{"byteLength": len(data), "uri": uri}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": n}, {"buffer": 0, "byteOffset": n, "byteLength": n},
+                  {"buffer": 0, "byteOffset": 2 * n, "byteLength": 4 * len(idx)}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(pos), "type": "VEC3", "min": [-1, 0, -1], "max": [1, h, 1]},
+                {"bufferView": 1, "componentType": 5126, "count": len(pos), "type": "VEC3"},
+                {"bufferView": 2, "componentType": 5125, "count": len(idx), "type": "SCALAR"}]}, open(sys.argv[1], "w"))
+PY
+  "$BIN" bench --scenes "$T/s$h/s.gltf" --modes exact --spp 4 --size 64x64 --repeat 1 --warmup 0 --no-embree \
+    --out "$T/named" > /dev/null 2> "$T/named$h.err" || { echo "FAIL: bench of s.gltf ($h)"; fail=1; }
+  grep -q "rendering the converged reference" "$T/named$h.err" || { echo "FAIL: s.gltf at $h reused another scene's reference"; fail=1; }
+done
+n=$(ls "$T"/named/reference/*.exr | wc -l)
+[ "$n" = 2 ] || { echo "FAIL: two scenes under one name share a cache file ($n files)"; fail=1; }
 # Another size: another key, another file.
 "$BIN" bench --scenes builtin:default --modes exact --spp 4 --size 64x64 --repeat 1 --warmup 0 --no-embree \
   --out "$T/out" > /dev/null 2> "$T/run3.err" || { echo "FAIL: 64x64 bench"; fail=1; }

@@ -37,8 +37,17 @@ for r in rows:
         assert r["bias"]["mae"] > 0, r
     if r["mode"] == "rayquery":
         assert r["bias"]["mae"] <= 1e-3, r
-# The time-to-error table: one entry per error level for the one view and size.
-assert [t["level"] for t in j["time_to_error"]] == [0.05, 0.02, 0.01, 0.005], j["time_to_error"]
+# The time-to-error table: one entry per error level for the one view and size; each mode's entry is
+# its fastest row within the level.
+tte = j["time_to_error"]
+assert [t["level"] for t in tte] == [0.05, 0.02, 0.01, 0.005], tte
+for t in tte:
+    for m in t["modes"]:
+        fits = [r for r in rows if r["mode"] == m["mode"] and r["reference"]["mae"] <= t["level"]]
+        best = min(fits, key=lambda r: r["gpu_ms"]["shadow"])
+        assert (m["tree"], m["spp"], m["shadow_ms"]) == (best["tree"], best["spp"], best["gpu_ms"]["shadow"]), (m, best)
+    listed = {m["mode"] for m in t["modes"]}
+    assert listed == {r["mode"] for r in rows if r["reference"]["mae"] <= t["level"]}, (t, listed)
 print("bench rows ok:", len(rows))
 PY
 # Shader level: the shadow pass alone over a G-buffer from render --aovs; the V it computes for the

@@ -19,7 +19,7 @@
 // A cell's mode name.
 #define MODE_NAME(m) (pn_shadow_mode_get(m)->name)
 
-enum { MAX_LIST = 32, MAX_BUDGETS = 8, MAX_QUALITY = 64 };
+enum { MAX_LIST = 32, MAX_BUDGETS = 8 };
 
 // A standard view (bench_views.c): camera and light in units of the object's bounding-sphere radius
 // r, from its centre.
@@ -104,8 +104,8 @@ typedef struct bench_quality {
 typedef struct bench_rows {
     bench_row *rows;
     int count, cap;
-    bench_quality quality[MAX_QUALITY];
-    int quality_count;
+    bench_quality *quality;
+    int quality_count, quality_cap;
 } bench_rows;
 
 // ---------------------------------------------------------------------------------------------

@@ -72,16 +72,28 @@ static void tree_label(char *out, size_t n, int tn, int td)
         out[0] = '\0';
 }
 
+static bool push_quality(bench_rows *rows, const bench_quality *q)
+{
+    if (rows->quality_count == rows->quality_cap) {
+        int cap = rows->quality_cap ? 2 * rows->quality_cap : 8;
+        bench_quality *n = realloc(rows->quality, (size_t)cap * sizeof *n);
+        if (!n)
+            return false;
+        rows->quality = n;
+        rows->quality_cap = cap;
+    }
+    rows->quality[rows->quality_count++] = *q;
+    return true;
+}
+
 // --quality auto against the matrix at one budget: the configuration it picks from its pilots, at
 // full size against the converged reference, next to the fastest cell of this group within the
 // budget. A pick that is a cell of the matrix is that cell (measured in this run); another is
-// rendered and timed here.
-static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
-                          const pn_light *light, const pn_renderer_desc *frame, const float *v_conv,
-                          const uint8_t *mask, double budget, bench_rows *rows, int first_row)
+// rendered and timed here. An exit code; a failure is logged.
+static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                         const pn_light *light, const pn_renderer_desc *frame, const float *v_conv, const uint8_t *mask,
+                         double budget, bench_rows *rows, int first_row)
 {
-    if (rows->quality_count == MAX_QUALITY)
-        return;
     bench_quality bq = {.width = frame->width, .height = frame->height, .budget = budget};
     snprintf(bq.scene, sizeof bq.scene, "%s", rows->rows[first_row].scene);
     for (int i = first_row; i < rows->count; i++) {
@@ -92,17 +104,18 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
             bq.best_ms = r->shadow_ms, bq.best_mae = r->ref.mae;
         }
     }
-    pn_quality_choice q;
     uint64_t t0 = pn_time_ns();
-    if (pn_quality_choose(dev, scene, cam, light, frame, budget, 0, &q) != PN_OK)
-        return;
+    if (pn_quality_choose(dev, scene, cam, light, frame, budget, 0, o->reference_spp, &bq.choice) != PN_OK) {
+        pn_error("bench: %s: --quality auto at %g failed (see above)", bq.scene, budget);
+        return PN_EXIT_FAILURE;
+    }
+    const pn_quality_choice *q = &bq.choice;
     bq.choose_ms = pn_ms_since(t0);
-    bq.choice = q;
-    bq.mode = q.mode, bq.n = q.tree_n, bq.d = q.tree_d, bq.spp = q.spp, bq.pilot_mae = q.pilot_mae;
+    bq.mode = q->mode, bq.n = q->tree_n, bq.d = q->tree_d, bq.spp = q->spp, bq.pilot_mae = q->pilot_mae;
     const bench_row *cell = NULL;
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        if (r->mode == q.mode && r->n == q.tree_n && r->d == q.tree_d && r->spp == q.spp)
+        if (r->mode == q->mode && r->n == q->tree_n && r->d == q->tree_d && r->spp == q->spp)
             cell = r;
     }
     if (cell) {
@@ -110,13 +123,15 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
         bq.ref = cell->ref;
     } else {
         pn_setup s;
-        pn_setup_desc sd = {.frame = *frame, .tree_n = q.tree_n, .tree_d = q.tree_d, .view = cam};
-        sd.frame.mode = q.mode;
-        sd.frame.spp = q.spp;
+        pn_setup_desc sd = {.frame = *frame, .tree_n = q->tree_n, .tree_d = q->tree_d, .view = cam};
+        sd.frame.mode = q->mode;
+        sd.frame.spp = q->spp;
         sd.frame.dump_rays = false;
         bench_row row = {0};
-        if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
-            return;
+        if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK) {
+            pn_error("bench: %s: --quality auto's pick cannot be set up at full size (see above)", bq.scene);
+            return PN_EXIT_FAILURE;
+        }
         bool ok = time_frames(o, &s.renderer, cam, light, &row) == PN_OK;
         if (ok) {
             pn_frame_images img;
@@ -125,17 +140,20 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
             bq.shadow_ms = row.shadow_ms;
         }
         pn_setup_destroy(dev, &s);
-        if (!ok)
-            return;
+        if (!ok) {
+            pn_error("bench: %s: --quality auto's pick failed to render", bq.scene);
+            return PN_EXIT_FAILURE;
+        }
     }
-    rows->quality[rows->quality_count++] = bq;
+    if (!push_quality(rows, &bq))
+        return PN_EXIT_FAILURE;
     char tree[32], best_tree[32];
-    tree_label(tree, sizeof tree, q.tree_n, q.tree_d);
+    tree_label(tree, sizeof tree, q->tree_n, q->tree_d);
     printf("quality auto (max error %.4g): %s%s %u spp%s, shadow %.1f ms, reference MAE %.4f (pilot %.4f; chosen in "
            "%.1f s)",
-           budget, MODE_NAME(q.mode), tree, q.spp, cell ? " (a cell of the matrix)" : "", bq.shadow_ms, bq.ref.mae,
-           q.pilot_mae, bq.choose_ms * 1e-3);
-    if (bq.has_best) {
+           budget, MODE_NAME(q->mode), tree, q->spp, cell ? " (a cell of the matrix)" : "", bq.shadow_ms, bq.ref.mae,
+           q->pilot_mae, bq.choose_ms * 1e-3);
+    if (bq.has_best && bq.best_ms > 0) {
         tree_label(best_tree, sizeof best_tree, bq.best_n, bq.best_d);
         printf("; the matrix's fastest within the budget: %s%s %u spp %.1f ms (MAE %.4f): auto takes %.2fx its time\n",
                MODE_NAME(bq.best_mode), best_tree, bq.best_spp, bq.best_ms, bq.best_mae, bq.shadow_ms / bq.best_ms);
@@ -143,6 +161,7 @@ static void check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scen
         printf("; no cell of the matrix meets the budget\n");
     }
     fflush(stdout);
+    return PN_EXIT_OK;
 }
 
 static int cmp_u32(const void *a, const void *b)
@@ -254,7 +273,9 @@ static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows 
         row.spp = spp;
         row.mode = mode;
         row.n = tn, row.d = td;
-        if (time_frames(o, &s.renderer, g->cam, g->light, &row) != PN_OK) {
+        // Timed without the ray dump, whose writes would slow the frames down.
+        if ((sd.frame.dump_rays && pn_renderer_set_dump_rays(&s.renderer, false) != PN_OK) ||
+            time_frames(o, &s.renderer, g->cam, g->light, &row) != PN_OK) {
             rc = PN_EXIT_FAILURE;
             break;
         }
@@ -264,16 +285,23 @@ static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows 
         if (exact) {
             memcpy(same, img.v, px * sizeof *same);
             g->exact_ms[pi] = row.shadow_ms;
-            if (g->rtc) {
-                uint64_t floats;
-                const float *dump = pn_renderer_ray_dump(&s.renderer, &floats);
-                g->embree_ms[pi] = pn_bench_embree_time(o, g->rtc, dump, px, spp);
+        }
+        if (exact && sd.frame.dump_rays) {
+            // One more frame with the dump for Embree: the same rays (the frame is deterministic).
+            pn_frame_times t;
+            uint64_t floats;
+            if (pn_renderer_set_dump_rays(&s.renderer, true) != PN_OK ||
+                pn_renderer_render(&s.renderer, g->cam, g->light, &t) != PN_OK) {
+                rc = PN_EXIT_FAILURE;
+                break;
             }
+            g->embree_ms[pi] = pn_bench_embree_time(o, g->rtc, pn_renderer_ray_dump(&s.renderer, &floats), px, spp);
+            pn_renderer_images(&s.renderer, &img);
         }
         row.build_ms = s.build_ms;
         row.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
         row.rays_per_s = pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
-        row.vs_exact = row.shadow_ms / g->exact_ms[pi];
+        row.vs_exact = g->exact_ms[pi] > 0 ? row.shadow_ms / g->exact_ms[pi] : 0;
         row.embree_ms = g->embree_ms[pi];
         row.vs_embree = row.embree_ms > 0 ? row.shadow_ms / row.embree_ms : 0;
         if (!pn_error_compare(img.v, g->v_conv, g->mask, px, NULL, &row.ref) ||
@@ -354,7 +382,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
         if (o->gbuffer && o->max_error_count)
             pn_warn("bench: --max-error is not checked with --gbuffer (--quality auto renders its own G-buffer)");
         for (int b = 0; b < o->max_error_count && rc == PN_EXIT_OK && !o->gbuffer && rows->count > first_row; b++)
-            check_quality(o, dev, &scene, &cam, &light, &g.frame, v_conv, mask, o->max_errors[b], rows, first_row);
+            rc = check_quality(o, dev, &scene, &cam, &light, &g.frame, v_conv, mask, o->max_errors[b], rows, first_row);
         free(v_conv);
         free(mask);
         free(g.v_exact);

@@ -18,10 +18,19 @@ static bool parse_list_u32(const char *opt, const char *s, uint32_t *out, int *c
     char buf[1024];
     snprintf(buf, sizeof buf, "%s", s);
     *count = 0;
-    for (char *tok = strtok(buf, ","); tok && *count < MAX_LIST; tok = strtok(NULL, ",")) {
+    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
         long long v;
+        if (*count == MAX_LIST) {
+            pn_error("%s: more than %d values", opt, MAX_LIST);
+            return false;
+        }
         if (!pn_parse_int_range(opt, tok, lo, hi, &v))
             return false;
+        for (int i = 0; i < *count; i++)
+            if (out[i] == (uint32_t)v) {
+                pn_error("%s: %lld is listed twice", opt, v);
+                return false;
+            }
         out[(*count)++] = (uint32_t)v;
     }
     return *count > 0;
@@ -127,8 +136,14 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         } else if (pn_args_flag(&a, "--no-embree")) {
             o->embree = false;
         } else if (pn_args_value(&a, "--scenes", &v, &err)) {
+            ok = v && strlen(v) < sizeof scenes_buf;
+            if (v && !ok)
+                pn_error("--scenes: the list is longer than %zu characters", sizeof scenes_buf - 1);
             snprintf(scenes_buf, sizeof scenes_buf, "%s", v ? v : "");
         } else if (pn_args_value(&a, "--views", &v, &err)) {
+            ok = v && strlen(v) < sizeof views_buf;
+            if (v && !ok)
+                pn_error("--views: the list is longer than %zu characters", sizeof views_buf - 1);
             snprintf(views_buf, sizeof views_buf, "%s", v ? v : "");
         } else if (pn_args_value(&a, "--modes", &v, &err)) {
             char buf[256];
@@ -146,8 +161,17 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             char buf[512];
             snprintf(buf, sizeof buf, "%s", v ? v : "");
             o->tree_count = 0;
-            for (char *tok = strtok(buf, ":"); tok && ok && o->tree_count < MAX_LIST; tok = strtok(NULL, ":")) {
+            for (char *tok = strtok(buf, ":"); tok && ok; tok = strtok(NULL, ":")) {
+                if (o->tree_count == MAX_LIST) {
+                    pn_error("--trees: more than %d trees", MAX_LIST);
+                    return PN_EXIT_USAGE;
+                }
                 ok = pn_parse_tree("--trees", tok, &o->trees[o->tree_count][0], &o->trees[o->tree_count][1]);
+                for (int i = 0; ok && i < o->tree_count; i++)
+                    if (o->trees[i][0] == o->trees[o->tree_count][0] && o->trees[i][1] == o->trees[o->tree_count][1]) {
+                        pn_error("--trees: %s is listed twice", tok);
+                        ok = false;
+                    }
                 o->tree_count += ok;
             }
         } else if (pn_args_value(&a, "--spp", &v, &err)) {
@@ -247,6 +271,15 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         o->spps[0] = 1, o->spps[1] = 4, o->spps[2] = 16, o->spps[3] = 64, o->spp_count = 4;
     if (!o->size_count)
         o->sizes[0][0] = o->sizes[0][1] = 512, o->size_count = 1;
+    if (o->gbuffer && o->view_count != 1) {
+        pn_error("--gbuffer: name the one scene its G-buffer was rendered from (--scenes or --views)");
+        return PN_EXIT_USAGE;
+    }
+    // A reference with fewer samples than about 4x the cells' is not converged against them: its own
+    // noise would dominate their reference error.
+    if (o->reference_spp < 4 * o->spps[o->spp_count - 1])
+        pn_warn("--reference-spp %u is below 4x the largest --spp (%u): the reference errors include its own noise",
+                o->reference_spp, o->spps[o->spp_count - 1]);
     return PN_EXIT_OK;
 }
 

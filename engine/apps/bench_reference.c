@@ -3,9 +3,11 @@
 // `reference` error is measured against it: what a user sees, bias and noise together.
 //
 // The cache file is <out>/reference/<view>_<W>x<H>_<S>spp_<key>.exr with the channels shadow.V
-// and A. The key hashes everything that changes the image: the exact shader's SPIR-V (which holds
-// the ray origins and the sampler), the driver (its rasterizer places the G-buffer's P), the
-// scene's vertices and indices, camera, light, size, samples, seed and an external G-buffer. A file
+// and A. The key hashes what changes the image: the exact shader's SPIR-V (ray origins, sampler,
+// traversal) and the G-buffer's (P and N), the device and driver (its rasterizer places P), the
+// scene's vertices and indices, camera, light, size, samples, seed and an external G-buffer. Host
+// code that turns these into GPU parameters (pn_light_to_gpu, pn_sample_grid, the G-buffer camera)
+// is not hashed: a change there that alters images must bump the version string below. A file
 // whose key matches is reused; one that cannot be read is rendered anew (with a warning).
 #include <errno.h>
 #include <stdio.h>
@@ -15,6 +17,7 @@
 
 #include "apps/bench.h"
 #include "core/log.h"
+#include "gpu/gbuffer_pass.h"
 #include "core/timer.h"
 #include "io/exr.h"
 
@@ -33,6 +36,14 @@ static uint64_t reference_key(const bench_opts *o, const pn_gpu_device *dev, con
     const pn_shadow_mode_info *exact = pn_shadow_mode_get(PN_SHADOW_REFERENCE);
     uint64_t k = fnv(0xcbf29ce484222325ull, "penumbra converged reference 1", 30);
     k = fnv(k, exact->spirv, exact->spirv_size);
+    for (int stage = 0; stage < 2; stage++) {
+        size_t size;
+        const uint32_t *code = pn_gbuffer_pass_spirv(stage, &size);
+        k = fnv(k, code, size);
+    }
+    uint32_t device[3] = {dev->props.vendorID, dev->props.deviceID, dev->props.driverVersion};
+    k = fnv(k, device, sizeof device);
+    k = fnv(k, dev->props.pipelineCacheUUID, VK_UUID_SIZE);
     k = fnv(k, dev->driver.driverName, strlen(dev->driver.driverName));
     k = fnv(k, dev->driver.driverInfo, strlen(dev->driver.driverInfo));
     k = fnv(k, scene->vertices, (size_t)scene->vertex_count * sizeof *scene->vertices);

@@ -143,11 +143,11 @@ static int group_modes(const bench_rows *rows, int first, pn_shadow_mode *out)
     return n;
 }
 
-// The first row of each group, in order: groups[i].
-static int group_starts(const bench_rows *rows, int *starts, int cap)
+// The first row of each group, in order; starts holds rows->count entries.
+static int group_starts(const bench_rows *rows, int *starts)
 {
     int n = 0;
-    for (int i = 0; i < rows->count && n < cap; i++) {
+    for (int i = 0; i < rows->count; i++) {
         bool seen = false;
         for (int g = 0; g < n && !seen; g++)
             seen = same_group(&rows->rows[starts[g]], &rows->rows[i]);
@@ -208,7 +208,13 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 r->embree_ms, i + 1 < rows->count ? "," : "");
     }
     fprintf(f, "], \"time_to_error\": [");
-    int starts[256], groups = group_starts(rows, starts, 256);
+    int *starts = malloc(((size_t)rows->count + 1) * sizeof *starts);
+    if (!starts) {
+        fclose(f);
+        pn_file_discard(tmp);
+        return false;
+    }
+    int groups = group_starts(rows, starts);
     const char *sep = "\n";
     for (int g = 0; g < groups; g++) {
         const bench_row *g0 = &rows->rows[starts[g]];
@@ -230,7 +236,7 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 json_tree(f, r->n, r->d);
                 fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g, \"vs_exact\": ", r->spp, r->shadow_ms,
                         r->ref.mae);
-                if (ex)
+                if (ex && ex->shadow_ms > 0)
                     fprintf(f, "%.4f}", r->shadow_ms / ex->shadow_ms);
                 else
                     fprintf(f, "null}");
@@ -242,6 +248,7 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 fprintf(f, "null}");
         }
     }
+    free(starts);
     fprintf(f, "], \"quality\": [");
     for (int i = 0; i < rows->quality_count; i++) {
         const bench_quality *q = &rows->quality[i];
@@ -263,7 +270,7 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                     c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms);
         }
         fprintf(f, "], \"front\": ");
-        if (q->has_best) {
+        if (q->has_best && q->best_ms > 0) {
             fprintf(f, "{\"mode\": \"%s\", \"tree\": ", MODE_NAME(q->best_mode));
             json_tree(f, q->best_n, q->best_d);
             fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g}, \"vs_front\": %.4f}", q->best_spp,
@@ -290,7 +297,13 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
     FILE *f = open_out(dir, "time_to_error.md", path, tmp);
     if (!f)
         return false;
-    int starts[256], groups = group_starts(rows, starts, 256);
+    int *starts = malloc(((size_t)rows->count + 1) * sizeof *starts);
+    if (!starts) {
+        fclose(f);
+        pn_file_discard(tmp);
+        return false;
+    }
+    int groups = group_starts(rows, starts);
     for (int g = 0; g < groups; g++) {
         const bench_row *g0 = &rows->rows[starts[g]];
         pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
@@ -320,17 +333,18 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                     if (r->n)
                         snprintf(tree, sizeof tree, "LS(%d,%d) ", r->n, r->d);
                     fprintf(out, " %.1f (%s%u spp", r->shadow_ms, tree, r->spp);
-                    if (ex)
+                    if (ex && ex->shadow_ms > 0)
                         fprintf(out, ", %.2fx", r->shadow_ms / ex->shadow_ms);
                     fprintf(out, ") |");
                 }
-                if (ex && ex->embree_ms > 0)
+                if (ex && ex->embree_ms > 0 && ex->shadow_ms > 0)
                     fprintf(out, " %.1f (%u spp, %.2fx) |\n", ex->embree_ms, ex->spp, ex->embree_ms / ex->shadow_ms);
                 else
                     fprintf(out, " - |\n");
             }
         }
     }
+    free(starts);
     return close_out(f, path, tmp);
 }
 
@@ -341,23 +355,30 @@ typedef struct plot_box {
 
 static void to_unit(const plot_box *b, double x, double y, double *u, double *v)
 {
-    *u = (log10(x) - b->x0) / fmax(b->x1 - b->x0, 1e-9);
-    *v = (log10(y) - b->y0) / fmax(b->y1 - b->y0, 1e-9);
+    // A range of one value (a single point) maps to 0 instead of dividing by zero.
+    *u = b->x1 > b->x0 ? (log10(x) - b->x0) / (b->x1 - b->x0) : 0;
+    *v = b->y1 > b->y0 ? (log10(y) - b->y0) / (b->y1 - b->y0) : 0;
 }
 
-// Errors of 0 (an exact mode against itself) cannot sit on a log axis: they are drawn at this floor.
+// Log axes cannot show 0: an error of 0 (never against the converged reference, but a cell could
+// match it) is drawn at 1e-5, far below any level the bench reports, and a time of 0 ms (a frame
+// below the timestamps' resolution) at 1 us.
 static double plot_err(double e) { return fmax(e, 1e-5); }
+static double plot_ms(double ms) { return fmax(ms, 1e-3); }
 
 // Per view and size: reference MAE against shadow time, log-log; a curve per mode and tree through
 // its spp points (labelled with the spp where the label does not overlap another), the Pareto front
 // over every cell (no other cell both faster and more accurate), and Embree on exact's rays.
 bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
 {
-    int starts[256], groups = group_starts(rows, starts, 256);
-    bool ok = true;
-    int *idx = malloc(((size_t)rows->count + 1) * sizeof *idx);
-    if (!idx)
+    int *starts = malloc(((size_t)rows->count + 1) * sizeof *starts);
+    int *idx = malloc((2 * (size_t)rows->count + 1) * sizeof *idx); // the group's rows, then its configurations' heads
+    if (!starts || !idx) {
+        free(starts), free(idx);
         return false;
+    }
+    int groups = group_starts(rows, starts);
+    bool ok = true;
     for (int g = 0; g < groups && ok; g++) {
         const bench_row *g0 = &rows->rows[starts[g]];
         int n = 0;
@@ -379,11 +400,11 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         // within each); then the front; then Embree.
         plot_box box = {INFINITY, -INFINITY, INFINITY, -INFINITY};
         int configs = 0;
-        char titles[64][48];
+        int *heads = idx + n; // the first row of each configuration (idx has room: n + configs <= 2n)
         for (int a = 0; a < n; a++) {
             const bench_row *r = &rows->rows[idx[a]];
-            box.x0 = fmin(box.x0, log10(fmax(r->shadow_ms, 1e-3)));
-            box.x1 = fmax(box.x1, log10(fmax(r->shadow_ms, 1e-3)));
+            box.x0 = fmin(box.x0, log10(plot_ms(r->shadow_ms)));
+            box.x1 = fmax(box.x1, log10(plot_ms(r->shadow_ms)));
             box.y0 = fmin(box.y0, log10(plot_err(r->ref.mae)));
             box.y1 = fmax(box.y1, log10(plot_err(r->ref.mae)));
             if (r->embree_ms > 0) {
@@ -395,12 +416,12 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
             if (first) {
                 if (configs)
                     fprintf(f, "\n\n");
-                if (configs < 64)
-                    config_label(titles[configs], sizeof titles[0], r);
-                fprintf(f, "# %s: shadow_ms reference_mae spp\n", titles[configs < 64 ? configs : 63]);
-                configs++;
+                char title[64];
+                config_label(title, sizeof title, r);
+                fprintf(f, "# %s: shadow_ms reference_mae spp\n", title);
+                heads[configs++] = idx[a];
             }
-            fprintf(f, "%.4f %.6g %u\n", fmax(r->shadow_ms, 1e-3), plot_err(r->ref.mae), r->spp);
+            fprintf(f, "%.4f %.6g %u\n", plot_ms(r->shadow_ms), plot_err(r->ref.mae), r->spp);
         }
         // The front: sorted by time, each cell more accurate than every faster one.
         int *order = malloc((size_t)n * sizeof *order);
@@ -413,19 +434,21 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         for (int a = 0; a < n; a++)
             order[a] = idx[a];
         for (int a = 0; a < n; a++)
-            for (int b = a + 1; b < n; b++)
-                if (rows->rows[order[b]].shadow_ms < rows->rows[order[a]].shadow_ms) {
+            for (int b = a + 1; b < n; b++) {
+                const bench_row *x = &rows->rows[order[a]], *y = &rows->rows[order[b]];
+                if (y->shadow_ms < x->shadow_ms || (y->shadow_ms == x->shadow_ms && y->ref.mae < x->ref.mae)) {
                     int t = order[a];
                     order[a] = order[b];
                     order[b] = t;
                 }
+            }
         fprintf(f, "\n\n# Pareto front: shadow_ms reference_mae\n");
         double best = INFINITY;
         for (int a = 0; a < n; a++) {
             const bench_row *r = &rows->rows[order[a]];
             if (r->ref.mae < best) {
                 best = r->ref.mae;
-                fprintf(f, "%.4f %.6g\n", fmax(r->shadow_ms, 1e-3), plot_err(r->ref.mae));
+                fprintf(f, "%.4f %.6g\n", plot_ms(r->shadow_ms), plot_err(r->ref.mae));
             }
         }
         fprintf(f, "\n\n# Embree 3 on exact's rays: embree_ms reference_mae spp\n");
@@ -467,7 +490,7 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 if (on_front != (pass == 0))
                     continue;
                 double u, v;
-                to_unit(&box, fmax(r->shadow_ms, 1e-3), plot_err(r->ref.mae), &u, &v);
+                to_unit(&box, plot_ms(r->shadow_ms), plot_err(r->ref.mae), &u, &v);
                 u += 0.01, v += 0.01; // the label sits above and right of its point
                 bool clear = true;
                 for (int k = 0; k < np && clear; k++)
@@ -475,13 +498,16 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 if (!clear)
                     continue;
                 placed[np][0] = u, placed[np][1] = v, np++;
-                fprintf(f, "set label '%u' at %.4f,%.6g offset 0.5,0.5 font ',8'\n", r->spp, fmax(r->shadow_ms, 1e-3),
+                fprintf(f, "set label '%u' at %.4f,%.6g offset 0.5,0.5 font ',8'\n", r->spp, plot_ms(r->shadow_ms),
                         plot_err(r->ref.mae));
             }
         fprintf(f, "plot ");
-        for (int c = 0; c < configs && c < 64; c++)
+        for (int c = 0; c < configs; c++) {
+            char title[64];
+            config_label(title, sizeof title, &rows->rows[heads[c]]);
             fprintf(f, "'%s.dat' index %d using 1:2 with linespoints pt %d ps 1.2 title '%s', \\\n     ", stem, c,
-                    5 + c % 9, titles[c]);
+                    5 + c % 9, title);
+        }
         fprintf(f, "'%s.dat' index %d using 1:2 with lines lw 3 lc rgb 'black' dt 2 title 'Pareto front'", stem,
                 configs);
         if (embree_points)
@@ -499,5 +525,6 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         }
     }
     free(idx);
+    free(starts);
     return ok;
 }

@@ -98,6 +98,7 @@ int pn_cmd_bench(int argc, char **argv)
     fprintf(stderr, "bench: %d cells in %.1f s; results in %s/bench.csv, bench.json, time_to_error.md and *.png\n",
             rows.count, pn_ms_since(t0) * 1e-3, o.out_dir);
     free(rows.rows);
+    free(rows.quality);
     if (rtc)
         pn_bench_embree_destroy(rtc);
     pn_gpu_device_destroy(&dev);

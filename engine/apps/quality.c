@@ -21,7 +21,9 @@ enum { PILOT_PIXELS = 128 * 128 };
 
 // One pilot size with its converged reference (rendered when first needed).
 typedef struct pilot_size {
+    bool used;    // false: no such size (the frame is its own pilot, nothing to confirm)
     double scale; // of the frame's width and height; 1: the frame itself
+    uint32_t reference_spp;
     pn_setup_desc sd;
     size_t px;
     float *ref, *v;
@@ -30,13 +32,14 @@ typedef struct pilot_size {
     bool ready;
 } pilot_size;
 
-// Renders the set-up's frame twice, the second timed (the first pays for first touches of the
+// Renders the set-up's frame (twice when timed: the first frame pays for first touches of the
 // pools); its V into v (and the coverage into mask, when given), its shadow time into ms.
-static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, float *v,
+static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, bool timed, float *v,
                              uint8_t *mask, double *ms)
 {
     pn_frame_times t;
-    PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
+    if (timed)
+        PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
     PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
     pn_frame_images img;
     pn_renderer_images(&s->renderer, &img);
@@ -61,9 +64,10 @@ static pn_result quiet_setup(pn_gpu_device *dev, const pn_scene *scene, const pn
 }
 
 static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, double scale, uint64_t max_bytes,
-                                 const pn_camera *cam)
+                                 uint32_t reference_spp, const pn_camera *cam)
 {
     memset(p, 0, sizeof *p);
+    p->used = true;
     p->scale = scale;
     p->sd = (pn_setup_desc){.frame = *frame, .max_bytes = max_bytes, .view = cam}; // as render builds it
     p->sd.frame.width = (uint32_t)fmax(1.0, round(frame->width * scale));
@@ -71,6 +75,7 @@ static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, d
     p->sd.frame.dump_rays = false;
     p->sd.frame.count_work = false;
     p->px = (size_t)p->sd.frame.width * p->sd.frame.height;
+    p->reference_spp = reference_spp;
     p->ref = malloc(p->px * sizeof *p->ref);
     p->v = malloc(p->px * sizeof *p->v);
     p->mask = malloc(p->px);
@@ -79,7 +84,7 @@ static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, d
 
 static void pilot_size_free(pilot_size *p) { free(p->ref), free(p->v), free(p->mask); }
 
-// The converged reference at this size: exact, PN_REFERENCE_SPP stratified samples, its own seed.
+// The converged reference at this size: exact, reference_spp stratified samples, its own seed.
 static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                                  pilot_size *p)
 {
@@ -88,12 +93,12 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
     pn_setup_desc rd = p->sd;
     rd.frame.mode = PN_SHADOW_REFERENCE;
     rd.frame.sampler = PN_SAMPLER_STRATIFIED;
-    rd.frame.spp = PN_REFERENCE_SPP;
+    rd.frame.spp = p->reference_spp;
     rd.frame.seed = PN_REFERENCE_SEED;
     rd.view = NULL;
     pn_setup s;
     PN_TRY(pn_setup_create(dev, scene, light, &rd, &s));
-    pn_result r = pilot_frame(&s, cam, light, p->px, p->ref, p->mask, &p->reference_ms);
+    pn_result r = pilot_frame(&s, cam, light, p->px, false, p->ref, p->mask, &p->reference_ms);
     pn_setup_destroy(dev, &s);
     p->ready = r == PN_OK;
     return r;
@@ -101,11 +106,12 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
 
 // The error of the set-up's current frame at pilot size p: MAE against p's reference and the
 // standard error of that MAE as an estimate of the full frame's (0 when p is the frame itself: the
-// same image). A smaller pilot's MAE is the mean of a sample of the picture's per-pixel errors.
+// same image). A smaller pilot's MAE is the mean of a sample of the picture's per-pixel errors; the
+// standard error takes them as independent, which neighbouring penumbra pixels are not quite.
 static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, double *mae,
                              double *se, double *ms)
 {
-    PN_TRY(pilot_frame(s, cam, light, p->px, p->v, NULL, ms));
+    PN_TRY(pilot_frame(s, cam, light, p->px, true, p->v, NULL, ms));
     pn_error_metrics e;
     if (!pn_error_compare(p->v, p->ref, p->mask, p->px, NULL, &e))
         return PN_ERR_MEMORY;
@@ -115,17 +121,18 @@ static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *
 }
 
 // Is the configuration within the budget? Decided at pilot size when its MAE is two standard errors
-// from the budget or more (a one-sided 97.7% bound for the full picture's MAE). Nearer, the pilot
-// cannot tell, and the same configuration is rendered at the confirming size (twice the pilot's
-// width and height, or the frame itself) against that size's reference; still undecided there, it
-// is taken as outside. *confirm_mae: the confirming MAE, or -1 when none was needed.
+// from the budget or more (about a 97.7% one-sided bound for the full picture's MAE were the
+// pixels' errors independent). Nearer, the pilot cannot tell, and the same configuration is
+// rendered at the confirming size (twice the pilot's width and height, or the frame itself) against
+// that size's reference; still undecided there, or refused there (too large a tree), it is taken as
+// outside. *confirm_mae: the confirming MAE, or -1 when none was needed.
 static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                         const pn_setup_desc *cfg, double mae, double se, double budget, pilot_size *big, bool *within,
                         double *confirm_mae)
 {
     *confirm_mae = -1;
     *within = mae + 2 * se <= budget;
-    if (*within || mae - 2 * se > budget || big->scale == 0)
+    if (*within || mae - 2 * se > budget || !big->used)
         return PN_OK;
     PN_TRY(pilot_reference(dev, scene, cam, light, big));
     pn_setup_desc sd = big->sd;
@@ -134,7 +141,8 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     sd.tree_n = cfg->tree_n;
     sd.tree_d = cfg->tree_d;
     pn_setup s;
-    PN_TRY(quiet_setup(dev, scene, light, &sd, &s));
+    if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
+        return PN_OK; // outside, as undecided
     double se2, ms;
     pn_result r = pilot_error(&s, cam, light, big, confirm_mae, &se2, &ms);
     pn_setup_destroy(dev, &s);
@@ -143,14 +151,16 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
 }
 
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                            const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, pn_quality_choice *out)
+                            const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
+                            pn_quality_choice *out)
 {
     memset(out, 0, sizeof *out);
+    reference_spp = reference_spp ? reference_spp : PN_REFERENCE_SPP;
     double scale = fmin(1.0, sqrt(PILOT_PIXELS / ((double)frame->width * frame->height)));
     pilot_size pilot, big = {0};
-    pn_result r = pilot_size_init(&pilot, frame, scale, max_bytes, cam);
+    pn_result r = pilot_size_init(&pilot, frame, scale, max_bytes, reference_spp, cam);
     if (r == PN_OK && scale < 1.0)
-        r = pilot_size_init(&big, frame, fmin(1.0, 2.0 * scale), max_bytes, cam);
+        r = pilot_size_init(&big, frame, fmin(1.0, 2.0 * scale), max_bytes, reference_spp, cam);
     if (r == PN_OK)
         r = pilot_reference(dev, scene, cam, light, &pilot);
     out->pilot_width = pilot.sd.frame.width;
@@ -205,17 +215,20 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                     have = true;
                 }
                 // More samples only cost more: stop once within the budget, once slower than a pick
-                // within it, or once the error no longer falls (doubling the samples of an unbiased
-                // mode cuts its noise by about 1/sqrt(2); 0.9 is far from that and from a floor).
-                if (within || (out->within && ms >= out->pilot_ms) || mae > 0.9 * prev_mae)
+                // within it, or, for a biased mode, once its error no longer falls: doubling the
+                // samples cuts noise by about 1/sqrt(2), 0.9 is far from that and near a floor. An
+                // exact mode has no floor (its error is noise) and climbs on.
+                if (within || (out->within && ms >= out->pilot_ms) || (!info->exact && mae > 0.9 * prev_mae))
                     break;
                 prev_mae = mae;
             }
             pn_setup_destroy(dev, &s);
         }
     }
-    if (r == PN_OK && !have)
+    if (r == PN_OK && !have) {
+        pn_error("quality auto: no configuration could be set up (see the trees' memory limit, --max-memory)");
         r = PN_ERR_UNSUPPORTED;
+    }
     if (r == PN_OK && !out->within)
         pn_warn("quality auto: no configuration reaches MAE %.4g within %d samples per pixel; taking the least "
                 "error found (%.4f)",

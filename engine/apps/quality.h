@@ -33,7 +33,7 @@ typedef struct pn_quality_choice {
 } pn_quality_choice;
 
 // Renders a pilot (the frame's framing at about 128x128 pixels, or the frame itself when smaller)
-// with the converged reference (exact, PN_REFERENCE_SPP samples, PN_REFERENCE_SEED), then every
+// with the converged reference (exact, reference_spp samples, PN_REFERENCE_SEED), then every
 // configuration of the mode table (gpu/shadow_modes.c: line space, coarse to fine trees, hybrid,
 // exact-ls, exact, rayquery where the device has ray queries) at 1, 2, 4, ... PN_QUALITY_MAX_SPP
 // samples per pixel with frame's sampler and seed, and picks the fastest whose pilot error (MAE of V
@@ -43,5 +43,7 @@ typedef struct pn_quality_choice {
 // reference. A configuration climbs
 // the samples until it meets the budget, is slower than the best pick so far, or its error stops
 // falling (line space's floor). When nothing meets the budget, the least error found (within = false).
+// reference_spp: the reference's samples (0: PN_REFERENCE_SPP).
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                            const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, pn_quality_choice *out);
+                            const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
+                            pn_quality_choice *out);

@@ -204,6 +204,12 @@ static pn_result create_descriptors(pn_gpu_device *dev, pn_gbuffer_pass *r)
     return PN_OK;
 }
 
+const uint32_t *pn_gbuffer_pass_spirv(int stage, size_t *size)
+{
+    *size = stage == 0 ? sizeof pn_spv_gbuffer_vert : sizeof pn_spv_gbuffer_frag;
+    return stage == 0 ? pn_spv_gbuffer_vert : pn_spv_gbuffer_frag;
+}
+
 pn_result pn_gbuffer_pass_create(pn_gpu_device *dev, const pn_scene *scene, pn_gbuffer_pass *out)
 {
     memset(out, 0, sizeof *out);

@@ -33,6 +33,10 @@ typedef struct pn_gbuffer_targets {
 pn_result pn_gbuffer_pass_create(pn_gpu_device *dev, const pn_scene *scene, pn_gbuffer_pass *out);
 void pn_gbuffer_pass_destroy(pn_gpu_device *dev, pn_gbuffer_pass *g);
 
+// The pass's SPIR-V (stage 0: vertex, 1: fragment) and its size in bytes: what a cache of rendered
+// images keys on (apps/bench_reference.c), since these shaders place P and N.
+const uint32_t *pn_gbuffer_pass_spirv(int stage, size_t *size);
+
 // The camera as the pass's push constants for an image of width x height: view-projection with
 // clip planes around the scene's bounding sphere, eye and view direction.
 pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *g, const pn_camera *cam, uint32_t width, uint32_t height);

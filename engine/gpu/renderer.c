@@ -104,15 +104,14 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     pn_result r = pn_gbuffer_pass_create(dev, scene, &out->gbuffer);
     if (r == PN_OK)
         r = create_targets(out);
+    float scene_mag = 0;
+    for (int k = 0; k < 3; k++)
+        scene_mag = fmaxf(scene_mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
     if (r == PN_OK)
-        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v, &out->shadow);
-    if (r == PN_OK) {
-        for (int k = 0; k < 3; k++)
-            out->shadow.scene_mag = fmaxf(out->shadow.scene_mag,
-                                          fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
+        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v, scene_mag, &out->shadow);
+    if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo, &out->v,
                                  &out->radiance, &out->shade);
-    }
     if (r != PN_OK)
         pn_renderer_destroy(out);
     return r;
@@ -272,18 +271,30 @@ void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; 
 
 pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp)
 {
-    if (spp == 0 || (r->desc.dump_rays && spp > r->shadow.spp)) {
-        pn_error("spp %u: must be at least 1%s", spp, r->desc.dump_rays ? " and at most the ray dump's" : "");
+    if (spp == 0 || (r->desc.dump_rays && spp > r->shadow.dump_spp)) {
+        pn_error("spp %u: must be at least 1 and, while rays are dumped, at most the ray dump's %u", spp,
+                 r->shadow.dump_spp);
         return PN_ERR_INVALID;
     }
     r->desc.spp = spp;
     return PN_OK;
 }
 
+pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on)
+{
+    if (on && (!r->shadow.ray_dump.mapped || r->desc.spp > r->shadow.dump_spp)) {
+        pn_error("ray dumps need a renderer created with dump_rays and at most its %u spp", r->shadow.dump_spp);
+        return PN_ERR_INVALID;
+    }
+    r->desc.dump_rays = on;
+    return PN_OK;
+}
+
 const float *pn_renderer_ray_dump(const pn_renderer *r, uint64_t *floats)
 {
-    *floats = r->shadow.ray_dump.mapped ? (uint64_t)r->width * r->height * (1 + r->desc.spp) * 4 : 0;
-    return r->shadow.ray_dump.mapped;
+    bool on = r->desc.dump_rays && r->shadow.ray_dump.mapped;
+    *floats = on ? (uint64_t)r->width * r->height * (1 + r->desc.spp) * 4 : 0;
+    return on ? r->shadow.ray_dump.mapped : NULL;
 }
 
 pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n)

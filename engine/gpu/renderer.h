@@ -54,6 +54,10 @@ void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
 // exceed the desc's (the dump's buffer holds that many rays per pixel): PN_ERR_INVALID, logged.
 pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp);
 
+// Turns the ray dump off and on again from the next frame on (a renderer created with dump_rays;
+// on: spp at most the desc's). The bench times exact without it and dumps one more frame for Embree.
+pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on);
+
 // With desc.dump_rays, after a frame: per pixel, the ray origin (xyz; w = 1 where geometry is),
 // then per pixel and light sample the sample point (xyz) and flags in w's bits (bit 0: valid, the
 // sample carries light; bit 1: blocked). NULL without dump_rays. Modes exact, hybrid and exact-ls.

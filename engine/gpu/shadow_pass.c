@@ -23,11 +23,13 @@ void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
 }
 
 pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v, pn_shadow_pass *out)
+                                const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, pn_shadow_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->mode = pn_shadow_mode_get(desc->mode);
-    out->width = desc->width, out->height = desc->height, out->spp = desc->spp;
+    out->width = desc->width, out->height = desc->height;
+    out->dump_spp = desc->dump_rays ? desc->spp : 0;
+    out->scene_mag = scene_mag;
     out->loop_budget = pn_gpu_device_loop_budget(dev);
     // Every device: at most PN_MAX_CHUNK (32) samples per dispatch, the size of the shader's per-ray
     // arrays; 25 spp run in one dispatch.

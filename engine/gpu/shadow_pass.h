@@ -17,12 +17,13 @@ typedef struct pn_shadow_pass {
     pn_gpu_buffer ray_dump; // with desc.dump_rays
     pn_gpu_buffer work;     // with desc.count_work
     pn_gpu_image counts;    // (visible, valid) sample counts between chunks
-    uint32_t width, height, spp;
+    uint32_t width, height;
+    uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.
     // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);
     // a device without that budget keeps PN_MAX_CHUNK.
     uint32_t chunk;
-    float scene_mag; // largest |coordinate| of the scene's bounds (ShadowParams.scene_mag); set by the renderer
+    float scene_mag; // largest |coordinate| of the scene's bounds (ShadowParams.scene_mag)
     bool loop_budget; // llvmpipe: the device ends long-running shader loops; chunk and retry
 } pn_shadow_pass;
 
@@ -38,8 +39,9 @@ double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_ligh
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v);
 
 // Creates the mode's pipeline and buffers; p, n (read) and v (written) are the frame's images.
+// scene_mag: the largest |coordinate| of the scene's bounds, which bounds every vertex's (shadow_origin).
 pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v, pn_shadow_pass *out);
+                                const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, pn_shadow_pass *out);
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
 
 // Writes the frame's parameters (light, samples, pools); the queue must be idle.
