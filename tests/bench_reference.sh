@@ -3,14 +3,16 @@
 #  - exact's error against it is clearly above zero at 4 samples per pixel and falls from 4 to 16
 #    to 64 (about as 1/sqrt(spp), stratified faster: the fall is asserted, not the slope), and even
 #    exact at 1024 samples differs from it (its seed is its own), while exact's bias (against exact
-#    with the same samples) is exactly zero at every spp;
+#    with the same samples) is zero at every spp. exact's is so by construction (the bench compares
+#    it with itself); exact-ls, a different shader that must give the same V, checks the bias
+#    machinery for real;
 #  - the reference is cached: a second run reads the file instead of rendering and measures the
 #    same errors; another size gets another file; a damaged file is rendered again, with a warning.
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/bench_reference
 rm -rf "$T" && mkdir -p "$T"
-args=(bench --scenes builtin:default --modes exact --spp 4,16,64,1024 --size 96x96 --repeat 1 --warmup 0 --no-embree
+args=(bench --scenes builtin:default --modes exact,exact-ls --trees 5,2 --spp 4,16,64,1024 --size 96x96 --repeat 1 --warmup 0 --no-embree
       --out "$T/out")
 fail=0
 "$BIN" "${args[@]}" > "$T/run1.txt" 2> "$T/run1.err" || { echo "FAIL: bench exited $?"; cat "$T/run1.err"; exit 1; }
@@ -25,15 +27,18 @@ grep -q "rendering the converged reference" "$T/run2.err" && { echo "FAIL: the s
 python3 - "$T/run1.json" "$T/out/bench.json" <<'PY' || fail=1
 import json, sys
 a, b = (json.load(open(p))["results"] for p in sys.argv[1:3])
-err = {r["spp"]: r["reference"]["mae"] for r in a}
+err = {r["spp"]: r["reference"]["mae"] for r in a if r["mode"] == "exact"}
 print("exact against the converged reference, MAE by spp:", err)
 assert sorted(err) == [4, 16, 64, 1024], err
 assert err[4] > 0.005, err                         # clearly non-zero
 assert err[16] < 0.8 * err[4] and err[64] < 0.8 * err[16], err  # falls with the samples
 assert err[64] < 0.5 * err[4], err                 # 1/sqrt(16) = 0.25 expected; 0.5 leaves room
 assert 0 < err[1024] < err[64], err                # the reference's own seed: not the cells' image
+assert sorted(r["mode"] for r in a) == ["exact"] * 4 + ["exact-ls"] * 4, a
 for r in a:
     assert r["bias"]["max"] == 0 and r["bias"]["mae"] == 0, r
+    if r["mode"] == "exact-ls":  # the same V, so the same reference error
+        assert r["reference"] == [e for e in a if e["mode"] == "exact" and e["spp"] == r["spp"]][0]["reference"], r
 # The cached reference gives the same figures (the renders are deterministic).
 assert [r["reference"] for r in a] == [r["reference"] for r in b], (a, b)
 print("reference machinery ok")

@@ -116,44 +116,39 @@ static bool same_group(const bench_row *a, const bench_row *b)
 
 const double pn_bench_error_levels[PN_BENCH_ERROR_LEVELS] = {0.05, 0.02, 0.01, 0.005};
 
-// The fastest row of the group starting at `first` with mode m (or any exact row for Embree's column)
-// whose reference MAE is at most `level`; NULL when none reaches it.
-static const bench_row *fastest_within(const bench_rows *rows, int first, pn_shadow_mode m, double level)
+// The end of the group whose first row is `first`: the matrix appends each group's rows together
+// (bench_matrix.c), so a group is a run of consecutive rows.
+static int group_end(const bench_rows *rows, int first)
+{
+    int end = first + 1;
+    while (end < rows->count && same_group(&rows->rows[end], &rows->rows[first]))
+        end++;
+    return end;
+}
+
+// The fastest row of rows [first, end) with mode m whose reference MAE is at most `level`; NULL
+// when none reaches it.
+static const bench_row *fastest_within(const bench_rows *rows, int first, int end, pn_shadow_mode m, double level)
 {
     const bench_row *best = NULL;
-    for (int j = first; j < rows->count; j++) {
+    for (int j = first; j < end; j++) {
         const bench_row *r = &rows->rows[j];
-        if (same_group(r, &rows->rows[first]) && r->mode == m && r->ref.mae <= level &&
-            (!best || r->shadow_ms < best->shadow_ms))
+        if (r->mode == m && r->ref.mae <= level && (!best || r->shadow_ms < best->shadow_ms))
             best = r;
     }
     return best;
 }
 
-// The modes present in the group starting at `first`, in the order of the mode table.
-static int group_modes(const bench_rows *rows, int first, pn_shadow_mode *out)
+// The modes present in rows [first, end), in the order of the mode table.
+static int group_modes(const bench_rows *rows, int first, int end, pn_shadow_mode *out)
 {
     int n = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
-        for (int j = first; j < rows->count; j++)
-            if (same_group(&rows->rows[j], &rows->rows[first]) && rows->rows[j].mode == (pn_shadow_mode)m) {
+        for (int j = first; j < end; j++)
+            if (rows->rows[j].mode == (pn_shadow_mode)m) {
                 out[n++] = (pn_shadow_mode)m;
                 break;
             }
-    return n;
-}
-
-// The first row of each group, in order; starts holds rows->count entries.
-static int group_starts(const bench_rows *rows, int *starts)
-{
-    int n = 0;
-    for (int i = 0; i < rows->count; i++) {
-        bool seen = false;
-        for (int g = 0; g < n && !seen; g++)
-            seen = same_group(&rows->rows[starts[g]], &rows->rows[i]);
-        if (!seen)
-            starts[n++] = i;
-    }
     return n;
 }
 
@@ -208,28 +203,22 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 r->embree_ms, i + 1 < rows->count ? "," : "");
     }
     fprintf(f, "], \"time_to_error\": [");
-    int *starts = malloc(((size_t)rows->count + 1) * sizeof *starts);
-    if (!starts) {
-        fclose(f);
-        pn_file_discard(tmp);
-        return false;
-    }
-    int groups = group_starts(rows, starts);
     const char *sep = "\n";
-    for (int g = 0; g < groups; g++) {
-        const bench_row *g0 = &rows->rows[starts[g]];
+    for (int first = 0, end; first < rows->count; first = end) {
+        end = group_end(rows, first);
+        const bench_row *g0 = &rows->rows[first];
         pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
-        int nm = group_modes(rows, starts[g], modes);
+        int nm = group_modes(rows, first, end, modes);
         for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
             double level = pn_bench_error_levels[l];
             fprintf(f, "%s  {\"scene\": ", sep);
             sep = ",\n";
             pn_json_string(f, g0->scene);
             fprintf(f, ", \"width\": %u, \"height\": %u, \"level\": %g, \"modes\": [", g0->width, g0->height, level);
-            const bench_row *ex = fastest_within(rows, starts[g], PN_SHADOW_REFERENCE, level);
+            const bench_row *ex = fastest_within(rows, first, end, PN_SHADOW_REFERENCE, level);
             int k = 0;
             for (int m = 0; m < nm; m++) {
-                const bench_row *r = fastest_within(rows, starts[g], modes[m], level);
+                const bench_row *r = fastest_within(rows, first, end, modes[m], level);
                 if (!r)
                     continue;
                 fprintf(f, "%s{\"mode\": \"%s\", \"tree\": ", k++ ? ", " : "", MODE_NAME(r->mode));
@@ -248,7 +237,6 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 fprintf(f, "null}");
         }
     }
-    free(starts);
     fprintf(f, "], \"quality\": [");
     for (int i = 0; i < rows->quality_count; i++) {
         const bench_quality *q = &rows->quality[i];
@@ -297,17 +285,11 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
     FILE *f = open_out(dir, "time_to_error.md", path, tmp);
     if (!f)
         return false;
-    int *starts = malloc(((size_t)rows->count + 1) * sizeof *starts);
-    if (!starts) {
-        fclose(f);
-        pn_file_discard(tmp);
-        return false;
-    }
-    int groups = group_starts(rows, starts);
-    for (int g = 0; g < groups; g++) {
-        const bench_row *g0 = &rows->rows[starts[g]];
+    for (int first = 0, end; first < rows->count; first = end) {
+        end = group_end(rows, first);
+        const bench_row *g0 = &rows->rows[first];
         pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
-        int nm = group_modes(rows, starts[g], modes);
+        int nm = group_modes(rows, first, end, modes);
         for (int pass = 0; pass < 2; pass++) { // the file, then the console
             FILE *out = pass ? stdout : f;
             fprintf(out, "\n%s %ux%u (%u triangles): the fastest cell reaching each reference MAE, shadow pass ms "
@@ -321,10 +303,10 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
             fprintf(out, "\n");
             for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
                 double level = pn_bench_error_levels[l];
-                const bench_row *ex = fastest_within(rows, starts[g], PN_SHADOW_REFERENCE, level);
+                const bench_row *ex = fastest_within(rows, first, end, PN_SHADOW_REFERENCE, level);
                 fprintf(out, "| %g |", level);
                 for (int m = 0; m < nm; m++) {
-                    const bench_row *r = fastest_within(rows, starts[g], modes[m], level);
+                    const bench_row *r = fastest_within(rows, first, end, modes[m], level);
                     if (!r) {
                         fprintf(out, " - |");
                         continue;
@@ -344,7 +326,6 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
             }
         }
     }
-    free(starts);
     return close_out(f, path, tmp);
 }
 
@@ -371,20 +352,16 @@ static double plot_ms(double ms) { return fmax(ms, 1e-3); }
 // over every cell (no other cell both faster and more accurate), and Embree on exact's rays.
 bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
 {
-    int *starts = malloc(((size_t)rows->count + 1) * sizeof *starts);
     int *idx = malloc((2 * (size_t)rows->count + 1) * sizeof *idx); // the group's rows, then its configurations' heads
-    if (!starts || !idx) {
-        free(starts), free(idx);
+    if (!idx)
         return false;
-    }
-    int groups = group_starts(rows, starts);
     bool ok = true;
-    for (int g = 0; g < groups && ok; g++) {
-        const bench_row *g0 = &rows->rows[starts[g]];
+    for (int first = 0, end; first < rows->count && ok; first = end) {
+        end = group_end(rows, first);
+        const bench_row *g0 = &rows->rows[first];
         int n = 0;
-        for (int j = starts[g]; j < rows->count; j++)
-            if (same_group(&rows->rows[j], g0))
-                idx[n++] = j;
+        for (int j = first; j < end; j++)
+            idx[n++] = j;
         char stem[512], path[4096], tmp[4096], name[600];
         snprintf(stem, sizeof stem, "%s_%ux%u", g0->scene, g0->width, g0->height);
         for (char *c = stem; *c; c++)
@@ -411,9 +388,9 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 box.x0 = fmin(box.x0, log10(r->embree_ms));
                 box.x1 = fmax(box.x1, log10(r->embree_ms));
             }
-            bool first = a == 0 || rows->rows[idx[a - 1]].mode != r->mode || rows->rows[idx[a - 1]].n != r->n ||
+            bool new_config = a == 0 || rows->rows[idx[a - 1]].mode != r->mode || rows->rows[idx[a - 1]].n != r->n ||
                          rows->rows[idx[a - 1]].d != r->d;
-            if (first) {
+            if (new_config) {
                 if (configs)
                     fprintf(f, "\n\n");
                 char title[64];
@@ -525,6 +502,5 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         }
     }
     free(idx);
-    free(starts);
     return ok;
 }

@@ -32,13 +32,14 @@ typedef struct pilot_size {
     bool ready;
 } pilot_size;
 
-// Renders the set-up's frame (twice when timed: the first frame pays for first touches of the
-// pools); its V into v (and the coverage into mask, when given), its shadow time into ms.
-static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, bool timed, float *v,
-                             uint8_t *mask, double *ms)
+// Renders the set-up's frame (twice with warm_up: a set-up's first frame pays for first touches of
+// its pools, which would count against it); its V into v (and the coverage into mask, when given),
+// its shadow time into ms.
+static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, bool warm_up,
+                             float *v, uint8_t *mask, double *ms)
 {
     pn_frame_times t;
-    if (timed)
+    if (warm_up)
         PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
     PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
     pn_frame_images img;
@@ -108,10 +109,10 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
 // standard error of that MAE as an estimate of the full frame's (0 when p is the frame itself: the
 // same image). A smaller pilot's MAE is the mean of a sample of the picture's per-pixel errors; the
 // standard error takes them as independent, which neighbouring penumbra pixels are not quite.
-static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, double *mae,
-                             double *se, double *ms)
+static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, bool warm_up,
+                             double *mae, double *se, double *ms)
 {
-    PN_TRY(pilot_frame(s, cam, light, p->px, true, p->v, NULL, ms));
+    PN_TRY(pilot_frame(s, cam, light, p->px, warm_up, p->v, NULL, ms));
     pn_error_metrics e;
     if (!pn_error_compare(p->v, p->ref, p->mask, p->px, NULL, &e))
         return PN_ERR_MEMORY;
@@ -144,7 +145,7 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
         return PN_OK; // outside, as undecided
     double se2, ms;
-    pn_result r = pilot_error(&s, cam, light, big, confirm_mae, &se2, &ms);
+    pn_result r = pilot_error(&s, cam, light, big, false, confirm_mae, &se2, &ms); // untimed: only its error counts
     pn_setup_destroy(dev, &s);
     *within = r == PN_OK && *confirm_mae + 2 * se2 <= budget;
     return r;
@@ -189,7 +190,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 bool within = false;
                 r = pn_renderer_set_spp(&s.renderer, spp);
                 if (r == PN_OK)
-                    r = pilot_error(&s, cam, light, &pilot, &mae, &se, &ms);
+                    r = pilot_error(&s, cam, light, &pilot, spp == 1, &mae, &se, &ms); // the set-up's first frame
                 if (r == PN_OK)
                     r = decide(dev, scene, cam, light, &sd, mae, se, max_error, &big, &within, &confirm_mae);
                 if (r != PN_OK)
