@@ -32,16 +32,24 @@ typedef struct pilot_size {
     bool ready;
 } pilot_size;
 
-// Renders the set-up's frame (twice with warm_up: a set-up's first frame pays for first touches of
-// its pools, which would count against it); its V into v (and the coverage into mask, when given),
-// its shadow time into ms.
+// Pilot frames are small, so one frame's time is at the mercy of whatever else the machine does:
+// configurations timed moments apart are ranked by the least of this many frames.
+enum { PILOT_TIMED_FRAMES = 3 };
+
+// Renders the set-up's frame `frames` times, plus once more first with warm_up (a set-up's first
+// frame pays for first touches of its pools, which would count against it); V (and the coverage
+// into mask, when given) of the last, the least shadow time into ms.
 static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, bool warm_up,
-                             float *v, uint8_t *mask, double *ms)
+                             int frames, float *v, uint8_t *mask, double *ms)
 {
     pn_frame_times t;
     if (warm_up)
         PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
-    PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
+    *ms = INFINITY;
+    for (int i = 0; i < frames; i++) {
+        PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
+        *ms = fmin(*ms, t.shadow_ms);
+    }
     pn_frame_images img;
     pn_renderer_images(&s->renderer, &img);
     for (size_t i = 0; i < px; i++) {
@@ -49,7 +57,6 @@ static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *
         if (mask)
             mask[i] = img.p[4 * i + 3] > 0;
     }
-    *ms = t.shadow_ms;
     return PN_OK;
 }
 
@@ -99,7 +106,7 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
     rd.view = NULL;
     pn_setup s;
     PN_TRY(pn_setup_create(dev, scene, light, &rd, &s));
-    pn_result r = pilot_frame(&s, cam, light, p->px, false, p->ref, p->mask, &p->reference_ms);
+    pn_result r = pilot_frame(&s, cam, light, p->px, false, 1, p->ref, p->mask, &p->reference_ms);
     pn_setup_destroy(dev, &s);
     p->ready = r == PN_OK;
     return r;
@@ -109,10 +116,10 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
 // standard error of that MAE as an estimate of the full frame's (0 when p is the frame itself: the
 // same image). A smaller pilot's MAE is the mean of a sample of the picture's per-pixel errors; the
 // standard error takes them as independent, which neighbouring penumbra pixels are not quite.
-static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, bool warm_up,
-                             double *mae, double *se, double *ms)
+static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, bool timed,
+                             bool warm_up, double *mae, double *se, double *ms)
 {
-    PN_TRY(pilot_frame(s, cam, light, p->px, warm_up, p->v, NULL, ms));
+    PN_TRY(pilot_frame(s, cam, light, p->px, warm_up, timed ? PILOT_TIMED_FRAMES : 1, p->v, NULL, ms));
     pn_error_metrics e;
     if (!pn_error_compare(p->v, p->ref, p->mask, p->px, NULL, &e))
         return PN_ERR_MEMORY;
@@ -145,7 +152,7 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
         return PN_OK; // outside, as undecided
     double se2, ms;
-    pn_result r = pilot_error(&s, cam, light, big, false, confirm_mae, &se2, &ms); // untimed: only its error counts
+    pn_result r = pilot_error(&s, cam, light, big, false, false, confirm_mae, &se2, &ms); // only its error counts
     pn_setup_destroy(dev, &s);
     *within = r == PN_OK && *confirm_mae + 2 * se2 <= budget;
     return r;
@@ -190,7 +197,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 bool within = false;
                 r = pn_renderer_set_spp(&s.renderer, spp);
                 if (r == PN_OK)
-                    r = pilot_error(&s, cam, light, &pilot, spp == 1, &mae, &se, &ms); // the set-up's first frame
+                    r = pilot_error(&s, cam, light, &pilot, true, spp == 1, &mae, &se, &ms); // warm: the set-up's first
                 if (r == PN_OK)
                     r = decide(dev, scene, cam, light, &sd, mae, se, max_error, &big, &within, &confirm_mae);
                 if (r != PN_OK)
