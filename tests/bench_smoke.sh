@@ -26,8 +26,8 @@ ctx, rows = j["context"], j["results"]
 assert ctx["device"] and ctx["threads"] >= 1 and ctx["driver"] and ctx["driver_info"], ctx
 assert ctx["reference"]["mode"] == "exact" and ctx["reference"]["spp"] == 1024 and ctx["reference"]["seed"] != 1, ctx
 modes = {r["mode"] for r in rows}
-assert modes == {"exact", "exact-ls", "hybrid", "linespace"} | ({"rayquery"} if rq else set()), modes
-assert len(rows) == 1 + 3 * 2 + rq, len(rows)  # exact, three tree modes x two trees, rayquery
+assert modes == {"exact", "exact-ls", "hybrid", "linespace", "ls-leaf", "ls-plane"} | ({"rayquery"} if rq else set()), modes
+assert len(rows) == 1 + 5 * 2 + rq, len(rows)  # exact, five tree modes x two trees, rayquery
 for r in rows:
     assert r["gpu_ms"]["shadow"] > 0 and r["shadow_rays_per_s"] > 0 and r["vs_embree"] > 0, r
     assert r["spp"] == 9 and r["reference"]["mae"] > 0 and r["reference"]["max"] >= r["reference"]["p99"], r

@@ -33,5 +33,6 @@ check() { # NAME ARGS...: the same view through demo and render
 }
 check linespace --mode linespace --spp 4
 check hybrid_packet_grid --mode hybrid --traversal packet --sampler grid --spp 9
+check ls_plane --mode ls-plane --spp 4
 check exact --mode exact --spp 4
 exit $fail

@@ -17,10 +17,10 @@ frame 4 orbit 12 0
 frame 5 orbit 12 -2
 frame 6 zoom 0.9
 frame 7 pan 0.05 -0.02
-frame 8 key M            # linespace -> hybrid
+frame 8 key M            # linespace -> ls-leaf
 frame 10 key N           # tree LS(7,3) -> LS(8,3), built on a worker thread
 frame 12 resize 400 300
-frame 14 key 4           # exact
+frame 14 key 6           # exact
 frame 16 key E           # error against exact (a second renderer)
 frame 18 key C           # N-tree cells overlay
 frame 20 key V           # visibility

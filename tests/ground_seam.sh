@@ -32,7 +32,7 @@ view=(--size 256x256 --spp 4 --no-ground --camera-pos 0.040527,0.27954,0.30458 -
 rq=0
 "$BIN" info | grep -q "ray queries: *yes" && rq=1
 fail=0
-for mode in exact linespace hybrid exact-ls $([ $rq = 1 ] && echo rayquery); do
+for mode in exact linespace ls-leaf ls-plane hybrid exact-ls $([ $rq = 1 ] && echo rayquery); do
   "$BIN" render "$T/quad.gltf" "${view[@]}" --mode $mode --tree 6,3 -o "$T/$mode.exr" >/dev/null \
     || { echo "FAIL: render $mode"; fail=1; continue; }
   # Covered pixels have A = 1; the least V over them must be 1 (background V = 0 is masked out).

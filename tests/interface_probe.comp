@@ -32,7 +32,7 @@ void put(uvec4 v) { put(v.xy); put(v.zw); }
 void put_tree(TreeInfo t)
 {
     put(t.root_min); put(t.root_size); put(t.n); put(t.d); put(t.ls_words); put(t.node_count);
-    put(uvec2(t.node_pool)); put(uvec2(t.tree_pool)); put(uvec2(t.ls_pool)); put(t.pad);
+    put(uvec2(t.node_pool)); put(uvec2(t.tree_pool)); put(uvec2(t.ls_pool)); put(uvec2(t.plane_pool));
 }
 
 void put_light(Light l)

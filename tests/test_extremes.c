@@ -27,6 +27,13 @@
 //    nodes the paper's method skips: n.(x - g) > (3 + N) s |n|_1 (past its rise, shadow_frame.glsl,
 //    and out of any last-level node entered before it) and |x - q|_inf > N s (not in the node of the
 //    light sample q). Nearer blockers are the method's documented loss of contact shadows.
+//  - ls-leaf: free as hybrid (a filled leaf the ray crosses holds a triangle within the dilation);
+//    blocked when it surely crosses a triangle at x past its rise, n.(x - g) > 1.25 s |n|_1
+//    (shadow_linespace.comp, RISE_LEAVES).
+//  - ls-plane: free as hybrid (the slab it crosses lies in a leaf holding a triangle); blocked when
+//    it surely crosses a triangle at x more than 2 s (max norm) from both g and q: only the leaves
+//    within 1.5 leaves of the origin or the end may be taken for the surface the ray leaves
+//    (leaf_plane_blocks), and a point of such a leaf is within 2 s of it.
 // A triangle whose plane is the receiver's own tangent plane through g cannot block g's rays (they
 // leave the plane at g); it is skipped, as the shaders' origin offsets skip it.
 #include "apps/setup.h"
@@ -361,14 +368,20 @@ static bounds pixel_bounds(const oracle *o, const double g[3], const double nrm[
                 double x[3];
                 if (crosses_sure(g, q, tr, e_euclid, x)) {
                     bool counts = true;
-                    if (o->mode == PN_SHADOW_LINESPACE) {
-                        double gx[3], inf = 0;
-                        sub3(x, g, gx);
-                        for (int k = 0; k < 3; k++)
-                            inf = fmax(inf, fabs(x[k] - q[k]));
-                        counts = dot3(nrm, gx) > (3 + o->n) * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e &&
-                                 inf > node * (1 + 0x1p-10) + 2 * o->e;
+                    double gx[3], inf_q = 0, inf_g = 0;
+                    sub3(x, g, gx);
+                    for (int k = 0; k < 3; k++) {
+                        inf_q = fmax(inf_q, fabs(x[k] - q[k]));
+                        inf_g = fmax(inf_g, fabs(gx[k]));
                     }
+                    if (o->mode == PN_SHADOW_LINESPACE)
+                        counts = dot3(nrm, gx) > (3 + o->n) * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e &&
+                                 inf_q > node * (1 + 0x1p-10) + 2 * o->e;
+                    else if (o->mode == PN_SHADOW_LEAF)
+                        counts = dot3(nrm, gx) > 1.25 * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e;
+                    else if (o->mode == PN_SHADOW_PLANE)
+                        counts = inf_g > 2 * o->leaf * (1 + 0x1p-10) + 2 * o->e &&
+                                 inf_q > 2 * o->leaf * (1 + 0x1p-10) + 2 * o->e;
                     if (counts)
                         blocked = true;
                     near = true;

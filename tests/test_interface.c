@@ -27,7 +27,7 @@ static const field tree_fields[] = {
     F(pn_gpu_tree_info, root_min),  F(pn_gpu_tree_info, root_size), F(pn_gpu_tree_info, n),
     F(pn_gpu_tree_info, d),         F(pn_gpu_tree_info, ls_words),  F(pn_gpu_tree_info, node_count),
     F(pn_gpu_tree_info, node_pool), F(pn_gpu_tree_info, tree_pool), F(pn_gpu_tree_info, ls_pool),
-    F(pn_gpu_tree_info, pad),       {0}};
+    F(pn_gpu_tree_info, plane_pool), {0}};
 static const field light_fields[] = {F(pn_light_gpu, corners), F(pn_light_gpu, normal), F(pn_light_gpu, radiance),
                                      {0}};
 static const field params_fields[] = {

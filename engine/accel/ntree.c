@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "accel/leaf_plane.h"
 #include "core/log.h"
 #include "core/parallel.h"
 #include "core/timer.h"
@@ -396,6 +397,50 @@ static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t
     return PN_OK;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Leaf planes (ls-plane, accel/leaf_plane.h): one word per leaf of the last-level nodes.
+
+typedef struct plane_ctx {
+    pn_ntree *t;
+    const float (*tri)[9];
+    const level_node *lnodes;
+    uint32_t **lists; // per last-level node: n^3 + 1 offsets, then the triangle ids
+} plane_ctx;
+
+static void plane_nodes(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    (void)thread;
+    plane_ctx *a = ctx;
+    pn_ntree *t = a->t;
+    uint32_t n = (uint32_t)t->n, n3 = n * n * n;
+    double cs = pn_ntree_cell_size(t, t->d);
+    for (uint64_t i = begin; i < end; i++) {
+        const pn_ntree_node *node = &t->nodes[a->lnodes[i].node];
+        const uint32_t *off = a->lists[i], *ids = a->lists[i] + n3 + 1;
+        for (uint32_t c = 0; c < n3; c++) {
+            uint32_t xyz[3] = {c % n, c / n % n, c / (n * n)};
+            double lo[3];
+            for (int k = 0; k < 3; k++)
+                lo[k] = t->root_min[k] + (double)(node->coord[k] * n + xyz[k]) * cs;
+            t->planes[i * n3 + c] = pn_leaf_plane_fit(a->tri, ids + off[c], off[c + 1] - off[c], lo, cs);
+        }
+    }
+}
+
+// The planes of the leaves of the last-level nodes (this level's nodes, whose per-child lists the
+// gather has just built), in node and child order.
+static pn_result build_planes(pn_ntree *t, const float (*tri)[9], const level_node *lnodes, uint32_t lcount,
+                              uint32_t **lists)
+{
+    uint64_t n3 = (uint64_t)t->n * t->n * t->n;
+    t->plane_count = (uint64_t)lcount * n3;
+    if (!(t->planes = calloc(t->plane_count ? t->plane_count : 1, sizeof *t->planes)))
+        return PN_ERR_MEMORY;
+    plane_ctx a = {t, tri, lnodes, lists};
+    pn_parallel_for(lcount, 4, plane_nodes, &a);
+    return PN_OK;
+}
+
 static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree *t)
 {
     float(*tri)[9] = NULL, (*box)[6] = NULL;
@@ -480,7 +525,7 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             }
         }
         build_ctx b = {.t = t, .tri = (const float(*)[9])tri, .box = (const float(*)[6])box, .lnodes = lnodes,
-                       .chunks = chunks, .level = level, .need_lists = level + 1 < t->d || desc->keep_candidates, .child_lists = lists};
+                       .chunks = chunks, .level = level, .need_lists = level + 1 < t->d || desc->keep_candidates || desc->leaf_planes, .child_lists = lists};
         atomic_init(&b.failed, false);
         pn_parallel_for(nchunks, 1, split_chunks, &b);
         gather_ctx g = {&b, nc};
@@ -498,6 +543,13 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             free_lists(lists, lcount);
             break;
         }
+        if (desc->leaf_planes && level + 1 == t->d &&
+            (r = build_planes(t, (const float(*)[9])tri, lnodes, lcount, lists)) != PN_OK) {
+            free_lists(lists, lcount);
+            break;
+        }
+        if (level + 1 == t->d)
+            t->cand_first_node = lcount ? lnodes[0].node : 0;
         // Number the filled children breadth-first; those above the last level become nodes.
         uint64_t filled = 0;
         for (uint32_t i = 0; i < lcount; i++)
@@ -640,5 +692,6 @@ void pn_ntree_destroy(pn_ntree *t)
     free(t->linespaces);
     free(t->cand_offset);
     free(t->cand_tris);
+    free(t->planes);
     memset(t, 0, sizeof *t);
 }

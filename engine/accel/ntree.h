@@ -28,6 +28,8 @@ typedef struct pn_ntree_desc {
     // Keep each last-level node's triangles (the paper's candidate lists), for the modes that test
     // triangles exactly where the line space cannot decide (hybrid, exact-ls).
     bool keep_candidates;
+    // Fit a plane to every filled leaf of the last-level nodes (ls-plane): `planes` below.
+    bool leaf_planes;
 } pn_ntree_desc;
 
 typedef struct pn_ntree_node {
@@ -37,7 +39,7 @@ typedef struct pn_ntree_node {
 
 // Bytes of the GPU pools for `subdivided` nodes (see accel/pools.h for their layout).
 typedef struct pn_pool_bytes {
-    uint64_t tree, node, linespace, total;
+    uint64_t tree, node, linespace, planes, total;
 } pn_pool_bytes;
 
 typedef struct pn_ntree {
@@ -55,14 +57,18 @@ typedef struct pn_ntree {
     uint64_t *linespaces; // node_count * words64
     uint64_t filled_per_level[PN_NTREE_MAX_DEPTH + 1]; // filled cells at level 0..d
     uint64_t set_bits;                                 // over all line spaces
-    // With keep_candidates: the triangles (scene ids) of every leaf of the last-level nodes, which
-    // are numbered consecutively from cand_first_node. Leaf c of last-level node i has
+    // The last-level nodes are numbered consecutively from cand_first_node (every tree).
+    // With keep_candidates: the triangles (scene ids) of every leaf of the last-level nodes. Leaf c of last-level node i has
     // cand_tris[cand_offset[k] .. cand_offset[k + 1]), k = (i - cand_first_node) * n^3 + c.
     uint32_t cand_first_node;
     uint32_t *cand_offset; // (last-level nodes) * n^3 + 1
     uint32_t cand_offsets; // entries of cand_offset
     uint32_t *cand_tris;
     uint64_t cand_count;
+    // With leaf_planes: one word per leaf of the last-level nodes, leaf c of node i at
+    // (i - cand_first_node) * n^3 + c (accel/leaf_plane.h).
+    uint32_t *planes;
+    uint64_t plane_count;
     double occupancy_ms, masks_ms, linespace_ms, build_ms;
 } pn_ntree;
 

@@ -42,6 +42,9 @@ pn_result pn_pools_pack(const pn_ntree *t, pn_pools *out)
     out->tree = t->children;
     out->linespace = (const uint32_t *)t->linespaces;
     out->bytes = pn_ntree_pool_bytes(t->n, t->node_count);
+    out->planes = t->planes;
+    out->bytes.planes = t->planes ? t->plane_count * sizeof *t->planes : 0;
+    out->bytes.total += out->bytes.planes;
     for (int k = 0; k < 3; k++)
         out->info.root_min[k] = (float)t->root_min[k];
     out->info.root_size = (float)t->root_size;

@@ -7,6 +7,8 @@
 //   node pool:      one pn_gpu_node per subdivided node, breadth-first, root = 0.
 //   line-space pool: node i's line space is 32-bit words [i * W, (i+1) * W), W = 2 * pn_ls_words64(N);
 //                   bit layout in accel/linespace.h.
+//   plane pool:     trees built with leaf planes (ls-plane) only: one word per leaf of the
+//                   last-level nodes (ntree.h, `planes`).
 // Pools are reached through buffer device addresses, so none is bound by maxStorageBufferRange; a
 // pool larger than the device's maxMemoryAllocationSize is refused (never truncated).
 // llvmpipe: maxStorageBufferRange is 128 MiB per binding (Mesa 22.3 and 25), below a large pool.
@@ -25,6 +27,7 @@ typedef struct pn_pools {
     pn_gpu_node *nodes;
     const uint32_t *tree;
     const uint32_t *linespace;
+    const uint32_t *planes; // NULL without leaf planes
     pn_pool_bytes bytes;
     pn_gpu_tree_info info; // addresses left 0 until uploaded
 } pn_pools;

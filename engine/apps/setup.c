@@ -19,7 +19,8 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
                             .max_pool_bytes = desc->max_pool_bytes,
                             .cull_light = (const float(*)[3])corners,
                             .keep_box = desc->keep_box,
-                            .keep_candidates = desc->needs.candidates};
+                            .keep_candidates = desc->needs.candidates,
+                            .leaf_planes = desc->needs.planes};
         r = pn_ntree_build(scene, &td, &out->tree);
         if (r == PN_OK) {
             out->build_ms += out->tree.build_ms;

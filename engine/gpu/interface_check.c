@@ -24,6 +24,7 @@ AT(pn_gpu_tree_info, n, 16);
 AT(pn_gpu_tree_info, node_count, 28);
 AT(pn_gpu_tree_info, node_pool, 32); // 8-byte aligned references
 AT(pn_gpu_tree_info, ls_pool, 48);
+AT(pn_gpu_tree_info, plane_pool, 56);
 SIZE(pn_gpu_tree_info, 64);
 
 AT(pn_light_gpu, normal, 64);

@@ -1,11 +1,11 @@
-// The N-tree pools on the GPU: three device-local buffers reached by buffer device address.
+// The N-tree pools on the GPU: device-local buffers (nodes, tree, line spaces, leaf planes) reached by buffer device address.
 #pragma once
 #include "accel/pools.h"
 #include "gpu/resources.h"
 
 typedef struct pn_gpu_pools {
-    pn_gpu_buffer nodes, tree, linespace;
-    pn_gpu_tree_info info; // with the three addresses filled in
+    pn_gpu_buffer nodes, tree, linespace, planes;
+    pn_gpu_tree_info info; // with the pools' addresses filled in
 } pn_gpu_pools;
 
 // Uploads the pools. Refuses (PN_ERR_MEMORY, with the sizes in the message) a pool larger than the

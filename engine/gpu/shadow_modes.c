@@ -23,6 +23,20 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                              .needs = {.tree = true},
                              .traces = true,
                              .auto_trees = 4},
+    [PN_SHADOW_LEAF] = {.name = "ls-leaf",
+                        .help = "line spaces down to the leaves: a filled leaf a ray crosses blocks it",
+                        SHADER(shadow_linespace_comp),
+                        .variant = PN_VARIANT_LEAF,
+                        .needs = {.tree = true},
+                        .traces = true,
+                        .auto_trees = 1},
+    [PN_SHADOW_PLANE] = {.name = "ls-plane",
+                         .help = "line spaces down to the leaves: a ray crossing a filled leaf's plane slab is blocked",
+                         SHADER(shadow_linespace_comp),
+                         .variant = PN_VARIANT_PLANE,
+                         .needs = {.tree = true, .planes = true},
+                         .traces = true,
+                         .auto_trees = 1},
     [PN_SHADOW_HYBRID] = {.name = "hybrid",
                           .help = "line spaces, triangles tested exactly where rays start and end",
                           SHADER(shadow_linespace_comp),
@@ -95,6 +109,7 @@ pn_shadow_needs pn_shadow_needs_all(const pn_gpu_device *dev)
         all.bvh |= MODES[i].needs.bvh;
         all.exact_pools |= MODES[i].needs.exact_pools;
         all.tlas |= MODES[i].needs.tlas;
+        all.planes |= MODES[i].needs.planes;
     }
     return all;
 }

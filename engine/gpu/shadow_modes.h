@@ -14,6 +14,8 @@
 typedef enum pn_shadow_mode {
     PN_SHADOW_NONE,      // V = 1: unshadowed
     PN_SHADOW_LINESPACE, // line-space visibility, the paper's method
+    PN_SHADOW_LEAF,      // line spaces down to the leaves: a filled leaf the ray crosses blocks it
+    PN_SHADOW_PLANE,     // line spaces down to the leaves: a filled leaf's plane slab the ray crosses blocks it
     PN_SHADOW_HYBRID,    // line spaces, and the triangles exactly where the ray starts and ends
     PN_SHADOW_EXACT_LS,  // line spaces skip empty space; set shafts test their triangles exactly
     PN_SHADOW_EXACT,     // BVH and watertight triangle tests: the reference
@@ -37,6 +39,7 @@ typedef struct pn_shadow_needs {
     bool candidates;  // the tree's per-leaf triangle lists
     bool bvh;         // a BVH over all triangles
     bool exact_pools; // triangles, BVH and candidate lists on the GPU, for exact triangle tests
+    bool planes;      // the tree's leaf planes (ls-plane)
     bool tlas;        // a device-built acceleration structure (gpu/tlas.h); needs ray queries
 } pn_shadow_needs;
 

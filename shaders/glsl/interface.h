@@ -31,6 +31,8 @@
 #define PN_VARIANT_LINESPACE 0 // the paper's method
 #define PN_VARIANT_HYBRID 1    // exact triangles where the ray starts and ends
 #define PN_VARIANT_EXACT_LS 2  // line spaces only skip empty space
+#define PN_VARIANT_LEAF 3      // set last-level shafts walked down to the leaves; a filled leaf blocks
+#define PN_VARIANT_PLANE 4     // the same walk, from the origin; a filled leaf's plane slab decides
 #define PN_SPEC_COUNT_WORK 2   // shadow shaders: count work per pixel (a 32-bit bool)
 #define PN_SPEC_TEXTURE_COUNT 0 // gbuffer.frag: size of the texture array
 
@@ -141,7 +143,7 @@ PN_STRUCT(TreeInfo, pn_gpu_tree_info) {
     PN_ADDR(NodePool, node_pool)
     PN_ADDR(TreePool, tree_pool)
     PN_ADDR(LinespacePool, ls_pool)
-    PN_UVEC2(pad)       // 64 bytes without needing 64-bit integers in GLSL
+    PN_ADDR(IndexPool, plane_pool) // with leaf planes (ls-plane): one word per leaf of the last-level nodes
 } PN_END(TreeInfo, pn_gpu_tree_info)
 
 // The rectangular one-sided Lambertian area light (shade pass push constants). 96 bytes.

@@ -32,11 +32,13 @@ uvec4 work = uvec4(0u); // nodes, lookups, triangle tests, stack depth (max)
 //    surface's own filled leaves reach one leaf beyond the surface. So no shaft of a node the ray
 //    enters sees the surface it starts on once the ray is more than 3s away from the tangent plane
 //    in the max norm, i.e. once n.(x - p) > 3 s |n|_1: at t_rise along the ray (not a shift along the
-//    normal, which would move the penumbrae).
-vec3 shadow_origin(vec3 p, vec3 nrm, out float rise)
+//    normal, which would move the penumbrae). rise_leaves is that 3 (RISE_SHAFT_LEAVES), or less for
+//    a mode that meets only the leaves the ray itself crosses (ls-leaf, shadow_linespace.comp).
+const float RISE_SHAFT_LEAVES = 3.0;
+vec3 shadow_origin(vec3 p, vec3 nrm, float rise_leaves, out float rise)
 {
     float mag = max(max(max(abs(p.x), abs(p.y)), abs(p.z)), params.scene_mag);
-    rise = 3.0 * params.leaf_size * (abs(nrm.x) + abs(nrm.y) + abs(nrm.z));
+    rise = rise_leaves * params.leaf_size * (abs(nrm.x) + abs(nrm.y) + abs(nrm.z));
     return p + nrm * (8.0 * ulp_bound(mag));
 }
 

@@ -14,35 +14,111 @@
 // loop iteration against one budget per invocation (see the push constant in shadow_common.glsl);
 // structured loops keep that count predictable. Harmless elsewhere. engine/gpu/llvmpipe.md.
 //
-// MODE linespace (PN_VARIANT_LINESPACE): the paper's method; a ray starts where it has risen clear of its surface
-// (t_rise, shadow_frame.glsl) and the last-level nodes where it starts or ends are skipped.
-// MODE hybrid: the same, but the ray starts at its origin, and the last-level nodes the line
+// MODE linespace (PN_VARIANT_LINESPACE): the paper's method; a ray starts where it has risen clear of
+// its surface (t_rise, shadow_frame.glsl), a set shaft of a last-level node blocks it, and the
+// last-level nodes where it starts or ends are skipped.
+// MODE ls-leaf: the same start, but a set last-level shaft, and the last-level nodes where the ray
+// starts or ends, are walked down to their leaves (the DDA of the node's children): a filled leaf
+// the ray crosses blocks it. The ray rises clear of its surface sooner (RISE_LEAVES).
+// MODE ls-plane: walked like ls-leaf, from the ray's origin; each filled leaf holds a plane and a
+// thickness bounding its triangles (ntree.h), and blocks the ray if the ray crosses that slab
+// inside the leaf (leaf_plane_blocks).
+// MODE hybrid: as linespace, but the ray starts at its origin, and the last-level nodes the line
 // space cannot decide (entered before t_rise, or holding the ray's end) have their triangles tested
 // exactly. MODE exact-ls: line spaces only skip empty space; wherever a last-level shaft is set,
 // or a node holds the ray's start or end, its triangles are tested exactly: the result is exact.
 #include "shadow_common.glsl"
+layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_ID;
+layout(constant_id = PN_SPEC_VARIANT) const int MODE = PN_VARIANT_LINESPACE;
+const bool LINESPACE = MODE == PN_VARIANT_LINESPACE;
+const bool LEAF = MODE == PN_VARIANT_LEAF;
+const bool PLANE = MODE == PN_VARIANT_PLANE;
+const bool HYBRID = MODE == PN_VARIANT_HYBRID;
+const bool EXACT_LS = MODE == PN_VARIANT_EXACT_LS;
+// Rays start where they rise clear of their surface (the others start at their origin).
+const bool RISE_START = LINESPACE || LEAF;
+
 #include "shadow_frame.glsl"
 #include "exact.glsl"
 #include "linespace_trace.glsl"
 
-layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
-layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_ID;
-layout(constant_id = PN_SPEC_VARIANT) const int MODE = PN_VARIANT_LINESPACE;
-const bool LINESPACE = MODE == PN_VARIANT_LINESPACE;
-const bool EXACT_LS = MODE == PN_VARIANT_EXACT_LS;
+// Where a ray rises clear of its surface, in leaves above its tangent plane (shadow_origin): for a
+// ray that meets the tree's cells through shafts, 3 (RISE_SHAFT_LEAVES: a shaft reaches one leaf
+// beyond the ray and a filled leaf one leaf beyond its surface). ls-leaf meets only the leaves the
+// ray itself crosses: a leaf holding a point x with n.(x - p) > s |n|_1 lies wholly above the
+// tangent plane (its points are within s of x in the max norm), so 1 leaf clears the surface's
+// own leaves; a quarter leaf more covers the traversal's rounding allowance (4 ulps of leaves at
+// least 16 ulps wide: ntree.c, linespace_trace.glsl).
+const float RISE_LEAVES = LEAF ? 1.25 : RISE_SHAFT_LEAVES;
 
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 const int MAX_DEPTH = PN_NTREE_MAX_DEPTH;
 
 // Where ray i's segment starts, and from where the line space may answer for it (see MODE).
-float ray_start(uint i) { return LINESPACE ? t_rise[i] : 0.0; }
-float ray_trust(uint i) { return EXACT_LS ? 0.0 : t_rise[i]; }
+float ray_start(uint i) { return RISE_START ? t_rise[i] : 0.0; }
+float ray_trust(uint i) { return EXACT_LS || PLANE ? 0.0 : t_rise[i]; }
 
-// A last-level verdict per mode. LS_BLOCKED blocks, except in exact-ls where the ray walks the
-// node's leaves instead; LS_INSIDE is skipped by the paper's rule, and walked in hybrid and
-// exact-ls. A walked last-level node tests the triangles of each filled leaf the ray crosses
-// (leaf_blocked): in those modes a filled leaf decides exactly.
-bool ls_blocks(int c) { return c == LS_BLOCKED && !EXACT_LS; }
-bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) || (EXACT_LS && c == LS_BLOCKED); }
+// A last-level verdict per mode. LS_BLOCKED blocks in linespace and hybrid; in the other modes the
+// ray walks the node's leaves instead. LS_INSIDE is skipped by the paper's rule, and walked in the
+// others. A walked last-level node decides each filled leaf the ray crosses (leaf_blocks).
+bool ls_blocks(int c) { return c == LS_BLOCKED && (LINESPACE || HYBRID); }
+bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) || (c == LS_BLOCKED && !ls_blocks(c)); }
+
+// ls-plane: does filled leaf `cell` of last-level node `node` block the ray? lo: the ray's origin
+// in the node's local frame (the node spans [0, N]^3, a leaf is 1), ld its direction there, eps
+// the rounding allowance of those coordinates (ls_local_box); [t_in, t_out]: where the ray is in
+// the leaf, as the traversal found it (widened here by the rounding allowance, so that a crossing
+// on the leaf's boundary is seen from either side).
+// The leaf's slab (its plane, within the stored thickness) holds every point of its triangles, so a
+// ray that misses the slab inside the leaf misses them. A ray that crosses it is blocked, except
+// in the leaves around its origin (within 1.5 leaves of it in the max norm) whose slab holds the
+// origin up to OWN_SLACK, and those around its end whose slab holds the end: there the slab may be
+// the surface the ray leaves (or the one the light lies on), which it does not cross again. A
+// neighbouring leaf's plane is fitted to the origin's surface where it curves: for curvature
+// radius R it passes beside the origin by about r^2 / (2 R) at distance r <= 1.5 leaves, so
+// OWN_SLACK = 0.5 leaf covers radii down to 2.25 leaves (finer curvature is below what the tree
+// resolves). What this gives up is a blocker within 2 leaves of the origin or the light sample.
+const float OWN_SLACK = 0.5;
+// Farther leaves count as the origin's surface only if they are planar, i.e. no thicker than a plane
+// through the leaf comes out of the fit (at most 10/256 leaf, the 7+7-bit normal's tilt across the
+// leaf: tests/test_leaf_plane.c), and their slab holds the origin: a ray leaving a point of a
+// plane does not cross that plane again (it only grazes the slab when it is nearly in the plane).
+const uint PLANAR_THICKNESS = 10u;
+bool leaf_plane_blocks(uint node, uint cell, uint n3, vec3 lo, vec3 ld, float eps, float t_in, float t_out)
+{
+    uint n = params.tree.n;
+    uint w = params.tree.plane_pool.ids[(node - params.cand_first) * n3 + cell];
+    vec3 mid = vec3(uvec3(cell % n, (cell / n) % n, cell / (n * n))) + 0.5;
+    // Decoding as pn_leaf_plane_decode (accel/leaf_plane.h): octahedral normal (7 + 7 bits),
+    // offset from the leaf's centre in [-sqrt(3)/2, sqrt(3)/2] (9 bits), half-thickness in 1/256
+    // leaf (9 bits).
+    vec2 e = vec2(float(w & 127u), float((w >> 7u) & 127u)) / 126.0 * 2.0 - 1.0;
+    vec3 m = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    m.xy = m.z < 0.0 ? (1.0 - abs(m.yx)) * mix(vec2(-1.0), vec2(1.0), greaterThanEqual(m.xy, vec2(0.0))) : m.xy;
+    m = normalize(m);
+    float off = (float((w >> 14u) & 511u) / 511.0 * 2.0 - 1.0) * 0.8660254;
+    float slab = float(w >> 23u) / 256.0 + 2.0 * eps;
+    float dt = 2.0 * eps / max(max(abs(ld.x), abs(ld.y)), max(abs(ld.z), 1e-30));
+    float d_o = dot(m, lo - mid) - off, dm = dot(m, ld);
+    float d0 = d_o + max(t_in - dt, 0.0) * dm, d1 = d_o + min(t_out + dt, 1.0) * dm;
+    bool crosses = min(d0, d1) <= slab && max(d0, d1) >= -slab;
+    bool near_o = all(lessThanEqual(abs(lo - mid), vec3(1.5 + eps)));
+    bool near_e = all(lessThanEqual(abs(lo + ld - mid), vec3(1.5 + eps)));
+    bool planar = (w >> 23u) <= PLANAR_THICKNESS;
+    bool own = (near_o && abs(d_o) <= slab + OWN_SLACK) || (planar && abs(d_o) <= slab) || (near_e && abs(d_o + dm) <= slab);
+    return crosses && !own;
+}
+
+// Does filled leaf `cell` of walked last-level node `node` block ray (o, d)? See MODE.
+bool leaf_blocks(uint node, uint cell, uint n3, vec3 o, vec3 d, vec3 lo, vec3 ld, float eps, float t_in, float t_out)
+{
+    bool blocks = LINESPACE || LEAF;
+    if (PLANE)
+        blocks = leaf_plane_blocks(node, cell, n3, lo, ld, eps, t_in, t_out);
+    else if (HYBRID || EXACT_LS)
+        blocks = leaf_blocked(node, cell, n3, wray(o, d), 0.0, 1.0);
+    return blocks;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Per-ray traversal
@@ -80,18 +156,24 @@ struct Dda {
     vec3 t_max;
     vec3 t_delta;
     float t_end;
+    float t_cell; // where the ray enters the current cell
+    vec3 o_local; // the ray's origin in the node's frame, and that frame's rounding allowance (ls-plane)
+    float eps;
     bool done;
 };
 
-// The tree entry of the DDA's current cell, then the DDA advanced to the next cell.
+// The tree entry of the DDA's current cell (its child index, and the ray's parameters where it
+// enters and leaves it), then the DDA advanced to the next cell.
 // llvmpipe: branch-free, with no dynamic component index (that driver turns one into branches).
-uint dda_step(TreeInfo t, int n, uint n3, inout Dda f, out uint child)
+uint dda_step(TreeInfo t, int n, uint n3, inout Dda f, out uint child, out vec2 t_cell_range)
 {
     child = uint((f.cell.z * n + f.cell.y) * n + f.cell.x);
     uint entry = t.tree_pool.entries[f.node * n3 + child];
     bool mx = f.t_max.x <= f.t_max.y && f.t_max.x <= f.t_max.z, my = !mx && f.t_max.y <= f.t_max.z;
     bvec3 m = bvec3(mx, my, !mx && !my);
     float t_cell = min(f.t_max.x, min(f.t_max.y, f.t_max.z)); // where the next cell starts
+    t_cell_range = vec2(f.t_cell, t_cell);
+    f.t_cell = t_cell;
     f.cell += ivec3(m) * f.step;
     f.t_max += mix(vec3(0.0), f.t_delta, m);
     f.done = t_cell > f.t_end || any(lessThan(f.cell, ivec3(0))) || any(greaterThanEqual(f.cell, ivec3(n)));
@@ -109,7 +191,7 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
     vec3 d = vec3(0.0);
     float t_start = 0.0, t_trust = 0.0;
     int depth = -1; // of the current node; -1: no ray in flight
-    Dda f = Dda(0u, ivec3(0), ivec3(0), vec3(0.0), vec3(0.0), 0.0, true);
+    Dda f = Dda(0u, ivec3(0), ivec3(0), vec3(0.0), vec3(0.0), 0.0, 0.0, vec3(0.0), 0.0, true);
     // The stack: s<i> holds the DDA of the ancestor at depth i (a node at depth MAX_DEPTH - 1 is
     // never entered below, so 5 slots).
     Dda s0 = f, s1 = f, s2 = f, s3 = f, s4 = f;
@@ -134,16 +216,17 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             // llvmpipe (Mesa 22.3): written out, not as a loop, so that it costs no loop budget;
             // 3 beats 2 and 4 as measured there.
             uint child;
-            uint entry = dda_step(t, n, n3, f, child);
+            vec2 tc;
+            uint entry = dda_step(t, n, n3, f, child, tc);
             if (entry == CELL_EMPTY && !f.done)
-                entry = dda_step(t, n, n3, f, child);
+                entry = dda_step(t, n, n3, f, child, tc);
             if (entry == CELL_EMPTY && !f.done)
-                entry = dda_step(t, n, n3, f, child);
-            // A filled leaf, reached by a ray walking a last-level node's children: in linespace mode
-            // (where only rays in a face plane walk them) it blocks, in the others its triangles
-            // decide. The DDA has moved on: the leaf is the cell it left.
+                entry = dda_step(t, n, n3, f, child, tc);
+            // A filled leaf, reached by a ray walking a last-level node's children (in linespace mode
+            // only rays in a face plane walk them): the mode decides (leaf_blocks). The DDA has moved on: the leaf is the cell it left, crossed over tc.
+            // The node-local direction is the DDA's: |d_k| = 1 / t_delta_k, 0 on a flat axis.
             if (entry == CELL_FILLED)
-                blocked = LINESPACE || leaf_blocked(f.node, child, n3, wray(o, d), 0.0, 1.0);
+                blocked = leaf_blocks(f.node, child, n3, o, d, f.o_local, vec3(f.step) / f.t_delta, f.eps, tc.x, tc.y);
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -169,6 +252,9 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
                 bvec3 flat_axis = equal(l.d, vec3(0.0));
                 f.node = next;
                 f.t_end = min(t_out, 1.0);
+                f.t_cell = t0;
+                f.o_local = l.o;
+                f.eps = l.eps;
                 f.cell = clamp(ivec3(floor(l.o + t0 * l.d)), ivec3(0), ivec3(n - 1));
                 f.step = ivec3(sign(l.d));
                 vec3 boundary = vec3(f.cell + ivec3(greaterThan(l.d, vec3(0.0))));
@@ -324,16 +410,16 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
             uint entry = t.tree_pool.entries[f.node * n3 + uint((cell.z * n + cell.y) * n + cell.x)];
             uint live = f.rays & ~blocked;
             if (entry == CELL_FILLED) {
-                // A leaf, reached only by rays walking a last-level node's children (in a face
-                // plane): each of them that crosses it is blocked.
+                // A leaf, reached by rays walking a last-level node's children: the mode decides for
+                // each of them that crosses it (leaf_blocks).
                 for (uint left = live; left != 0u; left &= left - 1u) {
                     uint i = uint(findLSB(left));
                     Local l = ls_local_box(node_min, zs.y, fn, o, dir[i]);
                     l.o -= vec3(cell);
                     float t_in, t_out;
                     bool hit = ls_slabs(l, 1.0, t_in, t_out) && t_in <= 1.0 && t_out >= ray_start(i);
-                    hit = hit && (LINESPACE || leaf_blocked(f.node, uint((cell.z * n + cell.y) * n + cell.x), n3,
-                                                            wray(o, dir[i]), 0.0, 1.0));
+                    uint ci = uint((cell.z * n + cell.y) * n + cell.x);
+                    hit = hit && leaf_blocks(f.node, ci, n3, o, dir[i], l.o + vec3(cell), l.d, l.eps, t_in, t_out);
                     blocked |= hit ? (1u << i) : 0u;
                 }
             } else if (entry != CELL_EMPTY && live != 0u) {
@@ -381,15 +467,15 @@ void main()
     if (!shadow_pixel(px, p, nrm))
         return;
     float rise;
-    vec3 o = shadow_origin(p, nrm, rise);
+    vec3 o = shadow_origin(p, nrm, RISE_LEAVES, rise);
     TreeInfo t = params.tree;
     uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
-    // The rays to trace: the valid ones; in linespace mode only those that rise clear of their
+    // The rays to trace: the valid ones; in linespace and ls-leaf only those that rise clear of their
     // surface before reaching the light (the others pass within a few leaves of it: unblocked).
     uint traced = valid_rays;
-    for (uint j = 0u; LINESPACE && j < count; j++)
+    for (uint j = 0u; RISE_START && j < count; j++)
         traced &= t_rise[j] < 1.0 ? ~0u : ~(1u << j);
     uint blocked = 0u;
     if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID) {
@@ -397,7 +483,7 @@ void main()
         // samples rather than the whole light (the light is a parallelogram, so its (s, t) box is
         // one); its footprints have fewer cells to visit, the rays and their decisions are the same.
         // Modes that trace every valid ray use the whole light.
-        if (!LINESPACE) {
+        if (!RISE_START) {
             st_lo = vec2(0.0);
             st_hi = vec2(1.0);
         }

@@ -29,7 +29,7 @@ void main()
     if (!shadow_pixel(px, p, nrm))
         return;
     float rise;
-    vec3 o = shadow_origin(p, nrm, rise);
+    vec3 o = shadow_origin(p, nrm, RISE_SHAFT_LEAVES, rise);
     uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
