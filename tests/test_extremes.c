@@ -29,7 +29,8 @@
 //    light sample q). Nearer blockers are the method's documented loss of contact shadows.
 //  - ls-leaf: free as hybrid (a filled leaf the ray crosses holds a triangle within the dilation);
 //    blocked when it surely crosses a triangle at x past its rise, n.(x - g) > 1.25 s |n|_1
-//    (shadow_linespace.comp, RISE_LEAVES).
+//    (shadow_linespace.comp, RISE_LEAVES), and as far in front of the light's plane,
+//    m.(x - q) > 1.25 s |m|_1 for the light's emitting normal m (leaf_t_fall).
 //  - ls-plane: free as hybrid (the slab it crosses lies in a leaf holding a triangle); blocked when
 //    it surely crosses a triangle at x more than 2 s (max norm) from both g and q: only the leaves
 //    within 1.5 leaves of the origin or the end may be taken for the surface the ray leaves
@@ -377,8 +378,12 @@ static bounds pixel_bounds(const oracle *o, const double g[3], const double nrm[
                     if (o->mode == PN_SHADOW_LINESPACE)
                         counts = dot3(nrm, gx) > (3 + o->n) * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e &&
                                  inf_q > node * (1 + 0x1p-10) + 2 * o->e;
-                    else if (o->mode == PN_SHADOW_LEAF)
-                        counts = dot3(nrm, gx) > 1.25 * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e;
+                    else if (o->mode == PN_SHADOW_LEAF) {
+                        double qx[3], m1 = fabs(o->light_n[0]) + fabs(o->light_n[1]) + fabs(o->light_n[2]);
+                        sub3(x, q, qx);
+                        counts = dot3(nrm, gx) > 1.25 * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e &&
+                                 dot3(o->light_n, qx) > 1.25 * o->leaf * m1 * (1 + 0x1p-10) + 2 * o->e;
+                    }
                     else if (o->mode == PN_SHADOW_PLANE)
                         counts = inf_g > 2 * o->leaf * (1 + 0x1p-10) + 2 * o->e &&
                                  inf_q > 2 * o->leaf * (1 + 0x1p-10) + 2 * o->e;

@@ -8,6 +8,7 @@
 //    plane's (a 7+7-bit octahedral code), and the slab is thin: the tilt across the leaf's
 //    half-diagonal, sin(2 deg) * sqrt(3)/2 = 0.030 leaf, plus the offset's quantum (sqrt(3)/511 / 2)
 //    and two 1/256 of rounding up: at most 10/256 leaf;
+//  - a triangle within the occupancy slack of the leaf is fitted as a thin slab, not a solid leaf;
 //  - an empty leaf is 0; a leaf of degenerate triangles (no area) is solid.
 #include <math.h>
 
@@ -64,7 +65,7 @@ int main(void)
                 for (int k = 0; k < 3; k++)
                     tri[t][3 * v + k] = (float)(lo[k] + size * (2 * uniform() - 0.5));
         }
-        uint32_t w = pn_leaf_plane_fit((const float(*)[9])tri, ids, count, lo, size);
+        uint32_t w = pn_leaf_plane_fit((const float(*)[9])tri, ids, count, lo, size, 0);
         solid += w == PN_PLANE_SOLID;
         double e = worst_excess((const float(*)[9])tri, count, lo, size, w);
         worst = fmax(worst, e);
@@ -93,12 +94,13 @@ int main(void)
         for (int t = 0; t < 8; t++) {
             ids[t] = (uint32_t)t;
             int gx = t / 2 % 2, gy = t / 4, upper = t % 2;
-            double c0[2] = {gx - 1.0, gy - 1.0}, q[3][2] = {{c0[0], c0[1]}, {c0[0] + 1, c0[1] + upper}, {c0[0] + !upper, c0[1] + 1}};
+            double c0[2] = {gx - 1.0, gy - 1.0};
+            double q[3][2] = {{c0[0], c0[1]}, {c0[0] + 1, c0[1] + upper}, {c0[0] + !upper, c0[1] + 1}};
             for (int vtx = 0; vtx < 3; vtx++)
                 for (int k = 0; k < 3; k++)
                     tri[t][3 * vtx + k] = (float)(centre[k] + 1.2 * size * (q[vtx][0] * u[k] + q[vtx][1] * v[k]));
         }
-        uint32_t w = pn_leaf_plane_fit((const float(*)[9])tri, ids, 8, lo, size);
+        uint32_t w = pn_leaf_plane_fit((const float(*)[9])tri, ids, 8, lo, size, 0);
         double m[3], off, thick = pn_leaf_plane_decode(w, m, &off);
         double cosang = fabs(m[0] * n[0] + m[1] * n[1] + m[2] * n[2]), angle = acos(fmin(1, cosang)) * 57.29577951308232;
         worst_thick = fmax(worst_thick, thick);
@@ -109,11 +111,20 @@ int main(void)
     }
     fprintf(stderr, "flat: half-thickness at most %.4f leaves, normal within %.2f degrees\n", worst_thick, worst_angle);
 
+    // A triangle that filled the leaf only within the occupancy test's slack (4 ulps above its top
+    // face) is fitted, clipped to the grown box, not taken for a solid leaf.
+    double lo[3] = {0, 0, 0}, slack = 4 * 0x1p-23;
+    float above[1][9] = {{-1, -1, 1.0000001f, 3, -1, 1.0000001f, -1, 3, 1.0000001f}};
+    uint32_t id0 = 0, w_above = pn_leaf_plane_fit((const float(*)[9])above, &id0, 1, lo, 1.0, slack);
+    double m_above[3], off_above, thick_above = pn_leaf_plane_decode(w_above, m_above, &off_above);
+    CHECK_MSG(w_above != PN_PLANE_SOLID && thick_above <= 2.0 / 256 && fabs(fabs(m_above[2]) - 1) < 1e-12,
+              "a triangle within the slack gave word %08x (half-thickness %g)", w_above, thick_above);
+
     // Empty and degenerate leaves.
-    double lo[3] = {0, 0, 0};
-    CHECK(pn_leaf_plane_fit(NULL, NULL, 0, lo, 1.0) == 0);
-    float line[2][9] = {{0.1f, 0.1f, 0.1f, 0.5f, 0.5f, 0.5f, 0.9f, 0.9f, 0.9f}, {0.2f, 0.5f, 0.5f, 0.2f, 0.5f, 0.5f, 0.2f, 0.5f, 0.5f}};
+    CHECK(pn_leaf_plane_fit(NULL, NULL, 0, lo, 1.0, 0) == 0);
+    float line[2][9] = {{0.1f, 0.1f, 0.1f, 0.5f, 0.5f, 0.5f, 0.9f, 0.9f, 0.9f},  // collinear
+                        {0.2f, 0.5f, 0.5f, 0.2f, 0.5f, 0.5f, 0.2f, 0.5f, 0.5f}}; // one point
     uint32_t ids[2] = {0, 1};
-    CHECK(pn_leaf_plane_fit((const float(*)[9])line, ids, 2, lo, 1.0) == PN_PLANE_SOLID);
+    CHECK(pn_leaf_plane_fit((const float(*)[9])line, ids, 2, lo, 1.0, 0) == PN_PLANE_SOLID);
     return pn_test_result();
 }

@@ -2,15 +2,22 @@
 #include "accel/leaf_plane.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <string.h>
 
 static const double HALF_DIAGONAL = 0.8660254037844386; // of a unit cube: sqrt(3) / 2
 
+// At most 9 vertices in exact arithmetic (3 + one per plane); rounding at vertices on a face can add
+// sign changes, so the arrays hold more and a polygon that would still overflow them is reported.
+enum { CLIP_MAX = 16 };
+
 // Triangle v clipped to the box [lo, hi] (Sutherland-Hodgman, in double): the polygon's vertices
-// (returned: their count) and its area vector (A m).
-static int clip_polygon(const float v[9], const double lo[3], const double hi[3], double res[9][3], double area[3])
+// (returned: their count, or -1 if they overflowed CLIP_MAX) and its area vector (A m).
+static int clip_polygon(const float v[9], const double lo[3], const double hi[3], double res[CLIP_MAX][3],
+                        double area[3])
 {
-    double poly[2][9][3];
+    double poly[2][CLIP_MAX][3];
+    bool overflow = false;
     int count = 3, cur = 0;
     for (int i = 0; i < 3; i++)
         for (int k = 0; k < 3; k++)
@@ -22,9 +29,10 @@ static int clip_polygon(const float v[9], const double lo[3], const double hi[3]
         for (int i = 0; i < count; i++) {
             const double *a = poly[cur][i], *b = poly[cur][(i + 1) % count];
             double da = sign * (a[k] - bound), db = sign * (b[k] - bound);
-            if (da >= 0 && out < 9)
+            overflow = overflow || out + 2 > CLIP_MAX;
+            if (da >= 0 && out < CLIP_MAX)
                 memcpy(poly[!cur][out++], a, sizeof(double[3]));
-            if ((da >= 0) != (db >= 0) && out < 9) {
+            if ((da >= 0) != (db >= 0) && out < CLIP_MAX) {
                 double f = da / (da - db);
                 for (int j = 0; j < 3; j++)
                     poly[!cur][out][j] = a[j] + f * (b[j] - a[j]);
@@ -43,7 +51,7 @@ static int clip_polygon(const float v[9], const double lo[3], const double hi[3]
         area[2] += 0.5 * (e1[0] * e2[1] - e1[1] * e2[0]);
     }
     memcpy(res, poly[cur], (size_t)count * sizeof res[0]);
-    return count;
+    return overflow ? -1 : count;
 }
 
 // Octahedral code of unit vector n in 7 + 7 bits, and its decoding (mirrored in the shader).
@@ -81,13 +89,17 @@ double pn_leaf_plane_decode(uint32_t word, double m[3], double *offset)
     return (double)(word >> 23) / 256;
 }
 
-uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t count, const double lo[3], double size)
+uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t count, const double lo[3], double size,
+                           double grow)
 {
     if (count == 0)
         return 0;
-    double hi[3], mid[3];
-    for (int k = 0; k < 3; k++)
-        hi[k] = lo[k] + size, mid[k] = lo[k] + 0.5 * size;
+    double clip_lo[3], clip_hi[3], mid[3];
+    for (int k = 0; k < 3; k++) {
+        clip_lo[k] = lo[k] - grow;
+        clip_hi[k] = lo[k] + size + grow;
+        mid[k] = lo[k] + 0.5 * size;
+    }
     // Pass 0: the largest clipped piece, whose orientation the others take (a mesh's triangles need
     // not agree on their winding). Pass 1: the oriented sum of the pieces' area vectors (A m) and
     // their area-weighted centroid. Pass 2: the slab's half-thickness about the quantised plane.
@@ -98,7 +110,9 @@ uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t 
     for (int pass = 0; pass < 3; pass++) {
         if (pass == 2) {
             double len = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
-            // No area to fit (only degenerate pieces, or ones that cancel): the whole leaf.
+            // No area to fit: only degenerate pieces, or pieces that cancel (whose sum is left with
+            // nothing but rounding, about 1e-16 of their areas in double; 1e-9 of the leaf's face
+            // is far above that and far below any piece that can block a ray): the whole leaf.
             if (wsum <= 0 || !(len > 1e-9 * size * size))
                 return PN_PLANE_SOLID;
             double nrm[3] = {sum[0] / len, sum[1] / len, sum[2] / len}, off = 0;
@@ -110,8 +124,10 @@ uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t 
             offq = ((double)oq / 511 * 2 - 1) * HALF_DIAGONAL * size;
         }
         for (uint32_t j = 0; j < count; j++) {
-            double poly[9][3], area[3];
-            int n = clip_polygon(tri[ids[j]], lo, hi, poly, area);
+            double poly[CLIP_MAX][3], area[3];
+            int n = clip_polygon(tri[ids[j]], clip_lo, clip_hi, poly, area);
+            if (n < 0)
+                return PN_PLANE_SOLID; // a piece the clip could not hold: no slab is known to hold it
             double a2 = area[0] * area[0] + area[1] * area[1] + area[2] * area[2];
             if (pass == 0 && a2 > best) {
                 best = a2;
@@ -134,9 +150,9 @@ uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t 
             }
         }
     }
-    // In 1/256 leaf, rounded up, plus one for the GPU's float decoding of the plane (a relative
-    // error of a few 1e-7 of a leaf, far below 1/256). A slab as thick as the leaf is wide holds all
-    // of it: solid.
+    // In 1/256 leaf, rounded up, plus one 1/256 of margin. (The shader's own rounding, which grows
+    // with the coordinates' magnitude, is its traversal allowance eps, added there.) A slab as thick
+    // as the leaf is wide holds all of it: solid.
     double tq = ceil(thick / size * 256) + 1;
     return tq >= 511 ? PN_PLANE_SOLID : code | (uint32_t)oq << 14 | (uint32_t)tq << 23;
 }

@@ -17,8 +17,10 @@
 
 #define PN_PLANE_SOLID (511u << 23)
 
-// The word of the triangles ids[0 .. count) of tri (9 floats each) in the leaf [lo, lo + size]^3.
-uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t count, const double lo[3], double size);
+// The word of the triangles ids[0 .. count) of tri (9 floats each) in the leaf [lo, lo + size]^3,
+// clipped to that box grown by `grow` (the slack of the occupancy test that put them in the leaf).
+uint32_t pn_leaf_plane_fit(const float (*tri)[9], const uint32_t *ids, uint32_t count, const double lo[3], double size,
+                           double grow);
 
 // The plane of a word: unit normal m and offset from the leaf's centre, in leaves; returns the slab's
 // half-thickness in leaves (0 for an empty leaf).

@@ -18,7 +18,7 @@
 
 pn_pool_bytes pn_ntree_pool_bytes(int n, uint64_t s)
 {
-    pn_pool_bytes b;
+    pn_pool_bytes b = {0};
     b.tree = s * (uint64_t)(n * n * n) * sizeof(uint32_t);
     b.node = s * 32; // pn_gpu_node, accel/pools.h
     b.linespace = s * pn_ls_words64(n) * sizeof(uint64_t);
@@ -244,11 +244,14 @@ static void gather_nodes(void *ctx, uint64_t begin, uint64_t end, unsigned threa
     }
 }
 
-// True if pools of `subdivided` nodes fit the limits of desc; else logs why not.
-static bool fits(const pn_ntree_desc *desc, uint64_t subdivided, bool partial)
+// True if pools of `subdivided` nodes (and plane_bytes of leaf planes) fit the limits of desc; else
+// logs why not.
+static bool fits(const pn_ntree_desc *desc, uint64_t subdivided, uint64_t plane_bytes, bool partial)
 {
     pn_pool_bytes pb = pn_ntree_pool_bytes(desc->n, subdivided);
+    pb.total += plane_bytes;
     uint64_t largest = pb.linespace > pb.tree ? pb.linespace : pb.tree;
+    largest = plane_bytes > largest ? plane_bytes : largest;
     largest = pb.node > largest ? pb.node : largest;
     bool total_ok = !desc->max_bytes || pb.total <= desc->max_bytes;
     bool pool_ok = !desc->max_pool_bytes || largest <= desc->max_pool_bytes;
@@ -377,7 +380,6 @@ static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t
         total += lists[i][n3];
     if (total > UINT32_MAX || entries > UINT32_MAX)
         return PN_ERR_MEMORY;
-    t->cand_first_node = lcount ? lnodes[0].node : 0;
     t->cand_offsets = (uint32_t)entries;
     t->cand_offset = malloc(entries * sizeof *t->cand_offset);
     t->cand_tris = malloc((size_t)(total ? total : 1) * sizeof *t->cand_tris);
@@ -422,7 +424,9 @@ static void plane_nodes(void *ctx, uint64_t begin, uint64_t end, unsigned thread
             double lo[3];
             for (int k = 0; k < 3; k++)
                 lo[k] = t->root_min[k] + (double)(node->coord[k] * n + xyz[k]) * cs;
-            t->planes[i * n3 + c] = pn_leaf_plane_fit(a->tri, ids + off[c], off[c + 1] - off[c], lo, cs);
+            // Clipped to the box the occupancy test used (grown by the slack), so that a triangle
+            // that filled the leaf within the slack counts.
+            t->planes[i * n3 + c] = pn_leaf_plane_fit(a->tri, ids + off[c], off[c + 1] - off[c], lo, cs, t->slack);
         }
     }
 }
@@ -525,7 +529,8 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             }
         }
         build_ctx b = {.t = t, .tri = (const float(*)[9])tri, .box = (const float(*)[6])box, .lnodes = lnodes,
-                       .chunks = chunks, .level = level, .need_lists = level + 1 < t->d || desc->keep_candidates || desc->leaf_planes, .child_lists = lists};
+                       .chunks = chunks, .level = level,
+                       .need_lists = level + 1 < t->d || desc->keep_candidates || desc->leaf_planes, .child_lists = lists};
         atomic_init(&b.failed, false);
         pn_parallel_for(nchunks, 1, split_chunks, &b);
         gather_ctx g = {&b, nc};
@@ -558,7 +563,8 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
         t->filled_per_level[level + 1] = filled;
         bool last = level + 1 == t->d;
         uint64_t subdivided = t->node_count + (last ? 0 : filled);
-        if (!fits(desc, subdivided, !last)) {
+        uint64_t plane_bytes = last && desc->leaf_planes ? (uint64_t)lcount * n3 * sizeof(uint32_t) : 0;
+        if (!fits(desc, subdivided, plane_bytes, !last)) {
             free_lists(lists, lcount);
             r = PN_ERR_MEMORY;
             break;

@@ -58,8 +58,9 @@ typedef struct pn_ntree {
     uint64_t filled_per_level[PN_NTREE_MAX_DEPTH + 1]; // filled cells at level 0..d
     uint64_t set_bits;                                 // over all line spaces
     // The last-level nodes are numbered consecutively from cand_first_node (every tree).
-    // With keep_candidates: the triangles (scene ids) of every leaf of the last-level nodes. Leaf c of last-level node i has
-    // cand_tris[cand_offset[k] .. cand_offset[k + 1]), k = (i - cand_first_node) * n^3 + c.
+    // With keep_candidates: the triangles (scene ids) of every leaf of the last-level nodes. Leaf c
+    // of last-level node i has cand_tris[cand_offset[k] .. cand_offset[k + 1]),
+    // k = (i - cand_first_node) * n^3 + c.
     uint32_t cand_first_node;
     uint32_t *cand_offset; // (last-level nodes) * n^3 + 1
     uint32_t cand_offsets; // entries of cand_offset

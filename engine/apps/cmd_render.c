@@ -218,10 +218,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                pn_traversal_names[o->r.traversal], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed);
         if (tree)
             printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"culled_by_view\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
-                   "\"node\": %llu, \"linespace\": %llu, \"total\": %llu}, ",
+                   "\"node\": %llu, \"linespace\": %llu, \"planes\": %llu, \"total\": %llu}, ",
                    o->r.tree_n, o->r.tree_d, st->subdivided, st->culled, st->culled_box, st->build_ms, (unsigned long long)st->pools.tree,
                    (unsigned long long)st->pools.node, (unsigned long long)st->pools.linespace,
-                   (unsigned long long)st->pools.total);
+                   (unsigned long long)st->pools.planes, (unsigned long long)st->pools.total);
         else
             printf("\"tree\": null, \"build_ms\": %.3f, \"pool_bytes\": null, ", st->build_ms);
         printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);

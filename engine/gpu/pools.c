@@ -35,6 +35,7 @@ pn_result pn_gpu_pools_create(pn_gpu_device *dev, const pn_pools *pools, pn_gpu_
             return r;
         }
     }
+    out->has_planes = pools->planes != NULL;
     out->info = pools->info;
     out->info.node_pool = out->nodes.address;
     out->info.tree_pool = out->tree.address;

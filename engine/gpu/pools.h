@@ -1,10 +1,12 @@
-// The N-tree pools on the GPU: device-local buffers (nodes, tree, line spaces, leaf planes) reached by buffer device address.
+// The N-tree pools on the GPU: device-local buffers (nodes, tree, line spaces, leaf planes) reached by
+// buffer device address.
 #pragma once
 #include "accel/pools.h"
 #include "gpu/resources.h"
 
 typedef struct pn_gpu_pools {
     pn_gpu_buffer nodes, tree, linespace, planes;
+    bool has_planes;       // the tree was built with leaf planes (else `planes` is a few zero bytes)
     pn_gpu_tree_info info; // with the pools' addresses filled in
 } pn_gpu_pools;
 

@@ -87,6 +87,10 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the N-tree's pools", mode->name);
         return PN_ERR_INVALID;
     }
+    if (mode->needs.planes && !desc->pools->has_planes) {
+        pn_error("%s shadows need the N-tree's leaf planes", mode->name);
+        return PN_ERR_INVALID;
+    }
     if (mode->needs.exact_pools && !desc->exact) {
         pn_error("%s shadows need the triangle pools of the exact tests", mode->name);
         return PN_ERR_INVALID;

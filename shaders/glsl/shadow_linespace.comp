@@ -67,8 +67,8 @@ bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) 
 // ls-plane: does filled leaf `cell` of last-level node `node` block the ray? lo: the ray's origin
 // in the node's local frame (the node spans [0, N]^3, a leaf is 1), ld its direction there, eps
 // the rounding allowance of those coordinates (ls_local_box); [t_in, t_out]: where the ray is in
-// the leaf, as the traversal found it (widened here by the rounding allowance, so that a crossing
-// on the leaf's boundary is seen from either side).
+// the leaf grown by eps (ls_slabs), so that a crossing on the leaf's boundary is seen from either
+// side.
 // The leaf's slab (its plane, within the stored thickness) holds every point of its triangles, so a
 // ray that misses the slab inside the leaf misses them. A ray that crosses it is blocked, except
 // in the leaves around its origin (within 1.5 leaves of it in the max norm) whose slab holds the
@@ -79,6 +79,7 @@ bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) 
 // OWN_SLACK = 0.5 leaf covers radii down to 2.25 leaves (finer curvature is below what the tree
 // resolves). What this gives up is a blocker within 2 leaves of the origin or the light sample.
 const float OWN_SLACK = 0.5;
+const float HALF_DIAGONAL = 0.8660254; // of a unit cube, sqrt(3)/2: the range of a plane's offset
 // Farther leaves count as the origin's surface only if they are planar, i.e. no thicker than a plane
 // through the leaf comes out of the fit (at most 10/256 leaf, the 7+7-bit normal's tilt across the
 // leaf: tests/test_leaf_plane.c), and their slab holds the origin: a ray leaving a point of a
@@ -96,23 +97,35 @@ bool leaf_plane_blocks(uint node, uint cell, uint n3, vec3 lo, vec3 ld, float ep
     vec3 m = vec3(e, 1.0 - abs(e.x) - abs(e.y));
     m.xy = m.z < 0.0 ? (1.0 - abs(m.yx)) * mix(vec2(-1.0), vec2(1.0), greaterThanEqual(m.xy, vec2(0.0))) : m.xy;
     m = normalize(m);
-    float off = (float((w >> 14u) & 511u) / 511.0 * 2.0 - 1.0) * 0.8660254;
+    float off = (float((w >> 14u) & 511u) / 511.0 * 2.0 - 1.0) * HALF_DIAGONAL;
+    // The slab grown by the rounding of both the point's coordinates and the leaf's centre, each
+    // within eps (ls_local_box).
     float slab = float(w >> 23u) / 256.0 + 2.0 * eps;
-    float dt = 2.0 * eps / max(max(abs(ld.x), abs(ld.y)), max(abs(ld.z), 1e-30));
     float d_o = dot(m, lo - mid) - off, dm = dot(m, ld);
-    float d0 = d_o + max(t_in - dt, 0.0) * dm, d1 = d_o + min(t_out + dt, 1.0) * dm;
+    float d0 = d_o + max(t_in, 0.0) * dm, d1 = d_o + min(t_out, 1.0) * dm;
     bool crosses = min(d0, d1) <= slab && max(d0, d1) >= -slab;
     bool near_o = all(lessThanEqual(abs(lo - mid), vec3(1.5 + eps)));
     bool near_e = all(lessThanEqual(abs(lo + ld - mid), vec3(1.5 + eps)));
     bool planar = (w >> 23u) <= PLANAR_THICKNESS;
-    bool own = (near_o && abs(d_o) <= slab + OWN_SLACK) || (planar && abs(d_o) <= slab) || (near_e && abs(d_o + dm) <= slab);
+    bool own = (near_o && abs(d_o) <= slab + OWN_SLACK) || (planar && abs(d_o) <= slab) ||
+               (near_e && abs(d_o + dm) <= slab);
     return crosses && !own;
+}
+
+// ls-leaf at the light's end, as at the ray's start: the ray x(t) = o + t d lies (1 - t) n_L.(-d)
+// in front of the light's plane (n_L its emitting normal), so a leaf it enters before
+// t_fall = 1 - RISE_LEAVES s |n_L|_1 / n_L.(-d) lies wholly in front of the light (by the argument of
+// RISE_LEAVES); a later one may hold the surface the light is mounted on, and does not block.
+float leaf_t_fall(vec3 d)
+{
+    vec3 nl = params.light.normal.xyz;
+    return 1.0 - RISE_LEAVES * params.leaf_size * (abs(nl.x) + abs(nl.y) + abs(nl.z)) / dot(nl, -d);
 }
 
 // Does filled leaf `cell` of walked last-level node `node` block ray (o, d)? See MODE.
 bool leaf_blocks(uint node, uint cell, uint n3, vec3 o, vec3 d, vec3 lo, vec3 ld, float eps, float t_in, float t_out)
 {
-    bool blocks = LINESPACE || LEAF;
+    bool blocks = LINESPACE || (LEAF && t_in < leaf_t_fall(d));
     if (PLANE)
         blocks = leaf_plane_blocks(node, cell, n3, lo, ld, eps, t_in, t_out);
     else if (HYBRID || EXACT_LS)
@@ -156,24 +169,18 @@ struct Dda {
     vec3 t_max;
     vec3 t_delta;
     float t_end;
-    float t_cell; // where the ray enters the current cell
-    vec3 o_local; // the ray's origin in the node's frame, and that frame's rounding allowance (ls-plane)
-    float eps;
     bool done;
 };
 
-// The tree entry of the DDA's current cell (its child index, and the ray's parameters where it
-// enters and leaves it), then the DDA advanced to the next cell.
+// The tree entry of the DDA's current cell (and its child index), then the DDA advanced to the next cell.
 // llvmpipe: branch-free, with no dynamic component index (that driver turns one into branches).
-uint dda_step(TreeInfo t, int n, uint n3, inout Dda f, out uint child, out vec2 t_cell_range)
+uint dda_step(TreeInfo t, int n, uint n3, inout Dda f, out uint child)
 {
     child = uint((f.cell.z * n + f.cell.y) * n + f.cell.x);
     uint entry = t.tree_pool.entries[f.node * n3 + child];
     bool mx = f.t_max.x <= f.t_max.y && f.t_max.x <= f.t_max.z, my = !mx && f.t_max.y <= f.t_max.z;
     bvec3 m = bvec3(mx, my, !mx && !my);
     float t_cell = min(f.t_max.x, min(f.t_max.y, f.t_max.z)); // where the next cell starts
-    t_cell_range = vec2(f.t_cell, t_cell);
-    f.t_cell = t_cell;
     f.cell += ivec3(m) * f.step;
     f.t_max += mix(vec3(0.0), f.t_delta, m);
     f.done = t_cell > f.t_end || any(lessThan(f.cell, ivec3(0))) || any(greaterThanEqual(f.cell, ivec3(n)));
@@ -191,7 +198,10 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
     vec3 d = vec3(0.0);
     float t_start = 0.0, t_trust = 0.0;
     int depth = -1; // of the current node; -1: no ray in flight
-    Dda f = Dda(0u, ivec3(0), ivec3(0), vec3(0.0), vec3(0.0), 0.0, 0.0, vec3(0.0), 0.0, true);
+    // The ray in the frame of the node last entered. Leaves are walked only in a last-level node,
+    // always the deepest frame, so this needs no slot on the stack.
+    Local leaf_l = Local(vec3(0.0), vec3(0.0), 0.0);
+    Dda f = Dda(0u, ivec3(0), ivec3(0), vec3(0.0), vec3(0.0), 0.0, true);
     // The stack: s<i> holds the DDA of the ancestor at depth i (a node at depth MAX_DEPTH - 1 is
     // never entered below, so 5 slots).
     Dda s0 = f, s1 = f, s2 = f, s3 = f, s4 = f;
@@ -216,17 +226,23 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             // llvmpipe (Mesa 22.3): written out, not as a loop, so that it costs no loop budget;
             // 3 beats 2 and 4 as measured there.
             uint child;
-            vec2 tc;
-            uint entry = dda_step(t, n, n3, f, child, tc);
+            uint entry = dda_step(t, n, n3, f, child);
             if (entry == CELL_EMPTY && !f.done)
-                entry = dda_step(t, n, n3, f, child, tc);
+                entry = dda_step(t, n, n3, f, child);
             if (entry == CELL_EMPTY && !f.done)
-                entry = dda_step(t, n, n3, f, child, tc);
+                entry = dda_step(t, n, n3, f, child);
             // A filled leaf, reached by a ray walking a last-level node's children (in linespace mode
-            // only rays in a face plane walk them): the mode decides (leaf_blocks). The DDA has moved on: the leaf is the cell it left, crossed over tc.
-            // The node-local direction is the DDA's: |d_k| = 1 / t_delta_k, 0 on a flat axis.
+            // only rays in a face plane walk them): the mode decides (leaf_blocks). The DDA has moved
+            // on: the leaf is the cell it left. ls-leaf and ls-plane need where the ray is in it:
+            // the same slab test as the packet traversal's, in the node's frame (leaf_l).
+            float t_in = 0.0, t_out = 1.0;
+            if (entry == CELL_FILLED && (LEAF || PLANE)) {
+                uvec3 c = uvec3(child % t.n, (child / t.n) % t.n, child / (t.n * t.n));
+                Local lc = Local(leaf_l.o - vec3(c), leaf_l.d, leaf_l.eps);
+                ls_slabs(lc, 1.0, t_in, t_out);
+            }
             if (entry == CELL_FILLED)
-                blocked = leaf_blocks(f.node, child, n3, o, d, f.o_local, vec3(f.step) / f.t_delta, f.eps, tc.x, tc.y);
+                blocked = leaf_blocks(f.node, child, n3, o, d, leaf_l.o, leaf_l.d, leaf_l.eps, t_in, t_out);
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -252,9 +268,7 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
                 bvec3 flat_axis = equal(l.d, vec3(0.0));
                 f.node = next;
                 f.t_end = min(t_out, 1.0);
-                f.t_cell = t0;
-                f.o_local = l.o;
-                f.eps = l.eps;
+                leaf_l = l;
                 f.cell = clamp(ivec3(floor(l.o + t0 * l.d)), ivec3(0), ivec3(n - 1));
                 f.step = ivec3(sign(l.d));
                 vec3 boundary = vec3(f.cell + ivec3(greaterThan(l.d, vec3(0.0))));
