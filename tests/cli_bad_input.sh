@@ -101,6 +101,9 @@ expect 2 "--seed: expected an integer" -- "${R[@]}" --seed x
 expect 2 "--mode: expected one of" -- "${R[@]}" --mode fast
 expect 2 "--traversal: expected one of" -- "${R[@]}" --traversal bfs
 expect 2 "--sampler: expected one of" -- "${R[@]}" --sampler halton
+expect 2 "--filter: expected one of" -- "${R[@]}" --filter bilateral
+expect 2 "--tile: expected WIDTHxHEIGHT" -- "${R[@]}" --tile 9x3
+expect 2 "--tile: expected WIDTHxHEIGHT" -- "${R[@]}" --tile 0x3
 expect 2 "option --size needs a value" -- "${R[@]}" --size
 expect 2 "more than one scene" -- "${R[@]}" builtin:plane builtin:default
 

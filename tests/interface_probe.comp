@@ -51,7 +51,8 @@ void main()
     put(params.seed); put(params.leaf_size); put(params.canary); put(params.scene_mag);
     put(uvec2(params.tris)); put(uvec2(params.bvh)); put(uvec2(params.bvh_tris));
     put(uvec2(params.cand_offset)); put(uvec2(params.cand_tris)); put(uvec2(params.dump));
-    put(params.dump_rays); put(params.cand_first); put(uvec2(params.work)); put(params.pad3);
+    put(params.dump_rays); put(params.cand_first); put(uvec2(params.work)); put(params.tile_w);
+    put(params.tile_h); put(params.pad3); put(params.pad4);
 
     for (int i = 0; i < 2; i++) {
         Node n = nodes[i];

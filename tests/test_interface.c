@@ -37,7 +37,8 @@ static const field params_fields[] = {
     F(pn_shadow_params, canary),              F(pn_shadow_params, scene_mag),       F(pn_shadow_params, tris),
     F(pn_shadow_params, bvh),                 F(pn_shadow_params, bvh_tris),    F(pn_shadow_params, cand_offset),
     F(pn_shadow_params, cand_tris),           F(pn_shadow_params, dump),        F(pn_shadow_params, dump_rays),
-    F(pn_shadow_params, cand_first),          F(pn_shadow_params, work),        F(pn_shadow_params, pad3),
+    F(pn_shadow_params, cand_first),          F(pn_shadow_params, work),        F(pn_shadow_params, tile_w),
+    F(pn_shadow_params, tile_h),              F(pn_shadow_params, pad3),        F(pn_shadow_params, pad4),
     {0}};
 static const field node_fields[] = {F(pn_gpu_node, min),       F(pn_gpu_node, size),      F(pn_gpu_node, children),
                                     F(pn_gpu_node, level),     F(pn_gpu_node, linespace), F(pn_gpu_node, parent),

@@ -99,6 +99,9 @@ typedef struct bench_quality {
     int best_n, best_d;
     uint32_t best_spp;
     double best_ms, best_mae;
+    // The pick and that cell timed in alternation at full size, the least of several frames each
+    // (both the pick's cell time when it is that cell): the ratio the bench reports as vs_front.
+    double pair_pick_ms, pair_front_ms;
 } bench_quality;
 
 typedef struct bench_rows {

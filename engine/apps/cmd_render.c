@@ -213,9 +213,14 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(", \"scene\": ");
         pn_json_string(stdout, scene->name);
         printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"traversal\": \"%s\", "
-               "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, ",
+               "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, \"filter\": \"%s\", ",
                o->r.width, o->r.height, pn_scene_triangle_count(scene), mode->name,
-               pn_traversal_names[o->r.traversal], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed);
+               pn_traversal_names[o->r.traversal], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed,
+               pn_filter_names[o->r.filter]);
+        if (o->r.filter != PN_FILTER_NONE)
+            printf("\"tile\": [%u, %u], ", o->r.tile_w, o->r.tile_h);
+        else
+            printf("\"tile\": null, ");
         if (tree)
             printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"culled_by_view\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
                    "\"node\": %llu, \"linespace\": %llu, \"planes\": %llu, \"total\": %llu}, ",
@@ -228,10 +233,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         if (st->quality_auto) {
             const pn_quality_choice *q = &st->quality;
             printf("\"quality\": {\"max_error\": %.6g, \"within\": %s, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"pilot_shadow_ms\": %.4f, "
-                   "\"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, \"pilot\": [%u, %u], "
+                   "\"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, \"runoff\": %d, \"pilot\": [%u, %u], "
                    "\"tried\": [",
                    o->max_error, q->within ? "true" : "false", q->pilot_mae, q->pilot_se, q->pilot_ms, q->reference_ms,
-                   PN_REFERENCE_SPP, q->candidates, q->pilot_width, q->pilot_height);
+                   PN_REFERENCE_SPP, q->candidates, q->runoff, q->pilot_width, q->pilot_height);
             for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++) {
                 const pn_quality_tried *c = &q->tried[i];
                 printf("%s{\"mode\": \"%s\", \"tree\": ", i ? ", " : "", pn_shadow_mode_get(c->mode)->name);
@@ -240,14 +245,15 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                 else
                     printf("null");
                 printf(", \"spp\": %u, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"confirm_mae\": %.6g, \"within\": %s, "
-                       "\"pilot_shadow_ms\": %.4f}",
-                       c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms);
+                       "\"pilot_shadow_ms\": %.4f, \"final_shadow_ms\": %.4f}",
+                       c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms,
+                       c->final_ms);
             }
             printf("]}, ");
         }
-        printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"shade\": %.4f}, "
-               "\"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",
-               load_ms, t->gbuffer_ms, t->shadow_ms, t->shade_ms, (unsigned long long)st->covered, st->rays_per_s,
+        printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"filter\": %.4f, "
+               "\"shade\": %.4f}, \"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",
+               load_ms, t->gbuffer_ms, t->shadow_ms, t->filter_ms, t->shade_ms, (unsigned long long)st->covered, st->rays_per_s,
                validation_messages);
         return;
     }
@@ -257,6 +263,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(" LS(%d,%d) %s", o->r.tree_n, o->r.tree_d, pn_traversal_names[o->r.traversal]);
     if (mode->traces)
         printf(" %s %lld spp", pn_sampler_names[o->r.sampler], o->r.spp);
+    if (o->r.filter != PN_FILTER_NONE)
+        printf(" filter %s %ux%u", pn_filter_names[o->r.filter], o->r.tile_w, o->r.tile_h);
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
     if (tree)
         printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
@@ -267,8 +275,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                st->build_ms, st->exact_bytes / 1048576.0);
     if (mode->needs.bvh)
         printf("  BVH built in %.1f ms; triangle and BVH pools %.1f MiB\n", st->build_ms, st->exact_bytes / 1048576.0);
-    printf("  gpu ms: gbuffer %.3f, shadow %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n", t->gbuffer_ms,
-           t->shadow_ms, t->shade_ms, st->rays_per_s, load_ms);
+    printf("  gpu ms: gbuffer %.3f, shadow %.3f, filter %.3f, shade %.3f | %.3g shadow rays/s | load %.1f ms\n",
+           t->gbuffer_ms, t->shadow_ms, t->filter_ms, t->shade_ms, st->rays_per_s, load_ms);
 }
 
 int pn_cmd_render(int argc, char **argv)

@@ -190,6 +190,12 @@ static void toggle_sampler(pn_demo *d, float unused)
     d->renderer_dirty = d->restart = true;
 }
 
+static void toggle_filter(pn_demo *d, float unused)
+{
+    d->opts.filter = d->opts.filter == PN_FILTER_NONE ? PN_FILTER_INTERLEAVED : PN_FILTER_NONE;
+    d->renderer_dirty = d->restart = true;
+}
+
 // Square counts: square sample grids over the light.
 static const int SPP_STEPS[] = {1, 4, 9, 16, 25, 36, 49, 64, 100, 144, 256};
 enum { SPP_STEP_COUNT = sizeof SPP_STEPS / sizeof SPP_STEPS[0] };
@@ -276,6 +282,7 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_8, 0, false, set_mode, 8},
     {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal packet / ray"},
     {GLFW_KEY_G, 0, false, toggle_sampler, 0, "G", "sampler grid / stratified"},
+    {GLFW_KEY_F, 0, false, toggle_filter, 0, "F", "filter none / interleaved (tile --tile)"},
     {GLFW_KEY_MINUS, 0, true, step_spp, -1, "- =", "fewer, more shadow rays per pixel"},
     {GLFW_KEY_EQUAL, 0, true, step_spp, 1},
     {GLFW_KEY_N, 0, true, step_tree_n, 1, "N shift+N", "tree branching factor up, down"},

@@ -233,7 +233,8 @@ static void params_text(const pn_demo *d, char *out, size_t n)
         at += snprintf(out + at, n - (size_t)at, " LS(%d,%d) %s", d->accel.tree.n, d->accel.tree.d,
                        pn_traversal_names[o->traversal]);
     if (at >= 0 && (size_t)at < n)
-        snprintf(out + at, n - (size_t)at, " %s %lld spp", pn_sampler_names[o->sampler], o->spp);
+        snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
+                 o->filter != PN_FILTER_NONE ? " filtered" : "");
 }
 
 void pn_demo_title(const pn_demo *d, char *out, size_t n)
@@ -242,9 +243,9 @@ void pn_demo_title(const pn_demo *d, char *out, size_t n)
     params_text(d, params, sizeof params);
     const pn_demo_stats *s = &d->stats;
     snprintf(out, n,
-             "penumbra demo - %s - gpu ms gbuffer %.1f shadow %.1f shade %.1f - %.2f M rays/s - pools %.1f MB - "
-             "%u frames - %.1f fps",
-             params, s->times.gbuffer_ms, s->times.shadow_ms, s->times.shade_ms, s->rays_per_s * 1e-6,
+             "penumbra demo - %s - gpu ms gbuffer %.1f shadow %.1f filter %.1f shade %.1f - %.2f M rays/s - pools %.1f "
+             "MB - %u frames - %.1f fps",
+             params, s->times.gbuffer_ms, s->times.shadow_ms, s->times.filter_ms, s->times.shade_ms, s->rays_per_s * 1e-6,
              pn_shadow_accel_gpu_bytes(&d->accel) / 1048576.0, d->image.frames,
              s->frame_ms > 0 ? 1000.0 / s->frame_ms : 0.0);
 }
@@ -282,8 +283,8 @@ void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra)
         ADD("%s  %u triangles  %ux%u\n", d->scene.name, pn_scene_triangle_count(&d->scene), d->image.width,
             d->image.height);
         ADD("%s  seed %lld\n", params, d->opts.seed);
-        ADD("gpu ms: gbuffer %.2f  shadow %.2f  shade %.2f", s->times.gbuffer_ms, s->times.shadow_ms,
-            s->times.shade_ms);
+        ADD("gpu ms: gbuffer %.2f  shadow %.2f  filter %.2f  shade %.2f", s->times.gbuffer_ms, s->times.shadow_ms,
+            s->times.filter_ms, s->times.shade_ms);
         if (d->view == PN_DEMO_ERROR && d->opts.mode != PN_SHADOW_REFERENCE)
             ADD("  exact shadow %.2f", s->exact_shadow_ms);
         ADD("\n%.2f M shadow rays/s  pools %.1f MB\n", s->rays_per_s * 1e-6,

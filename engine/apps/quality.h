@@ -14,6 +14,7 @@ typedef struct pn_quality_tried {
     double pilot_mae, pilot_se, pilot_ms; // se: standard error of the MAE as an estimate of the picture's
     double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
     bool within;        // judged within the budget
+    double final_ms;    // its shadow pass at the frame's size in the run-off, or -1 if not a finalist
 } pn_quality_tried;
 
 typedef struct pn_quality_choice {
@@ -27,6 +28,7 @@ typedef struct pn_quality_choice {
     double pilot_ms;      // its shadow pass
     double reference_ms;  // the pilot reference's shadow pass
     int candidates;       // pilots rendered
+    int runoff;           // finalists timed at the frame's size (0 or 1: the pilots decided)
     pn_quality_tried tried[PN_QUALITY_MAX_TRIED]; // the first of them, in the order tried
     uint32_t pilot_width, pilot_height;
     uint32_t confirm_width, confirm_height; // 0 when no pilot needed confirming
@@ -43,6 +45,8 @@ typedef struct pn_quality_choice {
 // reference. A configuration climbs
 // the samples until it meets the budget, is slower than the best pick so far, or its error stops
 // falling (line space's floor). When nothing meets the budget, the least error found (within = false).
+// Pilots within the budget and within 1.5x of the fastest one's time (at most 4) are then timed at
+// the frame's size side by side, and the fastest there is the pick (final_ms; quality.c, runoff).
 // reference_spp: the reference's samples (0: PN_REFERENCE_SPP).
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,

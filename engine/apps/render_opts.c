@@ -14,7 +14,8 @@ pn_render_opts pn_render_opts_default(void)
 {
     return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 25, .tree_n = 7,
                             .tree_d = 3, .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE,
-                            .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED};
+                            .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
+                            .filter = PN_FILTER_NONE, .tile_w = 3, .tile_h = 3};
 }
 
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
@@ -74,6 +75,12 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         int m = v ? pn_parse_choice("--sampler", v, pn_sampler_names) : -1;
         ok = m >= 0;
         o->sampler = ok ? (pn_sampler)m : o->sampler;
+    } else if (pn_args_value(a, "--filter", &v, err)) {
+        int m = v ? pn_parse_choice("--filter", v, pn_filter_names) : -1;
+        ok = m >= 0;
+        o->filter = ok ? (pn_filter)m : o->filter;
+    } else if (pn_args_value(a, "--tile", &v, err)) {
+        ok = v && pn_parse_size("--tile", v, PN_FILTER_MAX_TILE, &o->tile_w, &o->tile_h);
     } else {
         return false;
     }
@@ -111,7 +118,12 @@ void pn_render_opts_print_help(void)
            "  --traversal ray|packet   each ray walks the tree alone (3D-DDA per level, default:\n"
            "                        faster on lavapipe) or the pixel's rays walk it together\n"
            "  --sampler grid|stratified   the paper's uniform grid, or jittered strata with a\n"
-           "                        per-pixel rotated low-discrepancy set (default stratified)\n");
+           "                        per-pixel rotated low-discrepancy set (default stratified)\n"
+           "  --filter none|interleaved   interleaved: the pixels of each tile share the light's\n"
+           "                        samples (each traces S of the tile's S x W x H) and a filter\n"
+           "                        averages V over the tile across the pixel's own surface; the\n"
+           "                        EXR keeps the unfiltered V as shadow.V_raw (default none)\n"
+           "  --tile WxH            the tile and filter window, 1..8 each (default 3x3)\n");
 }
 
 // The camera and light feed float arithmetic that squares distances (the view matrix, the light's
@@ -229,6 +241,9 @@ pn_setup_desc pn_render_opts_setup(const pn_render_opts *o)
                   .mode = o->mode,
                   .traversal = o->traversal,
                   .sampler = o->sampler,
+                  .filter = o->filter,
+                  .tile_w = o->tile_w,
+                  .tile_h = o->tile_h,
                   .spp = (uint32_t)o->spp,
                   .seed = (uint32_t)o->seed},
         .tree_n = o->tree_n,

@@ -22,17 +22,20 @@ typedef struct pn_render_opts {
     pn_shadow_mode mode;
     pn_traversal traversal;
     pn_sampler sampler;
+    pn_filter filter;
+    uint32_t tile_w, tile_h;
     int tree_n, tree_d;
     uint64_t max_bytes; // 0: half the device's largest heap
     float exposure;     // of the tone-mapped PNG
 } pn_render_opts;
 
 // The defaults render documents: 1280x720, linespace, per-ray traversal, stratified, 25 spp,
-// LS(7,3), seed 1, ground on, exposure 1, 45 degree field of view.
+// LS(7,3), seed 1, no filter (tile 3x3 if one is asked for), ground on, exposure 1, 45 degree
+// field of view.
 pn_render_opts pn_render_opts_default(void);
 
 // If argv[a->i] is one of the shared options (--size, --camera-*, --fov, --light-*, --ground,
-// --no-ground, --exposure, --seed, --spp, --tree, --max-memory, --mode, --traversal, --sampler),
+// --no-ground, --exposure, --seed, --spp, --tree, --max-memory, --mode, --traversal, --sampler, --filter, --tile),
 // consumes it and returns true; a bad value is logged and sets *err.
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
 

@@ -75,9 +75,15 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     }
     static const char *const names[PLANES] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                               "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z"};
-    pn_exr_channel ch[PLANES];
-    for (int c = 0; c < PLANES; c++)
-        ch[c] = (pn_exr_channel){names[c], pl[c]};
+    // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs.
+    pn_exr_channel ch[PLANES + 1];
+    int count = 0;
+    for (int c = 0; c < PLANES; c++) {
+        if (c == 5 && img->v_raw)
+            ch[count++] = (pn_exr_channel){"shadow.V_raw", img->v_raw}; // already planar
+        if (c < 5 || aovs)
+            ch[count++] = (pn_exr_channel){names[c], pl[c]};
+    }
     bool tree = pn_shadow_mode_get(o->mode)->needs.tree;
 #define V3(nm, v) {.name = nm, .type = PN_EXR_ATTR_V3F, .f = {(v)[0], (v)[1], (v)[2]}}
 #define F1(nm, v) {.name = nm, .type = PN_EXR_ATTR_FLOAT, .f = {(float)(v)}}
@@ -100,10 +106,14 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         V3("penumbra.light.radiance", light->radiance),
         F1("penumbra.gpu_ms.gbuffer", t->gbuffer_ms),
         F1("penumbra.gpu_ms.shadow", t->shadow_ms),
+        F1("penumbra.gpu_ms.filter", t->filter_ms),
         F1("penumbra.gpu_ms.shade", t->shade_ms),
         {.name = "penumbra.traversal", .type = PN_EXR_ATTR_STRING, .s = pn_traversal_names[o->traversal]},
         {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = pn_sampler_names[o->sampler]},
         {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
+        {.name = "penumbra.filter", .type = PN_EXR_ATTR_STRING, .s = pn_filter_names[o->filter]},
+        {.name = "penumbra.tile.w", .type = PN_EXR_ATTR_INT, .i = o->filter ? (int32_t)o->tile_w : 0},
+        {.name = "penumbra.tile.h", .type = PN_EXR_ATTR_INT, .i = o->filter ? (int32_t)o->tile_h : 0},
         {.name = "penumbra.tree.n", .type = PN_EXR_ATTR_INT, .i = tree ? o->tree_n : 0},
         {.name = "penumbra.tree.d", .type = PN_EXR_ATTR_INT, .i = tree ? o->tree_d : 0},
         F1("penumbra.build_ms", rec->build_ms),
@@ -118,7 +128,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     memcpy(all, attrs, sizeof attrs);
     if (extra_count > 0)
         memcpy(all + BASE, extra, (size_t)extra_count * sizeof *extra);
-    pn_result r = pn_exr_write(path, (int)o->width, (int)o->height, ch, aovs ? PLANES : 5, all, BASE + extra_count);
+    pn_result r = pn_exr_write(path, (int)o->width, (int)o->height, ch, count, all, BASE + extra_count);
     free(buf);
     return r;
 }

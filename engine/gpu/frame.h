@@ -5,6 +5,13 @@
 #include "gpu/pools.h"
 #include "gpu/shadow_modes.h"
 
+// What follows the shadow pass. none: V is the pixel's own samples' visible fraction. interleaved:
+// the pixels of each tile_w x tile_h tile share the light's strata (each traces spp of the tile's
+// spp * tile_w * tile_h samples), and a filter pass averages V over the tile around each pixel
+// across neighbours on the pixel's own surface (filter.comp); the pixel's own V is kept (v_raw).
+typedef enum pn_filter { PN_FILTER_NONE, PN_FILTER_INTERLEAVED } pn_filter;
+extern const char *const pn_filter_names[];
+
 // Zero-initialised means: mode none, per-ray traversal, stratified sampler, seed 0; width, height and spp
 // must be set (apps/render_opts.c fills one from the command line).
 typedef struct pn_renderer_desc {
@@ -14,6 +21,8 @@ typedef struct pn_renderer_desc {
     pn_sampler sampler;
     uint32_t spp;  // shadow rays per pixel
     uint32_t seed; // fixes the stratified jitter
+    pn_filter filter;
+    uint32_t tile_w, tile_h; // the interleaving tile and filter window (with filter; 0 means 3)
     const pn_gpu_pools *pools; // the uploaded N-tree, for the modes whose needs.tree is set
     double leaf_size;          // edge of a leaf cell of that tree, world units
     const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools
@@ -23,8 +32,16 @@ typedef struct pn_renderer_desc {
     bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
 } pn_renderer_desc;
 
+// The largest tile edge: a window of 8 x 8 = 64 neighbours per pixel already costs the filter pass
+// more than a few light samples would (filter.comp loads three images per neighbour).
+#define PN_FILTER_MAX_TILE 8
+
+// A tile edge as the passes use it: 0 (unset) means 3, the thesis' 3 x 3.
+static inline uint32_t pn_filter_tile(uint32_t edge) { return edge ? edge : 3; }
+
 typedef struct pn_frame_times {
-    double gbuffer_ms, shadow_ms, shade_ms; // GPU time per pass, from timestamp queries
+    double gbuffer_ms, shadow_ms, filter_ms, shade_ms; // GPU time per pass, from timestamp queries (filter
+                                                       // 0 without one)
 } pn_frame_times;
 
 // The frame's images after pn_renderer_render, in the renderer's host-visible readback buffer.
@@ -33,6 +50,7 @@ typedef struct pn_frame_images {
     const float *p;        // rgba: world position, w = 1 where geometry is
     const float *n;        // rgba: unit normal facing the viewer, w = view depth
     const float *albedo;   // rgba: linear albedo, w = 1 where geometry is
-    const float *v;        // one float: visibility of the light, 0..1
+    const float *v;        // one float: visibility of the light, 0..1 (filtered, with a filter)
+    const float *v_raw;    // with a filter: the shadow pass's V before it; NULL without
     const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
 } pn_frame_images;

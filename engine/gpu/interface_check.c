@@ -51,7 +51,9 @@ AT(pn_shadow_params, dump, 232);
 AT(pn_shadow_params, dump_rays, 240);
 AT(pn_shadow_params, cand_first, 244);
 AT(pn_shadow_params, work, 248);
-AT(pn_shadow_params, pad3, 256);
+AT(pn_shadow_params, tile_w, 256);
+AT(pn_shadow_params, tile_h, 260);
+AT(pn_shadow_params, pad4, 268);
 SIZE(pn_shadow_params, 272);
 
 SIZE(pn_shadow_chunk, 16);

@@ -5,7 +5,7 @@
 
 #include "core/log.h"
 
-enum { TS_START, TS_GBUFFER, TS_SHADOW, TS_SHADE, TS_COUNT };
+enum { TS_START, TS_GBUFFER, TS_SHADOW, TS_FILTER, TS_SHADE, TS_COUNT };
 
 // ---------------------------------------------------------------------------------------------
 // Targets
@@ -28,6 +28,7 @@ static pn_result create_targets(pn_renderer *r)
         {&r->n, RGBA32F, gbuf, 0},
         {&r->albedo, RGBA32F, gbuf, 0},
         {&r->depth, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT},
+        {&r->v_raw, VK_FORMAT_R32_SFLOAT, comp, 0},
         {&r->v, VK_FORMAT_R32_SFLOAT, comp, 0},
         {&r->radiance, RGBA32F, comp, 0},
     };
@@ -40,7 +41,7 @@ static pn_result create_targets(pn_renderer *r)
                                                         .aspect = t[i].aspect},
                                    t[i].img));
     VkDeviceSize px = (VkDeviceSize)r->width * r->height;
-    PN_TRY(pn_gpu_buffer_create(dev, px * (4 * 16 + 4), VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_HOST_READBACK,
+    PN_TRY(pn_gpu_buffer_create(dev, px * (4 * 16 + 2 * 4), VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_HOST_READBACK,
                                 &r->readback));
     VkQueryPoolCreateInfo qi = {
         .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
@@ -95,6 +96,12 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the triangle pools of the exact tests", mode->name);
         return PN_ERR_INVALID;
     }
+    if ((unsigned)desc->filter > PN_FILTER_INTERLEAVED ||
+        pn_filter_tile(desc->tile_w) > PN_FILTER_MAX_TILE || pn_filter_tile(desc->tile_h) > PN_FILTER_MAX_TILE) {
+        pn_error("filter %d with tile %ux%u: the tile's edges must be 1..%d", (int)desc->filter, desc->tile_w,
+                 desc->tile_h, PN_FILTER_MAX_TILE);
+        return PN_ERR_INVALID;
+    }
     if (desc->spp == 0 && mode->traces) {
         pn_error("spp must be at least 1");
         return PN_ERR_INVALID;
@@ -112,10 +119,13 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     for (int k = 0; k < 3; k++)
         scene_mag = fmaxf(scene_mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
     if (r == PN_OK)
-        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v, scene_mag, &out->shadow);
+        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_mag, &out->shadow);
     if (r == PN_OK)
-        r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo, &out->v,
-                                 &out->radiance, &out->shade);
+        r = pn_filter_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->v_raw, &out->v,
+                                  &out->filter);
+    if (r == PN_OK)
+        r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
+                                 desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
     if (r != PN_OK)
         pn_renderer_destroy(out);
     return r;
@@ -135,11 +145,12 @@ void pn_renderer_destroy(pn_renderer *r)
     if (r->timestamps)
         vkDestroyQueryPool(d, r->timestamps, NULL);
     pn_shade_pass_destroy(dev, &r->shade);
+    pn_filter_pass_destroy(dev, &r->filter);
     pn_shadow_pass_destroy(dev, &r->shadow);
     pn_gbuffer_upload_destroy(dev, &r->upload);
     pn_gbuffer_pass_destroy(dev, &r->gbuffer);
-    pn_gpu_image *imgs[6] = {&r->p, &r->n, &r->albedo, &r->depth, &r->v, &r->radiance};
-    for (int i = 0; i < 6; i++)
+    pn_gpu_image *imgs[7] = {&r->p, &r->n, &r->albedo, &r->depth, &r->v_raw, &r->v, &r->radiance};
+    for (int i = 0; i < 7; i++)
         pn_gpu_image_destroy(dev, imgs[i]);
     pn_gpu_buffer_destroy(dev, &r->readback);
     memset(r, 0, sizeof *r);
@@ -148,8 +159,11 @@ void pn_renderer_destroy(pn_renderer *r)
 // ---------------------------------------------------------------------------------------------
 // The frame
 
+static bool filtered(const pn_renderer *r) { return r->desc.filter != PN_FILTER_NONE; }
+
 // Copies every image to the readback buffer and makes it, the shadow pass's status flag and its
-// ray dump visible to the host.
+// ray dump visible to the host. The V the frame gives (filtered with a filter) goes to V's place;
+// with a filter, the shadow pass's own V follows the radiance.
 static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
 {
     const VkPipelineStageFlags2 COLOR = VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT;
@@ -157,24 +171,28 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
     const VkPipelineStageFlags2 COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
     const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL, SRC = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     const VkAccessFlags2 READ = VK_ACCESS_2_TRANSFER_READ_BIT;
-    VkImageMemoryBarrier2 to_copy[5] = {
+    const VkAccessFlags2 STORAGE = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+    const pn_gpu_image *v = filtered(r) ? &r->v : &r->v_raw;
+    const pn_gpu_image *src[6] = {&r->p, &r->n, &r->albedo, v, &r->radiance, &r->v_raw};
+    int count = filtered(r) ? 6 : 5;
+    VkImageMemoryBarrier2 to_copy[6] = {
         pn_gpu_image_barrier(&r->p, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->n, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->albedo, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
-        pn_gpu_image_barrier(&r->v, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, COPY, READ, GENERAL, SRC),
+        pn_gpu_image_barrier(v, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->radiance, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, COPY, READ, GENERAL, SRC),
+        pn_gpu_image_barrier(&r->v_raw, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
     };
-    pn_gpu_cmd_barrier(cmd, NULL, 5, to_copy);
+    pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count, to_copy);
     VkDeviceSize px = (VkDeviceSize)r->width * r->height, offset = 0;
-    const pn_gpu_image *src[5] = {&r->p, &r->n, &r->albedo, &r->v, &r->radiance};
-    for (int i = 0; i < 5; i++) {
+    for (int i = 0; i < count; i++) {
         VkBufferImageCopy copy = {
             .bufferOffset = offset,
             .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
             .imageExtent = {r->width, r->height, 1},
         };
         vkCmdCopyImageToBuffer(cmd, src[i]->image, SRC, r->readback.buffer, 1, &copy);
-        offset += px * (src[i] == &r->v ? 4 : 16);
+        offset += px * (src[i]->format == VK_FORMAT_R32_SFLOAT ? 4 : 16);
     }
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){
@@ -187,41 +205,65 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
                        0, NULL);
 }
 
-// G-buffer -> shadow -> shade -> readback, with a timestamp after each pass. `samples`: light
-// samples traced per pixel (pn_shadow_samples).
+// A timestamp after everything recorded before it. llvmpipe takes a timestamp query's value when it
+// next flushes, not where the command stands: followed by the next pass's dispatch, a timestamp
+// counted that dispatch in the interval before it (measured: the shading pass's time showed in the
+// filter's interval, and the filter's in the shadow pass's). The barrier after it flushes at once;
+// elsewhere it costs a pipeline drain between passes, which the timestamps imply anyway.
+static void timestamp(pn_renderer *r, VkCommandBuffer cmd, uint32_t index)
+{
+    const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, index);
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = ALL,
+                                           .dstStageMask = ALL},
+                       0, NULL);
+}
+
+// G-buffer -> shadow -> filter (with one) -> shade -> readback, with a timestamp after each pass.
+// `samples`: light samples traced per pixel (pn_shadow_samples).
 static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *camera, const pn_light_gpu *light,
-                         uint32_t samples)
+                         uint32_t samples, float yfov_deg)
 {
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL;
+    const VkAccessFlags2 WRITE = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, READ = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
     vkCmdResetQueryPool(cmd, r->timestamps, 0, TS_COUNT);
-    // V and the radiance are fully rewritten: discard the previous frame's (UNDEFINED) after all of
-    // its work on them. The G-buffer pass does the same for its targets.
-    VkImageMemoryBarrier2 start[2] = {
-        pn_gpu_image_barrier(&r->v, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                             VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
-        pn_gpu_image_barrier(&r->radiance, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                             VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
+    // V, its raw form and the radiance are fully rewritten: discard the previous frame's
+    // (UNDEFINED) after all of its work on them. The G-buffer pass does the same for its targets.
+    VkImageMemoryBarrier2 start[3] = {
+        pn_gpu_image_barrier(&r->v_raw, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, WRITE, VK_IMAGE_LAYOUT_UNDEFINED,
+                             GENERAL),
+        pn_gpu_image_barrier(&r->radiance, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, WRITE, VK_IMAGE_LAYOUT_UNDEFINED,
+                             GENERAL),
+        pn_gpu_image_barrier(&r->v, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, WRITE, VK_IMAGE_LAYOUT_UNDEFINED,
+                             GENERAL),
     };
-    pn_gpu_cmd_barrier(cmd, NULL, 2, start);
-    vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_START);
+    pn_gpu_cmd_barrier(cmd, NULL, filtered(r) ? 3 : 2, start);
+    timestamp(r, cmd, TS_START);
 
     pn_gbuffer_targets targets = {&r->p, &r->n, &r->albedo, &r->depth, r->width, r->height};
     if (r->upload.buffer.buffer)
         pn_gbuffer_upload_record(cmd, &r->upload, &targets);
     else
         pn_gbuffer_pass_record(cmd, &r->gbuffer, &targets, camera);
-    vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_GBUFFER);
+    timestamp(r, cmd, TS_GBUFFER);
 
-    pn_shadow_pass_record(cmd, &r->shadow, samples); // P, N -> V
-    vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_SHADOW);
-
-    VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, COMPUTE,
-                                                         VK_ACCESS_2_SHADER_STORAGE_READ_BIT, GENERAL, GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
+    pn_shadow_pass_record(cmd, &r->shadow, samples); // P, N -> V raw
+    VkImageMemoryBarrier2 raw_ready = pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 1, &raw_ready);
+    timestamp(r, cmd, TS_SHADOW);
+    if (filtered(r)) {
+        pn_filter_pass_record(cmd, &r->filter, pn_filter_tile(r->desc.tile_w), pn_filter_tile(r->desc.tile_h),
+                              yfov_deg); // P, N, V raw -> V
+        VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
+    }
+    timestamp(r, cmd, TS_FILTER);
     pn_shade_pass_record(cmd, &r->shade, light); // P, N, albedo, V -> radiance
-    vkCmdWriteTimestamp2(cmd, ALL, r->timestamps, TS_SHADE);
+    timestamp(r, cmd, TS_SHADE);
 
     record_readback(r, cmd);
 }
@@ -242,7 +284,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
         VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
         VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-        record_frame(r, r->cmd, &cam, &l, pn_shadow_samples(r->desc.spp ? r->desc.spp : 1, light));
+        record_frame(r, r->cmd, &cam, &l, pn_shadow_samples(r->desc.spp ? r->desc.spp : 1, light), camera->yfov_deg);
         VK_CHECK(vkEndCommandBuffer(r->cmd));
         VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
@@ -256,7 +298,8 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     double period_ms = dev->props.limits.timestampPeriod * 1e-6;
     times->gbuffer_ms = (double)(ts[TS_GBUFFER] - ts[TS_START]) * period_ms;
     times->shadow_ms = (double)(ts[TS_SHADOW] - ts[TS_GBUFFER]) * period_ms;
-    times->shade_ms = (double)(ts[TS_SHADE] - ts[TS_SHADOW]) * period_ms;
+    times->filter_ms = (double)(ts[TS_FILTER] - ts[TS_SHADOW]) * period_ms;
+    times->shade_ms = (double)(ts[TS_SHADE] - ts[TS_FILTER]) * period_ms;
     return PN_OK;
 }
 
@@ -269,9 +312,25 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->albedo = out->n + 4 * px;
     out->v = out->albedo + 4 * px;
     out->radiance = out->v + px;
+    out->v_raw = filtered(r) ? out->radiance + 4 * px : NULL;
 }
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
+
+pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h)
+{
+    if ((unsigned)filter > PN_FILTER_INTERLEAVED || pn_filter_tile(tile_w) > PN_FILTER_MAX_TILE ||
+        pn_filter_tile(tile_h) > PN_FILTER_MAX_TILE) {
+        pn_error("filter %d with tile %ux%u: the tile's edges must be 1..%d", (int)filter, tile_w, tile_h,
+                 PN_FILTER_MAX_TILE);
+        return PN_ERR_INVALID;
+    }
+    r->desc.filter = filter, r->desc.tile_w = tile_w, r->desc.tile_h = tile_h;
+    // The queue is idle between frames, so the shading pass's set may be rewritten.
+    pn_gpu_compute_write_image(r->dev, &r->shade.compute, PN_SHADE_BINDING_V,
+                               filter != PN_FILTER_NONE ? r->v.view : r->v_raw.view);
+    return PN_OK;
+}
 
 pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp)
 {

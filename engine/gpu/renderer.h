@@ -1,9 +1,10 @@
-// One frame of penumbra: G-buffer raster pass, shadow compute pass, shading compute pass,
-// readback (renderer.c records them in that order; each pass is its own file). Shared by render,
+// One frame of penumbra: G-buffer raster pass, shadow compute pass, filter compute pass (with a
+// filter), shading compute pass, readback (renderer.c records them in that order; each pass is its own file). Shared by render,
 // demo and bench.
 #pragma once
 #include "gpu/frame.h"
 #include "gpu/gbuffer_pass.h"
+#include "gpu/filter_pass.h"
 #include "gpu/gbuffer_upload.h"
 #include "gpu/resources.h"
 #include "gpu/shade_pass.h"
@@ -15,11 +16,14 @@ typedef struct pn_renderer {
     pn_gpu_device *dev;
     uint32_t width, height;
     pn_renderer_desc desc;
-    pn_gpu_image p, n, albedo, depth, v, radiance; // the frame's images
+    // The frame's images. The shadow pass writes v_raw; with a filter, the filter pass writes v from
+    // it, and the shading pass reads v; without, the shading pass reads v_raw, and v is unused.
+    pn_gpu_image p, n, albedo, depth, v_raw, v, radiance;
     pn_gpu_buffer readback;                        // host-visible copies of them (pn_frame_images)
     pn_gbuffer_pass gbuffer;
     pn_gbuffer_upload upload; // pn_renderer_set_gbuffer's P and N, replacing the G-buffer pass
     pn_shadow_pass shadow;
+    pn_filter_pass filter;
     pn_shade_pass shade;
     VkQueryPool timestamps;
     VkCommandBuffer cmd;
@@ -48,6 +52,11 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
 // Changes the stratified sampler's seed from the next pn_renderer_render on: the demo's progressive
 // refinement takes new light samples every frame without recreating the renderer.
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
+
+// Changes the filter and its tile from the next pn_renderer_render on (the bench's filter axis, the
+// demo's key). tile_w, tile_h: 0 means 3; otherwise 1..PN_FILTER_MAX_TILE. PN_ERR_INVALID, logged,
+// outside that.
+pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h);
 
 // Changes the light samples per pixel from the next pn_renderer_render on (the bench's spp axis and
 // --quality auto's pilots step through them without new pipelines). With desc.dump_rays, spp may not

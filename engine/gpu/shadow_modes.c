@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "gpu/frame.h"
 #include "shadow_exact_comp.h"
 #include "shadow_linespace_comp.h"
 #include "shadow_none_comp.h"
@@ -69,6 +70,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
 };
 
 const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet", NULL};
+const char *const pn_filter_names[] = {[PN_FILTER_NONE] = "none", [PN_FILTER_INTERLEAVED] = "interleaved", NULL};
 const char *const pn_sampler_names[] = {[PN_SAMPLER_STRATIFIED] = "stratified", [PN_SAMPLER_GRID] = "grid", NULL};
 
 const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m)

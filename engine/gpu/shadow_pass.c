@@ -138,6 +138,10 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.cand_first = desc->cand_first_node;
     sp.dump_rays = desc->dump_rays;
     sp.work = s->work.address;
+    // Interleaved sampling only where a filter gathers the tile's samples again.
+    bool tiled = desc->filter != PN_FILTER_NONE;
+    sp.tile_w = tiled ? pn_filter_tile(desc->tile_w) : 1;
+    sp.tile_h = tiled ? pn_filter_tile(desc->tile_h) : 1;
     memcpy(s->params.mapped, &sp, sizeof sp);
 }
 

@@ -57,6 +57,11 @@
 #define PN_SHADE_BINDING_V 3
 #define PN_SHADE_BINDING_OUT 4 // rgba32f: radiance out
 #define PN_SHADE_BINDING_COUNT 5
+#define PN_FILTER_BINDING_P 0     // rgba32f: world position, w = 1 where geometry is
+#define PN_FILTER_BINDING_N 1     // rgba32f: normal, w = view depth
+#define PN_FILTER_BINDING_V_RAW 2 // r32f: the shadow pass's V
+#define PN_FILTER_BINDING_V 3     // r32f: filtered V out
+#define PN_FILTER_BINDING_COUNT 4
 
 // ---------------------------------------------------------------------------------------------
 // Field macros
@@ -194,8 +199,19 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(dump_rays)
     PN_UINT(cand_first)             // the first last-level node (they are numbered consecutively)
     PN_ADDR(WorkCounts, work)       // COUNT_WORK builds only
-    PN_UVEC4(pad3)
+    PN_UINT(tile_w)                 // interleaved sampling: the tile whose pixels share the light's
+    PN_UINT(tile_h)                 // strata (1 x 1: every pixel has all of them; light_sample)
+    PN_UINT(pad3)
+    PN_UINT(pad4)
 } PN_END(ShadowParams, pn_shadow_params)
+
+// The filter pass's push constants (filter.comp). 16 bytes.
+PN_STRUCT(FilterPush, pn_filter_push) {
+    PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
+    PN_UINT(tile_w)       // the window: the interleaved sampling's tile, centred on the pixel
+    PN_UINT(tile_h)
+    PN_UINT(pad0)
+} PN_END(FilterPush, pn_filter_push)
 
 // The shadow pass's push constants: one chunk of light samples per dispatch. 16 bytes.
 PN_STRUCT(ShadowChunk, pn_shadow_chunk) {

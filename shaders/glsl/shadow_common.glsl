@@ -43,17 +43,30 @@ uint pcg(uint v)
 // corner directions is the same point). Stratified: one jittered point per grid cell; the jitters are
 // the R2 low-discrepancy sequence (additive recurrence with the plastic constant) rotated per pixel
 // (Cranley-Patterson), so neighbouring pixels use different jitters and banding becomes fine noise.
+// Interleaved (a tile_w x tile_h tile of more than one pixel, --filter interleaved): the tile's T
+// pixels share one set of spp * T samples. Each grid cell splits into tile_w x tile_h sub-cells, and
+// the pixel takes one sub-cell per cell, each cell's sub-cells going to the T pixels by a cyclic
+// shift that a hash varies per cell (so no pixel keeps one corner of every cell). The rotation is
+// per tile, not per pixel: the union over the tile is one jittered point per sub-cell, a stratified
+// set of spp * T samples, and every pixel's own spp are still one per cell. Any tile_w x tile_h
+// window holds one pixel of each of the tile's classes, so the filter's window sees all T subsets.
+// A 1 x 1 tile gives the per-pixel sampler exactly.
 vec2 light_sample(uint k, uvec2 pixel)
 {
     uint i = k % params.grid_u, j = k / params.grid_u;
+    uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
+    uint tiles = tile_size.x * tile_size.y;
+    uvec2 tile = pixel / tile_size, member2 = pixel % tile_size;
+    uint h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
+    uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(h + k) : 0u)) % tiles;
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
-        uint h = pcg(pixel.x + pcg(pixel.y + pcg(params.seed)));
         vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
         const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
-        jitter = fract(rotation + alpha * float(k + 1u));
+        jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
     }
-    return (vec2(i, j) + jitter) / vec2(params.grid_u, params.grid_v);
+    vec2 cell = vec2(i * tile_size.x + sub % tile_size.x, j * tile_size.y + sub / tile_size.x);
+    return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
 }
 
 vec3 light_point(vec2 st)

@@ -1,0 +1,81 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Geometry-aware filter of V over the interleaved-sampling tile (--filter interleaved). Every window
+// of tile_w x tile_h pixels holds one pixel of each of the tile's sample sets (light_sample in
+// shadow_common.glsl), so the window centred on a pixel sees the tile's spp * tile_w * tile_h
+// stratified light samples. Neighbours count only where they continue the pixel's own surface, so
+// a shadow does not leak across an edge of geometry. Background stays 0; V stays in [0, 1] (a
+// weighted mean of values in [0, 1] with weights >= 0 and the pixel's own weight 1).
+#include "interface.h"
+
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+
+layout(set = 0, binding = PN_FILTER_BINDING_P, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = PN_FILTER_BINDING_N, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = PN_FILTER_BINDING_V_RAW, r32f) uniform readonly image2D img_v_raw;
+layout(set = 0, binding = PN_FILTER_BINDING_V, r32f) uniform writeonly image2D img_v;
+
+layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
+
+// Upper bound of the spacing of floats near |x| (one ulp).
+float ulp_bound(float x) { return max(abs(x), 1e-30) * 1.1920929e-7; }
+
+// How far q leaves the tangent plane of the surface at p, in units of the distance the pixels
+// between them span at p's depth (the footprint, view depth x pixel angle, times the pixel
+// distance): a dimensionless ratio, the same at every scale. On p's plane it is 0 at any view
+// angle, grazing included; on a surface of radius R it is about footprint / (2R) per pixel; across
+// a crease of angle a it is about sin a; across a depth step it is the step over the footprint.
+// The positions carry rounding of a few ulps of their magnitude (the rasterizer interpolates them,
+// shadow_frame.glsl), which is taken off first: far from the origin a pixel's footprint can be
+// below that, and rounding alone would then split one plane into edges.
+float plane_offset(vec3 p, vec3 n, float footprint, vec3 q)
+{
+    float mag = max(max(max(abs(p.x), abs(p.y)), abs(p.z)), max(max(abs(q.x), abs(q.y)), abs(q.z)));
+    float off = max(abs(dot(n, q - p)) - 8.0 * ulp_bound(mag), 0.0);
+    return off / max(footprint, 1e-30);
+}
+
+void main()
+{
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(img_v);
+    if (any(greaterThanEqual(px, size)))
+        return;
+    vec4 p = imageLoad(img_p, px);
+    if (p.w <= 0.0) {
+        imageStore(img_v, px, vec4(0.0));
+        return;
+    }
+    vec4 n = imageLoad(img_n, px);
+    float footprint_p = n.w * pc.pixel_angle;
+    ivec2 tile = ivec2(pc.tile_w, pc.tile_h);
+    ivec2 lo = -(tile - 1) / 2; // odd tiles are centred; even ones reach one pixel further right/down
+    float sum = 0.0, weight = 0.0;
+    for (int dy = lo.y; dy < lo.y + tile.y; dy++) {
+        for (int dx = lo.x; dx < lo.x + tile.x; dx++) {
+            ivec2 qx = px + ivec2(dx, dy);
+            if (any(lessThan(qx, ivec2(0))) || any(greaterThanEqual(qx, size)))
+                continue;
+            vec4 q = imageLoad(img_p, qx);
+            if (q.w <= 0.0)
+                continue;
+            vec4 m = imageLoad(img_n, qx);
+            float pixels = float(max(abs(dx), abs(dy)));
+            // Both tangent planes, so that the weight is symmetric: a point on a wall next to a floor
+            // lies in the floor's plane only along their line of contact.
+            float rho = max(plane_offset(p.xyz, n.xyz, footprint_p * pixels, q.xyz),
+                            plane_offset(q.xyz, m.xyz, m.w * pc.pixel_angle * pixels, p.xyz));
+            // 1 on the pixel's plane, falling to 0 once q is a footprint per pixel off it: beyond
+            // that the surface turns by more than 45 degrees within a pixel, or steps in depth, which
+            // is an edge of geometry by any definition. The normals' cosine, squared, does the same
+            // for two sheets that touch (the two sides of a thin wall: rho is 0, the normals oppose)
+            // and weights a crease by how far it turns.
+            float c = max(dot(n.xyz, m.xyz), 0.0);
+            float w = max(1.0 - rho * rho, 0.0) * c * c;
+            sum += w * imageLoad(img_v_raw, qx).r;
+            weight += w;
+        }
+    }
+    // weight >= 1: the pixel itself has rho = 0 and c = 1.
+    imageStore(img_v, px, vec4(clamp(sum / weight, 0.0, 1.0)));
+}
