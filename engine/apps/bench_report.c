@@ -266,7 +266,7 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g}, \"side_by_side_ms\": [%.4f, %.4f], "
                        "\"vs_front\": %.4f}",
                     q->best_spp, q->best_ms, q->best_mae, q->pair_pick_ms, q->pair_front_ms,
-                    q->pair_pick_ms / q->pair_front_ms);
+                    q->pair_front_ms > 0 ? q->pair_pick_ms / q->pair_front_ms : 0.0);
         } else {
             fprintf(f, "null, \"vs_front\": null}");
         }

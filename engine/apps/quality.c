@@ -103,6 +103,7 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
     rd.frame.sampler = PN_SAMPLER_STRATIFIED;
     rd.frame.spp = p->reference_spp;
     rd.frame.seed = PN_REFERENCE_SEED;
+    rd.frame.filter = PN_FILTER_NONE; // converged: the pixel's own samples, nothing borrowed
     rd.view = NULL;
     pn_setup s;
     PN_TRY(pn_setup_create(dev, scene, light, &rd, &s));
@@ -190,20 +191,32 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     out->runoff = count;
     if (count < 2)
         return PN_OK;
+    // A finalist that cannot be set up at the frame's size (the memory limit holds for each set-up,
+    // and the full view may keep more geometry) drops out; the pilots' pick stands if fewer than
+    // two remain.
     pn_setup s[RUNOFF_MAX];
     int ready = 0;
     pn_result r = PN_OK;
-    for (; r == PN_OK && ready < count; ready++) {
-        const pn_quality_tried *t = &out->tried[finalists[ready]];
+    for (int k = 0; r == PN_OK && k < count; k++) {
+        const pn_quality_tried *t = &out->tried[finalists[k]];
         pn_setup_desc sd = {.frame = *frame, .max_bytes = max_bytes, .view = cam, .tree_n = t->tree_n, .tree_d = t->tree_d};
         sd.frame.mode = t->mode, sd.frame.spp = t->spp;
         sd.frame.dump_rays = sd.frame.count_work = false;
-        r = quiet_setup(dev, scene, light, &sd, &s[ready]);
+        if (quiet_setup(dev, scene, light, &sd, &s[ready]) != PN_OK)
+            continue;
         pn_frame_times ft;
-        if (r == PN_OK && (r = pn_renderer_render(&s[ready].renderer, cam, light, &ft)) != PN_OK)
-            pn_setup_destroy(dev, &s[ready]); // the warm-up (first touches of the pools)
+        r = pn_renderer_render(&s[ready].renderer, cam, light, &ft); // the warm-up (first touches of the pools)
         if (r != PN_OK)
-            break;
+            pn_setup_destroy(dev, &s[ready]);
+        else
+            finalists[ready++] = finalists[k];
+    }
+    count = ready;
+    out->runoff = count;
+    if (r == PN_OK && count < 2) {
+        for (int k = 0; k < ready; k++)
+            pn_setup_destroy(dev, &s[k]);
+        return PN_OK;
     }
     // Round robin: a load lasting a frame or two slows every finalist alike; each keeps its least.
     for (int round = 0; r == PN_OK && round < PILOT_TIMED_FRAMES; round++)
@@ -275,7 +288,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                     break;
                 if (out->candidates < PN_QUALITY_MAX_TRIED)
                     out->tried[out->candidates] = (pn_quality_tried){(pn_shadow_mode)m, sd.tree_n, sd.tree_d, spp,
-                                                                     mae, se, ms, confirm_mae, within};
+                                                                     mae, se, ms, confirm_mae, within, -1};
                 out->candidates++;
                 pn_debug("quality: %s LS(%d,%d) %u spp: pilot MAE %.4f +- %.4f in %.2f ms%s", info->name, sd.tree_n,
                          sd.tree_d, spp, mae, se, ms, within ? " (within)" : "");

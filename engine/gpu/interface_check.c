@@ -53,7 +53,12 @@ AT(pn_shadow_params, cand_first, 244);
 AT(pn_shadow_params, work, 248);
 AT(pn_shadow_params, tile_w, 256);
 AT(pn_shadow_params, tile_h, 260);
+AT(pn_shadow_params, pad3, 264);
 AT(pn_shadow_params, pad4, 268);
 SIZE(pn_shadow_params, 272);
 
 SIZE(pn_shadow_chunk, 16);
+
+// FilterPush: std430 push constants.
+SIZE(pn_filter_push, 16);
+AT(pn_filter_push, tile_w, 4);

@@ -76,6 +76,8 @@ void main()
             weight += w;
         }
     }
-    // weight >= 1: the pixel itself has rho = 0 and c = 1.
-    imageStore(img_v, px, vec4(clamp(sum / weight, 0.0, 1.0)));
+    // weight is about 1 or more: the pixel itself has rho = 0 and c = 1, unless its normal is not a
+    // unit vector (a degenerate triangle's); then it keeps its own V.
+    float v = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : imageLoad(img_v_raw, px).r;
+    imageStore(img_v, px, vec4(v));
 }

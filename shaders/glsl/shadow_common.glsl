@@ -46,7 +46,8 @@ uint pcg(uint v)
 // Interleaved (a tile_w x tile_h tile of more than one pixel, --filter interleaved): the tile's T
 // pixels share one set of spp * T samples. Each grid cell splits into tile_w x tile_h sub-cells, and
 // the pixel takes one sub-cell per cell, each cell's sub-cells going to the T pixels by a cyclic
-// shift that a hash varies per cell (so no pixel keeps one corner of every cell). The rotation is
+// shift that a hash varies per cell (so no pixel keeps one corner of every cell) and that is the
+// same in every tile. The rotation is
 // per tile, not per pixel: the union over the tile is one jittered point per sub-cell, a stratified
 // set of spp * T samples, and every pixel's own spp are still one per cell. Any tile_w x tile_h
 // window holds one pixel of each of the tile's classes, so the filter's window sees all T subsets.
@@ -58,7 +59,9 @@ vec2 light_sample(uint k, uvec2 pixel)
     uint tiles = tile_size.x * tile_size.y;
     uvec2 tile = pixel / tile_size, member2 = pixel % tile_size;
     uint h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(h + k) : 0u)) % tiles;
+    // The shift may vary per cell but not per tile: a window that straddles tiles must still hold
+    // each sub-cell of a cell once, so the pixel's class alone decides its sub-cell.
+    uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(pcg(params.seed) + k) : 0u)) % tiles;
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
         vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
