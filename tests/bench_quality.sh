@@ -30,8 +30,6 @@ for e in q:
     assert e["pilot"] == [128, 128], e["pilot"]
     assert p["reference"]["mae"] <= e["budget"], e   # holds at full size
     assert e["front"] is not None, e                 # the matrix reaches the budget
-    pick_ms, front_ms = e["side_by_side_ms"]
-    assert abs(e["vs_front"] - pick_ms / front_ms) < 1e-3, e
     assert e["vs_front"] <= 1.15, e                  # and auto is about as fast as its fastest cell
 # Where a pilot could not decide, auto confirmed at twice its size, here the frame itself: the
 # confirming MAE is then the matrix's own reference error for that cell (same pixels, samples,

@@ -98,29 +98,11 @@ static pn_result setup_config(pn_gpu_device *dev, const pn_scene *scene, const p
     return pn_setup_create(dev, scene, light, &sd, s);
 }
 
-// Frames of the pick and of the front's cell, timed in alternation; each keeps its least. The
-// matrix timed the two minutes apart, and the machine's load in between moves a time by more than
-// two configurations on the front differ (seen under CI: the same traversal at 28 and 47 ms). Side
-// by side, a load lasting a few frames slows both. The least frame is the one the load touched
-// least. Leaves the pick's last frame in its renderer.
-#define QUALITY_ROUNDS 5
-static pn_result time_side_by_side(const bench_opts *o, pn_renderer *pick, pn_renderer *front, const pn_camera *cam,
-                                   const pn_light *light, double *pick_ms, double *front_ms)
-{
-    pn_frame_times t;
-    *pick_ms = *front_ms = 1e30;
-    for (int i = 0; i < o->warmup + QUALITY_ROUNDS; i++) {
-        if (pn_renderer_render(front, cam, light, &t) != PN_OK)
-            return PN_ERR_VULKAN;
-        if (i >= o->warmup && t.shadow_ms < *front_ms)
-            *front_ms = t.shadow_ms;
-        if (pn_renderer_render(pick, cam, light, &t) != PN_OK)
-            return PN_ERR_VULKAN;
-        if (i >= o->warmup && t.shadow_ms < *pick_ms)
-            *pick_ms = t.shadow_ms;
-    }
-    return PN_OK;
-}
+// The pick and the front's cell are timed side by side (pn_quality_time_side_by_side), the least of
+// this many frames each: the matrix timed them minutes apart, and the machine's load in between
+// moves a time by more than two configurations on the front differ (seen under CI: the same
+// traversal at 28 and 47 ms).
+enum { QUALITY_ROUNDS = 5 };
 
 // --quality auto against the matrix at one budget: the configuration it picks from its pilots, at
 // full size against the converged reference, next to the fastest cell of this group within the
@@ -175,8 +157,10 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
             ok = setup_config(dev, scene, cam, light, frame, bq.best_mode, bq.best_n, bq.best_d, bq.best_spp, &fs) ==
                  PN_OK;
             if (ok) {
-                ok = time_side_by_side(o, &ps.renderer, &fs.renderer, cam, light, &bq.pair_pick_ms,
-                                       &bq.pair_front_ms) == PN_OK;
+                pn_renderer *pair[2] = {&ps.renderer, &fs.renderer};
+                double ms[2];
+                ok = pn_quality_time_side_by_side(pair, 2, o->warmup, QUALITY_ROUNDS, cam, light, ms) == PN_OK;
+                bq.pair_pick_ms = ms[0], bq.pair_front_ms = ms[1];
                 pn_setup_destroy(dev, &fs);
             }
         } else {

@@ -168,6 +168,21 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
 #define RUNOFF_MARGIN 1.5
 enum { RUNOFF_MAX = 4 };
 
+pn_result pn_quality_time_side_by_side(pn_renderer *const *r, int count, int warmup, int rounds,
+                                       const pn_camera *cam, const pn_light *light, double *least_ms)
+{
+    pn_frame_times t;
+    for (int k = 0; k < count; k++)
+        least_ms[k] = INFINITY;
+    for (int round = 0; round < warmup + rounds; round++)
+        for (int k = 0; k < count; k++) {
+            PN_TRY(pn_renderer_render(r[k], cam, light, &t));
+            if (round >= warmup)
+                least_ms[k] = fmin(least_ms[k], t.shadow_ms);
+        }
+    return PN_OK;
+}
+
 static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                         const pn_renderer_desc *frame, uint64_t max_bytes, pn_quality_choice *out)
 {
@@ -195,42 +210,30 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     // and the full view may keep more geometry) drops out; the pilots' pick stands if fewer than
     // two remain.
     pn_setup s[RUNOFF_MAX];
+    pn_renderer *timed[RUNOFF_MAX];
     int ready = 0;
-    pn_result r = PN_OK;
-    for (int k = 0; r == PN_OK && k < count; k++) {
+    for (int k = 0; k < count; k++) {
         const pn_quality_tried *t = &out->tried[finalists[k]];
         pn_setup_desc sd = {.frame = *frame, .max_bytes = max_bytes, .view = cam, .tree_n = t->tree_n, .tree_d = t->tree_d};
         sd.frame.mode = t->mode, sd.frame.spp = t->spp;
         sd.frame.dump_rays = sd.frame.count_work = false;
-        if (quiet_setup(dev, scene, light, &sd, &s[ready]) != PN_OK)
-            continue;
-        pn_frame_times ft;
-        r = pn_renderer_render(&s[ready].renderer, cam, light, &ft); // the warm-up (first touches of the pools)
-        if (r != PN_OK)
-            pn_setup_destroy(dev, &s[ready]);
-        else
+        if (quiet_setup(dev, scene, light, &sd, &s[ready]) == PN_OK) {
+            timed[ready] = &s[ready].renderer;
             finalists[ready++] = finalists[k];
+        }
     }
     count = ready;
     out->runoff = count;
-    if (r == PN_OK && count < 2) {
-        for (int k = 0; k < ready; k++)
-            pn_setup_destroy(dev, &s[k]);
-        return PN_OK;
-    }
-    // Round robin: a load lasting a frame or two slows every finalist alike; each keeps its least.
-    for (int round = 0; r == PN_OK && round < PILOT_TIMED_FRAMES; round++)
-        for (int k = 0; r == PN_OK && k < count; k++) {
-            pn_frame_times ft;
-            r = pn_renderer_render(&s[k].renderer, cam, light, &ft);
-            pn_quality_tried *t = &out->tried[finalists[k]];
-            if (r == PN_OK && (t->final_ms < 0 || ft.shadow_ms < t->final_ms))
-                t->final_ms = ft.shadow_ms;
-        }
+    double ms[RUNOFF_MAX];
+    // One warm-up round (first touches of the pools), then round robin: a load lasting a frame or
+    // two slows every finalist alike.
+    pn_result r = count < 2 ? PN_OK : pn_quality_time_side_by_side(timed, count, 1, PILOT_TIMED_FRAMES, cam, light, ms);
     for (int k = 0; k < ready; k++)
         pn_setup_destroy(dev, &s[k]);
-    if (r != PN_OK)
+    if (r != PN_OK || count < 2)
         return r;
+    for (int k = 0; k < count; k++)
+        out->tried[finalists[k]].final_ms = ms[k];
     int best = finalists[0];
     for (int k = 1; k < count; k++)
         if (out->tried[finalists[k]].final_ms < out->tried[best].final_ms)

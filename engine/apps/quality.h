@@ -48,6 +48,13 @@ typedef struct pn_quality_choice {
 // Pilots within the budget and within 1.5x of the fastest one's time (at most 4) are then timed at
 // the frame's size side by side, and the fastest there is the pick (final_ms; quality.c, runoff).
 // reference_spp: the reference's samples (0: PN_REFERENCE_SPP).
+// Renders the `count` renderers in turn, `warmup` rounds untimed and then `rounds` timed; each keeps
+// its least shadow time in least_ms[k]. Configurations timed moments apart meet different loads of
+// the machine; side by side, a load lasting a few frames slows all alike, and the least frame is the
+// one it touched least. The run-off and bench --max-error compare configurations this way.
+pn_result pn_quality_time_side_by_side(pn_renderer *const *r, int count, int warmup, int rounds,
+                                       const pn_camera *cam, const pn_light *light, double *least_ms);
+
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
                             pn_quality_choice *out);

@@ -113,6 +113,27 @@ void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c)
     memset(c, 0, sizeof *c);
 }
 
+pn_result pn_gpu_compute_create_images(pn_gpu_device *dev, const uint32_t *spirv, size_t spirv_size,
+                                       const VkImageView *images, uint32_t count, uint32_t push_size,
+                                       pn_gpu_compute *out)
+{
+    VkDescriptorSetLayoutBinding bindings[PN_GPU_MAX_IMAGE_BINDINGS];
+    if (count > PN_GPU_MAX_IMAGE_BINDINGS)
+        return PN_ERR_INVALID;
+    for (uint32_t i = 0; i < count; i++)
+        bindings[i] = (VkDescriptorSetLayoutBinding){.binding = i, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
+    PN_TRY(pn_gpu_compute_create(dev,
+                                 &(pn_gpu_compute_desc){.spirv = spirv,
+                                                        .spirv_size = spirv_size,
+                                                        .bindings = bindings,
+                                                        .binding_count = count,
+                                                        .push_size = push_size},
+                                 out));
+    for (uint32_t i = 0; i < count; i++)
+        pn_gpu_compute_write_image(dev, out, i, images[i]);
+    return PN_OK;
+}
+
 void pn_gpu_compute_write_image(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkImageView view)
 {
     VkDescriptorImageInfo info = {VK_NULL_HANDLE, view, VK_IMAGE_LAYOUT_GENERAL};

@@ -11,24 +11,13 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
-    VkDescriptorSetLayoutBinding bindings[PN_FILTER_BINDING_COUNT];
-    const pn_gpu_image *images[PN_FILTER_BINDING_COUNT];
-    images[PN_FILTER_BINDING_P] = p;
-    images[PN_FILTER_BINDING_N] = n;
-    images[PN_FILTER_BINDING_V_RAW] = v_raw;
-    images[PN_FILTER_BINDING_V] = v;
-    for (uint32_t i = 0; i < PN_FILTER_BINDING_COUNT; i++)
-        bindings[i] = (VkDescriptorSetLayoutBinding){.binding = i, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
-    PN_TRY(pn_gpu_compute_create(dev,
-                                 &(pn_gpu_compute_desc){.spirv = pn_spv_filter_comp,
-                                                        .spirv_size = sizeof pn_spv_filter_comp,
-                                                        .bindings = bindings,
-                                                        .binding_count = PN_FILTER_BINDING_COUNT,
-                                                        .push_size = sizeof(pn_filter_push)},
-                                 &out->compute));
-    for (uint32_t i = 0; i < PN_FILTER_BINDING_COUNT; i++)
-        pn_gpu_compute_write_image(dev, &out->compute, i, images[i]->view);
-    return PN_OK;
+    VkImageView images[PN_FILTER_BINDING_COUNT];
+    images[PN_FILTER_BINDING_P] = p->view;
+    images[PN_FILTER_BINDING_N] = n->view;
+    images[PN_FILTER_BINDING_V_RAW] = v_raw->view;
+    images[PN_FILTER_BINDING_V] = v->view;
+    return pn_gpu_compute_create_images(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, images,
+                                        PN_FILTER_BINDING_COUNT, sizeof(pn_filter_push), &out->compute);
 }
 
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f)

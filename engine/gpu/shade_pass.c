@@ -28,25 +28,14 @@ pn_result pn_shade_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t heig
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
-    VkDescriptorSetLayoutBinding bindings[PN_SHADE_BINDING_COUNT];
-    const pn_gpu_image *images[PN_SHADE_BINDING_COUNT];
-    images[PN_SHADE_BINDING_P] = p;
-    images[PN_SHADE_BINDING_N] = n;
-    images[PN_SHADE_BINDING_ALBEDO] = albedo;
-    images[PN_SHADE_BINDING_V] = v;
-    images[PN_SHADE_BINDING_OUT] = radiance;
-    for (uint32_t i = 0; i < PN_SHADE_BINDING_COUNT; i++)
-        bindings[i] = (VkDescriptorSetLayoutBinding){.binding = i, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
-    PN_TRY(pn_gpu_compute_create(dev,
-                                 &(pn_gpu_compute_desc){.spirv = pn_spv_shade_comp,
-                                                        .spirv_size = sizeof pn_spv_shade_comp,
-                                                        .bindings = bindings,
-                                                        .binding_count = PN_SHADE_BINDING_COUNT,
-                                                        .push_size = sizeof(pn_light_gpu)},
-                                 &out->compute));
-    for (uint32_t i = 0; i < PN_SHADE_BINDING_COUNT; i++)
-        pn_gpu_compute_write_image(dev, &out->compute, i, images[i]->view);
-    return PN_OK;
+    VkImageView images[PN_SHADE_BINDING_COUNT];
+    images[PN_SHADE_BINDING_P] = p->view;
+    images[PN_SHADE_BINDING_N] = n->view;
+    images[PN_SHADE_BINDING_ALBEDO] = albedo->view;
+    images[PN_SHADE_BINDING_V] = v->view;
+    images[PN_SHADE_BINDING_OUT] = radiance->view;
+    return pn_gpu_compute_create_images(dev, pn_spv_shade_comp, sizeof pn_spv_shade_comp, images,
+                                        PN_SHADE_BINDING_COUNT, sizeof(pn_light_gpu), &out->compute);
 }
 
 void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)
