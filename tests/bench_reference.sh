@@ -12,7 +12,7 @@ set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/bench_reference
 rm -rf "$T" && mkdir -p "$T"
-args=(bench --scenes builtin:default --modes exact,exact-ls --trees 5,2 --spp 4,16,64,1024 --size 96x96 --repeat 1 --warmup 0 --no-embree
+args=(bench --scenes builtin:default --modes exact,exact-ls --trees 5,2 --spp 4,16,64,1024 --size 96x96 --filter none --repeat 1 --warmup 0 --no-embree
       --out "$T/out")
 fail=0
 "$BIN" "${args[@]}" > "$T/run1.txt" 2> "$T/run1.err" || { echo "FAIL: bench exited $?"; cat "$T/run1.err"; exit 1; }
@@ -65,14 +65,14 @@ json.dump({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], 
                 {"bufferView": 1, "componentType": 5126, "count": len(pos), "type": "VEC3"},
                 {"bufferView": 2, "componentType": 5125, "count": len(idx), "type": "SCALAR"}]}, open(sys.argv[1], "w"))
 PY
-  "$BIN" bench --scenes "$T/s$h/s.gltf" --modes exact --spp 4 --size 64x64 --repeat 1 --warmup 0 --no-embree \
+  "$BIN" bench --scenes "$T/s$h/s.gltf" --modes exact --spp 4 --size 64x64 --filter none --repeat 1 --warmup 0 --no-embree \
     --out "$T/named" > /dev/null 2> "$T/named$h.err" || { echo "FAIL: bench of s.gltf ($h)"; fail=1; }
   grep -q "rendering the converged reference" "$T/named$h.err" || { echo "FAIL: s.gltf at $h reused another scene's reference"; fail=1; }
 done
 n=$(ls "$T"/named/reference/*.exr | wc -l)
 [ "$n" = 2 ] || { echo "FAIL: two scenes under one name share a cache file ($n files)"; fail=1; }
 # Another size: another key, another file.
-"$BIN" bench --scenes builtin:default --modes exact --spp 4 --size 64x64 --repeat 1 --warmup 0 --no-embree \
+"$BIN" bench --scenes builtin:default --modes exact --spp 4 --size 64x64 --filter none --repeat 1 --warmup 0 --no-embree \
   --out "$T/out" > /dev/null 2> "$T/run3.err" || { echo "FAIL: 64x64 bench"; fail=1; }
 n=$(ls "$T"/out/reference/*.exr | wc -l)
 [ "$n" = 2 ] || { echo "FAIL: expected 2 cached references, have $n"; fail=1; }

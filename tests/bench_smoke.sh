@@ -3,7 +3,9 @@
 # plot; exact-ls, which is exact by construction, measures zero bias (against exact with the same
 # samples); line-space rows measure a bias above zero (the method over-occludes); every row has a
 # reference error above zero (9 samples are noisy against the converged reference); every row has a
-# positive time and an Embree ratio; the context names the driver and the reference. rayquery is a row wherever the device has ray queries (penumbra info
+# positive time and an Embree ratio; the context names the driver and the reference. The filter is an
+# axis: every configuration appears unfiltered and filtered (3x3), a filtered cell's time is its
+# shadow and filter passes, and it reports its edge leak (metrics.h) over a non-empty band. rayquery is a row wherever the device has ray queries (penumbra info
 # says), with an error near zero: it traces exact's rays with the driver's own triangle test, which
 # may decide a ray grazing an edge the other way (test_exact_oracle checks it ray for ray).
 set -u
@@ -27,7 +29,19 @@ assert ctx["device"] and ctx["threads"] >= 1 and ctx["driver"] and ctx["driver_i
 assert ctx["reference"]["mode"] == "exact" and ctx["reference"]["spp"] == 1024 and ctx["reference"]["seed"] != 1, ctx
 modes = {r["mode"] for r in rows}
 assert modes == {"exact", "exact-ls", "hybrid", "linespace", "ls-leaf", "ls-plane"} | ({"rayquery"} if rq else set()), modes
-assert len(rows) == 1 + 5 * 2 + rq, len(rows)  # exact, five tree modes x two trees, rayquery
+assert len(rows) == 2 * (1 + 5 * 2 + rq), len(rows)  # (exact, five tree modes x two trees, rayquery) x two filters
+assert ctx["filters"] == ["none", "interleaved"] and ctx["tile"] == [3, 3], ctx
+for r in rows:
+    if r["filter"] == "none":
+        assert r["tile"] is None and r["edge_leak"] is None and r["gpu_ms"]["filter"] == 0, r
+        assert r["cell_ms"] == r["gpu_ms"]["shadow"], r
+    else:
+        assert r["filter"] == "interleaved" and r["tile"] == [3, 3], r
+        assert r["gpu_ms"]["filter"] > 0 and abs(r["cell_ms"] - r["gpu_ms"]["shadow"] - r["gpu_ms"]["filter"]) < 1e-3, r
+        e = r["edge_leak"]
+        assert e["band"] > 0 and 0 <= e["grown"] <= e["band"] and abs(e["share"] - e["grown"] / e["band"]) < 1e-6, r
+    twin = [q for q in rows if q["mode"] == r["mode"] and q["tree"] == r["tree"] and q["filter"] != r["filter"]]
+    assert len(twin) == 1, (r, twin)
 for r in rows:
     assert r["gpu_ms"]["shadow"] > 0 and r["shadow_rays_per_s"] > 0 and r["vs_embree"] > 0, r
     assert r["spp"] == 9 and r["reference"]["mae"] > 0 and r["reference"]["max"] >= r["reference"]["p99"], r
@@ -43,17 +57,17 @@ tte = j["time_to_error"]
 assert [t["level"] for t in tte] == [0.05, 0.02, 0.01, 0.005], tte
 for t in tte:
     for m in t["modes"]:
-        fits = [r for r in rows if r["mode"] == m["mode"] and r["reference"]["mae"] <= t["level"]]
-        best = min(fits, key=lambda r: r["gpu_ms"]["shadow"])
-        assert (m["tree"], m["spp"], m["shadow_ms"]) == (best["tree"], best["spp"], best["gpu_ms"]["shadow"]), (m, best)
-    listed = {m["mode"] for m in t["modes"]}
-    assert listed == {r["mode"] for r in rows if r["reference"]["mae"] <= t["level"]}, (t, listed)
+        fits = [r for r in rows if (r["mode"], r["filter"]) == (m["mode"], m["filter"]) and r["reference"]["mae"] <= t["level"]]
+        best = min(fits, key=lambda r: r["cell_ms"])
+        assert (m["tree"], m["spp"], m["cell_ms"]) == (best["tree"], best["spp"], best["cell_ms"]), (m, best)
+    listed = {(m["mode"], m["filter"]) for m in t["modes"]}
+    assert listed == {(r["mode"], r["filter"]) for r in rows if r["reference"]["mae"] <= t["level"]}, (t, listed)
 print("bench rows ok:", len(rows))
 PY
 # Shader level: the shadow pass alone over a G-buffer from render --aovs; the V it computes for the
 # same pixels and samples must be the frame's V (exact-ls against exact: zero error again).
 "$BIN" render builtin:default --size 64x48 --aovs -o "$OUT/gbuffer.exr" >/dev/null || { echo "FAIL: render --aovs"; exit 1; }
-"$BIN" bench --shader shadow --gbuffer "$OUT/gbuffer.exr" --scenes builtin:default --modes exact,exact-ls --trees 5,2 \
+"$BIN" bench --shader shadow --gbuffer "$OUT/gbuffer.exr" --scenes builtin:default --modes exact,exact-ls --trees 5,2 --filter none \
   --spp 9 --repeat 1 --warmup 0 --no-embree --work --out "$OUT/shader" > "$OUT/shader.txt" || { echo "FAIL: shader-level bench"; fail=1; }
 # --work: the counting builds report per-pixel work; the exact mode walks BVH nodes and tests
 # triangles but never looks up a line space; exact-ls does look up line spaces.

@@ -53,6 +53,9 @@ typedef struct bench_opts {
     int repeat, warmup;
     pn_traversal traversal;
     pn_sampler sampler;
+    pn_filter filters[2]; // --filter: an axis of the matrix like spp (default none and interleaved)
+    int filter_count;
+    uint32_t tile_w, tile_h; // --tile: the interleaving tile and filter window of the filtered cells
     uint32_t reference_spp; // of the converged reference (PN_REFERENCE_SPP)
     const char *out_dir;
     bool embree;
@@ -70,16 +73,26 @@ typedef struct bench_row {
     uint32_t width, height, spp;
     pn_shadow_mode mode;
     int n, d;
+    pn_filter filter;        // with interleaved, tile_w x tile_h tiles
+    uint32_t tile_w, tile_h; // 0 without a filter
     uint32_t triangles;
     double build_ms, pool_mb;
-    double gbuffer_ms, shadow_ms, shade_ms;       // medians
+    double gbuffer_ms, shadow_ms, filter_ms, shade_ms; // medians (filter_ms 0 without a filter)
     double shadow_min_ms, shadow_max_ms;          // spread
     double rays_per_s;
     pn_error_metrics ref;  // against the converged reference: what the user sees (bias and noise)
     pn_error_metrics bias; // against exact with the same pixels and light samples: the mode's bias
     double vs_exact, vs_embree;                   // shadow time ratios (lower is faster)
     double embree_ms;                             // Embree on exact's rays at this spp (0: not run)
+    pn_edge_leak edge; // with a filter: how its error grows next to edges of geometry (metrics.h)
 } bench_row;
+
+// What a cell costs: its shadow pass and, with a filter, the filter pass (the passes the filter
+// trades against each other); the time-to-error table, the plots' front and --max-error use it.
+static inline double pn_bench_row_ms(const bench_row *r) { return r->shadow_ms + r->filter_ms; }
+
+// A configuration's name in tables and plots: the mode, and "+filter" for a filtered cell.
+static inline const char *pn_bench_filter_suffix(pn_filter f) { return f == PN_FILTER_NONE ? "" : "+filter"; }
 
 // --max-error: what --quality auto picked for one view, size and budget, next to the matrix's front.
 typedef struct bench_quality {

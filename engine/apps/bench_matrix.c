@@ -1,6 +1,7 @@
 // penumbra bench's matrix: per view and size, the converged reference (bench_reference.c), exact at
 // every spp with its Embree peer, then every mode and tree at every spp, timed, with both errors;
 // --work counters and --max-error checks of --quality auto.
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,7 +32,7 @@ double pn_bench_median(double *v, int n)
 static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camera *cam, const pn_light *light,
                              bench_row *row)
 {
-    double g[1000], s[1000], h[1000];
+    double g[1000], s[1000], f[1000], h[1000];
     pn_frame_times t;
     for (int i = 0; i < o->warmup; i++)
         if (pn_renderer_render(r, cam, light, &t) != PN_OK)
@@ -39,9 +40,12 @@ static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camer
     for (int i = 0; i < o->repeat; i++) {
         if (pn_renderer_render(r, cam, light, &t) != PN_OK)
             return PN_ERR_VULKAN;
-        g[i] = t.gbuffer_ms, s[i] = t.shadow_ms, h[i] = t.shade_ms;
+        g[i] = t.gbuffer_ms, s[i] = t.shadow_ms, f[i] = t.filter_ms, h[i] = t.shade_ms;
     }
     row->gbuffer_ms = pn_bench_median(g, o->repeat);
+    // Without a filter the interval between the shadow and shading passes holds no work, only the
+    // timestamps' own overhead: 0, so that an unfiltered cell's time is its shadow pass.
+    row->filter_ms = row->filter != PN_FILTER_NONE ? pn_bench_median(f, o->repeat) : 0.0;
     row->shade_ms = pn_bench_median(h, o->repeat);
     row->shadow_ms = pn_bench_median(s, o->repeat); // sorts s
     row->shadow_min_ms = s[0];
@@ -115,9 +119,11 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
 {
     bench_quality bq = {.width = frame->width, .height = frame->height, .budget = budget};
     snprintf(bq.scene, sizeof bq.scene, "%s", rows->rows[first_row].scene);
+    // --quality auto chooses among unfiltered configurations, so the front it is held to is the
+    // unfiltered cells'.
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        if (r->ref.mae <= budget && (!bq.has_best || r->shadow_ms < bq.best_ms)) {
+        if (r->filter == PN_FILTER_NONE && r->ref.mae <= budget && (!bq.has_best || r->shadow_ms < bq.best_ms)) {
             bq.has_best = true;
             bq.best_mode = r->mode, bq.best_n = r->n, bq.best_d = r->d, bq.best_spp = r->spp;
             bq.best_ms = r->shadow_ms, bq.best_mae = r->ref.mae;
@@ -134,7 +140,8 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
     const bench_row *cell = NULL;
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        if (r->mode == q->mode && r->n == q->tree_n && r->d == q->tree_d && r->spp == q->spp)
+        if (r->filter == PN_FILTER_NONE && r->mode == q->mode && r->n == q->tree_n && r->d == q->tree_d &&
+            r->spp == q->spp)
             cell = r;
     }
     bool is_front = bq.has_best && cell && bq.best_mode == q->mode && bq.best_n == q->tree_n &&
@@ -258,9 +265,10 @@ static void report_work(const bench_opts *o, pn_gpu_device *dev, const pn_scene 
     pn_setup_destroy(dev, &s);
 }
 
-// One configuration (a mode and tree) at every spp of the matrix over one set-up: a row per spp with
-// both errors. v_exact holds exact's V per spp (the bias reference), NULL for exact itself, whose
-// V is stored there instead. embree_ms per spp (0: no peer).
+// One configuration (a mode and tree) with every filter at every spp of the matrix over one set-up:
+// a row per filter and spp with both errors. v_exact holds exact's V per filter and spp (the bias
+// reference: exact with the same samples and the same filter), which exact itself stores there.
+// exact_ms per filter and spp, embree_ms per spp (0: no peer).
 typedef struct group {
     const bench_opts *o;
     pn_gpu_device *dev;
@@ -273,14 +281,84 @@ typedef struct group {
     const uint8_t *mask;
     uint64_t covered;
     float *v_exact;
-    double exact_ms[MAX_LIST], embree_ms[MAX_LIST];
+    double exact_ms[2 * MAX_LIST], embree_ms[MAX_LIST];
     pn_bench_embree_scene *rtc; // traces exact's rays
 } group;
+
+// One cell: the set-up `s` (its filter already set) at the fi-th filter and pi-th spp, timed, with
+// both errors and, filtered, the leak across edges. `sd` describes the set-up (for --work).
+static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, double pixel_angle, bench_rows *rows,
+                    bool push)
+{
+    const bench_opts *o = g->o;
+    size_t px = (size_t)g->frame.width * g->frame.height;
+    pn_shadow_mode mode = sd->frame.mode;
+    bool exact = mode == PN_SHADOW_REFERENCE;
+    uint32_t spp = o->spps[pi];
+    int ci = fi * o->spp_count + pi; // the cell's place among the filters' spp
+    sd->frame.spp = spp;
+    if (pn_renderer_set_spp(&s->renderer, spp) != PN_OK ||
+        (ci == 0 && o->gbuffer && pn_renderer_set_gbuffer(&s->renderer, o->gb_p, o->gb_n) != PN_OK))
+        return PN_EXIT_FAILURE;
+    bench_row row = g->base;
+    row.spp = spp;
+    row.mode = mode;
+    row.n = sd->tree_n, row.d = sd->tree_d;
+    row.filter = sd->frame.filter;
+    if (row.filter != PN_FILTER_NONE)
+        row.tile_w = pn_filter_tile(sd->frame.tile_w), row.tile_h = pn_filter_tile(sd->frame.tile_h);
+    // Timed without the ray dump, whose writes would slow the frames down.
+    if ((sd->frame.dump_rays && pn_renderer_set_dump_rays(&s->renderer, false) != PN_OK) ||
+        time_frames(o, &s->renderer, g->cam, g->light, &row) != PN_OK)
+        return PN_EXIT_FAILURE;
+    pn_frame_images img;
+    pn_renderer_images(&s->renderer, &img);
+    float *same = g->v_exact + (size_t)ci * px; // exact with this filter and spp
+    if (exact) {
+        memcpy(same, img.v, px * sizeof *same);
+        g->exact_ms[ci] = pn_bench_row_ms(&row);
+    }
+    // Embree traces the first filter's rays: their number, which is what its time depends on, is the
+    // same with every filter.
+    if (exact && sd->frame.dump_rays && fi == 0) {
+        // One more frame with the dump for Embree: the same rays (the frame is deterministic).
+        pn_frame_times t;
+        uint64_t floats;
+        if (pn_renderer_set_dump_rays(&s->renderer, true) != PN_OK ||
+            pn_renderer_render(&s->renderer, g->cam, g->light, &t) != PN_OK)
+            return PN_EXIT_FAILURE;
+        g->embree_ms[pi] = pn_bench_embree_time(o, g->rtc, pn_renderer_ray_dump(&s->renderer, &floats), px, spp);
+        pn_renderer_images(&s->renderer, &img);
+    }
+    row.build_ms = s->build_ms;
+    row.pool_mb = (s->pool_bytes.total + s->exact_bytes) / 1048576.0;
+    row.rays_per_s = pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
+    row.vs_exact = g->exact_ms[ci] > 0 ? pn_bench_row_ms(&row) / g->exact_ms[ci] : 0;
+    row.embree_ms = g->embree_ms[pi];
+    row.vs_embree = row.embree_ms > 0 ? pn_bench_row_ms(&row) / row.embree_ms : 0;
+    if (!pn_error_compare(img.v, g->v_conv, g->mask, px, NULL, &row.ref) ||
+        !pn_error_compare(img.v, same, g->mask, px, NULL, &row.bias))
+        return PN_EXIT_FAILURE;
+    if (row.filter != PN_FILTER_NONE &&
+        !pn_edge_leak_measure(img.p, img.n, img.v, img.v_raw, g->v_conv, g->frame.width, g->frame.height,
+                              pixel_angle, &row.edge))
+        return PN_EXIT_FAILURE;
+    if (push && !push_row(rows, &row))
+        return PN_EXIT_FAILURE;
+    if (o->work) {
+        char label[512];
+        snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s%s", g->base.scene, g->frame.width, g->frame.height, spp,
+                 MODE_NAME(mode), row.filter != PN_FILTER_NONE ? "_filter" : "");
+        if (row.n)
+            snprintf(label + strlen(label), sizeof label - strlen(label), "_LS%d_%d", row.n, row.d);
+        report_work(o, g->dev, g->scene, g->cam, g->light, *sd, label);
+    }
+    return PN_EXIT_OK;
+}
 
 static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows *rows, bool push)
 {
     const bench_opts *o = g->o;
-    size_t px = (size_t)g->frame.width * g->frame.height;
     bool exact = mode == PN_SHADOW_REFERENCE;
     pn_setup s;
     pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td,
@@ -298,64 +376,16 @@ static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows 
         return PN_EXIT_OK;
     }
     int rc = PN_EXIT_OK;
-    for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
-        uint32_t spp = o->spps[pi];
-        sd.frame.spp = spp;
-        if (pn_renderer_set_spp(&s.renderer, spp) != PN_OK ||
-            (pi == 0 && o->gbuffer && pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) != PN_OK)) {
+    double pixel_angle = 2.0 * tan(0.5 * g->cam->yfov_deg * 3.14159265358979323846 / 180.0) / g->frame.height;
+    for (int fi = 0; fi < o->filter_count && rc == PN_EXIT_OK; fi++) {
+        pn_filter filter = o->filters[fi];
+        if (pn_renderer_set_filter(&s.renderer, filter, o->tile_w, o->tile_h) != PN_OK) {
             rc = PN_EXIT_FAILURE;
             break;
         }
-        bench_row row = g->base;
-        row.spp = spp;
-        row.mode = mode;
-        row.n = tn, row.d = td;
-        // Timed without the ray dump, whose writes would slow the frames down.
-        if ((sd.frame.dump_rays && pn_renderer_set_dump_rays(&s.renderer, false) != PN_OK) ||
-            time_frames(o, &s.renderer, g->cam, g->light, &row) != PN_OK) {
-            rc = PN_EXIT_FAILURE;
-            break;
-        }
-        pn_frame_images img;
-        pn_renderer_images(&s.renderer, &img);
-        float *same = g->v_exact + (size_t)pi * px; // exact at this spp
-        if (exact) {
-            memcpy(same, img.v, px * sizeof *same);
-            g->exact_ms[pi] = row.shadow_ms;
-        }
-        if (exact && sd.frame.dump_rays) {
-            // One more frame with the dump for Embree: the same rays (the frame is deterministic).
-            pn_frame_times t;
-            uint64_t floats;
-            if (pn_renderer_set_dump_rays(&s.renderer, true) != PN_OK ||
-                pn_renderer_render(&s.renderer, g->cam, g->light, &t) != PN_OK) {
-                rc = PN_EXIT_FAILURE;
-                break;
-            }
-            g->embree_ms[pi] = pn_bench_embree_time(o, g->rtc, pn_renderer_ray_dump(&s.renderer, &floats), px, spp);
-            pn_renderer_images(&s.renderer, &img);
-        }
-        row.build_ms = s.build_ms;
-        row.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
-        row.rays_per_s = pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
-        row.vs_exact = g->exact_ms[pi] > 0 ? row.shadow_ms / g->exact_ms[pi] : 0;
-        row.embree_ms = g->embree_ms[pi];
-        row.vs_embree = row.embree_ms > 0 ? row.shadow_ms / row.embree_ms : 0;
-        if (!pn_error_compare(img.v, g->v_conv, g->mask, px, NULL, &row.ref) ||
-            !pn_error_compare(img.v, same, g->mask, px, NULL, &row.bias)) {
-            rc = PN_EXIT_FAILURE;
-            break;
-        }
-        if (push && !push_row(rows, &row))
-            rc = PN_EXIT_FAILURE;
-        if (o->work) {
-            char label[512];
-            snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s", g->base.scene, g->frame.width, g->frame.height, spp,
-                     MODE_NAME(mode));
-            if (tn)
-                snprintf(label + strlen(label), sizeof label - strlen(label), "_LS%d_%d", tn, td);
-            report_work(o, g->dev, g->scene, g->cam, g->light, sd, label);
-        }
+        sd.frame.filter = filter, sd.frame.tile_w = o->tile_w, sd.frame.tile_h = o->tile_h;
+        for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++)
+            rc = run_cell(g, &s, &sd, fi, pi, pixel_angle, rows, push);
     }
     pn_setup_destroy(g->dev, &s);
     return rc;
@@ -387,7 +417,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
         snprintf(g.base.scene, sizeof g.base.scene, "%s", view->name);
         float *v_conv = malloc(px * sizeof *v_conv);
         uint8_t *mask = malloc(px);
-        g.v_exact = malloc(px * (size_t)o->spp_count * sizeof *g.v_exact);
+        g.v_exact = malloc(px * (size_t)(o->filter_count * o->spp_count) * sizeof *g.v_exact);
         if (!v_conv || !mask || !g.v_exact ||
             pn_bench_reference(o, dev, &scene, view->name, &cam, &light, w, h, v_conv, mask) != PN_OK) {
             free(v_conv), free(mask), free(g.v_exact);

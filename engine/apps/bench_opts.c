@@ -119,7 +119,8 @@ static int cmp_u32(const void *a, const void *b)
 int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {
     *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
-                      .reference_spp = PN_REFERENCE_SPP, .out_dir = "bench-out", .embree = true};
+                      .reference_spp = PN_REFERENCE_SPP, .out_dir = "bench-out", .embree = true,
+                      .tile_w = 3, .tile_h = 3};
     bool quick = false;
     char scenes_buf[4096] = "", views_buf[512] = "";
     pn_args a = {argc, argv, 0};
@@ -205,6 +206,24 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             int m = v ? pn_parse_choice("--sampler", v, pn_sampler_names) : -1;
             ok = m >= 0;
             o->sampler = ok ? (pn_sampler)m : o->sampler;
+        } else if (pn_args_value(&a, "--filter", &v, &err)) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v ? v : "");
+            o->filter_count = 0;
+            for (char *tok = strtok(buf, ","); tok && ok; tok = strtok(NULL, ",")) {
+                int f = pn_parse_choice("--filter", tok, pn_filter_names);
+                ok = f >= 0;
+                for (int i = 0; ok && i < o->filter_count; i++)
+                    if (o->filters[i] == (pn_filter)f) {
+                        pn_error("--filter: %s is listed twice", tok);
+                        ok = false;
+                    }
+                if (ok)
+                    o->filters[o->filter_count++] = (pn_filter)f;
+            }
+            ok = ok && o->filter_count > 0;
+        } else if (pn_args_value(&a, "--tile", &v, &err)) {
+            ok = v && pn_parse_size("--tile", v, PN_FILTER_MAX_TILE, &o->tile_w, &o->tile_h);
         } else if (pn_args_value(&a, "--max-error", &v, &err)) {
             char buf[256];
             snprintf(buf, sizeof buf, "%s", v ? v : "");
@@ -271,6 +290,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         o->spps[0] = 1, o->spps[1] = 4, o->spps[2] = 16, o->spps[3] = 64, o->spp_count = 4;
     if (!o->size_count)
         o->sizes[0][0] = o->sizes[0][1] = 512, o->size_count = 1;
+    if (!o->filter_count)
+        o->filters[0] = PN_FILTER_NONE, o->filters[1] = PN_FILTER_INTERLEAVED, o->filter_count = 2;
     if (o->gbuffer && o->view_count != 1) {
         pn_error("--gbuffer: name the one scene its G-buffer was rendered from (--scenes or --views)");
         return PN_EXIT_USAGE;

@@ -16,20 +16,25 @@
 // "ref" against the converged reference, "bias" against exact with the same samples.
 void pn_bench_print_header(void)
 {
-    printf("%-16s %-9s %4s %-9s %-5s %8s %7s %9s [%7s %7s] %7s %8s %7s %8s %6s %6s %7s\n", "view", "size", "spp", "mode",
-           "tree", "build ms", "MB", "shadow ms", "min", "max", "Mray/s", "ref MAE", "ref p99", "bias MAE", "bias mx",
-           "/exact", "/embree");
+    printf("%-16s %-9s %4s %-9s %-5s %-6s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s\n", "view", "size",
+           "spp", "mode", "tree", "filter", "build ms", "MB", "shadow ms", "min", "max", "filter ms", "Mray/s", "ref MAE",
+           "ref p99", "bias MAE", "bias mx", "/exact", "/embree", "edge%");
 }
 
 void pn_bench_print_row(const bench_row *r)
 {
-    char tree[16] = "-";
+    char tree[16] = "-", filter[16] = "-", edge[16] = "-";
     if (r->n)
         snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
-    printf("%-16.16s %4ux%-4u %4u %-9s %-5s %8.1f %7.1f %9.1f [%7.1f %7.1f] %7.2f %8.4f %7.4f %8.4f %6.3f %6.2f %7.2f\n",
-           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, r->build_ms, r->pool_mb, r->shadow_ms,
-           r->shadow_min_ms, r->shadow_max_ms, r->rays_per_s / 1e6, r->ref.mae, r->ref.p99, r->bias.mae, r->bias.max,
-           r->vs_exact, r->vs_embree);
+    if (r->filter != PN_FILTER_NONE) {
+        snprintf(filter, sizeof filter, "%ux%u", r->tile_w, r->tile_h);
+        snprintf(edge, sizeof edge, "%.2f", 100.0 * r->edge.share);
+    }
+    printf("%-16.16s %4ux%-4u %4u %-9s %-5s %-6s %8.1f %7.1f %9.1f [%7.1f %7.1f] %8.2f %7.2f %8.4f %7.4f %8.4f %6.3f %6.2f "
+           "%7.2f %6s\n",
+           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, filter, r->build_ms, r->pool_mb,
+           r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->filter_ms, r->rays_per_s / 1e6, r->ref.mae, r->ref.p99,
+           r->bias.mae, r->bias.max, r->vs_exact, r->vs_embree, edge);
     fflush(stdout);
 }
 
@@ -81,15 +86,16 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
         return false;
     fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
-               "bias_max,vs_exact,vs_embree,embree_ms\n");
+               "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
-                r->vs_exact, r->vs_embree, r->embree_ms);
+                r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
+                r->edge.band, r->edge.grown, r->edge.share);
     }
     return close_out(f, path, tmp);
 }
@@ -126,31 +132,44 @@ static int group_end(const bench_rows *rows, int first)
     return end;
 }
 
-// The fastest row of rows [first, end) with mode m whose reference MAE is at most `level`; NULL
-// when none reaches it.
-static const bench_row *fastest_within(const bench_rows *rows, int first, int end, pn_shadow_mode m, double level)
+// A column of the time-to-error table: a mode with or without the filter.
+typedef struct mode_filter {
+    pn_shadow_mode mode;
+    pn_filter filter;
+} mode_filter;
+
+// The fastest row of rows [first, end) with mode and filter c whose reference MAE is at most
+// `level` (a filtered cell's time includes its filter pass); NULL when none reaches it.
+static const bench_row *fastest_within(const bench_rows *rows, int first, int end, mode_filter c, double level)
 {
     const bench_row *best = NULL;
     for (int j = first; j < end; j++) {
         const bench_row *r = &rows->rows[j];
-        if (r->mode == m && r->ref.mae <= level && (!best || r->shadow_ms < best->shadow_ms))
+        if (r->mode == c.mode && r->filter == c.filter && r->ref.mae <= level &&
+            (!best || pn_bench_row_ms(r) < pn_bench_row_ms(best)))
             best = r;
     }
     return best;
 }
 
-// The modes present in rows [first, end), in the order of the mode table.
-static int group_modes(const bench_rows *rows, int first, int end, pn_shadow_mode *out)
+enum { MAX_COLUMNS = 2 * PN_SHADOW_MODE_COUNT };
+
+// The modes and filters present in rows [first, end), in the order of the mode table, each mode
+// unfiltered first.
+static int group_modes(const bench_rows *rows, int first, int end, mode_filter *out)
 {
     int n = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
-        for (int j = first; j < end; j++)
-            if (rows->rows[j].mode == (pn_shadow_mode)m) {
-                out[n++] = (pn_shadow_mode)m;
-                break;
-            }
+        for (int f = PN_FILTER_NONE; f <= PN_FILTER_INTERLEAVED; f++)
+            for (int j = first; j < end; j++)
+                if (rows->rows[j].mode == (pn_shadow_mode)m && rows->rows[j].filter == (pn_filter)f) {
+                    out[n++] = (mode_filter){(pn_shadow_mode)m, (pn_filter)f};
+                    break;
+                }
     return n;
 }
+
+static const mode_filter EXACT = {PN_SHADOW_REFERENCE, PN_FILTER_NONE};
 
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows)
 {
@@ -172,10 +191,13 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             VK_API_VERSION_PATCH(dev->props.apiVersion));
     pn_json_string(f, cpu);
     fprintf(f, ", \"threads\": %u, \"repeat\": %d, \"warmup\": %d, \"traversal\": \"%s\", \"sampler\": \"%s\", "
-               "\"seed\": 1, \"reference\": {\"mode\": \"%s\", \"spp\": %u, \"sampler\": \"stratified\", \"seed\": %u}, "
-               "\"views\": [",
+               "\"seed\": 1, \"reference\": {\"mode\": \"%s\", \"spp\": %u, \"sampler\": \"stratified\", \"seed\": %u}, ",
             pn_parallel_threads(), o->repeat, o->warmup, pn_traversal_names[o->traversal],
             pn_sampler_names[o->sampler], MODE_NAME(PN_SHADOW_REFERENCE), o->reference_spp, PN_REFERENCE_SEED);
+    fprintf(f, "\"filters\": [");
+    for (int i = 0; i < o->filter_count; i++)
+        fprintf(f, "%s\"%s\"", i ? ", " : "", pn_filter_names[o->filters[i]]);
+    fprintf(f, "], \"tile\": [%u, %u], \"views\": [", o->tile_w, o->tile_h);
     for (int i = 0; i < o->view_count; i++) {
         fprintf(f, "%s{\"name\": ", i ? ", " : "");
         pn_json_string(f, o->views[i].name);
@@ -191,11 +213,21 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"mode\": \"%s\", \"tree\": ", r->width, r->height,
                 r->spp, MODE_NAME(r->mode));
         json_tree(f, r->n, r->d);
+        fprintf(f, ", \"filter\": \"%s\", \"tile\": ", pn_filter_names[r->filter]);
+        if (r->filter != PN_FILTER_NONE)
+            fprintf(f, "[%u, %u]", r->tile_w, r->tile_h);
+        else
+            fprintf(f, "null");
         fprintf(f, ", \"triangles\": %u, \"build_ms\": %.3f, \"pool_mb\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, "
-                   "\"shadow\": %.4f, \"shadow_min\": %.4f, \"shadow_max\": %.4f, \"shade\": %.4f}, \"shadow_rays_per_s\": "
-                   "%.6g, ",
+                   "\"shadow\": %.4f, \"shadow_min\": %.4f, \"shadow_max\": %.4f, \"filter\": %.4f, \"shade\": %.4f}, "
+                   "\"cell_ms\": %.4f, \"shadow_rays_per_s\": %.6g, ",
                 r->triangles, r->build_ms, r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms,
-                r->shade_ms, r->rays_per_s);
+                r->filter_ms, r->shade_ms, pn_bench_row_ms(r), r->rays_per_s);
+        if (r->filter != PN_FILTER_NONE)
+            fprintf(f, "\"edge_leak\": {\"band\": %zu, \"grown\": %zu, \"share\": %.6g}, ", r->edge.band, r->edge.grown,
+                    r->edge.share);
+        else
+            fprintf(f, "\"edge_leak\": null, ");
         json_metrics(f, "reference", &r->ref);
         fprintf(f, ", ");
         json_metrics(f, "bias", &r->bias);
@@ -207,7 +239,7 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
     for (int first = 0, end; first < rows->count; first = end) {
         end = group_end(rows, first);
         const bench_row *g0 = &rows->rows[first];
-        pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
+        mode_filter modes[MAX_COLUMNS];
         int nm = group_modes(rows, first, end, modes);
         for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
             double level = pn_bench_error_levels[l];
@@ -215,18 +247,19 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             sep = ",\n";
             pn_json_string(f, g0->scene);
             fprintf(f, ", \"width\": %u, \"height\": %u, \"level\": %g, \"modes\": [", g0->width, g0->height, level);
-            const bench_row *ex = fastest_within(rows, first, end, PN_SHADOW_REFERENCE, level);
+            const bench_row *ex = fastest_within(rows, first, end, EXACT, level);
             int k = 0;
             for (int m = 0; m < nm; m++) {
                 const bench_row *r = fastest_within(rows, first, end, modes[m], level);
                 if (!r)
                     continue;
-                fprintf(f, "%s{\"mode\": \"%s\", \"tree\": ", k++ ? ", " : "", MODE_NAME(r->mode));
+                fprintf(f, "%s{\"mode\": \"%s\", \"filter\": \"%s\", \"tree\": ", k++ ? ", " : "", MODE_NAME(r->mode),
+                        pn_filter_names[r->filter]);
                 json_tree(f, r->n, r->d);
-                fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g, \"vs_exact\": ", r->spp, r->shadow_ms,
-                        r->ref.mae);
+                fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g, \"vs_exact\": ", r->spp,
+                        r->shadow_ms, pn_bench_row_ms(r), r->ref.mae);
                 if (ex && ex->shadow_ms > 0)
-                    fprintf(f, "%.4f}", r->shadow_ms / ex->shadow_ms);
+                    fprintf(f, "%.4f}", pn_bench_row_ms(r) / ex->shadow_ms);
                 else
                     fprintf(f, "null}");
             }
@@ -278,9 +311,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
 static void config_label(char *out, size_t n, const bench_row *r)
 {
     if (r->n)
-        snprintf(out, n, "%s LS(%d,%d)", MODE_NAME(r->mode), r->n, r->d);
+        snprintf(out, n, "%s%s LS(%d,%d)", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter), r->n, r->d);
     else
-        snprintf(out, n, "%s", MODE_NAME(r->mode));
+        snprintf(out, n, "%s%s", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter));
 }
 
 bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
@@ -292,22 +325,22 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
     for (int first = 0, end; first < rows->count; first = end) {
         end = group_end(rows, first);
         const bench_row *g0 = &rows->rows[first];
-        pn_shadow_mode modes[PN_SHADOW_MODE_COUNT];
+        mode_filter modes[MAX_COLUMNS];
         int nm = group_modes(rows, first, end, modes);
         for (int pass = 0; pass < 2; pass++) { // the file, then the console
             FILE *out = pass ? stdout : f;
             fprintf(out, "\n%s %ux%u (%u triangles): the fastest cell reaching each reference MAE, shadow pass ms "
-                         "(configuration, x exact's time)\n\n| MAE <= |",
+                         "(+filter: shadow and filter passes) (configuration, x exact's time)\n\n| MAE <= |",
                     g0->scene, g0->width, g0->height, g0->triangles);
             for (int m = 0; m < nm; m++)
-                fprintf(out, " %s |", MODE_NAME(modes[m]));
+                fprintf(out, " %s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter));
             fprintf(out, " Embree 3, exact's rays |\n|---|");
             for (int m = 0; m <= nm; m++)
                 fprintf(out, "---|");
             fprintf(out, "\n");
             for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
                 double level = pn_bench_error_levels[l];
-                const bench_row *ex = fastest_within(rows, first, end, PN_SHADOW_REFERENCE, level);
+                const bench_row *ex = fastest_within(rows, first, end, EXACT, level);
                 fprintf(out, "| %g |", level);
                 for (int m = 0; m < nm; m++) {
                     const bench_row *r = fastest_within(rows, first, end, modes[m], level);
@@ -318,9 +351,9 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                     char tree[32] = "";
                     if (r->n)
                         snprintf(tree, sizeof tree, "LS(%d,%d) ", r->n, r->d);
-                    fprintf(out, " %.1f (%s%u spp", r->shadow_ms, tree, r->spp);
+                    fprintf(out, " %.1f (%s%u spp", pn_bench_row_ms(r), tree, r->spp);
                     if (ex && ex->shadow_ms > 0)
-                        fprintf(out, ", %.2fx", r->shadow_ms / ex->shadow_ms);
+                        fprintf(out, ", %.2fx", pn_bench_row_ms(r) / ex->shadow_ms);
                     fprintf(out, ") |");
                 }
                 if (ex && ex->embree_ms > 0 && ex->shadow_ms > 0)
@@ -351,7 +384,8 @@ static void to_unit(const plot_box *b, double x, double y, double *u, double *v)
 static double plot_err(double e) { return fmax(e, 1e-5); }
 static double plot_ms(double ms) { return fmax(ms, 1e-3); }
 
-// Per view and size: reference MAE against shadow time, log-log; a curve per mode and tree through
+// Per view and size: reference MAE against the cell's time (shadow pass, plus the filter pass of a
+// filtered cell), log-log; a curve per mode, tree and filter through
 // its spp points (labelled with the spp where the label does not overlap another), the Pareto front
 // over every cell (no other cell both faster and more accurate), and Embree on exact's rays.
 bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
@@ -384,8 +418,8 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         int *heads = idx + n; // the first row of each configuration (idx has room: n + configs <= 2n)
         for (int a = 0; a < n; a++) {
             const bench_row *r = &rows->rows[idx[a]];
-            box.x0 = fmin(box.x0, log10(plot_ms(r->shadow_ms)));
-            box.x1 = fmax(box.x1, log10(plot_ms(r->shadow_ms)));
+            box.x0 = fmin(box.x0, log10(plot_ms(pn_bench_row_ms(r))));
+            box.x1 = fmax(box.x1, log10(plot_ms(pn_bench_row_ms(r))));
             box.y0 = fmin(box.y0, log10(plot_err(r->ref.mae)));
             box.y1 = fmax(box.y1, log10(plot_err(r->ref.mae)));
             if (r->embree_ms > 0) {
@@ -393,16 +427,16 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 box.x1 = fmax(box.x1, log10(r->embree_ms));
             }
             bool new_config = a == 0 || rows->rows[idx[a - 1]].mode != r->mode || rows->rows[idx[a - 1]].n != r->n ||
-                         rows->rows[idx[a - 1]].d != r->d;
+                              rows->rows[idx[a - 1]].d != r->d || rows->rows[idx[a - 1]].filter != r->filter;
             if (new_config) {
                 if (configs)
                     fprintf(f, "\n\n");
                 char title[64];
                 config_label(title, sizeof title, r);
-                fprintf(f, "# %s: shadow_ms reference_mae spp\n", title);
+                fprintf(f, "# %s: ms (shadow + filter) reference_mae spp\n", title);
                 heads[configs++] = idx[a];
             }
-            fprintf(f, "%.4f %.6g %u\n", plot_ms(r->shadow_ms), plot_err(r->ref.mae), r->spp);
+            fprintf(f, "%.4f %.6g %u\n", plot_ms(pn_bench_row_ms(r)), plot_err(r->ref.mae), r->spp);
         }
         // The front: sorted by time, each cell more accurate than every faster one.
         int *order = malloc((size_t)n * sizeof *order);
@@ -417,19 +451,20 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
         for (int a = 0; a < n; a++)
             for (int b = a + 1; b < n; b++) {
                 const bench_row *x = &rows->rows[order[a]], *y = &rows->rows[order[b]];
-                if (y->shadow_ms < x->shadow_ms || (y->shadow_ms == x->shadow_ms && y->ref.mae < x->ref.mae)) {
+                double tx = pn_bench_row_ms(x), ty = pn_bench_row_ms(y);
+                if (ty < tx || (ty == tx && y->ref.mae < x->ref.mae)) {
                     int t = order[a];
                     order[a] = order[b];
                     order[b] = t;
                 }
             }
-        fprintf(f, "\n\n# Pareto front: shadow_ms reference_mae\n");
+        fprintf(f, "\n\n# Pareto front: ms (shadow + filter) reference_mae\n");
         double best = INFINITY;
         for (int a = 0; a < n; a++) {
             const bench_row *r = &rows->rows[order[a]];
             if (r->ref.mae < best) {
                 best = r->ref.mae;
-                fprintf(f, "%.4f %.6g\n", plot_ms(r->shadow_ms), plot_err(r->ref.mae));
+                fprintf(f, "%.4f %.6g\n", plot_ms(pn_bench_row_ms(r)), plot_err(r->ref.mae));
             }
         }
         fprintf(f, "\n\n# Embree 3 on exact's rays: embree_ms reference_mae spp\n");
@@ -453,8 +488,8 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
             break;
         }
         fprintf(f, "set terminal pngcairo size 1000,700\nset output '%s.png'\n"
-                   "set title '%s %ux%u: error against the converged reference vs shadow pass time'\n"
-                   "set xlabel 'shadow pass (ms, median)'\nset ylabel 'mean absolute error of V (reference)'\n"
+                   "set title '%s %ux%u: error against the converged reference vs shadow (+ filter) pass time'\n"
+                   "set xlabel 'shadow pass + filter pass (ms, medians)'\nset ylabel 'mean absolute error of V (reference)'\n"
                    "set logscale xy\nset grid\nset key outside right top\n",
                 stem, g0->scene, g0->width, g0->height);
         // spp labels, greedily: the front's cells first, then the rest in order; a label is kept only
@@ -471,7 +506,7 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 if (on_front != (pass == 0))
                     continue;
                 double u, v;
-                to_unit(&box, plot_ms(r->shadow_ms), plot_err(r->ref.mae), &u, &v);
+                to_unit(&box, plot_ms(pn_bench_row_ms(r)), plot_err(r->ref.mae), &u, &v);
                 u += 0.01, v += 0.01; // the label sits above and right of its point
                 bool clear = true;
                 for (int k = 0; k < np && clear; k++)
@@ -479,7 +514,7 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 if (!clear)
                     continue;
                 placed[np][0] = u, placed[np][1] = v, np++;
-                fprintf(f, "set label '%u' at %.4f,%.6g offset 0.5,0.5 font ',8'\n", r->spp, plot_ms(r->shadow_ms),
+                fprintf(f, "set label '%u' at %.4f,%.6g offset 0.5,0.5 font ',8'\n", r->spp, plot_ms(pn_bench_row_ms(r)),
                         plot_err(r->ref.mae));
             }
         fprintf(f, "plot ");

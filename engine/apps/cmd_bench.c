@@ -20,9 +20,9 @@
 void pn_print_bench_help(void)
 {
     printf("usage: penumbra bench [options]\n"
-           "  Renders a matrix of views x sizes x modes x trees x samples per pixel, each cell with warm-up\n"
-           "  and repeated frames timed by GPU timestamps (median and spread), and measures two errors of\n"
-           "  its V over the pixels with geometry (MAE, RMSE, p99, max):\n"
+           "  Renders a matrix of views x sizes x modes x trees x filters x samples per pixel, each cell\n"
+           "  with warm-up and repeated frames timed by GPU timestamps (median and spread), and measures\n"
+           "  two errors of its V over the pixels with geometry (MAE, RMSE, p99, max):\n"
            "    reference: against the converged reference, exact at --reference-spp samples with a seed\n"
            "               of its own (cached in OUT/reference): what the user sees, bias and noise;\n"
            "    bias:      against exact with the same pixels and light samples: the mode's bias alone.\n"
@@ -35,6 +35,10 @@ void pn_print_bench_help(void)
            "  --modes M,...        of the modes that trace (default: all the device can run)\n"
            "  --trees N,d:N,d:...  trees for the line-space modes (default 6,3:7,3:8,3)\n"
            "  --spp S,...          samples per pixel, an axis of the matrix (default 1,4,16,64)\n"
+           "  --filter F,...       none, interleaved: an axis of the matrix (default both); a filtered cell's\n"
+           "                       time is its shadow pass plus its filter pass, and it reports the share of\n"
+           "                       pixels near edges of geometry whose error the filter grows by > 0.05\n"
+           "  --tile WxH           the filtered cells' interleaving tile and window, 1..8 each (default 3x3)\n"
            "  --reference-spp S    samples of the converged reference (default %d)\n"
            "  --size WxH,...       image sizes (default 512x512)\n"
            "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"

@@ -1,5 +1,6 @@
 // Error of one visibility (or any scalar) image against another, over a mask of pixels.
 #pragma once
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -20,3 +21,25 @@ typedef struct pn_error_metrics {
 // Returns false when out of memory.
 bool pn_error_compare(const float *a, const float *b, const uint8_t *mask, size_t n, float *err_out,
                       pn_error_metrics *out);
+
+// How a filter's error grows next to edges of geometry (--filter interleaved): over the covered
+// pixels within PN_EDGE_BAND pixels of an edge, the share whose error against a reference grows by
+// more than PN_EDGE_GROWTH through the filter (|v - ref| > |v_raw - ref| + PN_EDGE_GROWTH): light
+// or shadow carried across the edge. An edge lies between two 4-neighbours when one has geometry and
+// the other not, when their normals differ by more than 30 degrees (a crease), or when one lies more
+// than half a pixel footprint off the other's tangent plane (a step in depth); all three are
+// dimensionless, so the measure is the same at every scale. Deliberately looser than filter.comp's
+// own cut-off (a full footprint, weights falling with the cosine): edges the filter half-trusts count.
+enum { PN_EDGE_BAND = 2 };
+#define PN_EDGE_GROWTH 0.05
+typedef struct pn_edge_leak {
+    size_t band;  // covered pixels within PN_EDGE_BAND of an edge
+    size_t grown; // of them, those whose error grew by more than PN_EDGE_GROWTH
+    double share; // grown / band (0 without edges)
+} pn_edge_leak;
+
+// p, n: the frame's rgba position (w = 1 where geometry is) and normal (w = view depth); v the
+// filtered and v_raw the unfiltered V, ref the reference, all w*h; pixel_angle = 2 tan(yfov/2) / h
+// (a pixel's footprint per unit of view depth). False when out of memory.
+bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const float *v_raw, const float *ref,
+                          uint32_t w, uint32_t h, double pixel_angle, pn_edge_leak *out);

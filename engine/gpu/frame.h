@@ -32,10 +32,6 @@ typedef struct pn_renderer_desc {
     bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
 } pn_renderer_desc;
 
-// The largest tile edge: a window of 8 x 8 = 64 neighbours per pixel already costs the filter pass
-// more than a few light samples would (filter.comp loads three images per neighbour).
-#define PN_FILTER_MAX_TILE 8
-
 // A tile edge as the passes use it: 0 (unset) means 3, the thesis' 3 x 3.
 static inline uint32_t pn_filter_tile(uint32_t edge) { return edge ? edge : 3; }
 

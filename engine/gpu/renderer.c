@@ -317,6 +317,22 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
 
+pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h)
+{
+    if ((unsigned)filter > PN_FILTER_INTERLEAVED || pn_filter_tile(tile_w) > PN_FILTER_MAX_TILE ||
+        pn_filter_tile(tile_h) > PN_FILTER_MAX_TILE) {
+        pn_error("filter %d with tile %ux%u: the tile's edges must be 1..%d", (int)filter, tile_w, tile_h,
+                 PN_FILTER_MAX_TILE);
+        return PN_ERR_INVALID;
+    }
+    r->desc.filter = filter, r->desc.tile_w = tile_w, r->desc.tile_h = tile_h;
+    // The queue is idle between frames (pn_renderer_render waits), so the shading pass's set may be
+    // rewritten; the readback buffer always has room for V_raw (create_targets).
+    pn_gpu_compute_write_image(r->dev, &r->shade.compute, PN_SHADE_BINDING_V,
+                               filter != PN_FILTER_NONE ? r->v.view : r->v_raw.view);
+    return PN_OK;
+}
+
 pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp)
 {
     if (spp == 0 || (r->desc.dump_rays && spp > r->shadow.dump_spp)) {

@@ -53,6 +53,11 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
 // refinement takes new light samples every frame without recreating the renderer.
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
 
+// Changes the filter and its tile from the next pn_renderer_render on (the bench's filter axis
+// steps through them over one tree). tile_w, tile_h: 0 means 3; otherwise 1..PN_FILTER_MAX_TILE.
+// PN_ERR_INVALID, logged, outside that.
+pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h);
+
 // Changes the light samples per pixel from the next pn_renderer_render on (the bench's spp axis and
 // --quality auto's pilots step through them without new pipelines). With desc.dump_rays, spp may not
 // exceed the desc's (the dump's buffer holds that many rays per pixel): PN_ERR_INVALID, logged.
