@@ -61,6 +61,7 @@ typedef struct bench_opts {
     bool embree;
     double max_errors[MAX_BUDGETS]; // --max-error: check --quality auto against the matrix at each
     int max_error_count;
+    bool edge_images;    // --edge-images: per filtered cell an EXR of V, V_raw, the reference and the edge classes
     bool work;           // --work: count each cell's work per pixel with the counting shader builds
     const char *gbuffer; // --shader shadow --gbuffer FILE.exr: P and N from a render's AOVs
     float *gb_p, *gb_n;  // its P (w = A) and N as RGBA planes

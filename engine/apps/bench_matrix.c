@@ -285,6 +285,37 @@ typedef struct group {
     pn_bench_embree_scene *rtc; // traces exact's rays
 } group;
 
+// A filtered cell's edge leak (metrics.h); with --edge-images also its EXR of V, V_raw, the
+// reference and the edge classes, to look at where the error grew.
+static bool measure_edges(const group *g, const pn_frame_images *img, bench_row *row, double pixel_angle)
+{
+    uint32_t w = g->frame.width, h = g->frame.height;
+    size_t px = (size_t)w * h;
+    uint8_t *cls = g->o->edge_images ? malloc(px) : NULL;
+    float *plane = cls ? malloc(px * sizeof *plane) : NULL;
+    bool ok = (!g->o->edge_images || (cls && plane)) &&
+              pn_edge_leak_measure(img->p, img->n, img->v, img->v_raw, g->v_conv, w, h, pixel_angle, cls, &row->edge);
+    if (ok && plane) {
+        for (size_t i = 0; i < px; i++)
+            plane[i] = cls[i];
+        char path[4096];
+        int len = snprintf(path, sizeof path, "%s/edge_%s_%ux%u_%uspp_%s", g->o->out_dir, row->scene, w, h, row->spp,
+                           MODE_NAME(row->mode));
+        if (row->n)
+            snprintf(path + len, sizeof path - (size_t)len, "_LS%d_%d", row->n, row->d);
+        snprintf(path + strlen(path), sizeof path - strlen(path), ".exr");
+        for (char *c = path + strlen(g->o->out_dir) + 1; *c; c++)
+            if (*c == ':' || *c == '/' || *c == ',' || *c == ' ')
+                *c = '_';
+        pn_exr_channel ch[4] = {{"shadow.V", img->v}, {"shadow.V_raw", img->v_raw}, {"reference.V", g->v_conv},
+                                {"edge", plane}};
+        ok = pn_exr_write(path, (int)w, (int)h, ch, 4, NULL, 0) == PN_OK;
+    }
+    free(cls);
+    free(plane);
+    return ok;
+}
+
 // One cell: the set-up `s` (its filter already set) at the fi-th filter and pi-th spp, timed, with
 // both errors and, filtered, the leak across edges. `sd` describes the set-up (for --work).
 static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, double pixel_angle, bench_rows *rows,
@@ -339,9 +370,7 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     if (!pn_error_compare(img.v, g->v_conv, g->mask, px, NULL, &row.ref) ||
         !pn_error_compare(img.v, same, g->mask, px, NULL, &row.bias))
         return PN_EXIT_FAILURE;
-    if (row.filter != PN_FILTER_NONE &&
-        !pn_edge_leak_measure(img.p, img.n, img.v, img.v_raw, g->v_conv, g->frame.width, g->frame.height,
-                              pixel_angle, &row.edge))
+    if (row.filter != PN_FILTER_NONE && !measure_edges(g, &img, &row, pixel_angle))
         return PN_EXIT_FAILURE;
     if (push && !push_row(rows, &row))
         return PN_EXIT_FAILURE;

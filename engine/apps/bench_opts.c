@@ -132,6 +132,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             return -1;
         } else if (pn_args_flag(&a, "--quick")) {
             quick = true;
+        } else if (pn_args_flag(&a, "--edge-images")) {
+            o->edge_images = true;
         } else if (pn_args_flag(&a, "--work")) {
             o->work = true;
         } else if (pn_args_flag(&a, "--no-embree")) {

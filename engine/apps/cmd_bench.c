@@ -39,6 +39,8 @@ void pn_print_bench_help(void)
            "                       time is its shadow pass plus its filter pass, and it reports the share of\n"
            "                       pixels near edges of geometry whose error the filter grows by > 0.05\n"
            "  --tile WxH           the filtered cells' interleaving tile and window, 1..8 each (default 3x3)\n"
+           "  --edge-images        per filtered cell, OUT/edge_<cell>.exr: shadow.V, shadow.V_raw, reference.V and\n"
+           "                       edge (0 away from edges, 1 edge, 2 within 2 px, 3 there with the error grown)\n"
            "  --reference-spp S    samples of the converged reference (default %d)\n"
            "  --size WxH,...       image sizes (default 512x512)\n"
            "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"

@@ -73,7 +73,7 @@ static bool across_edge(const float *p, const float *n, size_t i, size_t j, doub
 }
 
 bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const float *v_raw, const float *ref,
-                          uint32_t w, uint32_t h, double pixel_angle, pn_edge_leak *out)
+                          uint32_t w, uint32_t h, double pixel_angle, uint8_t *class_out, pn_edge_leak *out)
 {
     memset(out, 0, sizeof *out);
     size_t px = (size_t)w * h;
@@ -97,6 +97,8 @@ bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const 
     for (uint32_t y = 0; y < h; y++)
         for (uint32_t x = 0; x < w; x++) {
             size_t i = (size_t)y * w + x;
+            if (class_out)
+                class_out[i] = edge[i];
             if (p[4 * i + 3] <= 0)
                 continue;
             bool near = false;
@@ -108,7 +110,12 @@ bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const 
             if (!near)
                 continue;
             out->band++;
-            out->grown += fabs((double)v[i] - ref[i]) > fabs((double)v_raw[i] - ref[i]) + PN_EDGE_GROWTH;
+            bool grown = fabs((double)v[i] - ref[i]) > fabs((double)v_raw[i] - ref[i]) + PN_EDGE_GROWTH;
+            out->grown += grown;
+            if (class_out && !edge[i])
+                class_out[i] = grown ? 3 : 2;
+            else if (class_out && grown)
+                class_out[i] = 3;
         }
     out->share = out->band ? (double)out->grown / (double)out->band : 0.0;
     free(edge);

@@ -40,6 +40,7 @@ typedef struct pn_edge_leak {
 
 // p, n: the frame's rgba position (w = 1 where geometry is) and normal (w = view depth); v the
 // filtered and v_raw the unfiltered V, ref the reference, all w*h; pixel_angle = 2 tan(yfov/2) / h
-// (a pixel's footprint per unit of view depth). False when out of memory.
+// (a pixel's footprint per unit of view depth). class_out (may be NULL) gets per pixel 0 away from
+// edges, 1 on an edge, 2 in the band, 3 in the band with its error grown. False when out of memory.
 bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const float *v_raw, const float *ref,
-                          uint32_t w, uint32_t h, double pixel_angle, pn_edge_leak *out);
+                          uint32_t w, uint32_t h, double pixel_angle, uint8_t *class_out, pn_edge_leak *out);
