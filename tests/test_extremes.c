@@ -12,6 +12,10 @@
 // documented bound (README, "Accuracy at the extremes"), and requires
 //     free_sure / (valid + unsure) <= V <= (valid - blocked_sure + unsure) / (valid + unsure)
 // plus: every V finite and in [0,1], background V = 0, radiance finite and >= 0, mode none V = 1.
+// Exact mode renders once more through the raster pass with the filter (--filter interleaved): its V
+// against filter.comp's weights recomputed here, and the same local scene's frames against each
+// other at every scale and shift, with a scene of its own for weights between 0 and 1 (the section
+// "The filter" below).
 //
 // Float slack (world units): e = 16 ulp(M), M the largest coordinate magnitude in the case. The
 // shader lifts ray origins by 8 ulps (shadow_frame.glsl), computes light samples with 3 lerps of
@@ -46,7 +50,7 @@
 enum { MODES = PN_SHADOW_MODE_COUNT };
 #define MODE_NAME(mi) (pn_shadow_mode_get((pn_shadow_mode)(mi))->name)
 
-enum { GEO_FULL, GEO_DEGENERATE, GEO_SINGLE };
+enum { GEO_FULL, GEO_DEGENERATE, GEO_SINGLE, GEO_FILTER };
 enum { EXPECT_RENDER, EXPECT_SCENE_REFUSED, EXPECT_TREE_REFUSED };
 
 #define SIZE 32 // G-buffer edge, pixels
@@ -62,6 +66,7 @@ typedef struct sweep_case {
     int expect;
     bool packet;
     uint32_t receivers; // crafted receivers at most (fewer for large spp: the oracle is O(spp))
+    bool filter_only;   // only the filter's checks (run_filter_case): its own scene, GEO_FILTER
 } sweep_case;
 
 // ---------------------------------------------------------------------------------------------
@@ -71,6 +76,49 @@ typedef struct sweep_case {
 typedef struct tri {
     double v[3][3];
 } tri;
+
+static void push_quad(tri *out, int *n, const double a[3], const double b[3], const double c[3], const double d[3])
+{
+    out[(*n)++] = (tri){{{a[0], a[1], a[2]}, {b[0], b[1], b[2]}, {c[0], c[1], c[2]}}};
+    out[(*n)++] = (tri){{{a[0], a[1], a[2]}, {c[0], c[1], c[2]}, {d[0], d[1], d[2]}}};
+}
+
+// The filter's scene (filter_pair). In the sweep's scenes every surface is axis-aligned and every
+// step of depth is many footprints high, so each of the filter's weights is 0 or 1 (measured) and
+// equal weights say nothing of the values between. Here, on the 4x4 receiver, a vault of six
+// facets 10 degrees apart (a circle of radius 2 from -30 to 30 degrees, meeting the receiver at 30
+// degrees) and a step 0.04 high (about a fifth of the footprint at this framing) give neighbours
+// with cosines and plane offsets strictly between; three bars at y = 1.2 cast penumbrae (the
+// light: 1 x 1 at y = 3) across the vault, the step and the creases, so that V_raw varies within
+// those windows.
+static int filter_triangles(tri *out)
+{
+    int n = 0;
+    const double deg = 3.14159265358979323846 / 180;
+    push_quad(out, &n, (double[3]){-2, 0, -2}, (double[3]){2, 0, -2}, (double[3]){2, 0, 2}, (double[3]){-2, 0, 2});
+    for (int k = 0; k < 6; k++) { // the vault: axis at x = -0.8, y = -2 cos 30, along z
+        double a0 = (-30 + 10 * k) * deg, a1 = (-20 + 10 * k) * deg, y0 = 2 * cos(a0) - 2 * cos(30 * deg),
+               y1 = 2 * cos(a1) - 2 * cos(30 * deg), x0 = -.8 + 2 * sin(a0), x1 = -.8 + 2 * sin(a1);
+        push_quad(out, &n, (double[3]){x0, y0, -1.8}, (double[3]){x1, y1, -1.8}, (double[3]){x1, y1, 1.8},
+                  (double[3]){x0, y0, 1.8});
+    }
+    const double lo[3] = {.6, 0, -1.8}, hi[3] = {1.8, .04, .2}; // the step: top and four walls
+    push_quad(out, &n, (double[3]){lo[0], hi[1], lo[2]}, (double[3]){hi[0], hi[1], lo[2]},
+              (double[3]){hi[0], hi[1], hi[2]}, (double[3]){lo[0], hi[1], hi[2]});
+    for (int s = 0; s < 2; s++) {
+        double x = s ? hi[0] : lo[0], z = s ? hi[2] : lo[2];
+        push_quad(out, &n, (double[3]){x, 0, lo[2]}, (double[3]){x, hi[1], lo[2]}, (double[3]){x, hi[1], hi[2]},
+                  (double[3]){x, 0, hi[2]});
+        push_quad(out, &n, (double[3]){lo[0], 0, z}, (double[3]){lo[0], hi[1], z}, (double[3]){hi[0], hi[1], z},
+                  (double[3]){hi[0], 0, z});
+    }
+    for (int b = 0; b < 3; b++) { // the bars
+        double x = -1.35 + 1.1 * b;
+        push_quad(out, &n, (double[3]){x, 1.2, -1.5}, (double[3]){x + .3, 1.2, -1.5}, (double[3]){x + .3, 1.2, 1.5},
+                  (double[3]){x, 1.2, 1.5});
+    }
+    return n;
+}
 
 static int local_triangles(int geometry, tri *out)
 {
@@ -83,6 +131,8 @@ static int local_triangles(int geometry, tri *out)
         out[n++] = (tri){{{-.25, .4, -.25}, {.25, .6, -.25}, {0, .5, .25}}};
         return n;
     }
+    if (geometry == GEO_FILTER)
+        return filter_triangles(out);
     const double(*quads[2])[3] = {quad_r, quad_o};
     for (int q = 0; q < 2; q++) {
         out[n++] = (tri){{{quads[q][0][0], quads[q][0][1], quads[q][0][2]},
@@ -612,7 +662,388 @@ static void check_frame(const sweep_case *c, int mi, const oracle *o, const pn_f
     }
 }
 
-static void run_case(pn_gpu_device *dev, const sweep_case *c)
+// ---------------------------------------------------------------------------------------------
+// The filter (--filter interleaved, shaders/glsl/filter.comp) at the extremes. Every case that
+// renders also renders exact mode through the raster pass with the filter on (3x3 tile), and:
+//  1. check_filter_frame: the filtered V is finite, in [0, 1], 0 on the background, and on every
+//     covered pixel the weighted mean that filter.comp documents, recomputed here in double from
+//     the frame's own P, N (w = view depth), coverage and V_raw (as tests/filter.sh does, an
+//     independent implementation of the weights), within a bound on the float evaluation's rounding;
+//  2. filter_pair: the weights are scale-invariant. Cases that are the same local scene at another
+//     scale or translation (same_local_scene) must give the same filtered V on the GPU wherever the
+//     two frames have the same V_raw and the same surfaces over the pixel's whole window, within a
+//     bound derived from the rounding of positions at each magnitude (loose, and counted apart,
+//     where that rounding is not small against the pixel's footprint).
+
+#define FILTER_TILE 3
+#define FLOAT_U 0x1p-24 // float's unit roundoff
+
+typedef struct filter_frame {
+    bool rendered;
+    float eye_mag;     // the camera position's largest coordinate magnitude
+    float pixel_angle; // what filter_pass.c passes: 2 tan(yfov / 2) / height
+    float p[4 * SIZE * SIZE], n[4 * SIZE * SIZE], v[SIZE * SIZE], v_raw[SIZE * SIZE];
+} filter_frame;
+
+// One neighbour q of a pixel p in its window, as filter.comp weighs it, evaluated in double from the
+// frame's float P and N.
+typedef struct filter_tap {
+    double w;         // max(1 - rho^2, 0) c^2
+    double rho;       // the larger of the two plane offsets over their footprints
+    double c;         // max(n.m, 0)
+    double err;       // bound on |w - the shader's float w| (filter_tap_at)
+    double mag;       // the largest coordinate magnitude of p and q
+    double footprint; // the smaller of the two footprints, times the pixel distance (world units)
+    double depth;     // the smaller of the two view depths
+} filter_tap;
+
+// filter.comp's plane_offset: how far q leaves p's tangent plane, less 8 ulps of the magnitude, over
+// the footprint; [*lo, *hi] holds the shader's float evaluation of it. In float, q - p rounds each
+// component (u) and the dot product adds gamma_3 of s1 = sum |n_k (q_k - p_k)|: 4.1u s1 together;
+// the allowance's product rounds by u of it, the subtraction by u of the result. The footprint (two
+// products) and the division (2.5 ulp, Vulkan's bound for it) are relative: 7u. A point within the
+// allowance gives exactly 0 in both (the clamp), p itself among them (footprint 0).
+static double filter_offset(const float *p, const float *n, double footprint, const float *q, double *lo, double *hi)
+{
+    double mag = 0, d = 0, s1 = 0;
+    for (int k = 0; k < 3; k++) {
+        mag = fmax(mag, fmax(fabs(p[k]), fabs(q[k])));
+        d += (double)n[k] * ((double)q[k] - p[k]);
+        s1 += fabs((double)n[k] * ((double)q[k] - p[k]));
+    }
+    double allowance = 8 * fmax(mag, 1e-30) * 0x1p-23; // 8 ulp_bound(mag): 2^-23 is the float 1.1920929e-7
+    double fp = fmax(footprint, 1e-30), u = FLOAT_U;
+    double off_lo = fmax(fabs(d) - 4.1 * u * s1 - allowance * (1 + u), 0) * (1 - u);
+    double off_hi = fmax(fabs(d) + 4.1 * u * s1 - allowance * (1 - u), 0) * (1 + u);
+    *lo = off_lo / fp * (1 - 7 * u);
+    *hi = off_hi / fp * (1 + 7 * u);
+    return fmax(fabs(d) - allowance, 0) / fp;
+}
+
+// filter.comp's weight: max(1 - rho^2, 0) c^2, 1 on the pixel's plane, 0 a footprint per pixel off
+// it or across a right angle. It falls with rho and rises with c.
+static double filter_weight(double rho, double c) { return fmax(1 - rho * rho, 0) * c * c; }
+
+// False outside the image or on the background (filter.comp skips those).
+static bool filter_tap_at(const filter_frame *f, int x, int y, int dx, int dy, filter_tap *t)
+{
+    int qx = x + dx, qy = y + dy;
+    if (qx < 0 || qy < 0 || qx >= SIZE || qy >= SIZE || !(f->p[4 * (qy * SIZE + qx) + 3] > 0))
+        return false;
+    const float *p = &f->p[4 * (y * SIZE + x)], *n = &f->n[4 * (y * SIZE + x)];
+    const float *q = &f->p[4 * (qy * SIZE + qx)], *m = &f->n[4 * (qy * SIZE + qx)];
+    double pixels = abs(dx) > abs(dy) ? abs(dx) : abs(dy);
+    // The shader's footprints: view depth (N.w) x the float pixel angle x the pixel distance.
+    double fp_p = (double)n[3] * f->pixel_angle * pixels, fp_q = (double)m[3] * f->pixel_angle * pixels;
+    double lo1, hi1, lo2, hi2;
+    double r1 = filter_offset(p, n, fp_p, q, &lo1, &hi1), r2 = filter_offset(q, m, fp_q, p, &lo2, &hi2);
+    double nm = 0, s2 = 0;
+    for (int k = 0; k < 3; k++) {
+        nm += (double)n[k] * m[k];
+        s2 += fabs((double)n[k] * m[k]);
+    }
+    t->rho = fmax(r1, r2);
+    t->c = fmax(nm, 0);
+    t->w = filter_weight(t->rho, t->c);
+    // The float weight: rho within the larger of the two offsets' intervals, c within gamma_3 s2
+    // (3.1u s2) of its double, so w lies between w(rho_hi, c_lo) and w(rho_lo, c_hi);
+    // the roundings of rho^2, 1 - rho^2, c c and the product add 4u where that is not exactly 0.
+    double c_lo = fmax(nm - 3.1 * FLOAT_U * s2, 0), c_hi = fmax(nm + 3.1 * FLOAT_U * s2, 0);
+    double w_lo = filter_weight(fmax(hi1, hi2), c_lo), w_hi = filter_weight(fmax(lo1, lo2), c_hi);
+    t->err = fmax(w_hi - t->w, t->w - w_lo) + (w_hi > 0 ? 4 * FLOAT_U : 0);
+    t->mag = 0;
+    for (int k = 0; k < 3; k++)
+        t->mag = fmax(t->mag, fmax(fabs(p[k]), fabs(q[k])));
+    t->footprint = fmin(fp_p, fp_q);
+    t->depth = fmin(n[3], m[3]);
+    return true;
+}
+
+// filter.comp's V at pixel (x, y), covered, in double: *tol bounds |V - the shader's float V|,
+// *weight is the sum of the weights (W). The float sum of the window's w v and of w (at most 9
+// terms) are within gamma_10 of theirs, besides the weights' own errors dw: the mean moves by at
+// most (sum dw + 2 gamma_10 W) / (W - sum dw - gamma_10 W) (|v - V| <= 1 for values in [0, 1]);
+// the division adds 2.5 ulp (5u) of V <= 1.
+static double filter_recompute(const filter_frame *f, int x, int y, double *tol, double *weight)
+{
+    double sum = 0, w = 0, dw = 0;
+    int lo = -(FILTER_TILE - 1) / 2;
+    for (int dy = lo; dy < lo + FILTER_TILE; dy++)
+        for (int dx = lo; dx < lo + FILTER_TILE; dx++) {
+            filter_tap t;
+            if (!filter_tap_at(f, x, y, dx, dy, &t))
+                continue;
+            sum += t.w * f->v_raw[(y + dy) * SIZE + x + dx];
+            w += t.w;
+            dw += t.err;
+        }
+    double g10 = 10.1 * FLOAT_U;
+    double den = w - dw - g10 * w;
+    // Twice the bound: the compiler may contract or reorder the float operations, which changes the
+    // constants above, not their order.
+    *tol = den > 0 ? 2 * ((dw + 2 * g10 * w) / den + 5 * FLOAT_U) : 1;
+    *weight = w;
+    double v = w > 0 ? fmin(fmax(sum / w, 0), 1) : f->v_raw[y * SIZE + x];
+    return v;
+}
+
+// Requirement 1 on one filtered frame.
+static void check_filter_frame(const sweep_case *c, const filter_frame *f)
+{
+    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0;
+    double diff_max = 0, tol_max = 0;
+    for (int y = 0; y < SIZE; y++)
+        for (int x = 0; x < SIZE; x++) {
+            int px = y * SIZE + x;
+            float v = f->v[px], raw = f->v_raw[px];
+            bool geo = f->p[4 * px + 3] > 0;
+            if (!(isfinite(v) && v >= 0 && v <= 1) || (!geo && v != 0) || !(isfinite(raw) && raw >= 0 && raw <= 1)) {
+                if (bad++ < 5)
+                    fprintf(stderr, "  %s filter: pixel %u: V = %g, V_raw = %g (geometry %d)\n", c->name, px, v, raw, geo);
+                continue;
+            }
+            if (!geo)
+                continue;
+            covered++;
+            double tol, w, ref = filter_recompute(f, x, y, &tol, &w);
+            double d = fabs(v - ref);
+            diff_max = fmax(diff_max, d);
+            tol_max = fmax(tol_max, tol);
+            // The pixel's own weight is |n|^4 = 1 up to rounding: W at most that means no neighbour
+            // continued its surface, and the filter kept the pixel's own V.
+            alone += w <= 1 + 16 * FLOAT_U;
+            changed += v != raw;
+            if (d > tol && off++ < 5)
+                fprintf(stderr, "  %s filter: pixel (%d, %d): V = %.9f, recomputed %.9f (|difference| %.3g > %.3g)\n",
+                        c->name, x, y, v, ref, d, tol);
+        }
+    fprintf(stderr, "  filter    %dx%d exact spp %u: %llu px, |V - recomputed| max %.2e (bound max %.2e), %llu px"
+                    " alone on their surface, %llu changed\n",
+            FILTER_TILE, FILTER_TILE, c->spp, (unsigned long long)covered, diff_max, tol_max,
+            (unsigned long long)alone, (unsigned long long)changed);
+    CHECK_MSG(bad == 0 && off == 0, "%s filter: %llu bad values, %llu of %llu pixels off the recomputed filter", c->name,
+              (unsigned long long)bad, (unsigned long long)off, (unsigned long long)covered);
+    CHECK_MSG(covered > 0, "%s filter: no covered pixels", c->name);
+}
+
+// Exact mode through the raster pass with the filter on; false if it could not render (checked).
+static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_scene *scene, const pn_shadow_accel *acc,
+                            const pn_camera *cam, const pn_light *light, filter_frame *out)
+{
+    pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = PN_SHADOW_REFERENCE,
+                           .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY,
+                           .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1,
+                           .filter = PN_FILTER_INTERLEAVED, .tile_w = FILTER_TILE, .tile_h = FILTER_TILE};
+    pn_shadow_accel_bind(acc, &rd);
+    pn_renderer ren;
+    pn_result r = pn_renderer_create(dev, scene, &rd, &ren);
+    CHECK_MSG(r == PN_OK, "%s filter: renderer: %s", c->name, pn_result_str(r));
+    if (r != PN_OK)
+        return false;
+    pn_frame_times times;
+    r = pn_renderer_render(&ren, cam, light, &times);
+    CHECK_MSG(r == PN_OK, "%s filter: render: %s", c->name, pn_result_str(r));
+    pn_frame_images img;
+    pn_renderer_images(&ren, &img);
+    CHECK_MSG(img.v_raw != NULL, "%s filter: no V_raw", c->name);
+    if (r == PN_OK && img.v_raw) {
+        memcpy(out->p, img.p, sizeof out->p);
+        memcpy(out->n, img.n, sizeof out->n);
+        memcpy(out->v, img.v, sizeof out->v);
+        memcpy(out->v_raw, img.v_raw, sizeof out->v_raw);
+        out->pixel_angle = (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE);
+        out->eye_mag = fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2])));
+        out->rendered = true;
+    }
+    pn_renderer_destroy(&ren);
+    return out->rendered;
+}
+
+// Cases that are the same local scene (geometry, light, samples; the camera frames the scene's
+// bounds, so it follows) up to a uniform scale and translation.
+static bool same_local_scene(const sweep_case *a, const sweep_case *b)
+{
+    bool same = a->spp == b->spp && a->geometry == b->geometry && a->packet == b->packet;
+    for (int k = 0; k < 3; k++)
+        same = same && a->axis[k] == b->axis[k] && a->sign[k] == b->sign[k] && a->light_pos[k] == b->light_pos[k] &&
+               a->light_normal[k] == b->light_normal[k] && a->light_up[k] == b->light_up[k];
+    return same && a->light_size[0] == b->light_size[0] && a->light_size[1] == b->light_size[1];
+}
+
+typedef struct filter_pair_stats {
+    uint64_t tight, loose;                 // pixels compared with a bound below / above FILTER_TIGHT
+    uint64_t partial;                      // tight ones with a weight strictly between 0 and 1
+    uint64_t skip_geometry, skip_v_raw;    // windows whose surfaces or V_raw differ
+    double tight_diff, tight_bound, loose_diff;
+} filter_pair_stats;
+
+// A pixel whose bound is 2^-10 or less counts as compared (the others apart): that is 1/64 of V_raw's
+// step at the pairs' 16 samples per pixel, so a weight that followed the scale would show; a larger
+// bound is no test of the weights.
+#define FILTER_TIGHT 0x1p-10
+
+// Requirement 2: frame b (case cb) against frame a (case ca, the same local scene at scale 1 and no
+// shift), pixel by pixel.
+//
+// A pixel is compared when, over its whole window, the two frames cover the same pixels, with the
+// same surface (normals within 1e-4, local positions (P - shift) / scale within a quarter of the
+// footprint plus the slack below: the camera's rounding moves the pixel grid by a fraction of a
+// pixel) and exactly the same V_raw. Then both filtered V are means of the same values and only
+// their weights can differ: |V_a - V_b| <= tol_a + tol_b + sum_j |w_a,j - w_b,j| / W_b, with tol
+// the float-against-double bounds of filter_recompute and w the double weights of each frame.
+// Those differ only by the rounding of positions at each magnitude, as the shader sees it:
+//  - a neighbour on the pixel's own plane (rho_a = 0: within 8 ulps of it at scale 1) is there in
+//    b too, and the shader takes 8 ulps of the magnitude off the offset, which is the premise of
+//    filter.comp (the rasterizer's positions are within 8 ulps of the plane): rho_b = 0 as well,
+//    at any magnitude, and the weights differ by the cosines only;
+//  - elsewhere each frame's offset is within 16 ulps below the true one (8 of rounding, 8 taken
+//    off), and the true ones differ by the camera's rounding, which moves p and q by the same slack
+//    (e = 16 ulp(M), M with the camera's position, as the file's oracle): |rho_b - rho_a| <=
+//    U = 3 (A_a + A_b) with A = e / footprint; the footprints (view depths) differ by e each, a
+//    relative delta = e_a / depth_a + e_b / depth_b. Then w_b lies in f([(rho_a - U)+ / (1 + delta),
+//    (rho_a + U)(1 + delta)]) c_b^2 with f(rho) = max(1 - rho^2, 0) (filter_weight).
+// Where U is not small, i.e. the rounding at that magnitude is not small against the footprint,
+// the shader keeps weights that depend on rounding, on purpose (filter.comp, plane_offset); such
+// pixels (bound above FILTER_TIGHT) are checked against their loose bound and counted apart.
+static void filter_pair(const sweep_case *ca, const filter_frame *fa, const sweep_case *cb, const filter_frame *fb,
+                        filter_pair_stats *st)
+{
+    filter_pair_stats s = {0};
+    int lo = -(FILTER_TILE - 1) / 2;
+    uint64_t off = 0;
+    for (int y = 0; y < SIZE; y++)
+        for (int x = 0; x < SIZE; x++) {
+            int px = y * SIZE + x;
+            if (!(fa->p[4 * px + 3] > 0) || !(fb->p[4 * px + 3] > 0))
+                continue;
+            bool same_geometry = true, same_v = true;
+            for (int dy = lo; dy < lo + FILTER_TILE; dy++)
+                for (int dx = lo; dx < lo + FILTER_TILE; dx++) {
+                    int qx = x + dx, qy = y + dy, q = qy * SIZE + qx;
+                    if (qx < 0 || qy < 0 || qx >= SIZE || qy >= SIZE)
+                        continue;
+                    bool ga = fa->p[4 * q + 3] > 0, gb = fb->p[4 * q + 3] > 0;
+                    if (ga != gb) {
+                        same_geometry = false;
+                        continue;
+                    }
+                    if (!ga)
+                        continue;
+                    double nn = 0, dist = 0, mag_a = 0, mag_b = 0;
+                    for (int k = 0; k < 3; k++) {
+                        nn += (double)fa->n[4 * q + k] * fb->n[4 * q + k];
+                        double la = (fa->p[4 * q + k] - ca->shift) / ca->scale, lb = (fb->p[4 * q + k] - cb->shift) / cb->scale;
+                        dist = fmax(dist, fabs(la - lb));
+                        mag_a = fmax(mag_a, fabs(fa->p[4 * q + k]));
+                        mag_b = fmax(mag_b, fabs(fb->p[4 * q + k]));
+                    }
+                    mag_a = fmax(mag_a, fa->eye_mag);
+                    mag_b = fmax(mag_b, fb->eye_mag);
+                    double fp_local = (double)fa->n[4 * q + 3] / ca->scale * fa->pixel_angle;
+                    double slack = 16 * mag_a * 0x1p-23 / ca->scale + 16 * mag_b * 0x1p-23 / cb->scale;
+                    if (nn < 1 - 1e-4 || dist > 0.25 * fp_local + slack)
+                        same_geometry = false;
+                    if (fa->v_raw[q] != fb->v_raw[q])
+                        same_v = false;
+                }
+            if (!same_geometry) {
+                s.skip_geometry++;
+                continue;
+            }
+            if (!same_v) {
+                s.skip_v_raw++;
+                continue;
+            }
+            double tol_a, tol_b, w_a, w_b;
+            filter_recompute(fa, x, y, &tol_a, &w_a);
+            filter_recompute(fb, x, y, &tol_b, &w_b);
+            double dw = 0;
+            bool partial = false;
+            for (int dy = lo; dy < lo + FILTER_TILE; dy++)
+                for (int dx = lo; dx < lo + FILTER_TILE; dx++) {
+                    filter_tap ta, tb;
+                    if (!filter_tap_at(fa, x, y, dx, dy, &ta) || !filter_tap_at(fb, x, y, dx, dy, &tb))
+                        continue;
+                    double cc = fabs(ta.c * ta.c - tb.c * tb.c);
+                    partial = partial || (ta.w > 1e-3 && ta.w < 1 - 1e-3);
+                    if (ta.rho == 0) {
+                        dw += cc;
+                        continue;
+                    }
+                    double ma = fmax(ta.mag, fa->eye_mag), mb = fmax(tb.mag, fb->eye_mag);
+                    double ea = 16 * ma * 0x1p-23, eb = 16 * mb * 0x1p-23;
+                    double u = 3 * (ea / ta.footprint + eb / tb.footprint);
+                    double delta = ea / ta.depth + eb / tb.depth;
+                    double rlo = fmax(ta.rho - u, 0) / (1 + delta), rhi = (ta.rho + u) * (1 + delta);
+                    double flo = filter_weight(rlo, tb.c), fhi = filter_weight(rhi, tb.c);
+                    dw += fmax(fmax(flo - ta.w, ta.w - fhi), 0);
+                }
+            double geo_bound = dw / w_b, bound = tol_a + tol_b + geo_bound;
+            double d = fabs((double)fa->v[px] - fb->v[px]);
+            if (geo_bound <= FILTER_TIGHT) {
+                s.tight++;
+                s.partial += partial;
+                s.tight_diff = fmax(s.tight_diff, d);
+                s.tight_bound = fmax(s.tight_bound, bound);
+            } else {
+                s.loose++;
+                s.loose_diff = fmax(s.loose_diff, d);
+            }
+            if (d > bound && off++ < 5)
+                fprintf(stderr, "  %s against %s: pixel (%d, %d): filtered V %.9f against %.9f (|difference| %.3g > %.3g)\n",
+                        cb->name, ca->name, x, y, fb->v[px], fa->v[px], d, bound);
+        }
+    fprintf(stderr, "filter scale invariance, %s against %s: %llu px compared (%llu with weights between 0 and 1; "
+                    "|dV| max %.2e, bound max %.2e), %llu px where rounding is not small against the footprint "
+                    "(|dV| max %.3f); skipped: %llu px whose window differs in surfaces, %llu in V_raw\n",
+            cb->name, ca->name, (unsigned long long)s.tight, (unsigned long long)s.partial, s.tight_diff, s.tight_bound,
+            (unsigned long long)s.loose,
+            s.loose_diff, (unsigned long long)s.skip_geometry, (unsigned long long)s.skip_v_raw);
+    CHECK_MSG(off == 0, "%s against %s: %llu pixels' filtered V differ beyond the bound", cb->name, ca->name,
+              (unsigned long long)off);
+    st->tight += s.tight;
+    st->partial += s.partial;
+    st->loose += s.loose;
+    st->skip_geometry += s.skip_geometry;
+    st->skip_v_raw += s.skip_v_raw;
+    st->tight_diff = fmax(st->tight_diff, s.tight_diff);
+    st->tight_bound = fmax(st->tight_bound, s.tight_bound);
+    st->loose_diff = fmax(st->loose_diff, s.loose_diff);
+}
+
+// A filter_only case: its scene with the BVH only (exact mode), the filtered frame and its check.
+static void run_filter_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filtered)
+{
+    pn_scene scene;
+    tri world[64];
+    int tri_count = 0;
+    build_scene(c, &scene, world, &tri_count);
+    pn_light light;
+    make_light(c, &light);
+    fprintf(stderr, "case %s (the filter only)\n", c->name);
+    pn_result r = pn_scene_validate(&scene);
+    CHECK_MSG(r == PN_OK, "%s: validate returned %s", c->name, pn_result_str(r));
+    pn_shadow_accel acc;
+    memset(&acc, 0, sizeof acc);
+    pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(dev), .light = &light};
+    ad.needs.tree = ad.needs.candidates = false;
+    if (r == PN_OK) {
+        r = pn_shadow_accel_build(&scene, &ad, &acc);
+        CHECK_MSG(r == PN_OK, "%s: BVH build failed: %s", c->name, pn_result_str(r));
+    }
+    if (r == PN_OK) {
+        r = pn_shadow_accel_upload(dev, &scene, &acc);
+        CHECK_MSG(r == PN_OK, "%s: upload failed: %s", c->name, pn_result_str(r));
+    }
+    pn_camera cam;
+    pn_camera_frame(scene.bounds_min, scene.bounds_max, 45, &cam);
+    if (r == PN_OK && render_filtered(dev, c, &scene, &acc, &cam, &light, filtered))
+        check_filter_frame(c, filtered);
+    pn_shadow_accel_destroy(dev, &acc);
+    pn_scene_destroy(&scene);
+}
+
+static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filtered)
 {
     pn_scene scene;
     tri world[64];
@@ -776,6 +1207,11 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
                 (st[0].err_sum + st[1].err_sum) / px, fmax(st[0].err_max, st[1].err_max));
         pn_renderer_destroy(&ren);
     }
+    // The filter over the raster pass (check_filter_frame; main compares the cases' frames).
+    const char *lack;
+    if (pn_shadow_mode_available(dev, PN_SHADOW_REFERENCE, &lack) &&
+        render_filtered(dev, c, &scene, &acc, &cam, &light, filtered))
+        check_filter_frame(c, filtered);
     free(P);
     free(N);
     free(exact_v[0]);
@@ -788,6 +1224,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c)
 
 #define ID {0, 1, 2}, {1, 1, 1}
 #define ABOVE {0, 1.5, 0}, {0, -1, 0}, {0, 0, 1}, {.5, .5}
+#define FILTER_LIGHT {0, 3, 0}, {0, -1, 0}, {0, 0, 1}, {1, 1}
 
 int main(int argc, char **argv)
 {
@@ -839,16 +1276,63 @@ int main(int argc, char **argv)
         {"degenerate 1e-4", 1e-4, 0, ID, ABOVE, 8, 2, 16, GEO_DEGENERATE, EXPECT_RENDER, false, 1024},
         {"single triangle", 1, 0, ID, ABOVE, 6, 3, 16, GEO_SINGLE, EXPECT_RENDER, false, 1024},
         {"single triangle LS(16,max)", 1, 0, ID, ABOVE, 16, 0, 4, GEO_SINGLE, EXPECT_RENDER, false, 1024},
+        // The filter's own scene (filter_triangles) at scale 1, at the sweep's extremes of scale, and
+        // shifted to 1e4 and 1e5, where 16 ulps of the coordinates are a tenth of a footprint and
+        // about one.
+        {"filter scene", 1, 0, ID, FILTER_LIGHT, 6, 3, 16, GEO_FILTER, EXPECT_RENDER, false, 0, true},
+        {"filter scene 1e-4", 1e-4, 0, ID, FILTER_LIGHT, 6, 3, 16, GEO_FILTER, EXPECT_RENDER, false, 0, true},
+        {"filter scene 1e6", 1e6, 0, ID, FILTER_LIGHT, 6, 3, 16, GEO_FILTER, EXPECT_RENDER, false, 0, true},
+        {"filter scene at 1e4", 1, 1e4, ID, FILTER_LIGHT, 6, 3, 16, GEO_FILTER, EXPECT_RENDER, false, 0, true},
+        {"filter scene at 1e5", 1, 1e5, ID, FILTER_LIGHT, 6, 3, 16, GEO_FILTER, EXPECT_RENDER, false, 0, true},
     };
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
     if (pn_gpu_device_create(&desc, &dev) != PN_OK)
         TEST_SKIP("no Vulkan device");
     int n = (int)(sizeof cases / sizeof cases[0]);
+    filter_frame *filtered = calloc((size_t)n, sizeof *filtered);
+    CHECK(filtered);
+    if (!filtered)
+        exit(1);
     for (int i = 0; i < n; i++)
         if (argc < 2 || strstr(cases[i].name, argv[1]))
-            run_case(&dev, &cases[i]);
+            (cases[i].filter_only ? run_filter_case : run_case)(&dev, &cases[i], &filtered[i]);
     pn_gpu_device_destroy(&dev);
+    // The filter's scale invariance: every case that is a scaled or shifted copy of a case at scale
+    // 1 without shift is compared with the first such (filter_pair); of copies at the same scale
+    // and shift (the same frame: exact mode does not read the tree) only the first.
+    filter_pair_stats fps = {0};
+    int pairs = 0;
+    for (int i = 0; i < n; i++) {
+        if (!filtered[i].rendered || (cases[i].scale == 1 && cases[i].shift == 0))
+            continue;
+        int ref = -1;
+        bool repeated = false;
+        for (int j = 0; j < n; j++) {
+            if (j == i || !filtered[j].rendered || !same_local_scene(&cases[i], &cases[j]))
+                continue;
+            repeated = repeated || (j < i && cases[j].scale == cases[i].scale && cases[j].shift == cases[i].shift);
+            if (ref < 0 && cases[j].scale == 1 && cases[j].shift == 0)
+                ref = j;
+        }
+        if (ref >= 0 && !repeated) {
+            filter_pair(&cases[ref], &filtered[ref], &cases[i], &filtered[i], &fps);
+            pairs++;
+        }
+    }
+    fprintf(stderr, "filter scale invariance, %d pairs: %llu px compared (%llu with weights between 0 and 1; |dV| max"
+                    " %.2e, bound max %.2e), %llu px where rounding is not small against the footprint (|dV| max %.3f);"
+                    " skipped %llu + %llu px\n",
+            pairs, (unsigned long long)fps.tight, (unsigned long long)fps.partial, fps.tight_diff, fps.tight_bound,
+            (unsigned long long)fps.loose,
+            fps.loose_diff, (unsigned long long)fps.skip_geometry, (unsigned long long)fps.skip_v_raw);
+    // The whole sweep has such pairs (scale 1e-4, 1e4, 1e6 and at 1e5 against base, degenerate 1e-4
+    // against degenerate, the filter scene's copies against it): they must compare pixels, and some
+    // with weights between 0 and 1 (the filter scene's), or the check says nothing.
+    if (argc < 2)
+        CHECK_MSG(fps.tight > 0 && fps.partial > 0, "filter scale invariance: %d pairs, %llu pixels compared, %llu"
+                  " with weights between 0 and 1", pairs, (unsigned long long)fps.tight, (unsigned long long)fps.partial);
+    free(filtered);
     CHECK_MSG(dev.validation_messages == 0, "%u validation messages", dev.validation_messages);
     return pn_test_result();
 }
