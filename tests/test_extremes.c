@@ -1011,17 +1011,24 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
     st->loose_diff = fmax(st->loose_diff, s.loose_diff);
 }
 
+// A case's scene, its light and the log line that names it; then pn_scene_validate's verdict.
+static pn_result open_case(const sweep_case *c, const char *what, pn_scene *scene, tri *world, int *tri_count,
+                           pn_light *light)
+{
+    build_scene(c, scene, world, tri_count);
+    make_light(c, light);
+    fprintf(stderr, "case %s%s\n", c->name, what);
+    return pn_scene_validate(scene);
+}
+
 // A filter_only case: its scene with the BVH only (exact mode), the filtered frame and its check.
 static void run_filter_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filtered)
 {
     pn_scene scene;
     tri world[64];
     int tri_count = 0;
-    build_scene(c, &scene, world, &tri_count);
     pn_light light;
-    make_light(c, &light);
-    fprintf(stderr, "case %s (the filter only)\n", c->name);
-    pn_result r = pn_scene_validate(&scene);
+    pn_result r = open_case(c, " (the filter only)", &scene, world, &tri_count, &light);
     CHECK_MSG(r == PN_OK, "%s: validate returned %s", c->name, pn_result_str(r));
     pn_shadow_accel acc;
     memset(&acc, 0, sizeof acc);
@@ -1048,14 +1055,10 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
     pn_scene scene;
     tri world[64];
     int tri_count = 0;
-    build_scene(c, &scene, world, &tri_count);
     pn_light light;
-    make_light(c, &light);
-    fprintf(stderr, "case %s\n", c->name);
-
     // Scene-level precision refusal (pn_scene_validate): the scene must be refused exactly when
     // expected, with the message the log shows.
-    pn_result vr = pn_scene_validate(&scene);
+    pn_result vr = open_case(c, "", &scene, world, &tri_count, &light);
     CHECK_MSG((vr != PN_OK) == (c->expect == EXPECT_SCENE_REFUSED), "%s: validate returned %s", c->name,
               pn_result_str(vr));
     if (vr != PN_OK) {

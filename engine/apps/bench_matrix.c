@@ -76,6 +76,24 @@ static void tree_label(char *out, size_t n, int tn, int td)
         out[0] = '\0';
 }
 
+// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter][_LSn_d].
+static void cell_label(char *out, size_t n, const bench_row *r)
+{
+    int len = snprintf(out, n, "%s_%ux%u_%uspp_%s%s", r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode),
+                       r->filter != PN_FILTER_NONE ? "_filter" : "");
+    if (r->n && len > 0 && (size_t)len < n)
+        snprintf(out + len, n - (size_t)len, "_LS%d_%d", r->n, r->d);
+}
+
+// o->out_dir/PREFIX_LABEL.exr, with the characters a file name should not hold in the label replaced.
+static void cell_path(char *out, size_t n, const bench_opts *o, const char *prefix, const char *label)
+{
+    snprintf(out, n, "%s/%s_%s.exr", o->out_dir, prefix, label);
+    for (char *c = out + strlen(o->out_dir) + 1; *c; c++)
+        if (*c == ':' || *c == '/' || *c == ',' || *c == ' ')
+            *c = '_';
+}
+
 static bool push_quality(bench_rows *rows, const bench_quality *q)
 {
     if (rows->quality_count == rows->quality_cap) {
@@ -250,10 +268,7 @@ static void report_work(const bench_opts *o, pn_gpu_device *dev, const pn_scene 
         printf("\n");
         if (vals && planes) {
             char path[4096];
-            snprintf(path, sizeof path, "%s/work_%s.exr", o->out_dir, label);
-            for (char *c = path + strlen(o->out_dir) + 1; *c; c++)
-                if (*c == ':' || *c == '/' || *c == ',' || *c == ' ')
-                    *c = '_';
+            cell_path(path, sizeof path, o, "work", label);
             pn_exr_channel ch[4];
             for (int c = 0; c < 4; c++)
                 ch[c] = (pn_exr_channel){names[c], planes + c * px};
@@ -298,15 +313,9 @@ static bool measure_edges(const group *g, const pn_frame_images *img, bench_row 
     if (ok && plane) {
         for (size_t i = 0; i < px; i++)
             plane[i] = cls[i];
-        char path[4096];
-        int len = snprintf(path, sizeof path, "%s/edge_%s_%ux%u_%uspp_%s", g->o->out_dir, row->scene, w, h, row->spp,
-                           MODE_NAME(row->mode));
-        if (row->n)
-            snprintf(path + len, sizeof path - (size_t)len, "_LS%d_%d", row->n, row->d);
-        snprintf(path + strlen(path), sizeof path - strlen(path), ".exr");
-        for (char *c = path + strlen(g->o->out_dir) + 1; *c; c++)
-            if (*c == ':' || *c == '/' || *c == ',' || *c == ' ')
-                *c = '_';
+        char label[512], path[4096];
+        cell_label(label, sizeof label, row);
+        cell_path(path, sizeof path, g->o, "edge", label);
         pn_exr_channel ch[4] = {{"shadow.V", img->v}, {"shadow.V_raw", img->v_raw}, {"reference.V", g->v_conv},
                                 {"edge", plane}};
         ok = pn_exr_write(path, (int)w, (int)h, ch, 4, NULL, 0) == PN_OK;
@@ -376,10 +385,7 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
         return PN_EXIT_FAILURE;
     if (o->work) {
         char label[512];
-        snprintf(label, sizeof label, "%s_%ux%u_%uspp_%s%s", g->base.scene, g->frame.width, g->frame.height, spp,
-                 MODE_NAME(mode), row.filter != PN_FILTER_NONE ? "_filter" : "");
-        if (row.n)
-            snprintf(label + strlen(label), sizeof label - strlen(label), "_LS%d_%d", row.n, row.d);
+        cell_label(label, sizeof label, &row);
         report_work(o, g->dev, g->scene, g->cam, g->light, *sd, label);
     }
     return PN_EXIT_OK;
