@@ -63,7 +63,7 @@
 #define PN_FILTER_BINDING_V 3     // r32f: filtered V out
 #define PN_FILTER_BINDING_COUNT 4
 // The largest tile edge (--tile): a window of 8 x 8 = 64 neighbours per pixel already costs the
-// filter pass more than a few light samples would; filter.comp sizes its shared block by it.
+// filter pass more than a few light samples would (filter.comp loads three images per neighbour).
 #define PN_FILTER_MAX_TILE 8
 
 // ---------------------------------------------------------------------------------------------
