@@ -40,6 +40,8 @@ for r in rows:
         assert r["gpu_ms"]["filter"] > 0 and abs(r["cell_ms"] - r["gpu_ms"]["shadow"] - r["gpu_ms"]["filter"]) < 1e-3, r
         e = r["edge_leak"]
         assert e["band"] > 0 and 0 <= e["grown"] <= e["band"] and abs(e["share"] - e["grown"] / e["band"]) < 1e-6, r
+        assert e["away"] > 0 and 0 <= e["away_grown"] <= e["away"], r
+        assert abs(e["away_share"] - e["away_grown"] / e["away"]) < 1e-6, r
     twin = [q for q in rows if q["mode"] == r["mode"] and q["tree"] == r["tree"] and q["filter"] != r["filter"]]
     assert len(twin) == 1, (r, twin)
 for r in rows:

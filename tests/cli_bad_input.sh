@@ -92,6 +92,18 @@ expect 2 "--light-size: width and height must both be positive, or both 0" -- "$
 expect 2 "--light-radiance: must not be negative" -- "${R[@]}" --light-radiance -1
 expect 2 "--light-normal: must not be zero" -- "${R[@]}" --light-normal 0,0,0
 expect 2 "--light-up: must not be zero or parallel" -- "${R[@]}" --light-normal 0,-1,0 --light-up 0,2,0
+# --light groups: position:normal:up:size:radiance
+L="0,4,0:0,-1,0:0,0,1:1,1:10"
+expect 2 "--light: expected position:normal:up:size:radiance" -- "${R[@]}" --light 0,4,0:0,-1,0:0,0,1:1,1
+expect 2 "--light: expected position:normal:up:size:radiance" -- "${R[@]}" --light "$L:1"
+expect 2 "--light normal: expected 3" -- "${R[@]}" --light 0,4,0:0,-1:0,0,1:1,1:10
+expect 2 "--light size: width and height must both be positive" -- "${R[@]}" --light 0,4,0:0,-1,0:0,0,1:0,1:10
+expect 2 "--light radiance: must not be negative" -- "${R[@]}" --light 0,4,0:0,-1,0:0,0,1:1,1:1,-1,1
+expect 2 "--light 2: the normal and up must not be zero, nor parallel" -- "${R[@]}" --light "$L" \
+  --light 0,4,0:0,-1,0:0,3,0:1,1:10
+expect 2 "--light 1's position .* beyond 1e\+18" -- "${R[@]}" --light 0,1e19,0:0,-1,0:0,0,1:1,1:10
+expect 2 "--light and --light-pos" -- "${R[@]}" --light "$L" --light-size 2,2
+expect 2 "--light: at most 16 lights" -- "${R[@]}" $(for i in $(seq 17); do echo --light "$L"; done)
 expect 2 "camera position and target coincide" -- "${R[@]}" --camera-pos 1,1,1 --camera-target 1,1,1
 expect 2 "--fov: expected a number" -- "${R[@]}" --fov 180
 expect 2 "--tree: expected N,d" -- "${R[@]}" --tree 17,3

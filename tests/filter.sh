@@ -2,7 +2,8 @@
 # --filter interleaved on the default scene (exact, 4 spp):
 #  - the EXR keeps the unfiltered V as shadow.V_raw; V stays in [0, 1] and 0 on the background;
 #  - the filtered V is what filter.comp documents, recomputed here in double precision from the
-#    render's own P, N, view depth and V_raw (an independent implementation of the weights);
+#    render's own P, N, view depth and V_raw (an independent implementation of the geometric and
+#    the range weights, the latter acting on some taps);
 #  - the filter pays: against the converged reference (exact, 1024 spp, another seed) the filtered
 #    V's mean error is below the unfiltered V's of the same frame.
 set -u
@@ -51,11 +52,11 @@ def offset(p, n, footprint, q):
     mag = max(max(abs(c) for c in p), max(abs(c) for c in q))
     off = max(abs(sum(n[k] * (q[k] - p[k]) for k in range(3))) - 8 * ulp(mag), 0.0)
     return off / max(footprint, 1e-30)
-worst = 0.0
+worst, partial = 0.0, 0
 for i in covered:
     x, y = i % w, i // w
     p = [P[k][i] for k in range(3)]; n = [N[k][i] for k in range(3)]
-    s = wsum = 0.0
+    taps = []
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
             qx, qy = x + dx, y + dy
@@ -68,12 +69,23 @@ for i in covered:
             px = max(abs(dx), abs(dy))
             rho = max(offset(p, n, Z[i] * pixel_angle * px, q), offset(q, m, Z[j] * pixel_angle * px, p))
             c = max(sum(n[k] * m[k] for k in range(3)), 0.0)
-            wt = max(1 - rho * rho, 0.0) * c * c
-            s += wt * R[j]; wsum += wt
-    worst = max(worst, abs(s / wsum - V[i]))
+            taps.append((max(1 - rho * rho, 0.0) * c * c, R[j]))
+    # The range weight: neighbours whose V_raw is more than 2.5 standard deviations of a difference
+    # of two 4-sample means of the window's geometry-weighted V away from the pixel's drop out.
+    wsum = sum(t[0] for t in taps)
+    mean = min(max(sum(t[0] * t[1] for t in taps) / wsum, 0.0), 1.0)
+    spread = 2.5 * math.sqrt(2 * mean * (1 - mean) / 4)
+    s = wsum = 0.0
+    for wg, v in taps:
+        d = abs(v - R[i])
+        wt = wg * (1.0 if d == 0 else max(1 - (d / max(spread, 1e-30)) ** 2, 0.0))
+        s += wt * v; wsum += wt
+        partial += 0 < wt < wg
 # float against double: the weights' rounding moves a mean of values in [0, 1] by a few float ulps.
-print("filtered V against the recomputed filter: max |difference| %.2e over %d pixels" % (worst, len(covered)))
+print("filtered V against the recomputed filter: max |difference| %.2e over %d pixels, %d taps cut by the range"
+      " weight" % (worst, len(covered), partial))
 assert worst < 1e-4, worst
+assert partial > 0, "the range weight never acted"
 mae_f = sum(abs(V[i] - REF[i]) for i in covered) / len(covered)
 mae_r = sum(abs(R[i] - REF[i]) for i in covered) / len(covered)
 print("MAE against the converged reference, 4 spp: filtered %.4f, unfiltered %.4f" % (mae_f, mae_r))

@@ -46,13 +46,14 @@ void main()
 {
     // Same order as the tables of test_interface.c.
     put_tree(params.tree);
-    put_light(params.light);
     put(params.spp); put(params.grid_u); put(params.grid_v); put(params.sampler_kind);
     put(params.seed); put(params.leaf_size); put(params.canary); put(params.scene_mag);
     put(uvec2(params.tris)); put(uvec2(params.bvh)); put(uvec2(params.bvh_tris));
     put(uvec2(params.cand_offset)); put(uvec2(params.cand_tris)); put(uvec2(params.dump));
     put(params.dump_rays); put(params.cand_first); put(uvec2(params.work)); put(params.tile_w);
     put(params.tile_h); put(params.pad3); put(params.pad4);
+    for (int i = 0; i < PN_MAX_LIGHTS; i++)
+        put_light(params.lights[i]);
 
     for (int i = 0; i < 2; i++) {
         Node n = nodes[i];
@@ -76,6 +77,7 @@ void main()
     put(pc.gb.eye); put(pc.gb.forward);
     put(pc.gb.material); put(pc.gb.pad0); put(pc.gb.pad1); put(pc.gb.pad2);
     put(pc.chunk.sample_begin); put(pc.chunk.sample_end); put(pc.chunk.first); put(pc.chunk.last);
+    put(pc.chunk.light);
 
     put(o + 1u); // the count of words written, this one included
 }

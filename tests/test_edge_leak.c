@@ -10,7 +10,9 @@
 //   crease, step: 20 * 3 + 6 * 6 = 96;  flat: 60.
 // V_raw = ref = 0.5 everywhere; V grows the error by 0.06 at (8, 2) (in the band with a vertical
 // edge), by 0.06 at (3, 2) (never in the band), by 0.04 at (11, 3) (in the band, under 0.05), and
-// lowers it at (9, 4) (V_raw 0.9, V 0.5). So grown = 1 with a vertical edge, 0 without.
+// lowers it at (9, 4) (V_raw 0.9, V 0.5). So grown = 1 with a vertical edge, 0 without. The
+// baseline away from edges: the other covered pixels (180 in rows 0..8 less the band: 84, or 120
+// flat), of which (3, 2) grows, and (8, 2) too when flat: away_grown 1, or 2 flat.
 // Every layout is checked at scales 1e-3, 1 and 1e3 and shifted by 1e4 scale units: the counts must
 // not change (the measure is dimensionless; the shift's rounding stays under the slack).
 #include "apps/metrics.h"
@@ -60,6 +62,10 @@ int main(void)
                 CHECK_MSG(e.band == band && e.grown == grown, "layout %d scale %g shift %d: band %zu grown %zu, "
                           "expected %zu and %zu", layout, scales[s], shifted, e.band, e.grown, band, grown);
                 CHECK(fabs(e.share - (double)grown / (double)band) < 1e-12);
+                size_t away = 180 - band, away_grown = layout == FLAT ? 2 : 1;
+                CHECK_MSG(e.away == away && e.away_grown == away_grown, "layout %d scale %g shift %d: away %zu grown "
+                          "%zu, expected %zu and %zu", layout, scales[s], shifted, e.away, e.away_grown, away, away_grown);
+                CHECK(fabs(e.away_share - (double)away_grown / (double)away) < 1e-12);
                 // The classes: (8, 2) grown where counted, (3, 2) never in the band, row 9 not classed.
                 CHECK(cls[2 * W + 8] == (layout == FLAT ? 0 : 3) && cls[2 * W + 3] == 0 && cls[9 * W + 3] == 1);
             }

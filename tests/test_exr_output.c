@@ -129,5 +129,32 @@ int main(void)
     for (int i = 0; i < COUNT(keys); i++)
         CHECK_MSG(strstr(js, keys[i]) != NULL, "JSON lacks %s: %s", keys[i], js);
     CHECK(js[0] == '{' && strchr(js, '\n') == js + strlen(js) - 1);
+
+    // Two --light groups with the filter: a V and a V_raw per light (no plain shadow.V), the count
+    // and the second light's parameters in the header.
+    const char *two = pn_test_tmp("output_two_lights.exr");
+    remove(two);
+    snprintf(args, sizeof args, "render builtin:default --size 64x48 --spp 4 --filter interleaved "
+             "--light 0,3,0:0,-1,0:0,0,1:1,1:5 --light 2,2,1:-1,-1,0:0,0,1:0.5,0.25:1,2,3 -o %s > /dev/null", two);
+    CHECK(pn_test_run(args) == 0);
+    pn_exr_image img2;
+    CHECK(pn_exr_read(two, &img2) == PN_OK);
+    const char *per_light[] = {"shadow.V.0", "shadow.V.1", "shadow.V_raw.0", "shadow.V_raw.1", "R", "A"};
+    for (int i = 0; i < COUNT(per_light); i++)
+        CHECK_MSG(pn_exr_image_channel(&img2, per_light[i]) != NULL, "two lights: channel %s missing", per_light[i]);
+    CHECK_MSG(pn_exr_image_channel(&img2, "shadow.V") == NULL, "two lights: a plain shadow.V too");
+    CHECK_MSG(img2.channel_count == 8, "two lights: %d channels, expected R G B A and 4 V", img2.channel_count);
+    pn_exr_image_free(&img2);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    exr_context_t ctx;
+    CHECK(exr_start_read(&ctx, two, &init) == EXR_ERR_SUCCESS);
+    int32_t lights = 0;
+    CHECK(exr_attr_get_int(ctx, 0, "penumbra.lights", &lights) == EXR_ERR_SUCCESS && lights == 2);
+    exr_attr_v3f_t pos = {0};
+    CHECK(exr_attr_get_v3f(ctx, 0, "penumbra.light.1.pos", &pos) == EXR_ERR_SUCCESS);
+    CHECK_MSG(pos.x == 2 && pos.y == 2 && pos.z == 1, "penumbra.light.1.pos = (%g, %g, %g)", pos.x, pos.y, pos.z);
+    float w = 0;
+    CHECK(exr_attr_get_float(ctx, 0, "penumbra.light.1.width", &w) == EXR_ERR_SUCCESS && w == 0.5f);
+    exr_finish(&ctx);
     return pn_test_result();
 }

@@ -565,6 +565,50 @@ static void test_camera(void)
     pn_scene_destroy(&s);
 }
 
+// Area lights from node extras (README, scene/gltf.cpp): node 1 a light at (0,10,0) facing down
+// (-90 degrees about +X maps (x,y,z) to (x,z,-y): -Z goes to -Y and +Y to -Z), 2 x 1
+// scaled by (1.5, 2, 1); node 2 a point light with one radiance number, under a parent moved to
+// (5,0,0); nodes 3-5 malformed (size of one number, negative radiance, width 0 with height 1):
+// ignored with a warning each.
+static void test_lights(void)
+{
+    unsigned char bin[CUBE_BIN_LEN];
+    cube_bin(bin);
+    parts p = {
+        .scenes = "[{\"nodes\":[0,1,6,3,4,5]}]",
+        .nodes = "[{\"mesh\":0},"
+                 "{\"translation\":[0,10,0],\"rotation\":[-" Q45 ",0,0," Q45 "],\"scale\":[1.5,2,1],"
+                 "\"extras\":{\"penumbra_light\":{\"size\":[2,1],\"radiance\":[3,4,5]}}},"
+                 "{\"translation\":[0,1,0],\"extras\":{\"penumbra_light\":{\"size\":[0,0],\"radiance\":7}}},"
+                 "{\"extras\":{\"penumbra_light\":{\"size\":2,\"radiance\":1}}},"
+                 "{\"extras\":{\"penumbra_light\":{\"size\":[1,1],\"radiance\":[1,-1,1]}}},"
+                 "{\"extras\":{\"penumbra_light\":{\"size\":[0,1],\"radiance\":1}}},"
+                 "{\"translation\":[5,0,0],\"children\":[2]}]",
+        .bin = bin,
+        .bin_len = sizeof bin};
+    pn_scene s;
+    if (load_ok(write_gltf("lights.gltf", &p), &s) != PN_OK)
+        return;
+    CHECK_MSG(s.light_count == 2, "%u lights, expected 2", s.light_count);
+    if (s.light_count == 2) {
+        const pn_light *a = &s.lights[0], *b = &s.lights[1];
+        const float pos[3] = {0, 10, 0}, nrm[3] = {0, -1, 0}, up[3] = {0, 0, -1}, rad[3] = {3, 4, 5};
+        for (int i = 0; i < 3; i++) {
+            CHECK_MSG(fabsf(a->pos[i] - pos[i]) < 1e-5f, "light 0 pos[%d] = %g", i, a->pos[i]);
+            CHECK_MSG(fabsf(a->normal[i] - nrm[i]) < 1e-5f, "light 0 normal[%d] = %g", i, a->normal[i]);
+            CHECK_MSG(fabsf(a->up[i] - up[i]) < 1e-5f, "light 0 up[%d] = %g", i, a->up[i]);
+            CHECK(a->radiance[i] == rad[i] && b->radiance[i] == 7.0f);
+        }
+        CHECK_MSG(fabsf(a->size[0] - 3.0f) < 1e-5f && fabsf(a->size[1] - 2.0f) < 1e-5f, "light 0 size %g x %g",
+                  a->size[0], a->size[1]);
+        CHECK_MSG(b->pos[0] == 5.0f && b->pos[1] == 1.0f && b->pos[2] == 0.0f && b->normal[2] == -1.0f,
+                  "light 1 at (%g, %g, %g) facing (%g, %g, %g)", b->pos[0], b->pos[1], b->pos[2], b->normal[0],
+                  b->normal[1], b->normal[2]);
+        CHECK(b->size[0] == 0 && b->size[1] == 0);
+    }
+    pn_scene_destroy(&s);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 4. Bad inputs: each fails with the right code, logs, leaves *out zeroed, and does not crash
 
@@ -839,6 +883,7 @@ int main(void)
     test_glb();
     test_textures();
     test_camera();
+    test_lights();
     test_bad_normals();
     test_bad_inputs();
     test_assets();

@@ -30,8 +30,9 @@ static const field tree_fields[] = {
     F(pn_gpu_tree_info, plane_pool), {0}};
 static const field light_fields[] = {F(pn_light_gpu, corners), F(pn_light_gpu, normal), F(pn_light_gpu, radiance),
                                      {0}};
+#define LIGHT(i) SUB(pn_shadow_params, lights[i], light_fields)
 static const field params_fields[] = {
-    SUB(pn_shadow_params, tree, tree_fields), SUB(pn_shadow_params, light, light_fields),
+    SUB(pn_shadow_params, tree, tree_fields),
     F(pn_shadow_params, spp),                 F(pn_shadow_params, grid_u),      F(pn_shadow_params, grid_v),
     F(pn_shadow_params, sampler_kind),        F(pn_shadow_params, seed),        F(pn_shadow_params, leaf_size),
     F(pn_shadow_params, canary),              F(pn_shadow_params, scene_mag),       F(pn_shadow_params, tris),
@@ -39,7 +40,10 @@ static const field params_fields[] = {
     F(pn_shadow_params, cand_tris),           F(pn_shadow_params, dump),        F(pn_shadow_params, dump_rays),
     F(pn_shadow_params, cand_first),          F(pn_shadow_params, work),        F(pn_shadow_params, tile_w),
     F(pn_shadow_params, tile_h),              F(pn_shadow_params, pad3),        F(pn_shadow_params, pad4),
+    LIGHT(0), LIGHT(1), LIGHT(2), LIGHT(3), LIGHT(4), LIGHT(5), LIGHT(6), LIGHT(7),
+    LIGHT(8), LIGHT(9), LIGHT(10), LIGHT(11), LIGHT(12), LIGHT(13), LIGHT(14), LIGHT(15),
     {0}};
+_Static_assert(PN_MAX_LIGHTS == 16, "params_fields lists every element of ShadowParams.lights");
 static const field node_fields[] = {F(pn_gpu_node, min),       F(pn_gpu_node, size),      F(pn_gpu_node, children),
                                     F(pn_gpu_node, level),     F(pn_gpu_node, linespace), F(pn_gpu_node, parent),
                                     {0}};
@@ -53,7 +57,8 @@ static const field gbuffer_fields[] = {F(pn_gbuffer_push, view_proj), F(pn_gbuff
                                        F(pn_gbuffer_push, pad0),      F(pn_gbuffer_push, pad1),
                                        F(pn_gbuffer_push, pad2),      {0}};
 static const field chunk_fields[] = {F(pn_shadow_chunk, sample_begin), F(pn_shadow_chunk, sample_end),
-                                     F(pn_shadow_chunk, first), F(pn_shadow_chunk, last), {0}};
+                                     F(pn_shadow_chunk, first), F(pn_shadow_chunk, last),
+                                     F(pn_shadow_chunk, light), {0}};
 
 // The probe's push-constant block: both push-constant structs, one after the other.
 typedef struct push {

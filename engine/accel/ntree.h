@@ -18,10 +18,11 @@ typedef struct pn_ntree_desc {
     uint64_t max_bytes; // refuse a tree whose pools would exceed this; 0 = no limit
     uint64_t max_pool_bytes; // refuse a tree with a pool larger than this (the device's largest
                              // buffer, pn_gpu_device_max_buffer); 0 = no limit
-    // With the light's corners: leave out triangles that cannot block any shadow ray, i.e. those
-    // whose plane has the whole scene and the light on one closed side (a ground plane under
+    // With the lights' corners: leave out triangles that cannot block any shadow ray, i.e. those
+    // whose plane has the whole scene and every light on one closed side (a ground plane under
     // everything, the outer walls of a room lit from inside). NULL keeps every triangle.
     const float (*cull_light)[3];
+    uint32_t cull_light_corners; // points at cull_light: 4 per light (0 counts as 4, one light)
     // With a box (lo xyz, hi xyz): also leave out triangles wholly outside it, e.g. the box of the
     // visible receivers and the light, which holds every segment from one to the other.
     const float *keep_box;

@@ -437,7 +437,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
         return prc;
     pn_scene scene = prep.scene;
     pn_camera cam = prep.camera;
-    pn_light light = prep.light;
+    pn_light light = prep.lights[0];
     pn_bench_embree_scene *rs = rtc ? pn_bench_embree_scene_create(rtc, &scene) : NULL;
     int rc = PN_EXIT_OK;
     bool want_exact = false;

@@ -16,25 +16,26 @@
 // "ref" against the converged reference, "bias" against exact with the same samples.
 void pn_bench_print_header(void)
 {
-    printf("%-16s %-9s %4s %-9s %-5s %-6s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s\n", "view", "size",
+    printf("%-16s %-9s %4s %-9s %-5s %-6s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s %6s\n", "view", "size",
            "spp", "mode", "tree", "filter", "build ms", "MB", "shadow ms", "min", "max", "filter ms", "Mray/s", "ref MAE",
-           "ref p99", "bias MAE", "bias mx", "/exact", "/embree", "edge%");
+           "ref p99", "bias MAE", "bias mx", "/exact", "/embree", "edge%", "away%");
 }
 
 void pn_bench_print_row(const bench_row *r)
 {
-    char tree[16] = "-", filter[16] = "-", edge[16] = "-";
+    char tree[16] = "-", filter[16] = "-", edge[16] = "-", away[16] = "-";
     if (r->n)
         snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
     if (r->filter != PN_FILTER_NONE) {
         snprintf(filter, sizeof filter, "%ux%u", r->tile_w, r->tile_h);
         snprintf(edge, sizeof edge, "%.2f", 100.0 * r->edge.share);
+        snprintf(away, sizeof away, "%.2f", 100.0 * r->edge.away_share);
     }
     printf("%-16.16s %4ux%-4u %4u %-9s %-5s %-6s %8.1f %7.1f %9.1f [%7.1f %7.1f] %8.2f %7.2f %8.4f %7.4f %8.4f %6.3f %6.2f "
-           "%7.2f %6s\n",
+           "%7.2f %6s %6s\n",
            r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, filter, r->build_ms, r->pool_mb,
            r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->filter_ms, r->rays_per_s / 1e6, r->ref.mae, r->ref.p99,
-           r->bias.mae, r->bias.max, r->vs_exact, r->vs_embree, edge);
+           r->bias.mae, r->bias.max, r->vs_exact, r->vs_embree, edge, away);
     fflush(stdout);
 }
 
@@ -86,16 +87,17 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
         return false;
     fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
-               "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share\n");
+               "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share,"
+               "away_pixels,away_grown,away_share\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
                 r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
-                r->edge.band, r->edge.grown, r->edge.share);
+                r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share);
     }
     return close_out(f, path, tmp);
 }
@@ -224,8 +226,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 r->triangles, r->build_ms, r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms,
                 r->filter_ms, r->shade_ms, pn_bench_row_ms(r), r->rays_per_s);
         if (r->filter != PN_FILTER_NONE)
-            fprintf(f, "\"edge_leak\": {\"band\": %zu, \"grown\": %zu, \"share\": %.6g}, ", r->edge.band, r->edge.grown,
-                    r->edge.share);
+            fprintf(f, "\"edge_leak\": {\"band\": %zu, \"grown\": %zu, \"share\": %.6g, \"away\": %zu, "
+                       "\"away_grown\": %zu, \"away_share\": %.6g}, ",
+                    r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share);
         else
             fprintf(f, "\"edge_leak\": null, ");
         json_metrics(f, "reference", &r->ref);

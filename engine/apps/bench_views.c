@@ -76,7 +76,7 @@ int pn_bench_view_prepare(const bench_view *v, pn_prepared_scene *out)
     }
     float r = 0.5f * sqrtf(r2);
     pn_camera *cam = &out->camera;
-    pn_light *l = &out->light;
+    pn_light *l = &out->lights[0];
     float aim[3], len2 = 0;
     for (int k = 0; k < 3; k++) {
         cam->pos[k] = c[k] + r * s->camera[k];

@@ -210,7 +210,7 @@ static void save_frame(pn_demo *d)
     pn_renderer_images(&d->renderer, &frame);
     frame.radiance = d->image.rad;
     frame.v = d->image.v;
-    pn_render_record rec = {.opts = &d->opts, .scene = &d->scene, .camera = &d->camera, .light = &d->light,
+    pn_render_record rec = {.opts = &d->opts, .scene = &d->scene, .camera = &d->camera, .lights = &d->light,
                             .times = d->stats.times, .build_ms = d->accel.build_ms, .rays_per_s = d->stats.rays_per_s};
     static const char *const VIEWS[] = {"shaded", "visibility", "error"};
     const pn_exr_attr extra[] = {
@@ -469,7 +469,7 @@ int pn_cmd_demo(int argc, char **argv)
         pn_demo_script_destroy(&script);
         return prc;
     }
-    d.scene = prep.scene, d.camera = prep.camera, d.light = prep.light;
+    d.scene = prep.scene, d.camera = prep.camera, d.light = prep.lights[0];
     d.camera_home = d.camera, d.light_home = d.light;
     float r2 = 0; // orbiting centres on the object, not on the ground
     for (int k = 0; k < 3; k++) {

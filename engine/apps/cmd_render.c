@@ -130,9 +130,11 @@ typedef struct render_stats {
 } render_stats;
 
 static pn_result write_outputs(const render_opts *o, const char *output, const pn_scene *s, const pn_camera *cam,
-                               const pn_light *light, const render_stats *st, const pn_frame_images *img)
+                               const pn_light *lights, uint32_t light_count, const render_stats *st,
+                               const pn_frame_images *img)
 {
-    pn_render_record rec = {.opts = &o->r, .scene = s, .camera = cam, .light = light, .times = st->times,
+    pn_render_record rec = {.opts = &o->r, .scene = s, .camera = cam, .lights = lights, .light_count = light_count,
+                            .times = st->times,
                             .build_ms = st->build_ms, .rays_per_s = st->rays_per_s};
     pn_result r = pn_render_write_exr(output, &rec, img, o->aovs, NULL, 0);
     if (r != PN_OK || !o->preview)
@@ -165,14 +167,15 @@ static pn_result write_ray_dump(const render_opts *o, const pn_renderer *r)
 
 // Builds what the shadow mode needs, renders one frame and writes the outputs.
 static int render_frame(const render_opts *o, const char *output, pn_gpu_device *dev, const pn_scene *scene,
-                        const pn_camera *cam, const pn_light *light, render_stats *st)
+                        const pn_camera *cam, const pn_light *lights, uint32_t light_count, render_stats *st)
 {
     const pn_render_opts *p = &o->r;
     pn_setup_desc sd = pn_render_opts_setup(p);
     sd.frame.dump_rays = o->ray_dump != NULL;
     sd.view = o->view_cull ? cam : NULL;
+    sd.light_count = light_count;
     pn_setup s;
-    if (pn_setup_create(dev, scene, light, &sd, &s) != PN_OK)
+    if (pn_setup_create(dev, scene, lights, &sd, &s) != PN_OK)
         return PN_EXIT_FAILURE;
     st->build_ms = s.build_ms;
     st->subdivided = s.accel.tree.node_count;
@@ -182,13 +185,15 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     st->exact_bytes = s.exact_bytes;
     int rc = PN_EXIT_FAILURE;
     pn_frame_images img;
-    if (pn_renderer_render(&s.renderer, cam, light, &st->times) == PN_OK) {
+    if (pn_renderer_render_lights(&s.renderer, cam, lights, light_count, &st->times) == PN_OK) {
         pn_renderer_images(&s.renderer, &img);
         size_t px = (size_t)p->width * p->height;
         for (size_t i = 0; i < px; i++)
             st->covered += img.radiance[4 * i + 3] > 0;
-        st->rays_per_s = pn_shadow_rays_per_s(st->covered, (uint32_t)p->spp, light, st->times.shadow_ms);
-        if (write_outputs(o, output, scene, cam, light, st, &img) == PN_OK &&
+        // Every light's rays over the whole shadow time.
+        for (uint32_t i = 0; i < light_count; i++)
+            st->rays_per_s += pn_shadow_rays_per_s(st->covered, (uint32_t)p->spp, &lights[i], st->times.shadow_ms);
+        if (write_outputs(o, output, scene, cam, lights, light_count, st, &img) == PN_OK &&
             (!o->ray_dump || write_ray_dump(o, &s.renderer) == PN_OK))
             rc = PN_EXIT_OK;
     }
@@ -301,7 +306,6 @@ int pn_cmd_render(int argc, char **argv)
         return rc;
     pn_scene scene = prep.scene;
     pn_camera cam = prep.camera;
-    pn_light light = prep.light;
     double load_ms = prep.load_ms;
 
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
@@ -311,9 +315,12 @@ int pn_cmd_render(int argc, char **argv)
     pn_quality_choice choice = {0};
     if (pn_gpu_device_create(&desc, &dev) == PN_OK) {
         exit_code = PN_EXIT_OK;
-        if (o.auto_quality) {
+        if (o.auto_quality && prep.light_count > 1) {
+            pn_error("--quality auto chooses for one light; this render has %u", prep.light_count);
+            exit_code = PN_EXIT_USAGE;
+        } else if (o.auto_quality) {
             pn_renderer_desc frame = pn_render_opts_setup(&o.r).frame;
-            if (pn_quality_choose(&dev, &scene, &cam, &light, &frame, o.max_error, o.r.max_bytes, 0, &choice) == PN_OK) {
+            if (pn_quality_choose(&dev, &scene, &cam, &prep.lights[0], &frame, o.max_error, o.r.max_bytes, 0, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
                 o.r.spp = choice.spp;
                 if (choice.tree_n)
@@ -334,7 +341,7 @@ int pn_cmd_render(int argc, char **argv)
         st.quality_auto = o.auto_quality;
         st.quality = choice;
         if (exit_code == PN_EXIT_OK)
-            exit_code = render_frame(&o, output, &dev, &scene, &cam, &light, &st);
+            exit_code = render_frame(&o, output, &dev, &scene, &cam, prep.lights, prep.light_count, &st);
         pn_gpu_device_destroy(&dev);
     }
     if (exit_code == PN_EXIT_OK)

@@ -107,10 +107,13 @@ bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const 
                     long qx = (long)x + dx, qy = (long)y + dy;
                     near = qx >= 0 && qy >= 0 && qx < (long)w && qy < (long)h && edge[(size_t)qy * w + (size_t)qx];
                 }
-            if (!near)
-                continue;
-            out->band++;
             bool grown = fabs((double)v[i] - ref[i]) > fabs((double)v_raw[i] - ref[i]) + PN_EDGE_GROWTH;
+            if (!near) {
+                out->away++;
+                out->away_grown += grown;
+                continue;
+            }
+            out->band++;
             out->grown += grown;
             if (class_out && !edge[i])
                 class_out[i] = grown ? 3 : 2;
@@ -118,6 +121,7 @@ bool pn_edge_leak_measure(const float *p, const float *n, const float *v, const 
                 class_out[i] = 3;
         }
     out->share = out->band ? (double)out->grown / (double)out->band : 0.0;
+    out->away_share = out->away ? (double)out->away_grown / (double)out->away : 0.0;
     free(edge);
     return true;
 }

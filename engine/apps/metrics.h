@@ -36,6 +36,11 @@ typedef struct pn_edge_leak {
     size_t band;  // covered pixels within PN_EDGE_BAND of an edge
     size_t grown; // of them, those whose error grew by more than PN_EDGE_GROWTH
     double share; // grown / band (0 without edges)
+    // The same count over the covered pixels away from edges: there the filter's averaging alone,
+    // right on average but not in every pixel, grows some errors past PN_EDGE_GROWTH. The band's
+    // share beyond this baseline is what the edges add.
+    size_t away, away_grown;
+    double away_share; // away_grown / away (0 without such pixels)
 } pn_edge_leak;
 
 // p, n: the frame's rgba position (w = 1 where geometry is) and normal (w = view depth); v the

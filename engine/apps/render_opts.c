@@ -18,6 +18,48 @@ pn_render_opts pn_render_opts_default(void)
                             .filter = PN_FILTER_NONE, .tile_w = 3, .tile_h = 3};
 }
 
+// One --light group: position:normal:up:size:radiance, each comma-separated, radiance R or R,G,B.
+// Checked here as far as the value alone allows; pn_render_setup_view checks the geometry.
+static bool parse_light_group(const char *v, pn_render_opts *o)
+{
+    if (o->light_count == PN_MAX_LIGHTS) {
+        pn_error("--light: at most %d lights", PN_MAX_LIGHTS);
+        return false;
+    }
+    char buf[512], *part[6];
+    int parts = 0;
+    if (strlen(v) >= sizeof buf) {
+        pn_error("--light: value too long ('%.40s...')", v);
+        return false;
+    }
+    strcpy(buf, v);
+    for (char *p = buf; p && parts < 6;) {
+        part[parts++] = p;
+        p = strchr(p, ':');
+        if (p)
+            *p++ = '\0';
+    }
+    if (parts != 5) {
+        pn_error("--light: expected position:normal:up:size:radiance (e.g. 0,4,0:0,-1,0:0,0,1:1,1:10), got '%s'", v);
+        return false;
+    }
+    pn_light *l = &o->lights[o->light_count];
+    bool ok = pn_parse_floats("--light position", part[0], l->pos, 3) &&
+              pn_parse_floats("--light normal", part[1], l->normal, 3) &&
+              pn_parse_floats("--light up", part[2], l->up, 3) && pn_parse_floats("--light size", part[3], l->size, 2) &&
+              pn_parse_rgb("--light radiance", part[4], l->radiance);
+    if (ok && !pn_light_is_point(l) && !(l->size[0] > 0 && l->size[1] > 0)) {
+        pn_error("--light size: width and height must both be positive, or both 0 for a point light, got '%s'", part[3]);
+        ok = false;
+    }
+    if (ok && (l->radiance[0] < 0 || l->radiance[1] < 0 || l->radiance[2] < 0)) {
+        pn_error("--light radiance: must not be negative, got '%s'", part[4]);
+        ok = false;
+    }
+    o->light_count += ok;
+    return ok;
+}
+
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
 {
     const char *v = NULL;
@@ -49,6 +91,8 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
             pn_error("--light-radiance: must not be negative, got '%s'", v);
             ok = false;
         }
+    } else if (pn_args_value(a, "--light", &v, err)) {
+        ok = v && parse_light_group(v, o);
     } else if (pn_args_flag(a, "--ground")) {
         o->ground = true;
     } else if (pn_args_flag(a, "--no-ground")) {
@@ -100,6 +144,11 @@ void pn_render_opts_print_help(void)
            "  --light-size W,H      width and height; 0,0 is a point light (hard shadows; --light-radiance\n"
            "                        is then its radiant intensity along the normal, W/sr; one ray per pixel)\n"
            "  --light-radiance R[,G,B]\n"
+           "  --light P:N:U:S:R     a whole light in one group: position, normal, up, size and radiance as\n"
+           "                        above (e.g. 0,4,0:0,-1,0:0,0,1:1,1:10); repeat for up to 16 lights,\n"
+           "                        which replace the default one (not combined with --light-*). The\n"
+           "                        radiance sums every light's term; the EXR has one V per light\n"
+           "                        (shadow.V.0, shadow.V.1, ...)\n"
            "scene:\n"
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
            "  --seed S              fixes every random choice (default 1)\n"
@@ -155,7 +204,24 @@ static bool in_range(const char *what, const float v[3])
     return true;
 }
 
-bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *light)
+// Logs and returns false when the light's centre or a corner is out of range (in_range).
+static bool light_in_range(const char *what, const pn_light *l)
+{
+    char name[96];
+    snprintf(name, sizeof name, "%s's position", what);
+    if (!in_range(name, l->pos))
+        return false;
+    float corners[4][3];
+    pn_light_corners(l, corners);
+    snprintf(name, sizeof name, "a corner of %s", what);
+    for (int i = 0; i < 4; i++)
+        if (!in_range(name, corners[i]))
+            return false;
+    return true;
+}
+
+bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *lights,
+                          uint32_t *light_count)
 {
     if (s->has_camera && !o->has_cam_pos && !o->has_cam_target)
         *cam = s->camera;
@@ -181,6 +247,42 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
     if (!(fabsf(d[0]) + fabsf(d[2]) > 1e-6f * dl)) // looking straight up or down: an up vector not parallel to the view
         cam->up[0] = 0, cam->up[1] = 0, cam->up[2] = -1;
 
+    bool light_flags =
+        o->has_light_pos || o->has_light_normal || o->has_light_up || o->has_light_size || o->has_light_radiance;
+    if (o->light_count > 0 && light_flags) {
+        pn_error("--light and --light-pos/-normal/-up/-size/-radiance: give each light as one --light group, or "
+                 "change the one default light with the others");
+        return false;
+    }
+    // The --light groups, else the scene file's lights unless --light-* asks for the default one.
+    const pn_light *given = o->light_count ? o->lights : s->lights;
+    uint32_t count = o->light_count ? o->light_count : light_flags ? 0 : s->light_count;
+    if (count > PN_MAX_LIGHTS) {
+        pn_error("%s: %u lights; a frame takes at most %d", s->name, count, PN_MAX_LIGHTS);
+        return false;
+    }
+    if (count > 0) {
+        for (uint32_t i = 0; i < count; i++) {
+            pn_light *l = &lights[i];
+            *l = given[i];
+            char what[300];
+            if (o->light_count)
+                snprintf(what, sizeof what, "--light %u", i + 1);
+            else
+                snprintf(what, sizeof what, "%s: light %u", s->name, i);
+            float t[3], b[3];
+            if (!v3_unit(given[i].normal, l->normal) || !v3_unit(given[i].up, l->up) || !pn_light_frame(l, t, b)) {
+                pn_error("%s: the normal and up must not be zero, nor parallel to each other", what);
+                return false;
+            }
+            if (!light_in_range(what, l))
+                return false;
+        }
+        *light_count = count;
+        return true;
+    }
+    *light_count = 1;
+    pn_light *light = &lights[0];
     pn_light_default(s->bounds_min, s->bounds_max, light);
     if (o->has_light_pos)
         memcpy(light->pos, o->light.pos, sizeof light->pos);
@@ -225,12 +327,7 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
     }
     if (o->has_light_radiance)
         memcpy(light->radiance, o->light.radiance, sizeof light->radiance);
-    float corners[4][3];
-    pn_light_corners(light, corners);
-    for (int i = 0; i < 4; i++)
-        if (!in_range("a corner of the light", corners[i]))
-            return false;
-    return true;
+    return light_in_range("the light", light);
 }
 
 pn_setup_desc pn_render_opts_setup(const pn_render_opts *o)
@@ -262,7 +359,7 @@ int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_s
     memcpy(out->object_min, out->scene.bounds_min, sizeof out->object_min);
     memcpy(out->object_max, out->scene.bounds_max, sizeof out->object_max);
     // Camera and light frame the scene itself; the ground plane is added afterwards.
-    if (!pn_render_setup_view(o, &out->scene, &out->camera, &out->light)) {
+    if (!pn_render_setup_view(o, &out->scene, &out->camera, out->lights, &out->light_count)) {
         pn_scene_destroy(&out->scene);
         return PN_EXIT_USAGE;
     }

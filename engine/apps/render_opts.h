@@ -17,6 +17,10 @@ typedef struct pn_render_opts {
     float cam_pos[3], cam_target[3], fov;
     bool has_light_pos, has_light_normal, has_light_up, has_light_size, has_light_radiance;
     pn_light light; // only the fields whose has_light_* flag is set
+    // --light groups, each a whole light (position:normal:up:size:radiance); they replace the
+    // scene's lights and cannot be combined with --light-*.
+    uint32_t light_count;
+    pn_light lights[PN_MAX_LIGHTS];
     bool ground;
     long long seed, spp;
     pn_shadow_mode mode;
@@ -42,10 +46,12 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
 // Prints the help of the camera, light, scene and shadow options (the sections both commands share).
 void pn_render_opts_print_help(void);
 
-// Camera and light from the scene's bounds (and camera), overridden by the options. Call before
-// the ground plane is added: the defaults frame the scene itself. Logs and returns false for a
-// degenerate camera or light.
-bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *light);
+// Camera and lights from the scene's bounds (and camera), overridden by the options: the --light
+// groups, else one light (the default above the scene, changed by --light-*). Call before the
+// ground plane is added: the defaults frame the scene itself. Logs and returns false for a
+// degenerate camera or light. lights has room for PN_MAX_LIGHTS.
+bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *lights,
+                          uint32_t *light_count);
 
 // The one translation of the options into a set-up: frame size, mode, traversal, sampler, samples,
 // seed, tree and memory limit. The caller adds what is its own (view culling, ray dumps).
@@ -56,7 +62,8 @@ pn_setup_desc pn_render_opts_setup(const pn_render_opts *o);
 typedef struct pn_prepared_scene {
     pn_scene scene;
     pn_camera camera;
-    pn_light light;
+    pn_light lights[PN_MAX_LIGHTS]; // light_count of them (1 unless --light groups say otherwise)
+    uint32_t light_count;
     float object_min[3], object_max[3]; // the scene's bounds before the ground plane
     double load_ms;
 } pn_prepared_scene;

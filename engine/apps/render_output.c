@@ -50,7 +50,8 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     const pn_render_opts *o = rec->opts;
     const pn_frame_times *t = &rec->times;
     const pn_camera *cam = rec->camera;
-    const pn_light *light = rec->light;
+    const pn_light *light = &rec->lights[0];
+    uint32_t lights = rec->light_count ? rec->light_count : 1;
     size_t px = (size_t)o->width * o->height;
     enum { PLANES = 15 };
     float *buf = malloc(px * PLANES * sizeof(float));
@@ -75,11 +76,24 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     }
     static const char *const names[PLANES] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                               "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z"};
-    // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs.
-    pn_exr_channel ch[PLANES + 1];
+    // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs. With
+    // several lights a V (and V_raw) per light, already planar.
+    pn_exr_channel ch[PLANES + 2 * PN_MAX_LIGHTS];
+    char light_names[PN_MAX_LIGHTS][2][32];
     int count = 0;
     for (int c = 0; c < PLANES; c++) {
-        if (c == 5 && img->v_raw)
+        if (c == 4 && lights > 1) {
+            for (uint32_t i = 0; i < lights && i < img->light_count; i++) {
+                snprintf(light_names[i][0], sizeof light_names[i][0], "shadow.V.%u", i);
+                ch[count++] = (pn_exr_channel){light_names[i][0], img->v_light[i]};
+                if (img->v_raw_light[i]) {
+                    snprintf(light_names[i][1], sizeof light_names[i][1], "shadow.V_raw.%u", i);
+                    ch[count++] = (pn_exr_channel){light_names[i][1], img->v_raw_light[i]};
+                }
+            }
+            continue;
+        }
+        if (c == 5 && img->v_raw && lights == 1)
             ch[count++] = (pn_exr_channel){"shadow.V_raw", img->v_raw}; // already planar
         if (c < 5 || aovs)
             ch[count++] = (pn_exr_channel){names[c], pl[c]};
@@ -118,17 +132,35 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         {.name = "penumbra.tree.d", .type = PN_EXR_ATTR_INT, .i = tree ? o->tree_d : 0},
         F1("penumbra.build_ms", rec->build_ms),
         F1("penumbra.shadow_rays_per_s", rec->rays_per_s),
+        {.name = "penumbra.lights", .type = PN_EXR_ATTR_INT, .i = (int32_t)lights},
     };
 #undef V3
 #undef F1
-    enum { BASE = sizeof attrs / sizeof attrs[0], MAX_EXTRA = 16 };
-    pn_exr_attr all[BASE + MAX_EXTRA];
+    // Lights 1.. as penumbra.light.i.*: the same six attributes as light 0's.
+    enum { BASE = sizeof attrs / sizeof attrs[0], MAX_EXTRA = 16, PER_LIGHT = 6 };
+    pn_exr_attr all[BASE + PER_LIGHT * PN_MAX_LIGHTS + MAX_EXTRA];
+    static const char *const fields[PER_LIGHT] = {"pos", "normal", "up", "width", "height", "radiance"};
+    char attr_names[PN_MAX_LIGHTS][PER_LIGHT][40];
+    memcpy(all, attrs, sizeof attrs);
+    int n = BASE;
+    for (uint32_t i = 1; i < lights; i++) {
+        const pn_light *l = &rec->lights[i];
+        const float *v3[PER_LIGHT] = {l->pos, l->normal, l->up, NULL, NULL, l->radiance};
+        for (int f = 0; f < PER_LIGHT; f++) {
+            snprintf(attr_names[i][f], sizeof attr_names[i][f], "penumbra.light.%u.%s", i, fields[f]);
+            pn_exr_attr a = {.name = attr_names[i][f], .type = v3[f] ? PN_EXR_ATTR_V3F : PN_EXR_ATTR_FLOAT};
+            if (v3[f])
+                memcpy(a.f, v3[f], sizeof a.f);
+            else
+                a.f[0] = l->size[f == 3 ? 0 : 1];
+            all[n++] = a;
+        }
+    }
     if (extra_count > MAX_EXTRA)
         extra_count = MAX_EXTRA;
-    memcpy(all, attrs, sizeof attrs);
     if (extra_count > 0)
-        memcpy(all + BASE, extra, (size_t)extra_count * sizeof *extra);
-    pn_result r = pn_exr_write(path, (int)o->width, (int)o->height, ch, count, all, BASE + extra_count);
+        memcpy(all + n, extra, (size_t)extra_count * sizeof *extra);
+    pn_result r = pn_exr_write(path, (int)o->width, (int)o->height, ch, count, all, n + extra_count);
     free(buf);
     return r;
 }

@@ -11,13 +11,17 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
     out->desc = *desc;
     pn_result r = PN_OK;
     if (desc->needs.tree) {
-        float corners[4][3];
-        pn_light_corners(desc->light, corners);
+        // Every light's corners: a triangle stays if it can block a ray to any of them.
+        float corners[4 * PN_MAX_LIGHTS][3];
+        uint32_t lights = desc->light_count ? desc->light_count : 1;
+        for (uint32_t i = 0; i < lights && i < PN_MAX_LIGHTS; i++)
+            pn_light_corners(&desc->light[i], (float(*)[3])corners[4 * i]);
         pn_ntree_desc td = {.n = desc->tree_n,
                             .d = desc->tree_d,
                             .max_bytes = desc->max_bytes,
                             .max_pool_bytes = desc->max_pool_bytes,
                             .cull_light = (const float(*)[3])corners,
+                            .cull_light_corners = 4 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS),
                             .keep_box = desc->keep_box,
                             .keep_candidates = desc->needs.candidates,
                             .leaf_planes = desc->needs.planes};
@@ -97,11 +101,12 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         .max_bytes = desc->max_bytes ? desc->max_bytes : pn_gpu_device_pool_budget(dev),
         .max_pool_bytes = pn_gpu_device_max_buffer(dev),
         .light = light,
+        .light_count = desc->light_count ? desc->light_count : 1,
     };
     float box[6];
     pn_result r = PN_OK;
     if (desc->view && ad.needs.tree) {
-        r = pn_view_box(dev, scene, desc->view, light, &desc->frame, box);
+        r = pn_view_box(dev, scene, desc->view, light, ad.light_count, &desc->frame, box);
         ad.keep_box = box;
     }
     if (r == PN_OK)
@@ -128,24 +133,26 @@ void pn_setup_destroy(pn_gpu_device *dev, pn_setup *s)
     memset(s, 0, sizeof *s);
 }
 
-pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                      const pn_renderer_desc *frame, float box[6])
+pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *lights,
+                      uint32_t light_count, const pn_renderer_desc *frame, float box[6])
 {
     pn_renderer_desc rd = {.width = frame->width, .height = frame->height, .mode = PN_SHADOW_NONE, .spp = 1};
     pn_renderer r;
     PN_TRY(pn_renderer_create(dev, scene, &rd, &r));
     pn_frame_times t;
-    pn_result res = pn_renderer_render(&r, cam, light, &t);
+    pn_result res = pn_renderer_render(&r, cam, &lights[0], &t); // the G-buffer only (mode none)
     if (res == PN_OK) {
-        float corners[4][3];
-        pn_light_corners(light, corners);
         for (int k = 0; k < 3; k++)
-            box[k] = box[3 + k] = corners[0][k];
-        for (int c = 1; c < 4; c++)
-            for (int k = 0; k < 3; k++) {
-                box[k] = corners[c][k] < box[k] ? corners[c][k] : box[k];
-                box[3 + k] = corners[c][k] > box[3 + k] ? corners[c][k] : box[3 + k];
-            }
+            box[k] = INFINITY, box[3 + k] = -INFINITY;
+        for (uint32_t i = 0; i < (light_count ? light_count : 1); i++) {
+            float corners[4][3];
+            pn_light_corners(&lights[i], corners);
+            for (int c = 0; c < 4; c++)
+                for (int k = 0; k < 3; k++) {
+                    box[k] = corners[c][k] < box[k] ? corners[c][k] : box[k];
+                    box[3 + k] = corners[c][k] > box[3 + k] ? corners[c][k] : box[3 + k];
+                }
+        }
         pn_frame_images img;
         pn_renderer_images(&r, &img);
         size_t px = (size_t)frame->width * frame->height;

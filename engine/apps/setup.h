@@ -22,7 +22,8 @@ typedef struct pn_shadow_accel_desc {
     uint64_t max_bytes;     // refuse a tree whose pools exceed this (0: no limit)
     uint64_t max_pool_bytes; // ... or with one pool larger than this (0: no limit; set it to
                              // pn_gpu_device_max_buffer: every pool is one buffer)
-    const pn_light *light;  // the tree leaves out triangles that cannot block a ray to it
+    const pn_light *light;  // the tree leaves out triangles that cannot block a ray to any of these
+    uint32_t light_count;   // lights at `light` (0 counts as 1)
     const float *keep_box;  // and, when given (lo xyz, hi xyz), those wholly outside this box
     const pn_bvh *reuse_bvh; // for needs.bvh: put this one in the exact pools instead of building one
                              // (not owned; must outlive the accel)
@@ -59,14 +60,15 @@ typedef struct pn_setup_desc {
     int tree_n, tree_d;
     uint64_t max_bytes;     // for the tree's pools; 0: half the device's heap
     // Model only what the picture needs: with a camera, the tree leaves out triangles outside the
-    // box of the visible receivers (from a G-buffer pass) and the light, which holds every shadow ray.
+    // box of the visible receivers (from a G-buffer pass) and the lights, which holds every shadow ray.
     const pn_camera *view;
+    uint32_t light_count; // lights at pn_setup_create's `light` (0 counts as 1)
 } pn_setup_desc;
 
 // The box of what the camera sees (P of every pixel with geometry, from a G-buffer pass at the
-// frame's size) and the light: every shadow ray of the picture lies in it.
-pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                      const pn_renderer_desc *frame, float box[6]);
+// frame's size) and the lights: every shadow ray of the picture lies in it.
+pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *lights,
+                      uint32_t light_count, const pn_renderer_desc *frame, float box[6]);
 
 typedef struct pn_setup {
     pn_shadow_accel accel;
@@ -76,8 +78,8 @@ typedef struct pn_setup {
     uint64_t exact_bytes;     // triangle, BVH and candidate pools
 } pn_setup;
 
-// Builds what desc.frame.mode needs (the tree culls triangles that cannot block a ray to `light`)
-// and creates the renderer. Logs and fails as the pieces do.
+// Builds what desc.frame.mode needs (the tree culls triangles that cannot block a ray to any of the
+// desc.light_count lights at `light`) and creates the renderer. Logs and fails as the pieces do.
 pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
                           pn_setup *out);
 void pn_setup_destroy(pn_gpu_device *dev, pn_setup *s);

@@ -27,12 +27,13 @@ void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f)
 }
 
 void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h,
-                           float yfov_deg)
+                           uint32_t samples, float yfov_deg)
 {
     pn_filter_push push = {
         .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
         .tile_w = tile_w,
         .tile_h = tile_h,
+        .samples = samples,
     };
     uint32_t gx = (f->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (f->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, gx, gy, 1);

@@ -17,6 +17,7 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
 
 // tile_w x tile_h: the window (the tile of light_sample's interleaving); yfov_deg: the camera's
-// vertical field of view, which with the height gives a pixel's footprint per unit of depth.
+// vertical field of view, which with the height gives a pixel's footprint per unit of depth;
+// samples: the shadow pass's light samples per pixel, which set the noise one pixel's V carries.
 void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h,
-                           float yfov_deg);
+                           uint32_t samples, float yfov_deg);

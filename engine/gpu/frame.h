@@ -49,4 +49,8 @@ typedef struct pn_frame_images {
     const float *v;        // one float: visibility of the light, 0..1 (filtered, with a filter)
     const float *v_raw;    // with a filter: the shadow pass's V before it; NULL without
     const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
+    // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are
+    // light 0's.
+    uint32_t light_count;
+    const float *v_light[PN_MAX_LIGHTS], *v_raw_light[PN_MAX_LIGHTS];
 } pn_frame_images;

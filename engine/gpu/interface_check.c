@@ -41,23 +41,27 @@ SIZE(pn_gbuffer_push, 112); // the block's size rounded up to its 16-byte alignm
 
 // std140: the struct member `tree` and vec4 arrays on 16-byte boundaries, references on 8.
 AT(pn_shadow_params, tree, 0);
-AT(pn_shadow_params, light, 64);
-AT(pn_shadow_params, spp, 160);
-AT(pn_shadow_params, leaf_size, 180);
-AT(pn_shadow_params, canary, 184);
-AT(pn_shadow_params, scene_mag, 188);
-AT(pn_shadow_params, tris, 192);
-AT(pn_shadow_params, dump, 232);
-AT(pn_shadow_params, dump_rays, 240);
-AT(pn_shadow_params, cand_first, 244);
-AT(pn_shadow_params, work, 248);
-AT(pn_shadow_params, tile_w, 256);
-AT(pn_shadow_params, tile_h, 260);
-AT(pn_shadow_params, pad3, 264);
-AT(pn_shadow_params, pad4, 268);
-SIZE(pn_shadow_params, 272);
+AT(pn_shadow_params, spp, 64);
+AT(pn_shadow_params, leaf_size, 84);
+AT(pn_shadow_params, canary, 88);
+AT(pn_shadow_params, scene_mag, 92);
+AT(pn_shadow_params, tris, 96);
+AT(pn_shadow_params, dump, 136);
+AT(pn_shadow_params, dump_rays, 144);
+AT(pn_shadow_params, cand_first, 148);
+AT(pn_shadow_params, work, 152);
+AT(pn_shadow_params, tile_w, 160);
+AT(pn_shadow_params, tile_h, 164);
+AT(pn_shadow_params, pad3, 168);
+AT(pn_shadow_params, pad4, 172);
+AT(pn_shadow_params, lights, 176); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
+SIZE(pn_shadow_params, 176 + 96 * PN_MAX_LIGHTS);
 
-SIZE(pn_shadow_chunk, 16);
+SIZE(pn_shadow_chunk, 20);
+
+AT(pn_shade_push, light, 0);
+AT(pn_shade_push, accumulate, 96);
+SIZE(pn_shade_push, 112);
 
 // FilterPush: std430 push constants.
 SIZE(pn_filter_push, 16);

@@ -5,7 +5,15 @@
 
 #include "core/log.h"
 
-enum { TS_START, TS_GBUFFER, TS_SHADOW, TS_FILTER, TS_SHADE, TS_COUNT };
+// Timestamps: the frame's start, the G-buffer's end, then per light the ends of its shadow, filter
+// and shading passes (TS_LIGHT + 3 i + TS_*).
+enum { TS_START, TS_GBUFFER, TS_LIGHT, TS_SHADOW = 0, TS_FILTER = 1, TS_SHADE = 2, TS_COUNT = TS_LIGHT + 3 * PN_MAX_LIGHTS };
+
+// Floats per pixel of the frame's images in the readback buffer: P, N, albedo and radiance (rgba),
+// V and V_raw; with several lights each light's V and V_raw follow (pn_renderer_images).
+#define PN_READBACK_FLOATS_PER_PIXEL (4 * 4 + 2)
+
+static pn_result reserve_readback(pn_renderer *r, uint32_t light_count);
 
 // ---------------------------------------------------------------------------------------------
 // Targets
@@ -40,9 +48,7 @@ static pn_result create_targets(pn_renderer *r)
                                                         .usage = t[i].usage,
                                                         .aspect = t[i].aspect},
                                    t[i].img));
-    VkDeviceSize px = (VkDeviceSize)r->width * r->height;
-    PN_TRY(pn_gpu_buffer_create(dev, px * (4 * 16 + 2 * 4), VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_HOST_READBACK,
-                                &r->readback));
+    PN_TRY(reserve_readback(r, 1));
     VkQueryPoolCreateInfo qi = {
         .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
         .queryType = VK_QUERY_TYPE_TIMESTAMP,
@@ -221,10 +227,43 @@ static void timestamp(pn_renderer *r, VkCommandBuffer cmd, uint32_t index)
                        0, NULL);
 }
 
-// G-buffer -> shadow -> filter (with one) -> shade -> readback, with a timestamp after each pass.
-// `samples`: light samples traced per pixel (pn_shadow_samples).
-static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *camera, const pn_light_gpu *light,
-                         uint32_t samples, float yfov_deg)
+// Copies light `i`'s V (and V_raw with a filter) to its place after the readback's images
+// (pn_renderer_images), in the GENERAL layout the passes keep them in.
+static void record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t i)
+{
+    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
+    const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL, SRC = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    const VkAccessFlags2 WRITE = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, READ = VK_ACCESS_2_TRANSFER_READ_BIT;
+    const pn_gpu_image *src[2] = {filtered(r) ? &r->v : &r->v_raw, &r->v_raw};
+    uint32_t count = filtered(r) ? 2 : 1;
+    VkImageMemoryBarrier2 to_copy[2] = {
+        pn_gpu_image_barrier(src[0], COMPUTE, WRITE, COPY, READ, GENERAL, SRC),
+        pn_gpu_image_barrier(src[1], COMPUTE, WRITE, COPY, READ, GENERAL, SRC),
+    };
+    pn_gpu_cmd_barrier(cmd, NULL, count, to_copy);
+    VkDeviceSize px = (VkDeviceSize)r->width * r->height;
+    for (uint32_t k = 0; k < count; k++) {
+        VkBufferImageCopy copy = {
+            .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL + 2 * i + k) * 4 * px,
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageExtent = {r->width, r->height, 1},
+        };
+        vkCmdCopyImageToBuffer(cmd, src[k]->image, SRC, r->readback.buffer, 1, &copy);
+    }
+    // Back to the passes' layout, after the copy: the next light rewrites them, the readback reads
+    // them from GENERAL.
+    VkImageMemoryBarrier2 back[2] = {
+        pn_gpu_image_barrier(src[0], COPY, VK_ACCESS_2_NONE, COMPUTE | COPY, WRITE | READ, SRC, GENERAL),
+        pn_gpu_image_barrier(src[1], COPY, VK_ACCESS_2_NONE, COMPUTE | COPY, WRITE | READ, SRC, GENERAL),
+    };
+    pn_gpu_cmd_barrier(cmd, NULL, count, back);
+}
+
+// G-buffer, then per light shadow -> filter (with one) -> shade (adding to the radiance), then the
+// readback, with a timestamp after each pass. `samples`: light samples traced per pixel, per light
+// (pn_shadow_samples).
+static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *camera, const pn_light_gpu *lights,
+                         const uint32_t *samples, uint32_t light_count, float yfov_deg)
 {
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
@@ -251,30 +290,71 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gbuffer_pass_record(cmd, &r->gbuffer, &targets, camera);
     timestamp(r, cmd, TS_GBUFFER);
 
-    pn_shadow_pass_record(cmd, &r->shadow, samples); // P, N -> V raw
-    VkImageMemoryBarrier2 raw_ready = pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &raw_ready);
-    timestamp(r, cmd, TS_SHADOW);
-    if (filtered(r)) {
-        pn_filter_pass_record(cmd, &r->filter, pn_filter_tile(r->desc.tile_w), pn_filter_tile(r->desc.tile_h),
-                              yfov_deg); // P, N, V raw -> V
-        VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
-        pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
+    for (uint32_t i = 0; i < light_count; i++) {
+        if (i > 0) {
+            // The previous light's V and V_raw were read by its filter, shading and copy, and its
+            // radiance written: all of that before this light rewrites them or adds to it.
+            pn_gpu_cmd_barrier(cmd,
+                               &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                                   .srcStageMask = COMPUTE | VK_PIPELINE_STAGE_2_COPY_BIT,
+                                                   .srcAccessMask = WRITE,
+                                                   .dstStageMask = COMPUTE,
+                                                   .dstAccessMask = READ | WRITE},
+                               0, NULL);
+        }
+        uint32_t ts = TS_LIGHT + 3 * i;
+        pn_shadow_pass_record(cmd, &r->shadow, samples[i], i); // P, N -> V raw
+        VkImageMemoryBarrier2 raw_ready = pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &raw_ready);
+        timestamp(r, cmd, ts + TS_SHADOW);
+        if (filtered(r)) {
+            // A point light's V has no noise (every sample is the same ray): 0 samples tells the
+            // filter so, and it keeps the hard shadow's edges (filter.comp).
+            pn_filter_pass_record(cmd, &r->filter, pn_filter_tile(r->desc.tile_w), pn_filter_tile(r->desc.tile_h),
+                                  lights[i].radiance[3] != 0 ? 0 : samples[i], yfov_deg); // P, N, V raw -> V
+            VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
+            pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
+        }
+        timestamp(r, cmd, ts + TS_FILTER);
+        pn_shade_pass_record(cmd, &r->shade, &lights[i], i > 0); // P, N, albedo, V -> radiance
+        timestamp(r, cmd, ts + TS_SHADE);
+        if (light_count > 1)
+            record_light_copy(r, cmd, i);
     }
-    timestamp(r, cmd, TS_FILTER);
-    pn_shade_pass_record(cmd, &r->shade, light); // P, N, albedo, V -> radiance
-    timestamp(r, cmd, TS_SHADE);
 
     record_readback(r, cmd);
 }
 
-pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times)
+// The readback buffer holds the frame's images and, with several lights, every light's V and V_raw.
+static pn_result reserve_readback(pn_renderer *r, uint32_t light_count)
 {
+    VkDeviceSize px = (VkDeviceSize)r->width * r->height;
+    VkDeviceSize bytes = px * 4 * (PN_READBACK_FLOATS_PER_PIXEL + (light_count > 1 ? 2 * light_count : 0));
+    if (r->readback.size >= bytes)
+        return PN_OK;
+    pn_gpu_buffer_destroy(r->dev, &r->readback);
+    return pn_gpu_buffer_create(r->dev, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_HOST_READBACK, &r->readback);
+}
+
+pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,
+                                    uint32_t light_count, pn_frame_times *times)
+{
+    if (light_count < 1 || light_count > PN_MAX_LIGHTS) {
+        pn_error("%u lights: a frame has 1 to %d", light_count, PN_MAX_LIGHTS);
+        return PN_ERR_INVALID;
+    }
     pn_gpu_device *dev = r->dev;
+    PN_TRY(reserve_readback(r, light_count));
+    r->light_count = light_count;
     pn_gbuffer_push cam = pn_gbuffer_camera(&r->gbuffer, camera, r->width, r->height);
-    pn_light_gpu l = pn_light_to_gpu(light);
+    pn_light_gpu l[PN_MAX_LIGHTS];
+    uint32_t samples[PN_MAX_LIGHTS];
+    for (uint32_t i = 0; i < light_count; i++) {
+        l[i] = pn_light_to_gpu(&lights[i]);
+        samples[i] = pn_shadow_samples(r->desc.spp ? r->desc.spp : 1, &lights[i]);
+    }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
-    pn_shadow_pass_update(&r->shadow, &r->desc, &l);
+    pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
     // llvmpipe: the frame is recorded again only when the shadow pass ran out of the loop budget
     // (pn_shadow_pass_end_frame); on other drivers this loop runs once.
     bool retry = true;
@@ -284,7 +364,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
         VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
         VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-        record_frame(r, r->cmd, &cam, &l, pn_shadow_samples(r->desc.spp ? r->desc.spp : 1, light), camera->yfov_deg);
+        record_frame(r, r->cmd, &cam, l, samples, light_count, camera->yfov_deg);
         VK_CHECK(vkEndCommandBuffer(r->cmd));
         VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
@@ -293,26 +373,53 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
     }
 
     uint64_t ts[TS_COUNT];
-    VK_CHECK(vkGetQueryPoolResults(dev->device, r->timestamps, 0, TS_COUNT, sizeof ts, ts, sizeof ts[0],
+    uint32_t used = TS_LIGHT + 3 * light_count;
+    VK_CHECK(vkGetQueryPoolResults(dev->device, r->timestamps, 0, used, sizeof ts, ts, sizeof ts[0],
                                    VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
     double period_ms = dev->props.limits.timestampPeriod * 1e-6;
+    memset(times, 0, sizeof *times);
     times->gbuffer_ms = (double)(ts[TS_GBUFFER] - ts[TS_START]) * period_ms;
-    times->shadow_ms = (double)(ts[TS_SHADOW] - ts[TS_GBUFFER]) * period_ms;
-    times->filter_ms = (double)(ts[TS_FILTER] - ts[TS_SHADOW]) * period_ms;
-    times->shade_ms = (double)(ts[TS_SHADE] - ts[TS_FILTER]) * period_ms;
+    uint64_t prev = ts[TS_GBUFFER];
+    for (uint32_t i = 0; i < light_count; i++) {
+        const uint64_t *t = &ts[TS_LIGHT + 3 * i];
+        times->shadow_ms += (double)(t[TS_SHADOW] - prev) * period_ms;
+        times->filter_ms += (double)(t[TS_FILTER] - t[TS_SHADOW]) * period_ms;
+        times->shade_ms += (double)(t[TS_SHADE] - t[TS_FILTER]) * period_ms;
+        // The next light's interval starts after this one's copy of V (with several lights).
+        prev = t[TS_SHADE];
+    }
     return PN_OK;
+}
+
+pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times)
+{
+    return pn_renderer_render_lights(r, camera, light, 1, times);
 }
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
 {
     size_t px = (size_t)r->width * r->height;
     const float *base = r->readback.mapped;
+    memset(out, 0, sizeof *out);
     out->p = base;
     out->n = out->p + 4 * px;
     out->albedo = out->n + 4 * px;
     out->v = out->albedo + 4 * px;
     out->radiance = out->v + px;
     out->v_raw = filtered(r) ? out->radiance + 4 * px : NULL;
+    out->light_count = r->light_count ? r->light_count : 1;
+    if (out->light_count == 1) {
+        out->v_light[0] = out->v;
+        out->v_raw_light[0] = out->v_raw;
+        return;
+    }
+    // Several lights: each one's V and V_raw after the images (record_light_copy); V is light 0's.
+    for (uint32_t i = 0; i < out->light_count; i++) {
+        out->v_light[i] = base + (PN_READBACK_FLOATS_PER_PIXEL + 2 * i) * px;
+        out->v_raw_light[i] = filtered(r) ? out->v_light[i] + px : NULL;
+    }
+    out->v = out->v_light[0];
+    out->v_raw = out->v_raw_light[0];
 }
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }

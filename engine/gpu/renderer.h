@@ -27,6 +27,7 @@ typedef struct pn_renderer {
     pn_shade_pass shade;
     VkQueryPool timestamps;
     VkCommandBuffer cmd;
+    uint32_t light_count; // of the last frame
 } pn_renderer;
 
 // Uploads the scene and creates targets and pipelines as `desc` says.
@@ -37,6 +38,14 @@ void pn_renderer_destroy(pn_renderer *r);
 // Records, submits and waits for one frame; fills `times` and leaves the images readable through
 // pn_renderer_images until the next call.
 pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);
+
+// The same with 1..PN_MAX_LIGHTS lights: one G-buffer, then per light the shadow pass, the filter
+// and the shading pass, which adds the light's term to the radiance (the sum over the lights of
+// albedo / pi x exact irradiance x V x radiance). Every light gets the same samples it would get
+// alone (same seed), so a frame of several lights is the sum of their single-light frames. The
+// times are summed over the lights. PN_ERR_INVALID, logged, for another count.
+pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,
+                                    uint32_t light_count, pn_frame_times *times);
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
 

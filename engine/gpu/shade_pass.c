@@ -35,7 +35,7 @@ pn_result pn_shade_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t heig
     images[PN_SHADE_BINDING_V] = v->view;
     images[PN_SHADE_BINDING_OUT] = radiance->view;
     return pn_gpu_compute_create_images(dev, pn_spv_shade_comp, sizeof pn_spv_shade_comp, images,
-                                        PN_SHADE_BINDING_COUNT, sizeof(pn_light_gpu), &out->compute);
+                                        PN_SHADE_BINDING_COUNT, sizeof(pn_shade_push), &out->compute);
 }
 
 void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)
@@ -44,8 +44,9 @@ void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)
     memset(s, 0, sizeof *s);
 }
 
-void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_light_gpu *light)
+void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_light_gpu *light, bool accumulate)
 {
     uint32_t gx = (s->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (s->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
-    pn_gpu_compute_dispatch(cmd, &s->compute, sizeof *light, light, gx, gy, 1);
+    pn_shade_push push = {.light = *light, .accumulate = accumulate};
+    pn_gpu_compute_dispatch(cmd, &s->compute, sizeof push, &push, gx, gy, 1);
 }

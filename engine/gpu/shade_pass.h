@@ -20,4 +20,5 @@ pn_result pn_shade_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t heig
                                const pn_gpu_image *radiance, pn_shade_pass *out);
 void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s);
 
-void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_light_gpu *light);
+// One light's term: the first light (accumulate false) writes the radiance, the others add theirs.
+void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_light_gpu *light, bool accumulate);

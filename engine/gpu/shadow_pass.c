@@ -113,12 +113,14 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
     memset(s, 0, sizeof *s);
 }
 
-void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *light)
+void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *lights,
+                           uint32_t light_count)
 {
     pn_shadow_params sp = {0};
     if (desc->pools)
         sp.tree = desc->pools->info;
-    sp.light = *light;
+    for (uint32_t i = 0; i < light_count && i < PN_MAX_LIGHTS; i++)
+        sp.lights[i] = lights[i];
     sp.spp = desc->spp ? desc->spp : 1;
     pn_sample_grid(sp.spp, &sp.grid_u, &sp.grid_v);
     sp.sampler_kind = (uint32_t)desc->sampler;
@@ -145,7 +147,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     memcpy(s->params.mapped, &sp, sizeof sp);
 }
 
-void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples)
+void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     // The counts are rewritten from the first chunk on: discard what the previous frame left.
@@ -158,7 +160,8 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     uint32_t spp = s->mode->traces ? samples : 1;
     // Each chunk reads the counts the previous one wrote (see ShadowChunk in interface.h).
     for (uint32_t begin = 0; begin < spp; begin += s->chunk) {
-        pn_shadow_chunk ch = {begin, begin + s->chunk < spp ? begin + s->chunk : spp, begin == 0, begin + s->chunk >= spp};
+        pn_shadow_chunk ch = {begin, begin + s->chunk < spp ? begin + s->chunk : spp, begin == 0, begin + s->chunk >= spp,
+                              light};
         if (begin > 0)
             pn_gpu_cmd_barrier(cmd,
                                &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,

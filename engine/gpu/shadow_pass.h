@@ -44,12 +44,15 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                 const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, pn_shadow_pass *out);
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
 
-// Writes the frame's parameters (light, samples, pools); the queue must be idle.
-void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *light);
+// Writes the frame's parameters (its 1..PN_MAX_LIGHTS lights, samples, pools); the queue must be idle.
+void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *lights,
+                           uint32_t light_count);
 
-// Records the dispatches of `samples` light samples per pixel (pn_shadow_samples) after P and N are
-// ready; V is written when the last one ends.
-void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples);
+// Records the dispatches of `samples` samples per pixel (pn_shadow_samples) of light `light` (an
+// index into the lights of pn_shadow_pass_update) after P and N are ready; V is written when the
+// last one ends. Every light's samples are the same function of the seed and the pixel, so a light
+// sees the same samples alone as among others.
+void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light);
 
 // Before a submit: clears the status flag. After it: PN_OK, with *retry set if a dispatch was cut
 // short and the chunk was halved (record and submit the frame again); PN_ERR_UNSUPPORTED, logged,

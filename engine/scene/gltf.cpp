@@ -436,6 +436,7 @@ private:
     Mat4 local_transform(int node);
     void traverse();
     void visit_camera(int node, const Mat4 &world);
+    void visit_light(int node, const Mat4 &world);
     void instance_mesh(int mesh, const Mat4 &world);
     void instance_primitive(int mesh, int prim, const Affine &xf);
     uint32_t material_for(int mesh, int material);
@@ -454,6 +455,7 @@ private:
     bool default_material_used_ = false;
     bool has_camera_ = false;
     pn_camera camera_{};
+    std::vector<pn_light> lights_;
 
     std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
     std::vector<uint8_t> camera_warned_;
@@ -799,6 +801,8 @@ void Loader::traverse()
         Mat4 world = mat_mul(it.parent, local_transform(it.node));
         if (n.camera != -1)
             visit_camera(it.node, world);
+        if (n.extras.IsObject() && n.extras.Has("penumbra_light"))
+            visit_light(it.node, world);
         if (n.skin != -1 && !warned_skin_) {
             warned_skin_ = true;
             warn("skinning is not supported; skinned meshes are drawn in their bind pose");
@@ -860,6 +864,65 @@ void Loader::visit_camera(int node, const Mat4 &w)
         camera_.up[i] = (float)up[i];
     }
     camera_.yfov_deg = (float)(yfov * 180.0 / kPi);
+}
+
+// An area light on a node (glTF has no area-light extension): extras {"penumbra_light": {"size":
+// [w, h], "radiance": r or [r, g, b]}}. The rectangle lies in the node's XY plane, centred on its
+// origin, w along its X axis and h along Y (in the node's units, so the node's scale applies), and
+// emits along the node's -Z axis (as glTF's cameras and punctual lights look). size [0, 0] is a
+// point light. A malformed one is reported and ignored, like a camera.
+void Loader::visit_light(int node, const Mat4 &w)
+{
+    const tinygltf::Value &v = m_.nodes[(size_t)node].extras.Get("penumbra_light");
+    auto numbers = [](const tinygltf::Value &a, double *out, int n) {
+        if (a.IsNumber() && n == 3) {
+            out[0] = out[1] = out[2] = a.GetNumberAsDouble();
+            return std::isfinite(out[0]);
+        }
+        if (!a.IsArray() || (int)a.ArrayLen() != n)
+            return false;
+        for (int i = 0; i < n; i++) {
+            if (!a.Get(i).IsNumber())
+                return false;
+            out[i] = a.Get(i).GetNumberAsDouble();
+            if (!std::isfinite(out[i]))
+                return false;
+        }
+        return true;
+    };
+    double size[2], radiance[3];
+    double pos[3] = {w.m[12], w.m[13], w.m[14]};
+    double ax[3] = {w.m[0], w.m[1], w.m[2]}, ay[3] = {w.m[4], w.m[5], w.m[6]};
+    double nrm[3] = {-w.m[8], -w.m[9], -w.m[10]};
+    double sx = std::sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+    double sy = std::sqrt(ay[0] * ay[0] + ay[1] * ay[1] + ay[2] * ay[2]);
+    const char *problem = nullptr;
+    if (!v.IsObject())
+        problem = "penumbra_light is not an object";
+    else if (!numbers(v.Get("size"), size, 2) || size[0] < 0 || size[1] < 0 || ((size[0] == 0) != (size[1] == 0)))
+        problem = "size is not [width, height], both positive or both 0";
+    else if (!numbers(v.Get("radiance"), radiance, 3) || radiance[0] < 0 || radiance[1] < 0 || radiance[2] < 0)
+        problem = "radiance is not a non-negative number or [r, g, b]";
+    else if (!finite3(pos) || std::fabs(pos[0]) > 1e18 || std::fabs(pos[1]) > 1e18 || std::fabs(pos[2]) > 1e18)
+        problem = "its position is not finite or beyond 1e18 from the origin";
+    else if (!normalize3(nrm) || !normalize3(ay) || !(sx > 0 && std::isfinite(sx)) || !(sy > 0 && std::isfinite(sy)))
+        problem = "its node's transform is degenerate";
+    else if (lights_.size() == PN_SCENE_MAX_LIGHTS)
+        problem = "more lights than the 16 a frame takes";
+    if (problem) {
+        warn("node %d: light ignored: %s", node, problem);
+        return;
+    }
+    pn_light l{};
+    for (int i = 0; i < 3; i++) {
+        l.pos[i] = (float)pos[i];
+        l.normal[i] = (float)nrm[i];
+        l.up[i] = (float)ay[i];
+        l.radiance[i] = (float)radiance[i];
+    }
+    l.size[0] = (float)(size[0] * sx);
+    l.size[1] = (float)(size[1] * sy);
+    lights_.push_back(l);
 }
 
 void Loader::instance_mesh(int mesh, const Mat4 &world)
@@ -1236,6 +1299,9 @@ pn_result Loader::emit(pn_scene *out)
     }
     out->has_camera = has_camera_;
     out->camera = camera_;
+    out->light_count = (uint32_t)lights_.size();
+    for (size_t i = 0; i < lights_.size(); i++)
+        out->lights[i] = lights_[i];
 
     // Positions are known finite, so plain comparisons do (fmin/fmax are slow library calls).
     const pn_vertex *v = out->vertices;

@@ -36,6 +36,19 @@ typedef struct pn_camera {
     float yfov_deg; // vertical field of view
 } pn_camera;
 
+// One rectangular, one-sided Lambertian emitter; size 0,0 is a point light (hard shadows).
+typedef struct pn_light {
+    float pos[3];      // centre
+    float normal[3];   // unit; the side it emits to
+    float up[3];       // orients the height axis (projected onto the light's plane)
+    float size[2];     // width, height: both positive, or both 0 (a point)
+    float radiance[3]; // emitted radiance, linear RGB; for a point, radiant intensity along the normal
+                       // (W/sr: the limit of radiance x area; it falls off with the cosine)
+} pn_light;
+
+// Lights a scene file may carry (glTF node extras, scene/gltf.cpp); a frame has at most as many.
+enum { PN_SCENE_MAX_LIGHTS = 16 };
+
 typedef struct pn_scene {
     char name[256]; // the file path or "builtin:NAME"
     pn_vertex *vertices;
@@ -50,6 +63,9 @@ typedef struct pn_scene {
     uint32_t texture_count;
     bool has_camera; // the file's first camera, if it had one
     pn_camera camera;
+    // The file's area lights: glTF nodes whose extras hold "penumbra_light" (README), in node order.
+    uint32_t light_count;
+    pn_light lights[PN_SCENE_MAX_LIGHTS];
     float bounds_min[3], bounds_max[3]; // of all vertices that are referenced by a triangle
 } pn_scene;
 

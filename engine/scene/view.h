@@ -3,16 +3,6 @@
 #pragma once
 #include "scene/scene.h"
 
-// One rectangular, one-sided Lambertian emitter; size 0,0 is a point light (hard shadows).
-typedef struct pn_light {
-    float pos[3];      // centre
-    float normal[3];   // unit; the side it emits to
-    float up[3];       // orients the height axis (projected onto the light's plane)
-    float size[2];     // width, height: both positive, or both 0 (a point)
-    float radiance[3]; // emitted radiance, linear RGB; for a point, radiant intensity along the normal
-                       // (W/sr: the limit of radiance x area; it falls off with the cosine)
-} pn_light;
-
 static inline bool pn_light_is_point(const pn_light *l) { return l->size[0] == 0 && l->size[1] == 0; }
 
 // Frames the bounds: looks at their centre from the front and above (+Z, +Y; glTF's +Y is up)

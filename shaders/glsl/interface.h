@@ -13,6 +13,9 @@
 #define PN_WORKGROUP 8
 // Light samples one shadow dispatch traces at most (the shader's per-ray arrays hold this many).
 #define PN_MAX_CHUNK 32
+// Lights of one frame at most (ShadowParams.lights). The shadow and shading passes run once per
+// light; the tree and the G-buffer are shared.
+#define PN_MAX_LIGHTS 16
 // Deepest N-tree (root = depth 0 .. PN_NTREE_MAX_DEPTH); the line-space walk's stack holds one DDA
 // per level.
 #define PN_NTREE_MAX_DEPTH 6
@@ -84,6 +87,7 @@
 #define PN_MAT4(x) mat4 x;
 #define PN_ADDR(type, x) type x; // a buffer reference: a 64-bit device address
 #define PN_MEMBER(glsl_type, c_type, x) glsl_type x;
+#define PN_MEMBERS(glsl_type, c_type, x, n) glsl_type x[n];
 #else // C
 #include <stdint.h>
 #define PN_STRUCT(glsl_name, c_name) typedef struct c_name
@@ -99,6 +103,7 @@
 #define PN_MAT4(x) float x[16]; // column-major, as cglm's mat4
 #define PN_ADDR(type, x) uint64_t x;
 #define PN_MEMBER(glsl_type, c_type, x) c_type x;
+#define PN_MEMBERS(glsl_type, c_type, x, n) c_type x[n];
 #endif
 
 // ---------------------------------------------------------------------------------------------
@@ -154,12 +159,21 @@ PN_STRUCT(TreeInfo, pn_gpu_tree_info) {
     PN_ADDR(IndexPool, plane_pool) // with leaf planes (ls-plane): one word per leaf of the last-level nodes
 } PN_END(TreeInfo, pn_gpu_tree_info)
 
-// The rectangular one-sided Lambertian area light (shade pass push constants). 96 bytes.
+// The rectangular one-sided Lambertian area light. 96 bytes.
 PN_STRUCT(Light, pn_light_gpu) {
     PN_VEC4S(corners, 4) // counter-clockwise seen from the emitting side (xyz)
     PN_VEC4(normal)      // unit, the emitting side (xyz)
     PN_VEC4(radiance)    // rgb; w = 1: a point light (all corners equal), rgb is its intensity (W/sr)
 } PN_END(Light, pn_light_gpu)
+
+// The shading pass's push constants: one light's term of the sum over lights. 112 bytes.
+PN_STRUCT(ShadePush, pn_shade_push) {
+    PN_MEMBER(Light, pn_light_gpu, light)
+    PN_UINT(accumulate) // 0: the first light, writes the radiance; 1: adds to it
+    PN_UINT(pad0)
+    PN_UINT(pad1)
+    PN_UINT(pad2)
+} PN_END(ShadePush, pn_shade_push)
 
 // A glTF material as the G-buffer pass reads it. 32 bytes.
 PN_STRUCT(Material, pn_material_gpu) {
@@ -181,10 +195,9 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
     PN_UINT(pad2)
 } PN_END(GBufferPush, pn_gbuffer_push)
 
-// The shadow pass's uniform block (std140). 272 bytes.
+// The shadow pass's uniform block (std140). 176 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
-    PN_MEMBER(Light, pn_light_gpu, light) // the light whose visibility the pass computes
     PN_UINT(spp)           // rays per pixel = grid_u * grid_v
     PN_UINT(grid_u)        // samples across the light's width
     PN_UINT(grid_v)        // samples across its height
@@ -206,6 +219,7 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(tile_h)                 // strata (1 x 1: every pixel has all of them; light_sample)
     PN_UINT(pad3)
     PN_UINT(pad4)
+    PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
 // The filter pass's push constants (filter.comp). 16 bytes.
@@ -213,15 +227,17 @@ PN_STRUCT(FilterPush, pn_filter_push) {
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
     PN_UINT(tile_w)       // the window: the interleaved sampling's tile, centred on the pixel
     PN_UINT(tile_h)
-    PN_UINT(pad0)
+    PN_UINT(samples)      // light samples per pixel (the shadow pass's): the noise of one pixel's V;
+                          // 0 for a point light, whose V has none
 } PN_END(FilterPush, pn_filter_push)
 
-// The shadow pass's push constants: one chunk of light samples per dispatch. 16 bytes.
+// The shadow pass's push constants: one chunk of one light's samples per dispatch. 20 bytes.
 PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
     PN_UINT(sample_begin) // light samples [sample_begin, sample_end) in this dispatch
     PN_UINT(sample_end)
     PN_UINT(first)        // 1: counts start at zero
     PN_UINT(last)         // 1: write V = visible / valid
+    PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes
 } PN_END(ShadowChunk, pn_shadow_chunk)
 
 #endif

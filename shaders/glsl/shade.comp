@@ -1,6 +1,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Shading pass: outgoing radiance = albedo / pi * E * V, linear HDR; alpha = coverage.
+// Shading pass, once per light: outgoing radiance = sum over the lights of albedo / pi * E * V * L,
+// linear HDR; alpha = coverage. The first light writes the radiance, the others add to it.
 #include "light.glsl"
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
@@ -9,9 +10,9 @@ layout(set = 0, binding = PN_SHADE_BINDING_P, rgba32f) uniform readonly image2D 
 layout(set = 0, binding = PN_SHADE_BINDING_N, rgba32f) uniform readonly image2D img_n;
 layout(set = 0, binding = PN_SHADE_BINDING_ALBEDO, rgba32f) uniform readonly image2D img_albedo;
 layout(set = 0, binding = PN_SHADE_BINDING_V, r32f) uniform readonly image2D img_v;
-layout(set = 0, binding = PN_SHADE_BINDING_OUT, rgba32f) uniform writeonly image2D img_out;
+layout(set = 0, binding = PN_SHADE_BINDING_OUT, rgba32f) uniform image2D img_out;
 
-layout(push_constant) uniform ShadePush { Light light; } pc;
+layout(push_constant) uniform ShadePushBlock { ShadePush pc; };
 
 void main()
 {
@@ -28,5 +29,6 @@ void main()
     float v = imageLoad(img_v, px).r;
     float e = light_irradiance(pc.light, p.xyz, n);
     const float INV_PI = 0.31830988618379067;
-    imageStore(img_out, px, vec4(albedo * INV_PI * e * v * pc.light.radiance.rgb, 1.0));
+    vec3 sum = pc.accumulate != 0u ? imageLoad(img_out, px).rgb : vec3(0.0);
+    imageStore(img_out, px, vec4(sum + albedo * INV_PI * e * v * pc.light.radiance.rgb, 1.0));
 }

@@ -72,11 +72,14 @@ vec2 light_sample(uint k, uvec2 pixel)
     return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
 }
 
+// The light this dispatch traces (ShadowChunk.light; the pass runs once per light).
+#define LIGHT params.lights[chunk.light]
+
 vec3 light_point(vec2 st)
 {
     // Corners 0..3 at (s,t) = (0,0), (1,0), (1,1), (0,1): bilinear = exact point on the parallelogram.
-    vec3 a = mix(params.light.corners[0].xyz, params.light.corners[1].xyz, st.x);
-    vec3 b = mix(params.light.corners[3].xyz, params.light.corners[2].xyz, st.x);
+    vec3 a = mix(LIGHT.corners[0].xyz, LIGHT.corners[1].xyz, st.x);
+    vec3 b = mix(LIGHT.corners[3].xyz, LIGHT.corners[2].xyz, st.x);
     return mix(a, b, st.y);
 }
 

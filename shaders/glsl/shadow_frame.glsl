@@ -55,7 +55,7 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
         vec2 st = light_sample(chunk.sample_begin + i, pixel);
         vec3 d = light_point(st) - o;
         float dn = dot(d, nrm);
-        bool valid = dn > 0.0 && dot(params.light.normal.xyz, -d) > 0.0;
+        bool valid = dn > 0.0 && dot(LIGHT.normal.xyz, -d) > 0.0;
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;

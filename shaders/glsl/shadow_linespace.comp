@@ -118,7 +118,7 @@ bool leaf_plane_blocks(uint node, uint cell, uint n3, vec3 lo, vec3 ld, float ep
 // RISE_LEAVES); a later one may hold the surface the light is mounted on, and does not block.
 float leaf_t_fall(vec3 d)
 {
-    vec3 nl = params.light.normal.xyz;
+    vec3 nl = LIGHT.normal.xyz;
     return 1.0 - RISE_LEAVES * params.leaf_size * (abs(nl.x) + abs(nl.y) + abs(nl.z)) / dot(nl, -d);
 }
 

@@ -1,0 +1,185 @@
+// Several lights in one frame (pn_renderer_render_lights) against single-light frames:
+//  1. Linearity: light transport is linear in the emitters, so the radiance of a frame lit by A and
+//     B is the sum of the frames lit by A alone and by B alone. With the same samples (every light's
+//     samples are a function of the seed and the pixel only) the sum is exact up to the float
+//     rounding of the shading pass's one addition per light: all terms are >= 0, so a relative
+//     error of 2^-24 per addition, far under the 1e-4 required on every pixel. Each light's V in
+//     the pair's frame must equal its single frame's V bit for bit. Every tracing mode is checked
+//     with and without the filter; the line-space modes over one tree built for the set {A, B}
+//     (the tree depends on the set of lights, not on which of them a frame traces).
+//  2. The tree of a set of lights: a triangle may be left out only when it cannot block a ray to
+//     any light of the set. The default scene's ground plane cannot block rays to a light above
+//     it, so it is left out for A; a light below the ground (facing up, through it) makes it a
+//     blocker: the set {A, C} must keep it, and keep every triangle either light alone keeps.
+// The scene is the built-in default with its ground; validation layer on, any message fails.
+#include "apps/setup.h"
+#include "test_util.h"
+
+enum { W = 96, H = 72 };
+
+typedef struct frame {
+    float radiance[4 * W * H];
+    float v[2][W * H]; // per light
+    uint32_t lights;
+} frame;
+
+static bool render(pn_setup *s, const pn_camera *cam, const pn_light *lights, uint32_t count, frame *out)
+{
+    pn_frame_times t;
+    pn_result r = pn_renderer_render_lights(&s->renderer, cam, lights, count, &t);
+    CHECK_MSG(r == PN_OK, "render with %u lights: %s", count, pn_result_str(r));
+    if (r != PN_OK)
+        return false;
+    pn_frame_images img;
+    pn_renderer_images(&s->renderer, &img);
+    CHECK(img.light_count == count);
+    memcpy(out->radiance, img.radiance, sizeof out->radiance);
+    for (uint32_t i = 0; i < count && i < 2; i++)
+        memcpy(out->v[i], img.v_light[i], sizeof out->v[i]);
+    out->lights = count;
+    return true;
+}
+
+static void light_at(const float pos[3], const float normal[3], float w, float h, const float radiance[3], pn_light *l)
+{
+    memset(l, 0, sizeof *l);
+    memcpy(l->pos, pos, sizeof l->pos);
+    memcpy(l->normal, normal, sizeof l->normal);
+    l->up[0] = 0, l->up[1] = 0, l->up[2] = 1;
+    if (fabsf(normal[2]) > 0.9f)
+        l->up[0] = 1, l->up[2] = 0;
+    l->size[0] = w, l->size[1] = h;
+    memcpy(l->radiance, radiance, sizeof l->radiance);
+}
+
+// Linearity for one mode and filter: frames of A, B and {A, B} over one set-up.
+static void check_linearity(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light ab[2],
+                            pn_shadow_mode mode, pn_filter filter)
+{
+    const char *name = pn_shadow_mode_get(mode)->name;
+    pn_setup_desc sd = {.frame = {.width = W, .height = H, .mode = mode, .spp = 4, .seed = 7, .filter = filter},
+                        .tree_n = 6, .tree_d = 2, .light_count = 2};
+    pn_setup s;
+    pn_result r = pn_setup_create(dev, scene, ab, &sd, &s);
+    CHECK_MSG(r == PN_OK, "%s: set-up: %s", name, pn_result_str(r));
+    if (r != PN_OK)
+        return;
+    static frame fa, fb, fab;
+    if (render(&s, cam, &ab[0], 1, &fa) && render(&s, cam, &ab[1], 1, &fb) && render(&s, cam, ab, 2, &fab)) {
+        double worst = 0;
+        uint64_t off = 0, v_off = 0, lit_a = 0, lit_b = 0, shadowed = 0;
+        for (int i = 0; i < W * H; i++) {
+            for (int c = 0; c < 3; c++) {
+                double sum = (double)fa.radiance[4 * i + c] + fb.radiance[4 * i + c];
+                double d = fabs(fab.radiance[4 * i + c] - sum);
+                CHECK_MSG(fa.radiance[4 * i + c] >= 0 && fb.radiance[4 * i + c] >= 0, "%s: negative radiance", name);
+                if (sum > 0)
+                    worst = fmax(worst, d / sum);
+                if (d > 1e-4 * sum && off++ < 5)
+                    fprintf(stderr, "  %s: pixel %d channel %d: %.9g, the single frames sum to %.9g\n", name, i, c,
+                            fab.radiance[4 * i + c], sum);
+            }
+            v_off += fab.v[0][i] != fa.v[0][i];
+            v_off += fab.v[1][i] != fb.v[0][i];
+            lit_a += fa.radiance[4 * i] > 0;
+            lit_b += fb.radiance[4 * i] > 0;
+            // Covered pixels (alpha) in some light's shadow: the background has V = 0 too.
+            shadowed += fab.radiance[4 * i + 3] > 0 && (fa.v[0][i] < 1 || fb.v[0][i] < 1);
+        }
+        fprintf(stderr, "%-9s filter %-11s: worst relative difference %.2e over %d px (%llu lit by A, %llu by B, "
+                        "%llu with some shadow); V per light off on %llu px\n",
+                name, pn_filter_names[filter], worst, W * H, (unsigned long long)lit_a, (unsigned long long)lit_b,
+                (unsigned long long)shadowed, (unsigned long long)v_off);
+        CHECK_MSG(off == 0, "%s filter %s: %llu channels differ from the sum of the single-light frames by more "
+                  "than 1e-4 relative", name, pn_filter_names[filter], (unsigned long long)off);
+        CHECK_MSG(v_off == 0, "%s filter %s: a light's V differs between its single frame and the pair's on %llu px",
+                  name, pn_filter_names[filter], (unsigned long long)v_off);
+        // The check means something only where both lights reach and cast shadows.
+        CHECK_MSG(lit_a > W * H / 4 && lit_b > W * H / 4 && shadowed > W * H / 20,
+                  "%s: the lights light too little of the frame (%llu, %llu px) or cast too little shadow (%llu px)",
+                  name, (unsigned long long)lit_a, (unsigned long long)lit_b, (unsigned long long)shadowed);
+    }
+    pn_setup_destroy(dev, &s);
+}
+
+// The culled triangles of the scene's tree for a set of lights.
+static uint32_t culled(const pn_scene *scene, const pn_light *lights, uint32_t count, pn_shadow_accel *out)
+{
+    pn_shadow_accel_desc ad = {.needs = {.tree = true}, .tree_n = 4, .tree_d = 2, .light = lights,
+                               .light_count = count};
+    pn_result r = pn_shadow_accel_build(scene, &ad, out);
+    CHECK_MSG(r == PN_OK, "tree for %u lights: %s", count, pn_result_str(r));
+    return r == PN_OK ? out->tree.culled : 0;
+}
+
+int main(void)
+{
+    // Camera and lights frame the scene itself, then the ground goes under it (as render does).
+    pn_scene scene;
+    if (pn_scene_load("builtin:default", &scene) != PN_OK) {
+        CHECK_MSG(false, "the default scene");
+        return pn_test_result();
+    }
+    pn_camera cam;
+    pn_camera_frame(scene.bounds_min, scene.bounds_max, 45.0f, &cam);
+    // The scene's own default light (above, tilted), and a second one low at the side, coloured,
+    // smaller: their shadows fall in other directions.
+    pn_light ab[2];
+    pn_light_default(scene.bounds_min, scene.bounds_max, &ab[0]);
+    float ext = 0, c[3];
+    for (int k = 0; k < 3; k++) {
+        ext = fmaxf(ext, scene.bounds_max[k] - scene.bounds_min[k]);
+        c[k] = 0.5f * (scene.bounds_min[k] + scene.bounds_max[k]);
+    }
+    float pos_b[3] = {c[0] + 0.3f * ext, scene.bounds_max[1] * 0.5f + 0.15f * ext, c[2] + 0.2f * ext};
+    float nb[3] = {c[0] - pos_b[0], c[1] - pos_b[1] - 0.1f * ext, c[2] - pos_b[2]};
+    float nl = sqrtf(nb[0] * nb[0] + nb[1] * nb[1] + nb[2] * nb[2]);
+    for (int k = 0; k < 3; k++)
+        nb[k] /= nl;
+    light_at(pos_b, nb, 0.05f * ext, 0.08f * ext, (float[3]){2.0f, 1.0f, 0.5f}, &ab[1]);
+    if (pn_scene_add_ground(&scene, 6.0f) != PN_OK) {
+        CHECK_MSG(false, "the ground plane");
+        pn_scene_destroy(&scene);
+        return pn_test_result();
+    }
+
+    pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
+    pn_gpu_device dev;
+    if (pn_gpu_device_create(&desc, &dev) != PN_OK) {
+        pn_scene_destroy(&scene);
+        TEST_SKIP("no Vulkan device");
+    }
+    const pn_shadow_mode modes[] = {PN_SHADOW_EXACT, PN_SHADOW_LINESPACE, PN_SHADOW_HYBRID, PN_SHADOW_RAYQUERY};
+    for (size_t m = 0; m < sizeof modes / sizeof modes[0]; m++) {
+        const char *lack = NULL;
+        if (!pn_shadow_mode_available(&dev, modes[m], &lack)) {
+            fprintf(stderr, "%s: not on this device (%s)\n", pn_shadow_mode_get(modes[m])->name, lack);
+            continue;
+        }
+        check_linearity(&dev, &scene, &cam, ab, modes[m], PN_FILTER_NONE);
+        check_linearity(&dev, &scene, &cam, ab, modes[m], PN_FILTER_INTERLEAVED);
+    }
+
+    // 2. A light under the ground, facing up: the ground's plane separates it from the scene.
+    pn_light below;
+    float pos_c[3] = {c[0], scene.bounds_min[1] - 0.5f * ext, c[2]}, up[3] = {0, 1, 0};
+    light_at(pos_c, up, 0.1f * ext, 0.1f * ext, (float[3]){1, 1, 1}, &below);
+    pn_light ac[2] = {ab[0], below};
+    pn_shadow_accel ta, tc, tac;
+    uint32_t ca = culled(&scene, &ac[0], 1, &ta), cc = culled(&scene, &ac[1], 1, &tc), cac = culled(&scene, ac, 2, &tac);
+    fprintf(stderr, "tree culling: %u triangles left out for the light above, %u for the one below, %u for both\n",
+            ca, cc, cac);
+    // The ground (two triangles) is left out for A; with C it can block, so the set keeps it; and
+    // the set leaves out no more than either light alone.
+    CHECK_MSG(ca >= 2, "the ground is not left out for the light above (%u culled)", ca);
+    CHECK_MSG(cac + 2 <= ca && cac <= cc, "the set {above, below} leaves out %u triangles: more than %u - 2 or %u",
+              cac, ca, cc);
+    pn_shadow_accel_destroy(NULL, &ta);
+    pn_shadow_accel_destroy(NULL, &tc);
+    pn_shadow_accel_destroy(NULL, &tac);
+
+    CHECK_MSG(dev.validation_messages == 0, "%u validation messages", dev.validation_messages);
+    pn_gpu_device_destroy(&dev);
+    pn_scene_destroy(&scene);
+    return pn_test_result();
+}
