@@ -17,7 +17,7 @@ T=${PN_TEST_TMP:-/tmp}/quality_auto
 rm -rf "$T" && mkdir -p "$T"
 common=(builtin:default --size 128x96 --seed 5)
 # PN_REFERENCE_SPP and PN_REFERENCE_SEED (0x2c5e7f1), as the pilots use them.
-"$BIN" render "${common[@]}" --mode exact --spp 1024 --seed 46524401 -o "$T/reference.exr" >/dev/null \
+"$BIN" render "${common[@]}" --mode exact --spp 1024 --filter none --seed 46524401 -o "$T/reference.exr" >/dev/null \
   || { echo "FAIL: reference render"; exit 1; }
 fail=0
 for budget in 0.05 0.02 0; do

@@ -6,8 +6,9 @@
 #include "io/exr.h"
 #include "test_util.h"
 
+// The default render filters (--filter interleaved), so its unfiltered V is there too.
 static const char *const CHANNELS[] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
-                                       "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z"};
+                                       "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z", "shadow.V_raw"};
 static const char *const ATTRS[] = {"penumbra.scene", "penumbra.mode", "penumbra.triangles",
                                     "penumbra.camera.pos", "penumbra.camera.target", "penumbra.camera.fov",
                                     "penumbra.light.pos", "penumbra.light.normal", "penumbra.light.up",
@@ -86,7 +87,8 @@ int main(void)
             nonfinite += !isfinite(ch[c][i]);
         float a = ch[3][i], v = ch[4][i];
         CHECK_MSG(a == 0.0f || a == 1.0f, "A = %g at %d", a, i);
-        CHECK_MSG(v >= 0.0f && v <= 1.0f, "shadow.V = %g at %d", v, i);
+        CHECK_MSG(v >= 0.0f && v <= 1.0f && ch[15][i] >= 0.0f && ch[15][i] <= 1.0f, "shadow.V = %g, V_raw = %g at %d",
+                  v, ch[15][i], i);
         if (a == 1.0f) {
             covered++;
             double nl = sqrt(ch[8][i] * ch[8][i] + ch[9][i] * ch[9][i] + ch[10][i] * ch[10][i]);

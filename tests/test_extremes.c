@@ -43,7 +43,9 @@
 // leave the plane at g); it is skipped, as the shaders' origin offsets skip it.
 #include "apps/setup.h"
 #include "gpu/device.h"
+#include "gpu/shadow_pass.h"
 #include "test_util.h"
+#include <float.h>
 
 // Every mode of the table (gpu/shadow_modes.c) is checked; its bound follows from its row: exact
 // modes must match the oracle, the others within the line-space dilation.
@@ -667,28 +669,38 @@ static void check_frame(const sweep_case *c, int mi, const oracle *o, const pn_f
 // renders also renders exact mode through the raster pass with the filter on (3x3 tile), and:
 //  1. check_filter_frame: the filtered V is finite, in [0, 1], 0 on the background, and on every
 //     covered pixel the weighted mean that filter.comp documents, recomputed here in double from
-//     the frame's own P, N (w = view depth), coverage and V_raw (as tests/filter.sh does, an
-//     independent implementation of the weights), within a bound on the float evaluation's rounding;
+//     the frame's own P, N (w = view depth), coverage, V_raw and light samples per pixel (as
+//     tests/filter.sh does, an independent implementation of the geometric and the range weights),
+//     within a bound on the float evaluation's rounding;
 //  2. filter_pair: the weights are scale-invariant. Cases that are the same local scene at another
 //     scale or translation (same_local_scene) must give the same filtered V on the GPU wherever the
 //     two frames have the same V_raw and the same surfaces over the pixel's whole window, within a
 //     bound derived from the rounding of positions at each magnitude (loose, and counted apart,
-//     where that rounding is not small against the pixel's footprint).
+//     where that rounding is not small against the pixel's footprint). With the same V_raw the
+//     range weights differ only through the windows' means, i.e. through the geometric weights.
 
 #define FILTER_TILE 3
-#define FLOAT_U 0x1p-24 // float's unit roundoff
+#define FILTER_TAPS (FILTER_TILE * FILTER_TILE)
+#define FLOAT_U 0x1p-24         // float's unit roundoff
+#define FILTER_RANGE_SIGMAS 2.5 // filter.comp's RANGE_SIGMAS
 
 typedef struct filter_frame {
     bool rendered;
+    uint32_t samples;  // filter.comp's pc.samples: the shadow pass's light samples per pixel, 0 for a point light
     float eye_mag;     // the camera position's largest coordinate magnitude
     float pixel_angle; // what filter_pass.c passes: 2 tan(yfov / 2) / height
     float p[4 * SIZE * SIZE], n[4 * SIZE * SIZE], v[SIZE * SIZE], v_raw[SIZE * SIZE];
+    uint64_t range_between; // check_filter_frame's count of pixels with a range weight between 0 and 1
 } filter_frame;
+
+// A weight strictly between 0 and 1, i.e. neither keeping nor dropping its tap: more than 1e-3 from
+// both, far beyond every rounding bound here, so that the double weight's verdict is the float's.
+static bool filter_between(double w) { return w > 1e-3 && w < 1 - 1e-3; }
 
 // One neighbour q of a pixel p in its window, as filter.comp weighs it, evaluated in double from the
 // frame's float P and N.
 typedef struct filter_tap {
-    double w;         // max(1 - rho^2, 0) c^2
+    double w;         // max(1 - rho^2, 0) c^2: the geometric weight
     double rho;       // the larger of the two plane offsets over their footprints
     double c;         // max(n.m, 0)
     double err;       // bound on |w - the shader's float w| (filter_tap_at)
@@ -720,8 +732,8 @@ static double filter_offset(const float *p, const float *n, double footprint, co
     return fmax(fabs(d) - allowance, 0) / fp;
 }
 
-// filter.comp's weight: max(1 - rho^2, 0) c^2, 1 on the pixel's plane, 0 a footprint per pixel off
-// it or across a right angle. It falls with rho and rises with c.
+// filter.comp's geometric weight: max(1 - rho^2, 0) c^2, 1 on the pixel's plane, 0 a footprint per
+// pixel off it or across a right angle. It falls with rho and rises with c.
 static double filter_weight(double rho, double c) { return fmax(1 - rho * rho, 0) * c * c; }
 
 // False outside the image or on the background (filter.comp skips those).
@@ -759,38 +771,147 @@ static bool filter_tap_at(const filter_frame *f, int x, int y, int dx, int dy, f
     return true;
 }
 
-// filter.comp's V at pixel (x, y), covered, in double: *tol bounds |V - the shader's float V|,
-// *weight is the sum of the weights (W). The float sum of the window's w v and of w (at most 9
-// terms) are within gamma_10 of theirs, besides the weights' own errors dw: the mean moves by at
-// most (sum dw + 2 gamma_10 W) / (W - sum dw - gamma_10 W) (|v - V| <= 1 for values in [0, 1]);
-// the division adds 2.5 ulp (5u) of V <= 1.
-static double filter_recompute(const filter_frame *f, int x, int y, double *tol, double *weight)
+// filter.comp's spread for a window mean m: RANGE_SIGMAS standard deviations of the difference of
+// two pixels' V, each the mean of `samples` Bernoulli trials of probability m; 0 for samples = 0 (a
+// point light: V has no noise, only equal V average).
+static double filter_spread(double m, uint32_t samples)
 {
-    double sum = 0, w = 0, dw = 0;
-    int lo = -(FILTER_TILE - 1) / 2;
-    for (int dy = lo; dy < lo + FILTER_TILE; dy++)
-        for (int dx = lo; dx < lo + FILTER_TILE; dx++) {
-            filter_tap t;
-            if (!filter_tap_at(f, x, y, dx, dy, &t))
-                continue;
-            sum += t.w * f->v_raw[(y + dy) * SIZE + x + dx];
-            w += t.w;
-            dw += t.err;
-        }
-    double g10 = 10.1 * FLOAT_U;
-    double den = w - dw - g10 * w;
-    // Twice the bound: the compiler may contract or reorder the float operations, which changes the
-    // constants above, not their order.
-    *tol = den > 0 ? 2 * ((dw + 2 * g10 * w) / den + 5 * FLOAT_U) : 1;
-    *weight = w;
-    double v = w > 0 ? fmin(fmax(sum / w, 0), 1) : f->v_raw[y * SIZE + x];
-    return v;
+    return samples ? FILTER_RANGE_SIGMAS * sqrt(2 * m * (1 - m) / samples) : 0;
 }
 
-// Requirement 1 on one filtered frame.
-static void check_filter_frame(const sweep_case *c, const filter_frame *f)
+// The spreads of the means in [m_lo, m_hi] (within [0, 1]) lie in [*lo, *hi]: m (1 - m) rises up to
+// m = 1/2 and falls after it, so its extremes are at the interval's ends, or at 1/2 if inside.
+static void filter_spread_range(double m_lo, double m_hi, uint32_t samples, double *lo, double *hi)
 {
-    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0;
+    double a = filter_spread(m_lo, samples), b = filter_spread(m_hi, samples);
+    *lo = fmin(a, b);
+    *hi = m_lo <= 0.5 && m_hi >= 0.5 ? filter_spread(0.5, samples) : fmax(a, b);
+}
+
+// filter.comp's range weight of a neighbour whose V_raw differs from the pixel's by d: 1 at d = 0
+// (the pixel itself and its equals), else max(1 - r^2, 0) with r = d over the spread, which is at
+// least the shader's float 1e-30 (that only keeps the quotient finite). It rises with the spread.
+static double filter_range_weight(double d, double spread)
+{
+    if (d == 0)
+        return 1;
+    double r = d / fmax(spread, 1e-30f);
+    return fmax(1 - r * r, 0);
+}
+
+// [*lo, *hi] holds the shader's float range weight for d != 0 and a float spread in [s_lo, s_hi].
+// V_raw's values are ratios of sample counts (visible over valid), 0 or at least 1 / 1024 here, so
+// the float d is 0 exactly when the double one is (even where denormals flush), and that case has no
+// rounding. Otherwise the float d (one subtraction, u) and r (a division, 2.5 ulp: 5u) are within 6u
+// relative, r^2 within u more and 1 - r^2 within u absolute (its result is at most 1); the clamp
+// makes it exactly 0 where the float r^2 is surely 1 or more. Every constant twice, for contraction
+// and reordering (as in filter_mean_tol).
+static void filter_range_weight_float(double d, double s_lo, double s_hi, double *lo, double *hi)
+{
+    const double u = FLOAT_U;
+    double r_lo = d / fmax(s_hi, 1e-30f) * (1 - 12 * u), r_hi = d / fmax(s_lo, 1e-30f) * (1 + 12 * u);
+    double x_lo = r_lo * r_lo * (1 - 2 * u), x_hi = r_hi * r_hi * (1 + 2 * u);
+    *lo = x_hi >= 1 ? 0 : fmax(1 - x_hi - 2 * u, 0);
+    *hi = x_lo >= 1 ? 0 : fmin(1 - x_lo + 2 * u, 1);
+}
+
+// A bound on |the shader's float weighted mean - the double one| for values in [0, 1], weights of
+// sum W in double and a bound dw on the sum of |each float weight - its double|. The float sums of
+// the window's w v and of w (at most 9 terms) are within gamma_10 of theirs, besides the weights'
+// own errors: the mean moves by at most (dw + 2 gamma_10 W) / (W - dw - gamma_10 W) (|v - mean| <= 1
+// for values in [0, 1]); the division adds 2.5 ulp (5u) of a mean <= 1. Twice the bound: the
+// compiler may contract or reorder the float operations, which changes the constants above, not
+// their order. 1 (any value) where the weights' errors may reach their sum.
+static double filter_mean_tol(double w, double dw)
+{
+    double g10 = 10.1 * FLOAT_U;
+    double den = w - dw - g10 * w;
+    return den > 0 ? 2 * ((dw + 2 * g10 * w) / den + 5 * FLOAT_U) : 1;
+}
+
+// One covered pixel's window as filter.comp evaluates it, in double from the frame's floats, with
+// bounds on the shader's float evaluation (filter_recompute). Taps in the shader's order.
+typedef struct filter_window {
+    bool in[FILTER_TAPS];      // the tap is in the image and covered: filter.comp weighs it
+    filter_tap t[FILTER_TAPS]; // its geometric weight
+    float v_raw[FILTER_TAPS];  // its V_raw
+    double d[FILTER_TAPS];     // |its V_raw - the pixel's|
+    double wr[FILTER_TAPS];    // its range weight (filter_range_weight of the spread below)
+    double wg, mean, mean_tol; // first loop: the sum of the geometric weights, V_raw's mean under
+                               // them and a bound on |mean - the shader's float mean|
+    double spread;             // filter_spread(mean)
+    double w, v, tol;          // second loop: the sum of the weights wg wr, the filtered V and a
+                               // bound on |V - the shader's float V|
+    bool range_between;        // a tap the geometry keeps has a range weight between 0 and 1
+} filter_window;
+
+// filter.comp at pixel (x, y), covered. Both loops are weighted means of the window's V_raw
+// (filter_mean_tol): the first under the geometric weights, whose errors are filter_tap_at's; the
+// second under wg wr, whose errors follow from intervals:
+//  - the float mean lies within mean_tol of the double one, so its spread in filter_spread_range of
+//    that interval; the float spread adds relative rounding: 1 - mean (u), the product (u) and the
+//    division by samples (2.5 ulp: 5u) make 7u of sqrt's argument, half that after the sqrt, which
+//    adds 4.5 ulp (9u: Vulkan's sqrt inherits 1 / inversesqrt's precision, 2 + 2.5 ulp), and the
+//    product by RANGE_SIGMAS u: 13.5u, twice 27u. Denormals may flush to 0 (Vulkan allows it),
+//    which moves the argument by less than 2 FLT_MIN (the product's and the quotient's) and the
+//    spread by less than RANGE_SIGMAS sqrt(2 FLT_MIN) more. With samples = 0 the spread is exactly 0;
+//  - each tap's range weight then lies in filter_range_weight_float's interval (exactly 1 at
+//    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
+//    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
+static void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
+{
+    int lo = -(FILTER_TILE - 1) / 2, k = 0;
+    float v_p = f->v_raw[y * SIZE + x];
+    double sum = 0, dw = 0;
+    o->wg = 0;
+    for (int dy = lo; dy < lo + FILTER_TILE; dy++)
+        for (int dx = lo; dx < lo + FILTER_TILE; dx++, k++) {
+            o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]);
+            if (!o->in[k])
+                continue;
+            o->v_raw[k] = f->v_raw[(y + dy) * SIZE + x + dx];
+            o->d[k] = fabs((double)o->v_raw[k] - v_p);
+            sum += o->t[k].w * o->v_raw[k];
+            o->wg += o->t[k].w;
+            dw += o->t[k].err;
+        }
+    o->mean = o->wg > 0 ? fmin(fmax(sum / o->wg, 0), 1) : v_p;
+    o->mean_tol = filter_mean_tol(o->wg, dw);
+    o->spread = filter_spread(o->mean, f->samples);
+    double s_lo, s_hi;
+    filter_spread_range(fmax(o->mean - o->mean_tol, 0), fmin(o->mean + o->mean_tol, 1), f->samples, &s_lo, &s_hi);
+    const double rel = 27 * FLOAT_U, flush = FILTER_RANGE_SIGMAS * sqrt(2 * FLT_MIN);
+    s_lo = f->samples ? fmax(s_lo * (1 - rel) - flush, 0) : 0;
+    s_hi = f->samples ? s_hi * (1 + rel) + flush : 0;
+    sum = dw = o->w = 0;
+    o->range_between = false;
+    for (k = 0; k < FILTER_TAPS; k++) {
+        o->wr[k] = 0;
+        if (!o->in[k])
+            continue;
+        const filter_tap *t = &o->t[k];
+        o->wr[k] = filter_range_weight(o->d[k], o->spread);
+        double w = t->w * o->wr[k], w_lo = fmax(t->w - t->err, 0), w_hi = t->w + t->err;
+        if (o->d[k] != 0) {
+            double wr_lo, wr_hi;
+            filter_range_weight_float(o->d[k], s_lo, s_hi, &wr_lo, &wr_hi);
+            w_lo *= wr_lo * (1 - 2 * FLOAT_U);
+            w_hi *= wr_hi * (1 + 2 * FLOAT_U);
+        }
+        sum += w * o->v_raw[k];
+        o->w += w;
+        dw += fmax(w_hi - w, w - w_lo);
+        o->range_between = o->range_between || (t->w > 1e-3 && filter_between(o->wr[k]));
+    }
+    o->v = o->w > 0 ? fmin(fmax(sum / o->w, 0), 1) : v_p;
+    o->tol = filter_mean_tol(o->w, dw);
+}
+
+// Requirement 1 on one filtered frame. Returns how many covered pixels have a range weight between
+// 0 and 1 (filter_window.range_between).
+static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
+{
+    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0, range = 0;
     double diff_max = 0, tol_max = 0;
     for (int y = 0; y < SIZE; y++)
         for (int x = 0; x < SIZE; x++) {
@@ -805,25 +926,29 @@ static void check_filter_frame(const sweep_case *c, const filter_frame *f)
             if (!geo)
                 continue;
             covered++;
-            double tol, w, ref = filter_recompute(f, x, y, &tol, &w);
-            double d = fabs(v - ref);
+            filter_window o;
+            filter_recompute(f, x, y, &o);
+            double d = fabs(v - o.v);
             diff_max = fmax(diff_max, d);
-            tol_max = fmax(tol_max, tol);
-            // The pixel's own weight is |n|^4 = 1 up to rounding: W at most that means no neighbour
-            // continued its surface, and the filter kept the pixel's own V.
-            alone += w <= 1 + 16 * FLOAT_U;
+            tol_max = fmax(tol_max, o.tol);
+            // The pixel's own geometric weight is |n|^4 = 1 up to rounding: a sum at most that means
+            // no neighbour continued its surface, and the filter kept the pixel's own V.
+            alone += o.wg <= 1 + 16 * FLOAT_U;
             changed += v != raw;
-            if (d > tol && off++ < 5)
-                fprintf(stderr, "  %s filter: pixel (%d, %d): V = %.9f, recomputed %.9f (|difference| %.3g > %.3g)\n",
-                        c->name, x, y, v, ref, d, tol);
+            range += o.range_between;
+            if (d > o.tol && off++ < 5)
+                fprintf(stderr, "  %s filter: pixel (%d, %d): V = %.9f, recomputed %.9f (|difference| %.3g > %.3g;"
+                                " mean %.9f +- %.3g, spread %.6g, W %.6g of geometric %.6g)\n",
+                        c->name, x, y, v, o.v, d, o.tol, o.mean, o.mean_tol, o.spread, o.w, o.wg);
         }
-    fprintf(stderr, "  filter    %dx%d exact spp %u: %llu px, |V - recomputed| max %.2e (bound max %.2e), %llu px"
-                    " alone on their surface, %llu changed\n",
-            FILTER_TILE, FILTER_TILE, c->spp, (unsigned long long)covered, diff_max, tol_max,
-            (unsigned long long)alone, (unsigned long long)changed);
+    fprintf(stderr, "  filter    %dx%d exact spp %u (samples %u): %llu px, |V - recomputed| max %.2e (bound max %.2e),"
+                    " %llu px alone on their surface, %llu changed, %llu with range weights between 0 and 1\n",
+            FILTER_TILE, FILTER_TILE, c->spp, f->samples, (unsigned long long)covered, diff_max, tol_max,
+            (unsigned long long)alone, (unsigned long long)changed, (unsigned long long)range);
     CHECK_MSG(bad == 0 && off == 0, "%s filter: %llu bad values, %llu of %llu pixels off the recomputed filter", c->name,
               (unsigned long long)bad, (unsigned long long)off, (unsigned long long)covered);
     CHECK_MSG(covered > 0, "%s filter: no covered pixels", c->name);
+    return range;
 }
 
 // Exact mode through the raster pass with the filter on; false if it could not render (checked).
@@ -853,6 +978,9 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
         memcpy(out->v_raw, img.v_raw, sizeof out->v_raw);
         out->pixel_angle = (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE);
         out->eye_mag = fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2])));
+        // As renderer.c passes it: the shadow pass's samples (pn_shadow_samples), but 0 for a point
+        // light, whose V has no noise.
+        out->samples = pn_light_is_point(light) ? 0 : pn_shadow_samples(rd.spp ? rd.spp : 1, light);
         out->rendered = true;
     }
     pn_renderer_destroy(&ren);
@@ -872,7 +1000,8 @@ static bool same_local_scene(const sweep_case *a, const sweep_case *b)
 
 typedef struct filter_pair_stats {
     uint64_t tight, loose;                 // pixels compared with a bound below / above FILTER_TIGHT
-    uint64_t partial;                      // tight ones with a weight strictly between 0 and 1
+    uint64_t partial;                      // tight ones with a geometric weight strictly between 0 and 1
+    uint64_t range;                        // tight ones with a range weight strictly between 0 and 1
     uint64_t skip_geometry, skip_v_raw;    // windows whose surfaces or V_raw differ
     double tight_diff, tight_bound, loose_diff;
 } filter_pair_stats;
@@ -890,8 +1019,10 @@ typedef struct filter_pair_stats {
 // footprint plus the slack below: the camera's rounding moves the pixel grid by a fraction of a
 // pixel) and exactly the same V_raw. Then both filtered V are means of the same values and only
 // their weights can differ: |V_a - V_b| <= tol_a + tol_b + sum_j |w_a,j - w_b,j| / W_b, with tol
-// the float-against-double bounds of filter_recompute and w the double weights of each frame.
-// Those differ only by the rounding of positions at each magnitude, as the shader sees it:
+// the float-against-double bounds of filter_recompute and w the double weights wg wr of each frame
+// (the double means of the same values differ by sum_j (w_b,j - w_a,j)(v_j - V_a) / W_b).
+// The geometric weights differ only by the rounding of positions at each magnitude, as the shader
+// sees it, by dg_j at most:
 //  - a neighbour on the pixel's own plane (rho_a = 0: within 8 ulps of it at scale 1) is there in
 //    b too, and the shader takes 8 ulps of the magnitude off the offset, which is the premise of
 //    filter.comp (the rasterizer's positions are within 8 ulps of the plane): rho_b = 0 as well,
@@ -900,11 +1031,19 @@ typedef struct filter_pair_stats {
 //    off), and the true ones differ by the camera's rounding, which moves p and q by the same slack
 //    (e = 16 ulp(M), M with the camera's position, as the file's oracle): |rho_b - rho_a| <=
 //    U = 3 (A_a + A_b) with A = e / footprint; the footprints (view depths) differ by e each, a
-//    relative delta = e_a / depth_a + e_b / depth_b. Then w_b lies in f([(rho_a - U)+ / (1 + delta),
+//    relative delta = e_a / depth_a + e_b / depth_b. Then wg_b lies in f([(rho_a - U)+ / (1 + delta),
 //    (rho_a + U)(1 + delta)]) c_b^2 with f(rho) = max(1 - rho^2, 0) (filter_weight).
-// Where U is not small, i.e. the rounding at that magnitude is not small against the footprint,
-// the shader keeps weights that depend on rounding, on purpose (filter.comp, plane_offset); such
-// pixels (bound above FILTER_TIGHT) are checked against their loose bound and counted apart.
+// The range weights see the same d_j (the same V_raw) and differ only through the first loop's
+// means, which are means of the same values under the geometric weights: |mean_b - mean_a| <=
+// sum_j dg_j / Wg_b, as above (no float terms: both are filter_recompute's doubles; the floats'
+// errors are in tol_a and tol_b). So spread_b lies in filter_spread_range of that interval, wr_b,j
+// between the range weights of its ends (they rise with the spread), wg_b,j within dg_j of wg_a,j,
+// and w_b,j in the product of the two intervals (all >= 0): |w_a,j - w_b,j| is at most the distance
+// from w_a,j to the farther end.
+// Where that bound is not small, i.e. the rounding at that magnitude is not small against the
+// footprint, the shader keeps weights that depend on rounding, on purpose (filter.comp,
+// plane_offset); such pixels (bound above FILTER_TIGHT) are checked against their loose bound and
+// counted apart.
 static void filter_pair(const sweep_case *ca, const filter_frame *fa, const sweep_case *cb, const filter_frame *fb,
                         filter_pair_stats *st)
 {
@@ -954,35 +1093,46 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                 s.skip_v_raw++;
                 continue;
             }
-            double tol_a, tol_b, w_a, w_b;
-            filter_recompute(fa, x, y, &tol_a, &w_a);
-            filter_recompute(fb, x, y, &tol_b, &w_b);
-            double dw = 0;
+            filter_window wa, wb;
+            filter_recompute(fa, x, y, &wa);
+            filter_recompute(fb, x, y, &wb);
+            // The geometric weights' differences (the same surfaces: the same taps in both).
+            double dg[FILTER_TAPS] = {0}, dg_sum = 0;
             bool partial = false;
-            for (int dy = lo; dy < lo + FILTER_TILE; dy++)
-                for (int dx = lo; dx < lo + FILTER_TILE; dx++) {
-                    filter_tap ta, tb;
-                    if (!filter_tap_at(fa, x, y, dx, dy, &ta) || !filter_tap_at(fb, x, y, dx, dy, &tb))
-                        continue;
-                    double cc = fabs(ta.c * ta.c - tb.c * tb.c);
-                    partial = partial || (ta.w > 1e-3 && ta.w < 1 - 1e-3);
-                    if (ta.rho == 0) {
-                        dw += cc;
-                        continue;
-                    }
-                    double ma = fmax(ta.mag, fa->eye_mag), mb = fmax(tb.mag, fb->eye_mag);
+            for (int k = 0; k < FILTER_TAPS; k++) {
+                if (!wa.in[k] || !wb.in[k])
+                    continue;
+                const filter_tap *ta = &wa.t[k], *tb = &wb.t[k];
+                partial = partial || filter_between(ta->w);
+                dg[k] = fabs(ta->c * ta->c - tb->c * tb->c);
+                if (ta->rho != 0) {
+                    double ma = fmax(ta->mag, fa->eye_mag), mb = fmax(tb->mag, fb->eye_mag);
                     double ea = 16 * ma * 0x1p-23, eb = 16 * mb * 0x1p-23;
-                    double u = 3 * (ea / ta.footprint + eb / tb.footprint);
-                    double delta = ea / ta.depth + eb / tb.depth;
-                    double rlo = fmax(ta.rho - u, 0) / (1 + delta), rhi = (ta.rho + u) * (1 + delta);
-                    double flo = filter_weight(rlo, tb.c), fhi = filter_weight(rhi, tb.c);
-                    dw += fmax(fmax(flo - ta.w, ta.w - fhi), 0);
+                    double u = 3 * (ea / ta->footprint + eb / tb->footprint);
+                    double delta = ea / ta->depth + eb / tb->depth;
+                    double rlo = fmax(ta->rho - u, 0) / (1 + delta), rhi = (ta->rho + u) * (1 + delta);
+                    double flo = filter_weight(rlo, tb->c), fhi = filter_weight(rhi, tb->c);
+                    dg[k] = fmax(fmax(flo - ta->w, ta->w - fhi), 0);
                 }
-            double geo_bound = dw / w_b, bound = tol_a + tol_b + geo_bound;
+                dg_sum += dg[k];
+            }
+            // The range weights', through frame b's mean.
+            double dm = wb.wg > 0 ? dg_sum / wb.wg : 1, s_lo, s_hi, dw = 0;
+            filter_spread_range(fmax(wa.mean - dm, 0), fmin(wa.mean + dm, 1), fb->samples, &s_lo, &s_hi);
+            for (int k = 0; k < FILTER_TAPS; k++) {
+                if (!wa.in[k] || !wb.in[k])
+                    continue;
+                double w_a = wa.t[k].w * wa.wr[k];
+                double w_lo = fmax(wa.t[k].w - dg[k], 0) * filter_range_weight(wa.d[k], s_lo);
+                double w_hi = (wa.t[k].w + dg[k]) * filter_range_weight(wa.d[k], s_hi);
+                dw += fmax(w_hi - w_a, w_a - w_lo);
+            }
+            double weight_bound = wb.w > 0 ? dw / wb.w : 1, bound = wa.tol + wb.tol + weight_bound;
             double d = fabs((double)fa->v[px] - fb->v[px]);
-            if (geo_bound <= FILTER_TIGHT) {
+            if (weight_bound <= FILTER_TIGHT) {
                 s.tight++;
                 s.partial += partial;
+                s.range += wa.range_between;
                 s.tight_diff = fmax(s.tight_diff, d);
                 s.tight_bound = fmax(s.tight_bound, bound);
             } else {
@@ -990,19 +1140,22 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                 s.loose_diff = fmax(s.loose_diff, d);
             }
             if (d > bound && off++ < 5)
-                fprintf(stderr, "  %s against %s: pixel (%d, %d): filtered V %.9f against %.9f (|difference| %.3g > %.3g)\n",
-                        cb->name, ca->name, x, y, fb->v[px], fa->v[px], d, bound);
+                fprintf(stderr, "  %s against %s: pixel (%d, %d): filtered V %.9f against %.9f (|difference| %.3g > %.3g;"
+                                " means %.9f, %.9f)\n",
+                        cb->name, ca->name, x, y, fb->v[px], fa->v[px], d, bound, wb.mean, wa.mean);
         }
-    fprintf(stderr, "filter scale invariance, %s against %s: %llu px compared (%llu with weights between 0 and 1; "
-                    "|dV| max %.2e, bound max %.2e), %llu px where rounding is not small against the footprint "
-                    "(|dV| max %.3f); skipped: %llu px whose window differs in surfaces, %llu in V_raw\n",
-            cb->name, ca->name, (unsigned long long)s.tight, (unsigned long long)s.partial, s.tight_diff, s.tight_bound,
-            (unsigned long long)s.loose,
-            s.loose_diff, (unsigned long long)s.skip_geometry, (unsigned long long)s.skip_v_raw);
+    fprintf(stderr, "filter scale invariance, %s against %s: %llu px compared (%llu with geometric and %llu with range"
+                    " weights between 0 and 1; |dV| max %.2e, bound max %.2e), %llu px where rounding is not small"
+                    " against the footprint (|dV| max %.3f); skipped: %llu px whose window differs in surfaces, %llu in"
+                    " V_raw\n",
+            cb->name, ca->name, (unsigned long long)s.tight, (unsigned long long)s.partial, (unsigned long long)s.range,
+            s.tight_diff, s.tight_bound, (unsigned long long)s.loose, s.loose_diff, (unsigned long long)s.skip_geometry,
+            (unsigned long long)s.skip_v_raw);
     CHECK_MSG(off == 0, "%s against %s: %llu pixels' filtered V differ beyond the bound", cb->name, ca->name,
               (unsigned long long)off);
     st->tight += s.tight;
     st->partial += s.partial;
+    st->range += s.range;
     st->loose += s.loose;
     st->skip_geometry += s.skip_geometry;
     st->skip_v_raw += s.skip_v_raw;
@@ -1045,7 +1198,7 @@ static void run_filter_case(pn_gpu_device *dev, const sweep_case *c, filter_fram
     pn_camera cam;
     pn_camera_frame(scene.bounds_min, scene.bounds_max, 45, &cam);
     if (r == PN_OK && render_filtered(dev, c, &scene, &acc, &cam, &light, filtered))
-        check_filter_frame(c, filtered);
+        filtered->range_between = check_filter_frame(c, filtered);
     pn_shadow_accel_destroy(dev, &acc);
     pn_scene_destroy(&scene);
 }
@@ -1214,7 +1367,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
     const char *lack;
     if (pn_shadow_mode_available(dev, PN_SHADOW_REFERENCE, &lack) &&
         render_filtered(dev, c, &scene, &acc, &cam, &light, filtered))
-        check_filter_frame(c, filtered);
+        filtered->range_between = check_filter_frame(c, filtered);
     free(P);
     free(N);
     free(exact_v[0]);
@@ -1323,18 +1476,26 @@ int main(int argc, char **argv)
             pairs++;
         }
     }
-    fprintf(stderr, "filter scale invariance, %d pairs: %llu px compared (%llu with weights between 0 and 1; |dV| max"
-                    " %.2e, bound max %.2e), %llu px where rounding is not small against the footprint (|dV| max %.3f);"
-                    " skipped %llu + %llu px\n",
-            pairs, (unsigned long long)fps.tight, (unsigned long long)fps.partial, fps.tight_diff, fps.tight_bound,
-            (unsigned long long)fps.loose,
-            fps.loose_diff, (unsigned long long)fps.skip_geometry, (unsigned long long)fps.skip_v_raw);
+    uint64_t frames_range = 0;
+    for (int i = 0; i < n; i++)
+        frames_range += filtered[i].range_between;
+    fprintf(stderr, "filter scale invariance, %d pairs: %llu px compared (%llu with geometric and %llu with range weights"
+                    " between 0 and 1; |dV| max %.2e, bound max %.2e), %llu px where rounding is not small against the"
+                    " footprint (|dV| max %.3f); skipped %llu + %llu px; %llu px of the filtered frames with range"
+                    " weights between 0 and 1\n",
+            pairs, (unsigned long long)fps.tight, (unsigned long long)fps.partial, (unsigned long long)fps.range,
+            fps.tight_diff, fps.tight_bound, (unsigned long long)fps.loose, fps.loose_diff,
+            (unsigned long long)fps.skip_geometry, (unsigned long long)fps.skip_v_raw, (unsigned long long)frames_range);
     // The whole sweep has such pairs (scale 1e-4, 1e4, 1e6 and at 1e5 against base, degenerate 1e-4
-    // against degenerate, the filter scene's copies against it): they must compare pixels, and some
-    // with weights between 0 and 1 (the filter scene's), or the check says nothing.
+    // against degenerate, the filter scene's copies against it): they must compare pixels, some with
+    // geometric weights between 0 and 1 (the filter scene's) and some with range weights between 0
+    // and 1 (penumbrae, where neighbours' V_raw differ by less than the spread), or the check says
+    // nothing of them.
     if (argc < 2)
-        CHECK_MSG(fps.tight > 0 && fps.partial > 0, "filter scale invariance: %d pairs, %llu pixels compared, %llu"
-                  " with weights between 0 and 1", pairs, (unsigned long long)fps.tight, (unsigned long long)fps.partial);
+        CHECK_MSG(fps.tight > 0 && fps.partial > 0 && fps.range > 0 && frames_range > 0,
+                  "filter scale invariance: %d pairs, %llu pixels compared, %llu with geometric and %llu with range"
+                  " weights between 0 and 1 (%llu in the filtered frames)", pairs, (unsigned long long)fps.tight,
+                  (unsigned long long)fps.partial, (unsigned long long)fps.range, (unsigned long long)frames_range);
     free(filtered);
     CHECK_MSG(dev.validation_messages == 0, "%u validation messages", dev.validation_messages);
     return pn_test_result();

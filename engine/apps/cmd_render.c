@@ -39,7 +39,8 @@ void pn_print_render_help(void)
            "  --quality auto|manual auto: choose --mode, --tree and --spp from pilot renders (the same\n"
            "                        framing at about 128x128) against a converged exact reference (1024\n"
            "                        samples): the fastest configuration whose mean absolute error of V\n"
-           "                        stays within --max-error; its --spp replaces yours (default manual)\n"
+           "                        stays within --max-error; its --spp replaces yours, and it renders\n"
+           "                        without the filter, as it measured (default manual)\n"
            "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01; one\n"
            "                        no configuration reaches takes the least error found)\n"
            "  --no-view-cull        build the N-tree over all of the scene, not just over the box of\n"
@@ -320,9 +321,12 @@ int pn_cmd_render(int argc, char **argv)
             exit_code = PN_EXIT_USAGE;
         } else if (o.auto_quality) {
             pn_renderer_desc frame = pn_render_opts_setup(&o.r).frame;
+            frame.filter = PN_FILTER_NONE; // it chooses among unfiltered configurations
             if (pn_quality_choose(&dev, &scene, &cam, &prep.lights[0], &frame, o.max_error, o.r.max_bytes, 0, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
                 o.r.spp = choice.spp;
+                // The pick's error was measured without a filter (quality.c): the frame is that one.
+                o.r.filter = PN_FILTER_NONE;
                 if (choice.tree_n)
                     o.r.tree_n = choice.tree_n, o.r.tree_d = choice.tree_d;
                 if (!o.json) {

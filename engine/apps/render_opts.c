@@ -15,7 +15,7 @@ pn_render_opts pn_render_opts_default(void)
     return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 25, .tree_n = 7,
                             .tree_d = 3, .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE,
                             .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
-                            .filter = PN_FILTER_NONE, .tile_w = 3, .tile_h = 3};
+                            .filter = PN_FILTER_INTERLEAVED, .tile_w = 3, .tile_h = 3};
 }
 
 // One --light group: position:normal:up:size:radiance, each comma-separated, radiance R or R,G,B.
@@ -170,8 +170,10 @@ void pn_render_opts_print_help(void)
            "                        per-pixel rotated low-discrepancy set (default stratified)\n"
            "  --filter none|interleaved   interleaved: the pixels of each tile share the light's\n"
            "                        samples (each traces S of the tile's S x W x H) and a filter\n"
-           "                        averages V over the tile across the pixel's own surface; the\n"
-           "                        EXR keeps the unfiltered V as shadow.V_raw (default none)\n"
+           "                        averages V over the tile across the pixel's own surface where\n"
+           "                        V agrees up to the samples' noise; the EXR keeps the\n"
+           "                        unfiltered V as shadow.V_raw (default interleaved: lower error\n"
+           "                        at 4-64 spp on the bench's views; none for a reference)\n"
            "  --tile WxH            the tile and filter window, 1..8 each (default 3x3)\n");
 }
 

@@ -34,8 +34,9 @@ typedef struct pn_render_opts {
 } pn_render_opts;
 
 // The defaults render documents: 1280x720, linespace, per-ray traversal, stratified, 25 spp,
-// LS(7,3), seed 1, no filter (tile 3x3 if one is asked for), ground on, exposure 1, 45 degree
-// field of view.
+// LS(7,3), seed 1, the interleaved filter over 3x3 tiles (README: it lowers the error against the
+// converged reference at 4-64 spp on the bench's views), ground on, exposure 1, 45 degree field of
+// view.
 pn_render_opts pn_render_opts_default(void);
 
 // If argv[a->i] is one of the shared options (--size, --camera-*, --fov, --light-*, --ground,
