@@ -70,7 +70,7 @@ PY
 # same pixels and samples must be the frame's V (exact-ls against exact: zero error again).
 "$BIN" render builtin:default --size 64x48 --aovs -o "$OUT/gbuffer.exr" >/dev/null || { echo "FAIL: render --aovs"; exit 1; }
 "$BIN" bench --shader shadow --gbuffer "$OUT/gbuffer.exr" --scenes builtin:default --modes exact,exact-ls --trees 5,2 --filter none \
-  --spp 9 --repeat 1 --warmup 0 --no-embree --work --out "$OUT/shader" > "$OUT/shader.txt" || { echo "FAIL: shader-level bench"; fail=1; }
+  --spp 9 --repeat 1 --warmup 0 --no-embree --work --lights 1,2 --out "$OUT/shader" > "$OUT/shader.txt" || { echo "FAIL: shader-level bench"; fail=1; }
 # --work: the counting builds report per-pixel work; the exact mode walks BVH nodes and tests
 # triangles but never looks up a line space; exact-ls does look up line spaces.
 grep -q "work of builtin:default_64x48_9spp_exact per pixel.*lookups 0/0/0/0" "$OUT/shader.txt" || { echo "FAIL: exact work"; cat "$OUT/shader.txt"; fail=1; }
@@ -81,6 +81,15 @@ import json, sys
 rows = json.load(open(sys.argv[1]))["results"]
 assert [r["mode"] for r in rows] == ["exact", "exact-ls"], rows
 assert all(r["width"] == 64 and r["height"] == 48 and r["bias"]["max"] == 0 for r in rows), rows
+# --lights 1,2: per configuration a frame of one and of two lights over a tree built for them, with
+# the ratios to the view's light alone and to each light's frame alone.
+lights = json.load(open(sys.argv[1]))["lights"]
+assert [(l["mode"], l["lights"]) for l in lights] == [("exact", 1), ("exact", 2), ("exact-ls", 1), ("exact-ls", 2)], lights
+for l in lights:
+    assert l["frame_ms"] > l["shadow_ms"] > 0 and l["shade_ms"] > 0 and l["vs_sum"] > 0 and l["pool_mb"] > 0, l
+    assert l["spp"] == 9 and l["filter"] == "none" and l["tree"] == (None if l["mode"] == "exact" else [5, 2]), l
+    if l["lights"] == 1:
+        assert l["vs_one"] == 1, l
 print("shader-level rows ok")
 PY
 exit $fail

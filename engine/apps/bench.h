@@ -61,6 +61,8 @@ typedef struct bench_opts {
     bool embree;
     double max_errors[MAX_BUDGETS]; // --max-error: check --quality auto against the matrix at each
     int max_error_count;
+    uint32_t light_counts[MAX_LIST]; // --lights: frames of this many lights per configuration
+    int light_count_count;
     bool edge_images;    // --edge-images: per filtered cell an EXR of V, V_raw, the reference and the edge classes
     bool work;           // --work: count each cell's work per pixel with the counting shader builds
     const char *gbuffer; // --shader shadow --gbuffer FILE.exr: P and N from a render's AOVs
@@ -118,11 +120,32 @@ typedef struct bench_quality {
     double pair_pick_ms, pair_front_ms;
 } bench_quality;
 
+// --lights: one configuration's frame with `lights` lights over one tree built for them.
+typedef struct bench_light_row {
+    char scene[64];
+    uint32_t width, height, spp;
+    pn_shadow_mode mode;
+    int n, d;
+    pn_filter filter;
+    uint32_t lights;
+    double build_ms, pool_mb; // the tree (and BVH) for the set of lights
+    uint32_t culled;          // triangles the tree leaves out for the set
+    double frame_ms;          // median of G-buffer + shadow + filter + shading passes
+    double shadow_ms, shade_ms;
+    double vs_one; // frame_ms over the same configuration's with the view's one light (0: not measured)
+    // frame_ms over the sum of the frames of each light of the set alone (same set-up, timed in the
+    // same run): below 1 where sharing the G-buffer and the tree pays; "k lights cost at most k
+    // times one light" means at most 1 here, whatever each light costs.
+    double vs_sum;
+} bench_light_row;
+
 typedef struct bench_rows {
     bench_row *rows;
     int count, cap;
     bench_quality *quality;
     int quality_count, quality_cap;
+    bench_light_row *lights;
+    int light_count, light_cap;
 } bench_rows;
 
 // ---------------------------------------------------------------------------------------------
@@ -201,6 +224,9 @@ void pn_bench_print_header(void);
 
 // Prints one row of the console table (and flushes stdout).
 void pn_bench_print_row(const bench_row *r);
+
+// Prints one --lights row on the console.
+void pn_bench_print_light_row(const bench_light_row *r);
 
 // Writes dir/bench.csv: one line per row. False (logged) on failure.
 bool pn_bench_write_csv(const char *dir, const bench_rows *rows);

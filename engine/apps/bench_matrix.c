@@ -29,16 +29,16 @@ double pn_bench_median(double *v, int n)
 
 // Renders warm-up and timed frames; fills the timing fields of `row` and leaves the last frame's
 // images in the renderer.
-static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camera *cam, const pn_light *light,
-                             bench_row *row)
+static pn_result time_frames_lights(const bench_opts *o, pn_renderer *r, const pn_camera *cam, const pn_light *lights,
+                                    uint32_t light_count, bench_row *row)
 {
     double g[1000], s[1000], f[1000], h[1000];
     pn_frame_times t;
     for (int i = 0; i < o->warmup; i++)
-        if (pn_renderer_render(r, cam, light, &t) != PN_OK)
+        if (pn_renderer_render_lights(r, cam, lights, light_count, &t) != PN_OK)
             return PN_ERR_VULKAN;
     for (int i = 0; i < o->repeat; i++) {
-        if (pn_renderer_render(r, cam, light, &t) != PN_OK)
+        if (pn_renderer_render_lights(r, cam, lights, light_count, &t) != PN_OK)
             return PN_ERR_VULKAN;
         g[i] = t.gbuffer_ms, s[i] = t.shadow_ms, f[i] = t.filter_ms, h[i] = t.shade_ms;
     }
@@ -51,6 +51,12 @@ static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camer
     row->shadow_min_ms = s[0];
     row->shadow_max_ms = s[o->repeat - 1];
     return PN_OK;
+}
+
+static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camera *cam, const pn_light *light,
+                             bench_row *row)
+{
+    return time_frames_lights(o, r, cam, light, 1, row);
 }
 
 static bool push_row(bench_rows *rows, const bench_row *r)
@@ -426,6 +432,89 @@ static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows 
     return rc;
 }
 
+// --lights: the view's light turned about the vertical (+Y) axis through `centre` in k even steps,
+// each with 1/k of its radiance (so the set lights the scene about as brightly as the one light).
+static void light_set(const pn_light *light, const float centre[3], uint32_t k, pn_light *out)
+{
+    for (uint32_t i = 0; i < k; i++) {
+        double a = 2.0 * 3.14159265358979323846 * i / k, c = cos(a), s = sin(a);
+        pn_light *l = &out[i];
+        *l = *light;
+        // Rotation about +Y: (x, z) -> (c x + s z, -s x + c z), positions about the centre.
+        float dx = light->pos[0] - centre[0], dz = light->pos[2] - centre[2];
+        l->pos[0] = centre[0] + (float)(c * dx + s * dz);
+        l->pos[2] = centre[2] + (float)(-s * dx + c * dz);
+        const float *v[2] = {light->normal, light->up};
+        float *w[2] = {l->normal, l->up};
+        for (int j = 0; j < 2; j++) {
+            w[j][0] = (float)(c * v[j][0] + s * v[j][2]);
+            w[j][2] = (float)(-s * v[j][0] + c * v[j][2]);
+        }
+        for (int ch = 0; ch < 3; ch++)
+            l->radiance[ch] = light->radiance[ch] / (float)k;
+    }
+}
+
+static bool push_light_row(bench_rows *rows, const bench_light_row *r)
+{
+    if (rows->light_count == rows->light_cap) {
+        int cap = rows->light_cap ? 2 * rows->light_cap : 16;
+        bench_light_row *n = realloc(rows->lights, (size_t)cap * sizeof *n);
+        if (!n)
+            return false;
+        rows->lights = n;
+        rows->light_cap = cap;
+    }
+    rows->lights[rows->light_count++] = *r;
+    pn_bench_print_light_row(r);
+    return true;
+}
+
+// --lights for one configuration: per light count, a set-up whose tree is built for that set, and
+// frames of all its lights timed as the matrix times its cells.
+static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode, int tn, int td, bench_rows *rows)
+{
+    const bench_opts *o = g->o;
+    double one_ms = 0;
+    for (int li = 0; li < o->light_count_count; li++) {
+        uint32_t k = o->light_counts[li];
+        pn_light set[PN_MAX_LIGHTS];
+        light_set(g->light, centre, k, set);
+        pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td, .light_count = k,
+                            .view = o->gbuffer ? NULL : g->cam};
+        sd.frame.mode = mode;
+        sd.frame.spp = o->spps[0];
+        sd.frame.filter = o->filters[0], sd.frame.tile_w = o->tile_w, sd.frame.tile_h = o->tile_h;
+        pn_setup s;
+        if (pn_setup_create(g->dev, g->scene, set, &sd, &s) != PN_OK)
+            return PN_EXIT_FAILURE;
+        bench_row t = {.filter = sd.frame.filter};
+        bool ok = (!o->gbuffer || pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) == PN_OK) &&
+                  time_frames_lights(o, &s.renderer, g->cam, set, k, &t) == PN_OK;
+        // Each light of the set alone, on the same set-up: what k separate frames would cost.
+        double sum_ms = 0;
+        for (uint32_t i = 0; i < k && ok; i++) {
+            bench_row ti = {.filter = sd.frame.filter};
+            ok = time_frames_lights(o, &s.renderer, g->cam, &set[i], 1, &ti) == PN_OK;
+            sum_ms += ti.gbuffer_ms + ti.shadow_ms + ti.filter_ms + ti.shade_ms;
+        }
+        bench_light_row r = {.width = g->frame.width, .height = g->frame.height, .spp = sd.frame.spp, .mode = mode,
+                             .n = tn, .d = td, .filter = sd.frame.filter, .lights = k, .build_ms = s.build_ms,
+                             .pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0,
+                             .culled = s.accel.tree.culled, .shadow_ms = t.shadow_ms, .shade_ms = t.shade_ms};
+        snprintf(r.scene, sizeof r.scene, "%s", g->base.scene);
+        r.frame_ms = t.gbuffer_ms + t.shadow_ms + t.filter_ms + t.shade_ms;
+        if (k == 1)
+            one_ms = r.frame_ms;
+        r.vs_one = one_ms > 0 ? r.frame_ms / one_ms : 0;
+        r.vs_sum = sum_ms > 0 ? r.frame_ms / sum_ms : 0;
+        pn_setup_destroy(g->dev, &s);
+        if (!ok || !push_light_row(rows, &r))
+            return PN_EXIT_FAILURE;
+    }
+    return PN_EXIT_OK;
+}
+
 // One view: per size its converged reference, exact at every spp (the bias reference, and Embree's
 // rays), then every other mode and tree at every spp.
 int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const bench_view *view,
@@ -480,6 +569,19 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
             for (int ti = 0; ti < configs && rc == PN_EXIT_OK; ti++)
                 rc = run_config(&g, o->modes[m], info->needs.tree ? o->trees[ti][0] : 0,
                                 info->needs.tree ? o->trees[ti][1] : 0, rows, true);
+        }
+        float centre[3];
+        for (int k = 0; k < 3; k++)
+            centre[k] = 0.5f * (prep.object_min[k] + prep.object_max[k]);
+        // --lights: exact, then every mode available with its first tree.
+        for (int m = -1; m < o->mode_count && rc == PN_EXIT_OK && o->light_count_count; m++) {
+            pn_shadow_mode mode = m < 0 ? PN_SHADOW_REFERENCE : o->modes[m];
+            const pn_shadow_mode_info *info = pn_shadow_mode_get(mode);
+            const char *lack;
+            if ((m >= 0 && mode == PN_SHADOW_REFERENCE) || !pn_shadow_mode_available(dev, mode, &lack))
+                continue;
+            rc = run_lights(&g, centre, mode, info->needs.tree ? o->trees[0][0] : 0,
+                            info->needs.tree ? o->trees[0][1] : 0, rows);
         }
         if (o->gbuffer && o->max_error_count)
             pn_warn("bench: --max-error is not checked with --gbuffer (--quality auto renders its own G-buffer)");

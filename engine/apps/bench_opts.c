@@ -224,6 +224,17 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
                     o->filters[o->filter_count++] = (pn_filter)f;
             }
             ok = ok && o->filter_count > 0;
+        } else if (pn_args_value(&a, "--lights", &v, &err)) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v ? v : "");
+            o->light_count_count = 0;
+            for (char *tok = strtok(buf, ","); tok && ok; tok = strtok(NULL, ",")) {
+                long long x = 0;
+                ok = o->light_count_count < MAX_LIST && pn_parse_int_range("--lights", tok, 1, PN_MAX_LIGHTS, &x);
+                if (ok)
+                    o->light_counts[o->light_count_count++] = (uint32_t)x;
+            }
+            ok = ok && o->light_count_count > 0;
         } else if (pn_args_value(&a, "--tile", &v, &err)) {
             ok = v && pn_parse_size("--tile", v, PN_FILTER_MAX_TILE, &o->tile_w, &o->tile_h);
         } else if (pn_args_value(&a, "--max-error", &v, &err)) {

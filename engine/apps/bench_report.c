@@ -79,6 +79,19 @@ static bool close_out(FILE *f, const char *path, const char *tmp)
     return pn_file_commit(tmp, path) == PN_OK;
 }
 
+void pn_bench_print_light_row(const bench_light_row *r)
+{
+    char tree[16] = "-";
+    if (r->n)
+        snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
+    printf("lights: %-16.16s %4ux%-4u %4u spp %-9s %-5s %-11s %2u lights: frame %8.1f ms (shadow %8.1f, shade %6.1f) "
+           "= %5.2fx one light's, %4.2fx its lights' frames alone; tree/BVH %7.1f MB built in %7.1f ms, %u "
+           "triangles left out\n",
+           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, pn_filter_names[r->filter], r->lights,
+           r->frame_ms, r->shadow_ms, r->shade_ms, r->vs_one, r->vs_sum, r->pool_mb, r->build_ms, r->culled);
+    fflush(stdout);
+}
+
 bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
 {
     char path[4096], tmp[4096];
@@ -272,6 +285,19 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             else
                 fprintf(f, "null}");
         }
+    }
+    fprintf(f, "], \"lights\": [");
+    for (int i = 0; i < rows->light_count; i++) {
+        const bench_light_row *r = &rows->lights[i];
+        fprintf(f, "%s\n  {\"scene\": ", i ? "," : "");
+        pn_json_string(f, r->scene);
+        fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"mode\": \"%s\", \"filter\": \"%s\", \"tree\": ",
+                r->width, r->height, r->spp, MODE_NAME(r->mode), pn_filter_names[r->filter]);
+        json_tree(f, r->n, r->d);
+        fprintf(f, ", \"lights\": %u, \"frame_ms\": %.4f, \"shadow_ms\": %.4f, \"shade_ms\": %.4f, \"vs_one\": %.4f, "
+                   "\"vs_sum\": %.4f, \"pool_mb\": %.4f, \"build_ms\": %.3f, \"culled\": %u}",
+                r->lights, r->frame_ms, r->shadow_ms, r->shade_ms, r->vs_one, r->vs_sum, r->pool_mb, r->build_ms,
+                r->culled);
     }
     fprintf(f, "], \"quality\": [");
     for (int i = 0; i < rows->quality_count; i++) {

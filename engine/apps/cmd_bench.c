@@ -39,6 +39,11 @@ void pn_print_bench_help(void)
            "                       time is its shadow pass plus its filter pass, and it reports the share of\n"
            "                       pixels near edges of geometry whose error the filter grows by > 0.05\n"
            "  --tile WxH           the filtered cells' interleaving tile and window, 1..8 each (default 3x3)\n"
+           "  --lights K,...       also time every configuration (first --spp and --filter) with K lights:\n"
+           "                       the view's light turned about the vertical through the scene's centre in\n"
+           "                       K even steps, each 1/K of its radiance, over one tree built for the set;\n"
+           "                       frame time, its ratios to the view's light alone and to the set's lights\n"
+           "                       each alone, pools and build time (console and bench.json's \"lights\")\n"
            "  --edge-images        per filtered cell, OUT/edge_<cell>.exr: shadow.V, shadow.V_raw, reference.V and\n"
            "                       edge (0 away from edges, 1 edge, 2 within 2 px, 3 there with the error grown)\n"
            "  --reference-spp S    samples of the converged reference (default %d)\n"
@@ -105,6 +110,7 @@ int pn_cmd_bench(int argc, char **argv)
             rows.count, pn_ms_since(t0) * 1e-3, o.out_dir);
     free(rows.rows);
     free(rows.quality);
+    free(rows.lights);
     if (rtc)
         pn_bench_embree_destroy(rtc);
     pn_gpu_device_destroy(&dev);
