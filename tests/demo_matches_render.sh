@@ -19,8 +19,7 @@ command -v idiff >/dev/null || { echo "SKIP: idiff not installed (ci/deps.sh ins
 fail=0
 check() { # NAME ARGS...: the same view through demo and render
   local name=$1; shift
-  local view=(--size 240x160 --camera-pos 2.5,3.2,5.5 --camera-target 0,0.6,0 --light-size 1.2,0.8
-              --seed 7 --tree 6,3 "$@")
+  local view=(--size 240x160 --camera-pos 2.5,3.2,5.5 --camera-target 0,0.6,0 --seed 7 --tree 6,3 "$@")
   xvfb-run -a -s "-screen 0 1280x720x24" "$BIN" demo "${view[@]}" --frames 3 --no-accumulate \
     --screenshot "$TMP/$name.demo.png" >/dev/null || { echo "FAIL: demo $name exited $?"; fail=1; return; }
   "$BIN" render "${view[@]}" -o "$TMP/$name.exr" --preview "$TMP/$name.render.png" >/dev/null \
@@ -31,8 +30,12 @@ check() { # NAME ARGS...: the same view through demo and render
     echo "FAIL: $name: demo screenshot differs from render --preview"; fail=1
   fi
 }
-check linespace --mode linespace --spp 4
-check hybrid_packet_grid --mode hybrid --traversal packet --sampler grid --spp 9
-check ls_plane --mode ls-plane --spp 4
-check exact --mode exact --spp 4
+LS=(--light-size 1.2,0.8)
+check linespace --mode linespace --spp 4 "${LS[@]}"
+check hybrid_packet_grid --mode hybrid --traversal packet --sampler grid --spp 9 "${LS[@]}"
+check ls_plane --mode ls-plane --spp 4 "${LS[@]}"
+check exact --mode exact --spp 4 "${LS[@]}"
+# Two lights (--light groups): one tree for both, a shadow and shading pass each, summed.
+check two_lights --mode linespace --spp 4 --light 1,4,1:-0.2,-1,-0.2:0,0,1:1.2,0.8:3 \
+  --light -2,3,2:0.5,-1,-0.5:0,0,1:0.6,0.6:1,2,4
 exit $fail

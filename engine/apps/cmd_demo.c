@@ -68,7 +68,8 @@ static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
         .tree_d = depth,
         .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_pool_budget(&d->dev),
         .max_pool_bytes = pn_gpu_device_max_buffer(&d->dev),
-        .light = &d->light,
+        .light = d->lights,
+        .light_count = d->light_count,
         .reuse_bvh = &d->bvh,
     };
 }
@@ -155,7 +156,7 @@ static pn_result render(pn_demo *d)
     uint32_t seed = (uint32_t)d->opts.seed + d->image.frames;
     pn_renderer_set_seed(&d->renderer, seed);
     pn_demo_stats *s = &d->stats;
-    PN_TRY(pn_renderer_render(&d->renderer, &d->camera, &d->light, &s->times));
+    PN_TRY(pn_renderer_render_lights(&d->renderer, &d->camera, d->lights, d->light_count, &s->times));
     pn_frame_images frame;
     pn_renderer_images(&d->renderer, &frame);
     const float *v_exact = NULL;
@@ -165,7 +166,7 @@ static pn_result render(pn_demo *d)
             pn_frame_times t;
             pn_frame_images exact;
             pn_renderer_set_seed(&d->exact, seed); // same samples: the error is the method's alone
-            PN_TRY(pn_renderer_render(&d->exact, &d->camera, &d->light, &t));
+            PN_TRY(pn_renderer_render_lights(&d->exact, &d->camera, d->lights, d->light_count, &t));
             pn_renderer_images(&d->exact, &exact);
             v_exact = exact.v;
             s->exact_shadow_ms = t.shadow_ms;
@@ -181,7 +182,9 @@ static pn_result render(pn_demo *d)
         if (mask)
             mask[i] = geometry;
     }
-    s->rays_per_s = pn_shadow_rays_per_s(covered, (uint32_t)d->opts.spp, &d->light, s->times.shadow_ms);
+    s->rays_per_s = 0;
+    for (uint32_t i = 0; i < d->light_count; i++)
+        s->rays_per_s += pn_shadow_rays_per_s(covered, (uint32_t)d->opts.spp, &d->lights[i], s->times.shadow_ms);
     pn_error_metrics m;
     if (mask && pn_error_compare(d->image.v, d->image.vx, mask, px, NULL, &m))
         s->error_mae = m.mae, s->error_p99 = m.p99, s->error_max = m.max;
@@ -210,7 +213,7 @@ static void save_frame(pn_demo *d)
     pn_renderer_images(&d->renderer, &frame);
     frame.radiance = d->image.rad;
     frame.v = d->image.v;
-    pn_render_record rec = {.opts = &d->opts, .scene = &d->scene, .camera = &d->camera, .lights = &d->light,
+    pn_render_record rec = {.opts = &d->opts, .scene = &d->scene, .camera = &d->camera, .lights = d->lights, .light_count = d->light_count,
                             .times = d->stats.times, .build_ms = d->accel.build_ms, .rays_per_s = d->stats.rays_per_s};
     static const char *const VIEWS[] = {"shaded", "visibility", "error"};
     const pn_exr_attr extra[] = {
@@ -469,8 +472,10 @@ int pn_cmd_demo(int argc, char **argv)
         pn_demo_script_destroy(&script);
         return prc;
     }
-    d.scene = prep.scene, d.camera = prep.camera, d.light = prep.lights[0];
-    d.camera_home = d.camera, d.light_home = d.light;
+    d.scene = prep.scene, d.camera = prep.camera, d.light_count = prep.light_count;
+    memcpy(d.lights, prep.lights, sizeof d.lights);
+    d.camera_home = d.camera;
+    memcpy(d.lights_home, d.lights, sizeof d.lights_home);
     float r2 = 0; // orbiting centres on the object, not on the ground
     for (int k = 0; k < 3; k++) {
         d.center[k] = 0.5f * (prep.object_min[k] + prep.object_max[k]);

@@ -64,14 +64,14 @@ typedef struct pn_demo_builder {
     pthread_t thread;
     atomic_int state;          // pn_demo_build_state; DONE is set by the worker, IDLE by poll
     const pn_scene *scene;
-    pn_shadow_accel_desc desc; // desc.light points to `light`
-    pn_light light;
+    pn_shadow_accel_desc desc; // desc.light points to `lights`
+    pn_light lights[PN_MAX_LIGHTS];
     pn_shadow_accel result;
     pn_result status;
     uint64_t start_ns;
 } pn_demo_builder;
 
-// Starts building `desc` (its light is copied). The builder must be idle.
+// Starts building `desc` (its lights are copied). The builder must be idle.
 pn_result pn_demo_builder_start(pn_demo_builder *b, const pn_scene *scene, const pn_shadow_accel_desc *desc);
 // Non-blocking: when a build has finished, joins the worker, moves the result to *out (zeroed on
 // failure), stores its status and returns true.
@@ -136,7 +136,9 @@ typedef struct pn_demo {
     pn_render_opts opts;
     pn_scene scene;
     pn_camera camera, camera_home;
-    pn_light light, light_home;
+    pn_light lights[PN_MAX_LIGHTS], lights_home[PN_MAX_LIGHTS];
+    uint32_t light_count;    // 1 unless --light groups or the scene file give more
+    uint32_t light_sel;      // the light the light keys move (L selects the next)
     float center[3], radius; // the scene's bounding sphere (without the ground), for step sizes
     pn_demo_view view;
     bool cells;              // N-tree cell overlay
@@ -151,7 +153,7 @@ typedef struct pn_demo {
     pn_shadow_accel accel;    // the tree being drawn with
     pn_demo_builder builder;
     int want_n, want_d;       // the tree the user asked for
-    bool want_rebuild;        // the light moved and the tree's culling depends on it
+    bool want_rebuild;        // a light moved and the tree's culling depends on it
     char build_message[160];  // shown while a rebuild runs or after one failed
     pn_renderer renderer;     // the current mode
     pn_renderer exact;        // exact mode, for the error view (zeroed otherwise)

@@ -22,8 +22,9 @@ pn_result pn_demo_builder_start(pn_demo_builder *b, const pn_scene *scene, const
     }
     b->scene = scene;
     b->desc = *desc;
-    b->light = *desc->light;
-    b->desc.light = &b->light; // the caller's light keeps moving while this one is built for
+    uint32_t lights = desc->light_count ? desc->light_count : 1;
+    memcpy(b->lights, desc->light, lights * sizeof *desc->light);
+    b->desc.light = b->lights; // the caller's lights keep moving while these are built for
     memset(&b->result, 0, sizeof b->result);
     b->start_ns = pn_time_ns();
     atomic_store(&b->state, PN_DEMO_BUILD_RUNNING);

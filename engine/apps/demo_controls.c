@@ -81,7 +81,7 @@ static void light_changed(pn_demo *d)
 // Keeps the light facing the scene's centre (as render does for --light-pos) with a valid up.
 static void light_aim(pn_demo *d)
 {
-    pn_light *l = &d->light;
+    pn_light *l = &d->lights[d->light_sel];
     vec3 n;
     glm_vec3_sub(d->center, l->pos, n);
     if (glm_vec3_norm(n) > 1e-6f * d->radius) {
@@ -117,30 +117,42 @@ static void light_move(pn_demo *d, float dir)
     case MOVE_UP: move[1] = step; break;
     case MOVE_DOWN: move[1] = -step; break;
     }
-    glm_vec3_add(d->light.pos, move, d->light.pos);
+    pn_light *l = &d->lights[d->light_sel];
+    glm_vec3_add(l->pos, move, l->pos);
     light_aim(d);
     light_changed(d);
 }
 
 static void light_width(pn_demo *d, float f)
 {
-    d->light.size[0] = glm_clamp(d->light.size[0] * f, 1e-3f * d->radius, 10.0f * d->radius);
+    pn_light *l = &d->lights[d->light_sel];
+    l->size[0] = glm_clamp(l->size[0] * f, 1e-3f * d->radius, 10.0f * d->radius);
     light_changed(d);
 }
 
 static void light_height(pn_demo *d, float f)
 {
-    d->light.size[1] = glm_clamp(d->light.size[1] * f, 1e-3f * d->radius, 10.0f * d->radius);
+    pn_light *l = &d->lights[d->light_sel];
+    l->size[1] = glm_clamp(l->size[1] * f, 1e-3f * d->radius, 10.0f * d->radius);
     light_changed(d);
 }
 
 static void light_rotate(pn_demo *d, float deg)
 {
+    pn_light *l = &d->lights[d->light_sel];
     vec3 up;
-    glm_vec3_copy(d->light.up, up);
-    glm_vec3_rotate(up, glm_rad(deg), d->light.normal);
-    glm_vec3_copy(up, d->light.up);
+    glm_vec3_copy(l->up, up);
+    glm_vec3_rotate(up, glm_rad(deg), l->normal);
+    glm_vec3_copy(up, l->up);
     light_changed(d);
+}
+
+// With several lights: the light keys move the next one.
+static void next_light(pn_demo *d, float step)
+{
+    (void)step;
+    d->light_sel = (d->light_sel + 1) % (d->light_count ? d->light_count : 1);
+    d->restart = true; // the overlay names it
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -240,7 +252,7 @@ static void quit(pn_demo *d, float unused) { d->quit = true; }
 static void reset(pn_demo *d, float unused)
 {
     d->camera = d->camera_home;
-    d->light = d->light_home;
+    memcpy(d->lights, d->lights_home, sizeof d->lights);
     light_changed(d);
 }
 
@@ -270,6 +282,7 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_APOSTROPHE, 0, true, light_height, 1.25f},
     {GLFW_KEY_COMMA, 0, true, light_rotate, -15.0f, ", .", "rotate the light about its normal"},
     {GLFW_KEY_PERIOD, 0, true, light_rotate, 15.0f},
+    {GLFW_KEY_L, 0, false, next_light, 0, "L", "with several lights: the keys above move the next one"},
     {GLFW_KEY_M, 0, false, next_mode, 1, "M shift+M", "next, previous mode"},
     {GLFW_KEY_M, SHIFT, false, next_mode, -1},
     {GLFW_KEY_1, 0, false, set_mode, 1, "1 2 3 4 ...", "the modes in --help's order (linespace, ls-leaf, ...)"},

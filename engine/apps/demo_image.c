@@ -233,8 +233,10 @@ static void params_text(const pn_demo *d, char *out, size_t n)
         at += snprintf(out + at, n - (size_t)at, " LS(%d,%d) %s", d->accel.tree.n, d->accel.tree.d,
                        pn_traversal_names[o->traversal]);
     if (at >= 0 && (size_t)at < n)
-        snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
-                 o->filter != PN_FILTER_NONE ? " filtered" : "");
+        at += snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
+                       o->filter != PN_FILTER_NONE ? " filtered" : "");
+    if (d->light_count > 1 && at >= 0 && (size_t)at < n) // which light the light keys move
+        snprintf(out + at, n - (size_t)at, " light %u/%u", d->light_sel + 1, d->light_count);
 }
 
 void pn_demo_title(const pn_demo *d, char *out, size_t n)
