@@ -105,7 +105,7 @@ static result run(const char *sampler, int n, int d, int spp_side, const char *t
     snprintf(args, sizeof args,
              "render builtin:penumbra --no-ground --size 96x96 --aovs --camera-pos 0,3,3 --camera-target 0,0,0 "
              "--light-pos 0,%g,0 --light-normal 0,-1,0 --light-up 0,0,-1 --light-size %g,%g --tree %d,%d --spp %d "
-             "--sampler %s --traversal %s -o %s",
+             "--sampler %s --traversal %s --filter none -o %s",
              LIGHT_H, 2 * LIGHT_HALF, 2 * LIGHT_HALF, n, d, spp_side * spp_side, sampler, traversal, out);
     int rc = pn_test_run(args);
     CHECK_MSG(rc == 0, "render exited %d", rc);
