@@ -59,26 +59,32 @@ static void check_render(const pn_render_cmd_opts *o)
     REQUIRE(o->max_error >= 0 && o->max_error <= 1);
 
     pn_camera cam;
-    pn_light light;
-    if (!pn_render_setup_view(r, &g_scene, &cam, &light))
+    pn_light lights[PN_MAX_LIGHTS];
+    uint32_t count = 0;
+    if (!pn_render_setup_view(r, &g_scene, &cam, lights, &count))
         return; // refused, with a message
+    REQUIRE(count >= 1 && count <= PN_MAX_LIGHTS && (r->light_count == 0 || count == r->light_count));
     REQUIRE(finite3(cam.pos) && finite3(cam.target) && finite3(cam.up));
     REQUIRE(cam.yfov_deg > 0 && cam.yfov_deg < 180);
     float view[3] = {cam.target[0] - cam.pos[0], cam.target[1] - cam.pos[1], cam.target[2] - cam.pos[2]};
     REQUIRE(finite3(view) && (view[0] != 0 || view[1] != 0 || view[2] != 0));
-    REQUIRE(finite3(light.pos) && finite3(light.normal) && finite3(light.up) && finite3(light.radiance));
-    // Both sides positive, or both 0 (a point light).
-    REQUIRE(isfinite(light.size[0]) && isfinite(light.size[1]) &&
-            ((light.size[0] > 0 && light.size[1] > 0) || pn_light_is_point(&light)));
-    REQUIRE(light.radiance[0] >= 0 && light.radiance[1] >= 0 && light.radiance[2] >= 0);
-    float len = sqrtf(light.normal[0] * light.normal[0] + light.normal[1] * light.normal[1] +
-                      light.normal[2] * light.normal[2]);
-    REQUIRE(fabsf(len - 1.0f) < 1e-3f);
-    float t[3], b[3], corners[4][3];
-    REQUIRE(pn_light_frame(&light, t, b));
-    pn_light_corners(&light, corners);
-    for (int i = 0; i < 4; i++)
-        REQUIRE(finite3(corners[i]));
+    // Every light, whether from --light groups or the default light changed by --light-*.
+    for (uint32_t k = 0; k < count; k++) {
+        const pn_light light = lights[k];
+        REQUIRE(finite3(light.pos) && finite3(light.normal) && finite3(light.up) && finite3(light.radiance));
+        // Both sides positive, or both 0 (a point light).
+        REQUIRE(isfinite(light.size[0]) && isfinite(light.size[1]) &&
+                ((light.size[0] > 0 && light.size[1] > 0) || pn_light_is_point(&light)));
+        REQUIRE(light.radiance[0] >= 0 && light.radiance[1] >= 0 && light.radiance[2] >= 0);
+        float len = sqrtf(light.normal[0] * light.normal[0] + light.normal[1] * light.normal[1] +
+                          light.normal[2] * light.normal[2]);
+        REQUIRE(fabsf(len - 1.0f) < 1e-3f);
+        float t[3], b[3], corners[4][3];
+        REQUIRE(pn_light_frame(&light, t, b));
+        pn_light_corners(&light, corners);
+        for (int i = 0; i < 4; i++)
+            REQUIRE(finite3(corners[i]));
+    }
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
