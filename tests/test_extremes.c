@@ -978,9 +978,8 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
         memcpy(out->v_raw, img.v_raw, sizeof out->v_raw);
         out->pixel_angle = (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE);
         out->eye_mag = fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2])));
-        // As renderer.c passes it: the shadow pass's samples (pn_shadow_samples), but 0 for a point
-        // light, whose V has no noise.
-        out->samples = pn_light_is_point(light) ? 0 : pn_shadow_samples(rd.spp ? rd.spp : 1, light);
+        // As renderer.c passes it to the filter.
+        out->samples = pn_filter_noise_samples(rd.spp ? rd.spp : 1, light);
         out->rendered = true;
     }
     pn_renderer_destroy(&ren);

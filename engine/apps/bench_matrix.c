@@ -59,17 +59,26 @@ static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camer
     return time_frames_lights(o, r, cam, light, 1, row);
 }
 
-static bool push_row(bench_rows *rows, const bench_row *r)
+// Appends the `size` bytes at `item` to the array *items of *count elements, doubling its capacity
+// *cap when full (from 16). False when out of memory; the array is then unchanged.
+static bool append(void **items, int *count, int *cap, const void *item, size_t size)
 {
-    if (rows->count == rows->cap) {
-        int cap = rows->cap ? 2 * rows->cap : 64;
-        bench_row *n = realloc(rows->rows, (size_t)cap * sizeof *n);
+    if (*count == *cap) {
+        int grown = *cap ? 2 * *cap : 16;
+        void *n = realloc(*items, (size_t)grown * size);
         if (!n)
             return false;
-        rows->rows = n;
-        rows->cap = cap;
+        *items = n;
+        *cap = grown;
     }
-    rows->rows[rows->count++] = *r;
+    memcpy((char *)*items + (size_t)(*count)++ * size, item, size);
+    return true;
+}
+
+static bool push_row(bench_rows *rows, const bench_row *r)
+{
+    if (!append((void **)&rows->rows, &rows->count, &rows->cap, r, sizeof *r))
+        return false;
     pn_bench_print_row(r);
     return true;
 }
@@ -102,16 +111,7 @@ static void cell_path(char *out, size_t n, const bench_opts *o, const char *pref
 
 static bool push_quality(bench_rows *rows, const bench_quality *q)
 {
-    if (rows->quality_count == rows->quality_cap) {
-        int cap = rows->quality_cap ? 2 * rows->quality_cap : 8;
-        bench_quality *n = realloc(rows->quality, (size_t)cap * sizeof *n);
-        if (!n)
-            return false;
-        rows->quality = n;
-        rows->quality_cap = cap;
-    }
-    rows->quality[rows->quality_count++] = *q;
-    return true;
+    return append((void **)&rows->quality, &rows->quality_count, &rows->quality_cap, q, sizeof *q);
 }
 
 // Sets up one configuration of the matrix at full size for timing beside another.
@@ -457,15 +457,8 @@ static void light_set(const pn_light *light, const float centre[3], uint32_t k, 
 
 static bool push_light_row(bench_rows *rows, const bench_light_row *r)
 {
-    if (rows->light_count == rows->light_cap) {
-        int cap = rows->light_cap ? 2 * rows->light_cap : 16;
-        bench_light_row *n = realloc(rows->lights, (size_t)cap * sizeof *n);
-        if (!n)
-            return false;
-        rows->lights = n;
-        rows->light_cap = cap;
-    }
-    rows->lights[rows->light_count++] = *r;
+    if (!append((void **)&rows->lights, &rows->light_count, &rows->light_cap, r, sizeof *r))
+        return false;
     pn_bench_print_light_row(r);
     return true;
 }

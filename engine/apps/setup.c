@@ -15,7 +15,7 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
         float corners[4 * PN_MAX_LIGHTS][3];
         uint32_t lights = desc->light_count ? desc->light_count : 1;
         for (uint32_t i = 0; i < lights && i < PN_MAX_LIGHTS; i++)
-            pn_light_corners(&desc->light[i], (float(*)[3])corners[4 * i]);
+            pn_light_corners(&desc->light[i], &corners[4 * i]);
         pn_ntree_desc td = {.n = desc->tree_n,
                             .d = desc->tree_d,
                             .max_bytes = desc->max_bytes,

@@ -260,10 +260,10 @@ static void record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t i)
 }
 
 // G-buffer, then per light shadow -> filter (with one) -> shade (adding to the radiance), then the
-// readback, with a timestamp after each pass. `samples`: light samples traced per pixel, per light
-// (pn_shadow_samples).
+// readback, with a timestamp after each pass. Per light: `samples` traced per pixel
+// (pn_shadow_samples) and the filter's `noise_samples` (pn_filter_noise_samples).
 static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *camera, const pn_light_gpu *lights,
-                         const uint32_t *samples, uint32_t light_count, float yfov_deg)
+                         const uint32_t *samples, const uint32_t *noise_samples, uint32_t light_count, float yfov_deg)
 {
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
@@ -308,10 +308,8 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_cmd_barrier(cmd, NULL, 1, &raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
-            // A point light's V has no noise (every sample is the same ray): 0 samples tells the
-            // filter so, and it keeps the hard shadow's edges (filter.comp).
             pn_filter_pass_record(cmd, &r->filter, pn_filter_tile(r->desc.tile_w), pn_filter_tile(r->desc.tile_h),
-                                  lights[i].radiance[3] != 0 ? 0 : samples[i], yfov_deg); // P, N, V raw -> V
+                                  noise_samples[i], yfov_deg); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
         }
@@ -348,10 +346,11 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     r->light_count = light_count;
     pn_gbuffer_push cam = pn_gbuffer_camera(&r->gbuffer, camera, r->width, r->height);
     pn_light_gpu l[PN_MAX_LIGHTS];
-    uint32_t samples[PN_MAX_LIGHTS];
+    uint32_t samples[PN_MAX_LIGHTS], noise_samples[PN_MAX_LIGHTS], spp = r->desc.spp ? r->desc.spp : 1;
     for (uint32_t i = 0; i < light_count; i++) {
         l[i] = pn_light_to_gpu(&lights[i]);
-        samples[i] = pn_shadow_samples(r->desc.spp ? r->desc.spp : 1, &lights[i]);
+        samples[i] = pn_shadow_samples(spp, &lights[i]);
+        noise_samples[i] = pn_filter_noise_samples(spp, &lights[i]);
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
@@ -364,7 +363,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
         VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-        record_frame(r, r->cmd, &cam, l, samples, light_count, camera->yfov_deg);
+        record_frame(r, r->cmd, &cam, l, samples, noise_samples, light_count, camera->yfov_deg);
         VK_CHECK(vkEndCommandBuffer(r->cmd));
         VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));

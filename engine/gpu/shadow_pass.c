@@ -7,6 +7,8 @@
 
 uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 1 : spp; }
 
+uint32_t pn_filter_noise_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 0 : spp; }
+
 double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_light *light, double shadow_ms)
 {
     return shadow_ms > 0 ? (double)covered_pixels * pn_shadow_samples(spp, light) / (shadow_ms * 1e-3) : 0;

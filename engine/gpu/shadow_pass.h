@@ -31,6 +31,10 @@ typedef struct pn_shadow_pass {
 // coincide (the first decides V), else spp. Shadow rays per second count these.
 uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light);
 
+// The samples one pixel's V is the mean of, as the filter's noise model counts them (FilterPush.samples):
+// pn_shadow_samples, but 0 for a point light, whose V has no noise (every sample is the same ray).
+uint32_t pn_filter_noise_samples(uint32_t spp, const pn_light *light);
+
 // Shadow rays per second of a frame: every covered pixel traces pn_shadow_samples rays.
 double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_light *light, double shadow_ms);
 

@@ -85,7 +85,7 @@ void main()
             weight += wg[k];
         }
     }
-    float v_p = imageLoad(img_v_raw, px).r;
+    float v_p = vq[-lo.y * tile.x - lo.x]; // the pixel's own tap (dx = dy = 0), covered and inside
     // V's own weight (a cross-bilateral range term): a shadow edge sharper than the window (a contact
     // shadow, the sharp end of a penumbra) must not be averaged away. One pixel's V is the mean of
     // `samples` Bernoulli trials, so where the window's pixels see the same V (estimated by `mean`,
