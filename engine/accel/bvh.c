@@ -208,13 +208,10 @@ static void build_tasks(void *ctx, uint64_t begin, uint64_t end, unsigned thread
         build_subtree(p->b, p->tasks[i], NULL, NULL, 0);
 }
 
-pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
+// Builds over n primitives given by their boxes; takes ownership of box and centroid (freed here).
+static pn_result build(aabb *tri_box, float (*centroid)[3], uint32_t n, pn_bvh *out)
 {
-    memset(out, 0, sizeof *out);
     uint64_t t0 = pn_time_ns();
-    uint32_t n = pn_scene_triangle_count(s);
-    aabb *tri_box = malloc((size_t)n * sizeof *tri_box);
-    float(*centroid)[3] = malloc((size_t)n * sizeof *centroid);
     out->tri_index = malloc((size_t)(n ? n : 1) * sizeof *out->tri_index);
     // A binary tree with leaves of at least one triangle has fewer than 2n nodes.
     uint32_t capacity = 2 * (n ? n : 1);
@@ -224,19 +221,8 @@ pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
-    for (uint32_t i = 0; i < n; i++) {
-        aabb_empty(&tri_box[i]);
-        for (int j = 0; j < 3; j++) {
-            const float *p = s->vertices[s->indices[3 * i + j]].pos;
-            for (int k = 0; k < 3; k++) {
-                tri_box[i].lo[k] = fminf(tri_box[i].lo[k], p[k]);
-                tri_box[i].hi[k] = fmaxf(tri_box[i].hi[k], p[k]);
-            }
-        }
-        for (int k = 0; k < 3; k++)
-            centroid[i][k] = 0.5f * (tri_box[i].lo[k] + tri_box[i].hi[k]);
+    for (uint32_t i = 0; i < n; i++)
         out->tri_index[i] = i;
-    }
     builder b = {.tri_box = tri_box, .centroid = (const float(*)[3])centroid, .ids = out->tri_index,
                  .nodes = out->nodes, .capacity = capacity};
     atomic_init(&b.node_count, 1);
@@ -281,8 +267,45 @@ pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
     out->node_count = atomic_load(&b.node_count);
     out->triangles = n;
     out->depth = atomic_load(&b.depth);
-    out->build_ms = pn_ms_since(t0);
+    out->build_ms += pn_ms_since(t0);
     return PN_OK;
+}
+
+pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
+{
+    memset(out, 0, sizeof *out);
+    uint64_t t0 = pn_time_ns();
+    uint32_t n = pn_scene_triangle_count(s);
+    aabb *tri_box = malloc((size_t)(n ? n : 1) * sizeof *tri_box);
+    float(*centroid)[3] = malloc((size_t)(n ? n : 1) * sizeof *centroid);
+    for (uint32_t i = 0; tri_box && centroid && i < n; i++) {
+        aabb_empty(&tri_box[i]);
+        for (int j = 0; j < 3; j++) {
+            const float *p = s->vertices[s->indices[3 * i + j]].pos;
+            for (int k = 0; k < 3; k++) {
+                tri_box[i].lo[k] = fminf(tri_box[i].lo[k], p[k]);
+                tri_box[i].hi[k] = fmaxf(tri_box[i].hi[k], p[k]);
+            }
+        }
+        for (int k = 0; k < 3; k++)
+            centroid[i][k] = 0.5f * (tri_box[i].lo[k] + tri_box[i].hi[k]);
+    }
+    out->build_ms = pn_ms_since(t0);
+    return build(tri_box, centroid, n, out);
+}
+
+pn_result pn_bvh_build_boxes(const float (*box)[6], uint32_t n, pn_bvh *out)
+{
+    memset(out, 0, sizeof *out);
+    aabb *b = malloc((size_t)(n ? n : 1) * sizeof *b);
+    float(*centroid)[3] = malloc((size_t)(n ? n : 1) * sizeof *centroid);
+    for (uint32_t i = 0; b && centroid && i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            b[i].lo[k] = box[i][k];
+            b[i].hi[k] = box[i][3 + k];
+            centroid[i][k] = 0.5f * (box[i][k] + box[i][3 + k]);
+        }
+    return build(b, centroid, n, out);
 }
 
 void pn_bvh_destroy(pn_bvh *bvh)

@@ -23,6 +23,9 @@ typedef struct pn_bvh {
 // Builds over all of the scene's triangles, multi-threaded. Degenerate triangles are kept (a
 // segment or a point can still be grazed) and never break the build.
 pn_result pn_bvh_build(const pn_scene *scene, pn_bvh *out);
+// The same over n boxes (lo xyz, hi xyz) instead of triangles: tri_index holds box indices (the
+// per-object trees' top level, accel/objects.h).
+pn_result pn_bvh_build_boxes(const float (*box)[6], uint32_t n, pn_bvh *out);
 void pn_bvh_destroy(pn_bvh *bvh);
 
 // Triangle vertices in scene order, 3 x vec4 (w = 0) per triangle: the GPU's triangle pool.

@@ -20,6 +20,29 @@ pn_render_opts pn_render_opts_default(void)
 
 // One --light group: position:normal:up:size:radiance, each comma-separated, radiance R or R,G,B.
 // Checked here as far as the value alone allows; pn_render_setup_view checks the geometry.
+// --move-object I:DX,DY,DZ
+static bool parse_move(const char *v, pn_render_opts *o)
+{
+    if (o->move_count == PN_MAX_MOVES) {
+        pn_error("--move-object: at most %d moves", PN_MAX_MOVES);
+        return false;
+    }
+    char buf[256];
+    const char *colon = strchr(v, ':');
+    if (!colon || (size_t)(colon - v) >= sizeof buf) {
+        pn_error("--move-object: expected OBJECT:DX,DY,DZ (e.g. 3:0.1,0,0), got '%s'", v);
+        return false;
+    }
+    memcpy(buf, v, (size_t)(colon - v));
+    buf[colon - v] = '\0';
+    long long index;
+    if (!pn_parse_int_range("--move-object object", buf, 0, UINT32_MAX, &index) ||
+        !pn_parse_floats("--move-object offset", colon + 1, o->moves[o->move_count].delta, 3))
+        return false;
+    o->moves[o->move_count++].object = (uint32_t)index;
+    return true;
+}
+
 static bool parse_light_group(const char *v, pn_render_opts *o)
 {
     if (o->light_count == PN_MAX_LIGHTS) {
@@ -105,6 +128,13 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         ok = v && pn_parse_int_range("--spp", v, 1, 4096, &o->spp);
     } else if (pn_args_value(a, "--tree", &v, err)) {
         ok = v && pn_parse_tree("--tree", v, &o->tree_n, &o->tree_d);
+    } else if (pn_args_value(a, "--trees", &v, err)) {
+        static const char *const trees[] = {"scene", "object", NULL};
+        int t = v ? pn_parse_choice("--trees", v, trees) : -1;
+        ok = t >= 0;
+        o->per_object = t == 1;
+    } else if (pn_args_value(a, "--move-object", &v, err)) {
+        ok = v && parse_move(v, o);
     } else if (pn_args_value(a, "--max-memory", &v, err)) {
         ok = v && pn_parse_bytes("--max-memory", v, &o->max_bytes);
     } else if (pn_args_value(a, "--mode", &v, err)) {
@@ -151,6 +181,8 @@ void pn_render_opts_print_help(void)
            "                        (shadow.V.0, shadow.V.1, ...)\n"
            "scene:\n"
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
+           "  --move-object I:DX,DY,DZ   move object I (the file's I-th node with a mesh, in the\n"
+           "                        order of its scene's hierarchy) by DX,DY,DZ; repeatable\n"
            "  --seed S              fixes every random choice (default 1)\n"
            "shadows:\n");
     // The modes from their table (gpu/shadow_modes.c), the tracing ones first, then none.
@@ -161,6 +193,9 @@ void pn_render_opts_print_help(void)
                 printf("  %-21s %s: %s\n", m == PN_SHADOW_LINESPACE ? "--mode M" : "", info->name, info->help);
         }
     printf("  --tree N,d            N-tree branching factor 2..16 and depth 1..6 (default 7,3)\n"
+           "  --trees scene|object  one N-tree over the whole scene (default), or one per mesh in its\n"
+           "                        own frame, shared by its instances, under a top-level BVH over the\n"
+           "                        objects (linespace mode; a moving object rebuilds only the top level)\n"
            "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
            "                        default: half the device's largest memory heap)\n"
            "  --spp S               shadow rays per pixel 1..4096 (default 25), a grid of U x V = S\n"
@@ -348,6 +383,7 @@ pn_setup_desc pn_render_opts_setup(const pn_render_opts *o)
         .tree_n = o->tree_n,
         .tree_d = o->tree_d,
         .max_bytes = o->max_bytes,
+        .per_object = o->per_object,
     };
 }
 
@@ -358,6 +394,15 @@ int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_s
     if (pn_scene_load(source, &out->scene) != PN_OK)
         return PN_EXIT_FAILURE;
     out->load_ms = pn_ms_since(t0);
+    for (uint32_t i = 0; i < o->move_count; i++)
+        if (pn_scene_move_object(&out->scene, o->moves[i].object, o->moves[i].delta) != PN_OK) {
+            pn_scene_destroy(&out->scene);
+            return PN_EXIT_USAGE;
+        }
+    if (o->move_count && pn_scene_validate(&out->scene) != PN_OK) { // a move may leave float range
+        pn_scene_destroy(&out->scene);
+        return PN_EXIT_USAGE;
+    }
     memcpy(out->object_min, out->scene.bounds_min, sizeof out->object_min);
     memcpy(out->object_max, out->scene.bounds_max, sizeof out->object_max);
     // Camera and light frame the scene itself; the ground plane is added afterwards.

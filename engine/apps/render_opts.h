@@ -9,6 +9,9 @@
 #include "gpu/shadow_modes.h"
 #include "scene/view.h"
 
+// --move-object options at most.
+enum { PN_MAX_MOVES = 16 };
+
 // The parameters of one render. The has_* flags mark what the command line set explicitly; the
 // rest comes from the scene (pn_render_setup_view).
 typedef struct pn_render_opts {
@@ -29,6 +32,14 @@ typedef struct pn_render_opts {
     pn_filter filter;
     uint32_t tile_w, tile_h;
     int tree_n, tree_d;
+    bool per_object;    // --trees object: one tree per mesh and a top level (accel/objects.h)
+    // --move-object I:DX,DY,DZ: object I (the file's I-th node with a mesh) moved by that much in
+    // world space after loading, before the view is framed.
+    uint32_t move_count;
+    struct {
+        uint32_t object;
+        float delta[3];
+    } moves[PN_MAX_MOVES];
     uint64_t max_bytes; // 0: half the device's largest heap
     float exposure;     // of the tone-mapped PNG
 } pn_render_opts;
@@ -40,7 +51,7 @@ typedef struct pn_render_opts {
 pn_render_opts pn_render_opts_default(void);
 
 // If argv[a->i] is one of the shared options (--size, --camera-*, --fov, --light-*, --ground,
-// --no-ground, --exposure, --seed, --spp, --tree, --max-memory, --mode, --traversal, --sampler, --filter, --tile),
+// --no-ground, --exposure, --seed, --spp, --tree, --trees, --move-object, --max-memory, --mode, --traversal, --sampler, --filter, --tile),
 // consumes it and returns true; a bad value is logged and sets *err.
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
 

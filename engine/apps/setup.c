@@ -10,18 +10,31 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
     memset(out, 0, sizeof *out);
     out->desc = *desc;
     pn_result r = PN_OK;
-    if (desc->needs.tree) {
-        // Every light's corners: a triangle stays if it can block a ray to any of them.
-        float corners[4 * PN_MAX_LIGHTS][3];
-        uint32_t lights = desc->light_count ? desc->light_count : 1;
-        for (uint32_t i = 0; i < lights && i < PN_MAX_LIGHTS; i++)
-            pn_light_corners(&desc->light[i], &corners[4 * i]);
+    // Every light's corners: a triangle stays if it can block a ray to any of them.
+    float corners[4 * PN_MAX_LIGHTS][3];
+    uint32_t lights = desc->light_count ? desc->light_count : 1;
+    for (uint32_t i = 0; desc->needs.tree && i < lights && i < PN_MAX_LIGHTS; i++)
+        pn_light_corners(&desc->light[i], &corners[4 * i]);
+    uint32_t light_corners = 4 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS);
+    if (desc->needs.tree && desc->per_object) {
+        // Per-object trees hold line spaces only: no candidate lists or leaf planes (yet).
+        if (desc->needs.candidates || desc->needs.planes) {
+            pn_error("%s: per-object trees (--trees object) serve the linespace mode only", scene->name);
+            return PN_ERR_INVALID;
+        }
+        pn_ntree_desc td = {.n = desc->tree_n, .d = desc->tree_d, .max_bytes = desc->max_bytes,
+                            .max_pool_bytes = desc->max_pool_bytes, .cull_light = (const float(*)[3])corners,
+                            .cull_light_corners = light_corners};
+        r = pn_objects_build(scene, &td, &out->objects);
+        if (r == PN_OK)
+            out->build_ms += out->objects.build_ms;
+    } else if (desc->needs.tree) {
         pn_ntree_desc td = {.n = desc->tree_n,
                             .d = desc->tree_d,
                             .max_bytes = desc->max_bytes,
                             .max_pool_bytes = desc->max_pool_bytes,
                             .cull_light = (const float(*)[3])corners,
-                            .cull_light_corners = 4 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS),
+                            .cull_light_corners = light_corners,
                             .keep_box = desc->keep_box,
                             .keep_candidates = desc->needs.candidates,
                             .leaf_planes = desc->needs.planes};
@@ -47,7 +60,9 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
 
 pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_shadow_accel *a)
 {
-    if (a->desc.needs.tree)
+    if (a->desc.needs.tree && a->desc.per_object)
+        PN_TRY(pn_gpu_objects_create(dev, &a->objects, &a->gpu_objects));
+    else if (a->desc.needs.tree)
         PN_TRY(pn_gpu_pools_create(dev, &a->pools, &a->gpu_pools));
     if (a->desc.needs.exact_pools)
         PN_TRY(pn_gpu_exact_pools_create(dev, scene, a->exact_bvh, &a->tree, &a->exact));
@@ -60,8 +75,10 @@ pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_s
 
 void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
 {
-    rd->pools = a->desc.needs.tree ? &a->gpu_pools : NULL;
-    rd->leaf_size = a->desc.needs.tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : 0;
+    bool tree = a->desc.needs.tree && !a->desc.per_object;
+    rd->pools = tree ? &a->gpu_pools : NULL;
+    rd->objects = a->desc.needs.tree && a->desc.per_object ? &a->gpu_objects : NULL;
+    rd->leaf_size = tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : a->objects.leaf_size;
     rd->exact = a->desc.needs.exact_pools ? &a->exact : NULL;
     rd->cand_first_node = a->tree.cand_first_node;
     rd->tlas = a->desc.needs.tlas ? a->tlas.tlas : VK_NULL_HANDLE;
@@ -69,7 +86,7 @@ void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
 
 uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a)
 {
-    return a->pools.bytes.total + a->exact.bytes + a->tlas.bytes;
+    return a->pools.bytes.total + a->objects.bytes.total + a->objects.top_bytes + a->exact.bytes + a->tlas.bytes;
 }
 
 void pn_shadow_accel_destroy(pn_gpu_device *dev, pn_shadow_accel *a)
@@ -78,7 +95,9 @@ void pn_shadow_accel_destroy(pn_gpu_device *dev, pn_shadow_accel *a)
         pn_gpu_exact_pools_destroy(dev, &a->exact);
         pn_gpu_tlas_destroy(dev, &a->tlas);
         pn_gpu_pools_destroy(dev, &a->gpu_pools);
+        pn_gpu_objects_destroy(dev, &a->gpu_objects);
     }
+    pn_objects_destroy(&a->objects);
     pn_bvh_destroy(&a->bvh);
     pn_pools_destroy(&a->pools);
     pn_ntree_destroy(&a->tree);
@@ -102,10 +121,11 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         .max_pool_bytes = pn_gpu_device_max_buffer(dev),
         .light = light,
         .light_count = desc->light_count ? desc->light_count : 1,
+        .per_object = desc->per_object,
     };
     float box[6];
     pn_result r = PN_OK;
-    if (desc->view && ad.needs.tree) {
+    if (desc->view && ad.needs.tree && !ad.per_object) {
         r = pn_view_box(dev, scene, desc->view, light, ad.light_count, &desc->frame, box);
         ad.keep_box = box;
     }
@@ -113,7 +133,7 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         r = pn_shadow_accel_build(scene, &ad, &s->accel);
     if (r != PN_OK)
         return r;
-    s->pool_bytes = s->accel.pools.bytes;
+    s->pool_bytes = ad.per_object ? s->accel.objects.bytes : s->accel.pools.bytes;
     r = pn_shadow_accel_upload(dev, scene, &s->accel);
     s->build_ms = s->accel.build_ms; // with the device's acceleration structure
     s->exact_bytes = s->accel.exact.bytes + s->accel.tlas.bytes;

@@ -27,12 +27,16 @@ typedef struct pn_shadow_accel_desc {
     const float *keep_box;  // and, when given (lo xyz, hi xyz), those wholly outside this box
     const pn_bvh *reuse_bvh; // for needs.bvh: put this one in the exact pools instead of building one
                              // (not owned; must outlive the accel)
+    bool per_object;         // needs.tree as one tree per mesh and a top level (accel/objects.h);
+                             // linespace mode only (pn_shadow_accel_build says so otherwise)
 } pn_shadow_accel_desc;
 
 typedef struct pn_shadow_accel {
     pn_shadow_accel_desc desc;
-    pn_ntree tree;             // zero without needs.tree
+    pn_ntree tree;             // zero without needs.tree, and with per_object
     pn_pools pools;
+    pn_objects objects;        // with needs.tree and per_object
+    pn_gpu_objects gpu_objects; // after upload, with per_object
     pn_bvh bvh;                // built for needs.bvh without reuse_bvh
     const pn_bvh *exact_bvh;   // the BVH of the exact pools: &bvh, desc.reuse_bvh or NULL
     double build_ms;           // N-tree with line spaces, and BVH
@@ -63,6 +67,7 @@ typedef struct pn_setup_desc {
     // box of the visible receivers (from a G-buffer pass) and the lights, which holds every shadow ray.
     const pn_camera *view;
     uint32_t light_count; // lights at pn_setup_create's `light` (0 counts as 1)
+    bool per_object;      // the tree as per-object trees (pn_shadow_accel_desc.per_object)
 } pn_setup_desc;
 
 // The box of what the camera sees (P of every pixel with geometry, from a G-buffer pass at the
@@ -74,7 +79,7 @@ typedef struct pn_setup {
     pn_shadow_accel accel;
     pn_renderer renderer;
     double build_ms;          // N-tree with line spaces, or BVH
-    pn_pool_bytes pool_bytes; // of the N-tree (zero without one)
+    pn_pool_bytes pool_bytes; // of the N-tree (zero without one), or of all per-object trees
     uint64_t exact_bytes;     // triangle, BVH and candidate pools
 } pn_setup;
 

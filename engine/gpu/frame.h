@@ -24,7 +24,9 @@ typedef struct pn_renderer_desc {
     pn_filter filter;
     uint32_t tile_w, tile_h; // the interleaving tile and filter window (with filter; 0 means 3)
     const pn_gpu_pools *pools; // the uploaded N-tree, for the modes whose needs.tree is set
-    double leaf_size;          // edge of a leaf cell of that tree, world units
+    const struct pn_gpu_objects *objects; // or the per-object trees (gpu/pools.h), for needs.tree
+    double leaf_size;          // edge of a leaf cell of that tree, world units (per-object trees:
+                               // the largest extent of a leaf along a world axis)
     const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools
     uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
     VkAccelerationStructureKHR tlas; // the device-built structure, for needs.tlas (gpu/tlas.h)

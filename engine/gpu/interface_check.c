@@ -52,10 +52,16 @@ AT(pn_shadow_params, cand_first, 148);
 AT(pn_shadow_params, work, 152);
 AT(pn_shadow_params, tile_w, 160);
 AT(pn_shadow_params, tile_h, 164);
-AT(pn_shadow_params, pad3, 168);
-AT(pn_shadow_params, pad4, 172);
-AT(pn_shadow_params, lights, 176); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
-SIZE(pn_shadow_params, 176 + 96 * PN_MAX_LIGHTS);
+AT(pn_shadow_params, object_count, 168);
+AT(pn_shadow_params, objects, 176);
+AT(pn_shadow_params, top_ids, 192);
+AT(pn_shadow_params, pad5, 204);
+AT(pn_shadow_params, lights, 208); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
+SIZE(pn_shadow_params, 208 + 96 * PN_MAX_LIGHTS);
+AT(pn_gpu_object, tree, 0);
+AT(pn_gpu_object, to_local, 64);
+AT(pn_gpu_object, rise_scale, 112);
+SIZE(pn_gpu_object, 128);
 
 SIZE(pn_shadow_chunk, 20);
 

@@ -90,8 +90,16 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the device's acceleration structure", mode->name);
         return PN_ERR_INVALID;
     }
-    if (mode->needs.tree && !desc->pools) {
+    if (mode->needs.tree && !desc->pools && !desc->objects) {
         pn_error("%s shadows need the N-tree's pools", mode->name);
+        return PN_ERR_INVALID;
+    }
+    // Per-object trees carry rays into each object's frame; only the paper's method decides there
+    // from line spaces alone (the other modes read candidate lists, leaf planes or a light normal
+    // and leaf size of one world-space tree).
+    if (desc->objects && desc->mode != PN_SHADOW_LINESPACE) {
+        pn_error("%s shadows need one scene-wide tree: per-object trees (--trees object) serve linespace only",
+                 mode->name);
         return PN_ERR_INVALID;
     }
     if (mode->needs.planes && !desc->pools->has_planes) {

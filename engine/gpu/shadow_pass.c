@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "gpu/pools.h"
 
 uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 1 : spp; }
 
@@ -121,6 +122,12 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     pn_shadow_params sp = {0};
     if (desc->pools)
         sp.tree = desc->pools->info;
+    if (desc->objects) {
+        sp.object_count = desc->objects->count;
+        sp.objects = desc->objects->table.address;
+        sp.top = desc->objects->top.address;
+        sp.top_ids = desc->objects->top_ids.address;
+    }
     for (uint32_t i = 0; i < light_count && i < PN_MAX_LIGHTS; i++)
         sp.lights[i] = lights[i];
     sp.spp = desc->spp ? desc->spp : 1;

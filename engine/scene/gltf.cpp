@@ -456,6 +456,12 @@ private:
     bool has_camera_ = false;
     pn_camera camera_{};
     std::vector<pn_light> lights_;
+    // Instancing (pn_scene.meshes, .objects): each glTF mesh's local triangles, captured at its
+    // first instance, and every instance.
+    std::vector<int32_t> mesh_index_; // glTF mesh -> index in mesh_soup_, -1 not yet instanced
+    std::vector<std::vector<float>> mesh_soup_;
+    std::vector<pn_scene_object> objects_;
+    bool capture_ = false; // instance_primitive appends the local triangles to mesh_soup_.back()
 
     std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
     std::vector<uint8_t> camera_warned_;
@@ -727,6 +733,7 @@ void Loader::run()
         warn("requires extension %s, which is not supported; ignoring it", ext.c_str());
     }
     mesh_warned_.assign(m_.meshes.size(), 0);
+    mesh_index_.assign(m_.meshes.size(), -1);
     camera_warned_.assign(m_.cameras.size(), 0);
     image_texture_.assign(m_.images.size(), -2);
     build_materials();
@@ -812,7 +819,22 @@ void Loader::traverse()
                 fail(PN_ERR_FORMAT, "node %d: mesh %d does not exist (%zu meshes)", it.node,
                      n.mesh, m_.meshes.size());
             mesh_instances_++;
+            pn_scene_object o{};
+            o.node = (uint32_t)it.node;
+            o.first_index = (uint32_t)indices_.size();
+            o.first_vertex = (uint32_t)vertices_.size();
+            for (int r = 0; r < 3; r++) {
+                for (int c = 0; c < 3; c++)
+                    o.to_world[r][c] = (float)world.m[c * 4 + r];
+                o.to_world[r][3] = (float)world.m[12 + r];
+            }
             instance_mesh(n.mesh, world);
+            o.index_count = (uint32_t)indices_.size() - o.first_index;
+            o.vertex_count = (uint32_t)vertices_.size() - o.first_vertex;
+            if (o.index_count) {
+                o.mesh = (uint32_t)mesh_index_[(size_t)n.mesh];
+                objects_.push_back(o);
+            }
         }
         for (size_t i = n.children.size(); i-- > 0;)
             stack.push_back(Item{n.children[i], it.depth + 1, world});
@@ -929,8 +951,15 @@ void Loader::instance_mesh(int mesh, const Mat4 &world)
 {
     Affine xf = make_affine(world);
     const tinygltf::Mesh &me = m_.meshes[(size_t)mesh];
+    // The first instance also keeps the mesh's local triangles; the others produce the same ones.
+    capture_ = mesh_index_[(size_t)mesh] < 0;
+    if (capture_) {
+        mesh_index_[(size_t)mesh] = (int32_t)mesh_soup_.size();
+        mesh_soup_.emplace_back();
+    }
     for (size_t p = 0; p < me.primitives.size(); p++)
         instance_primitive(mesh, (int)p, xf);
+    capture_ = false;
 }
 
 void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
@@ -1050,6 +1079,12 @@ void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
     if (xf.det < 0.0)
         for (uint64_t i = 0; i < ntri; i++)
             std::swap(tri_[3 * i + 1], tri_[3 * i + 2]);
+
+    if (capture_) {
+        std::vector<float> &soup = mesh_soup_.back();
+        for (uint64_t k = 0; k < ntri * 3; k++)
+            soup.insert(soup.end(), &pos_[tri_[k] * 3], &pos_[tri_[k] * 3] + 3);
+    }
 
     const uint64_t out_verts = has_nrm ? n : ntri * 3;
     if (vertices_.size() + out_verts > kMaxVertices || indices_.size() + ntri * 3 > kMaxIndices)
@@ -1255,6 +1290,11 @@ void free_arrays(pn_scene *s)
         for (uint32_t i = 0; i < s->texture_count; i++)
             std::free(s->textures[i].rgba);
     std::free(s->textures);
+    if (s->meshes)
+        for (uint32_t i = 0; i < s->mesh_count; i++)
+            std::free(s->meshes[i].tris);
+    std::free(s->meshes);
+    std::free(s->objects);
     std::memset(s, 0, sizeof *s);
 }
 
@@ -1293,6 +1333,26 @@ pn_result Loader::emit(pn_scene *out)
     }
     if (!out->vertices || !out->indices || !out->draws || !out->materials ||
         (!textures_.empty() && !out->textures)) {
+        free_arrays(out);
+        pn_error("%s: out of memory", path_);
+        return PN_ERR_MEMORY;
+    }
+    out->objects = dup_array(objects_);
+    out->meshes = static_cast<pn_scene_mesh *>(std::calloc(mesh_soup_.size() + 1, sizeof(pn_scene_mesh)));
+    bool ok = (out->objects || objects_.empty()) && out->meshes;
+    if (ok) {
+        out->object_count = (uint32_t)objects_.size();
+        out->mesh_count = (uint32_t)mesh_soup_.size();
+        for (size_t i = 0; i < mesh_soup_.size() && ok; i++) {
+            pn_scene_mesh &m = out->meshes[i];
+            m.triangle_count = (uint32_t)(mesh_soup_[i].size() / 9);
+            m.tris = static_cast<float(*)[3][3]>(std::malloc(mesh_soup_[i].size() * sizeof(float) + 1));
+            ok = m.tris != nullptr;
+            if (ok)
+                std::memcpy(m.tris, mesh_soup_[i].data(), mesh_soup_[i].size() * sizeof(float));
+        }
+    }
+    if (!ok) {
         free_arrays(out);
         pn_error("%s: out of memory", path_);
         return PN_ERR_MEMORY;

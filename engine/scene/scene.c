@@ -42,7 +42,28 @@ void pn_scene_destroy(pn_scene *s)
     free(s->indices);
     free(s->draws);
     free(s->materials);
+    for (uint32_t i = 0; i < s->mesh_count; i++)
+        free(s->meshes[i].tris);
+    free(s->meshes);
+    free(s->objects);
     memset(s, 0, sizeof *s);
+}
+
+pn_result pn_scene_move_object(pn_scene *s, uint32_t index, const float delta[3])
+{
+    if (index >= s->object_count) {
+        pn_error("%s: no object %u to move (the scene has %u: glTF nodes with a mesh)", s->name, index,
+                 s->object_count);
+        return PN_ERR_INVALID;
+    }
+    pn_scene_object *o = &s->objects[index];
+    for (uint32_t i = o->first_vertex; i < o->first_vertex + o->vertex_count; i++)
+        for (int k = 0; k < 3; k++)
+            s->vertices[i].pos[k] += delta[k];
+    for (int k = 0; k < 3; k++)
+        o->to_world[k][3] += delta[k];
+    pn_scene_update_bounds(s);
+    return PN_OK;
 }
 
 void pn_scene_update_bounds(pn_scene *s)

@@ -46,6 +46,24 @@ typedef struct pn_light {
                        // (W/sr: the limit of radiance x area; it falls off with the cosine)
 } pn_light;
 
+// A mesh in its own frame, as a scene file's nodes instance it: the triangles' positions as a soup
+// (3 per triangle), in the order each instance's triangles have in the world-space list. The
+// per-object N-trees (--trees object) are built over these, once per mesh, whatever its instances.
+typedef struct pn_scene_mesh {
+    float (*tris)[3][3];
+    uint32_t triangle_count;
+} pn_scene_mesh;
+
+// One instance of a mesh: a glTF node with a mesh. Its triangles are also in the world-space list
+// (the raster pass and the exact modes read that), with vertices of their own.
+typedef struct pn_scene_object {
+    uint32_t mesh;             // into pn_scene.meshes
+    uint32_t node;             // the glTF node, for messages
+    float to_world[3][4];      // local -> world: x_world[r] = to_world[r][0..2] . x + to_world[r][3]
+    uint32_t first_index, index_count;   // its triangles in pn_scene.indices
+    uint32_t first_vertex, vertex_count; // and the vertices they use
+} pn_scene_object;
+
 // Lights a scene file may carry (glTF node extras, scene/gltf.cpp); a frame has at most as many.
 enum { PN_SCENE_MAX_LIGHTS = 16 };
 
@@ -67,6 +85,12 @@ typedef struct pn_scene {
     uint32_t light_count;
     pn_light lights[PN_SCENE_MAX_LIGHTS];
     float bounds_min[3], bounds_max[3]; // of all vertices that are referenced by a triangle
+    // The instancing structure of a scene file (glTF nodes with a mesh, in traversal order), for
+    // per-object trees. Built-in scenes have none: they count as one object, the whole scene.
+    pn_scene_mesh *meshes;
+    uint32_t mesh_count;
+    pn_scene_object *objects;
+    uint32_t object_count;
 } pn_scene;
 
 // Loads `source`: a path ending in .gltf or .glb, or "builtin:NAME". On failure logs one message
@@ -102,6 +126,10 @@ pn_result pn_scene_add_mesh(pn_scene *scene, const pn_vertex *vertices, uint32_t
 // Adds the receiver plane the CLI's --ground asks for: a square on y = bounds_min.y - gap, centred
 // under the bounds, `scale` times their largest horizontal extent wide. Updates the bounds.
 pn_result pn_scene_add_ground(pn_scene *scene, float scale);
+
+// Moves object `index` by `delta` in world space: its vertices, its transform and the bounds (the
+// demo's and --move-object's moving objects). PN_ERR_INVALID, logged, for no such object.
+pn_result pn_scene_move_object(pn_scene *scene, uint32_t index, const float delta[3]);
 
 // Validates what every stage relies on: finite positions, indices in range, at least one triangle.
 // Logs the problem with the scene name.

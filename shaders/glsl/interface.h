@@ -159,6 +159,22 @@ PN_STRUCT(TreeInfo, pn_gpu_tree_info) {
     PN_ADDR(IndexPool, plane_pool) // with leaf planes (ls-plane): one word per leaf of the last-level nodes
 } PN_END(TreeInfo, pn_gpu_tree_info)
 
+// One object of the per-object trees (--trees object, accel/objects.h): the N-tree of its mesh, in
+// the mesh's own frame, and the map from world space into that frame. 128 bytes.
+PN_STRUCT(ObjectData, pn_gpu_object) {
+    PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
+    PN_VEC4S(to_local, 3) // rows of the world -> local affine map: x_local[r] = dot(to_local[r].xyz, x) + to_local[r].w
+    PN_FLOAT(rise_scale)  // its leaves' world extent over ShadowParams.leaf_size (>= 1): how much
+                          // farther than the finest tree's a ray rises before this tree may block it
+    PN_UINT(pad0)
+    PN_UINT(pad1)
+    PN_UINT(pad2)
+} PN_END(ObjectData, pn_gpu_object)
+
+#ifdef GL_core_profile
+layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer ObjectPool { ObjectData objects[]; };
+#endif
+
 // The rectangular one-sided Lambertian area light. 96 bytes.
 PN_STRUCT(Light, pn_light_gpu) {
     PN_VEC4S(corners, 4) // counter-clockwise seen from the emitting side (xyz)
@@ -195,7 +211,7 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
     PN_UINT(pad2)
 } PN_END(GBufferPush, pn_gbuffer_push)
 
-// The shadow pass's uniform block (std140). 176 + 96 PN_MAX_LIGHTS bytes.
+// The shadow pass's uniform block (std140). 208 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
     PN_UINT(spp)           // rays per pixel = grid_u * grid_v
@@ -217,8 +233,13 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_ADDR(WorkCounts, work)       // COUNT_WORK builds only
     PN_UINT(tile_w)                 // interleaved sampling: the tile whose pixels share the light's
     PN_UINT(tile_h)                 // strata (1 x 1: every pixel has all of them; light_sample)
+    PN_UINT(object_count)           // per-object trees: objects in `objects`; 0: the one tree in `tree`
     PN_UINT(pad3)
+    PN_ADDR(ObjectPool, objects)    // per-object trees: the objects, each with its tree
+    PN_ADDR(BvhPool, top)           // a BVH over the objects' world boxes
+    PN_ADDR(IndexPool, top_ids)     // object indices in the top BVH's leaf order
     PN_UINT(pad4)
+    PN_UINT(pad5)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
