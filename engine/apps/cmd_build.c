@@ -1,6 +1,8 @@
 // penumbra build: builds the N-tree and its line spaces over a scene, uploads the pools and reports
 // their size, occupancy and build time.
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "accel/pools.h"
@@ -9,6 +11,7 @@
 #include "apps/options.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "core/timer.h"
 #include "gpu/pools.h"
 #include "scene/view.h"
 #include "io/json.h"
@@ -25,13 +28,19 @@ void pn_print_build_help(void)
            "  --ground, --no-ground   include the receiver plane render adds (default: on)\n"
            "  --no-cull          keep triangles that cannot block a ray to the default light\n"
            "  --no-upload        build on the CPU only (no Vulkan device needed; default limit 1G)\n"
+           "  --trees scene|object|both   the one scene-wide tree (default), the per-object trees\n"
+           "                     (one per mesh in its own frame, shared by its instances; render's\n"
+           "                     --trees object), or both, one after the other, with their ratios\n"
+           "  --object-tree N,d  the per-object trees' N and d (default: --tree's)\n"
+           "  --updates K        with per-object trees: time K moves of object 0 (top level rebuilt\n"
+           "                     and uploaded; default 9), reported as the median\n"
            "  --json             print one JSON object instead of the table\n"
            "  PN_THREADS=K       build threads (default: all cores)\n");
 }
 
 int pn_build_parse(int argc, char **argv, pn_build_opts *o)
 {
-    *o = (pn_build_opts){.tree_n = 7, .tree_d = 3, .ground = true, .upload = true, .cull = true};
+    *o = (pn_build_opts){.tree_n = 7, .tree_d = 3, .ground = true, .upload = true, .cull = true, .updates = 9};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL, *arg = argv[a.i];
@@ -43,6 +52,14 @@ int pn_build_parse(int argc, char **argv, pn_build_opts *o)
             ok = v && pn_parse_tree("--tree", v, &o->tree_n, &o->tree_d);
         } else if (pn_args_value(&a, "--max-memory", &v, &err)) {
             ok = v && pn_parse_bytes("--max-memory", v, &o->max_bytes);
+        } else if (pn_args_value(&a, "--trees", &v, &err)) {
+            static const char *const trees[] = {"scene", "object", "both", NULL};
+            o->trees = v ? pn_parse_choice("--trees", v, trees) : -1;
+            ok = o->trees >= 0;
+        } else if (pn_args_value(&a, "--object-tree", &v, &err)) {
+            ok = v && pn_parse_tree("--object-tree", v, &o->object_n, &o->object_d);
+        } else if (pn_args_value(&a, "--updates", &v, &err)) {
+            ok = v && pn_parse_int_range("--updates", v, 1, 1000, &o->updates);
         } else if (pn_args_flag(&a, "--json")) {
             o->json = true;
         } else if (pn_args_flag(&a, "--ground")) {
@@ -68,7 +85,87 @@ int pn_build_parse(int argc, char **argv, pn_build_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
+    if (!o->object_n) {
+        o->object_n = o->tree_n;
+        o->object_d = o->tree_d;
+    }
     return PN_EXIT_OK;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+// --trees object|both: the per-object trees, and the time a moving object costs them (the top level
+// rebuilt and uploaded; the vertices' own move is the raster pass's business, not timed). With
+// `single` (both), their ratios to the scene-wide tree.
+static int build_objects(pn_gpu_device *dev, pn_scene *scene, const pn_build_opts *o, const float (*corners)[3],
+                         uint64_t max_bytes, uint64_t max_pool, const pn_ntree *single, const pn_pools *single_pools)
+{
+    pn_objects objs;
+    pn_ntree_desc td = {.n = o->object_n, .d = o->object_d, .max_bytes = max_bytes, .max_pool_bytes = max_pool,
+                        .cull_light = o->cull ? corners : NULL};
+    if (pn_objects_build(scene, &td, &objs) != PN_OK)
+        return PN_EXIT_FAILURE;
+    int rc = PN_EXIT_OK;
+    pn_gpu_objects gpu = {0};
+    if (o->upload && pn_gpu_objects_create(dev, &objs, &gpu) != PN_OK)
+        rc = PN_EXIT_FAILURE;
+    // Object 0 steps by a hundredth of the scene back and forth, so the scene ends where it began.
+    double *ms = calloc((size_t)o->updates, sizeof *ms);
+    float step = 0.01f * fmaxf(scene->bounds_max[0] - scene->bounds_min[0], 1e-30f);
+    long long timed = 0;
+    for (long long i = 0; rc == PN_EXIT_OK && ms && scene->object_count && i < o->updates; i++) {
+        float delta[3] = {i % 2 ? -step : step, 0, 0};
+        pn_scene_move_object(scene, 0, delta);
+        uint64_t t0 = pn_time_ns();
+        if (pn_objects_update(scene, &objs) != PN_OK || (o->upload && pn_gpu_objects_update(dev, &objs, &gpu) != PN_OK))
+            rc = PN_EXIT_FAILURE;
+        ms[timed++] = pn_ms_since(t0);
+    }
+    if (timed)
+        qsort(ms, (size_t)timed, sizeof *ms, cmp_double);
+    double update_ms = timed ? ms[timed / 2] : 0.0;
+    free(ms);
+    double max_leaf = 0;
+    for (uint32_t i = 0; i < objs.placed; i++)
+        max_leaf = fmax(max_leaf, objs.instances[i].world_leaf);
+    double pool_ratio = single_pools && single_pools->bytes.total ? (double)objs.bytes.total / single_pools->bytes.total : 0;
+    double update_ratio = single && single->build_ms > 0 ? update_ms / single->build_ms : 0;
+    if (rc == PN_EXIT_OK && o->json) {
+        printf("{\"scene\": ");
+        pn_json_string(stdout, scene->name);
+        printf(", \"objects\": %u, \"meshes\": %u, \"trees\": %u, \"placed\": %u, \"n\": %d, \"d\": %d, "
+               "\"pool_bytes\": %llu, \"top_bytes\": %llu, \"leaf_min\": %.9g, \"leaf_max\": %.9g, "
+               "\"build_ms\": %.3f, \"update_ms\": %.4f, \"updates\": %lld",
+               scene->object_count, scene->mesh_count, objs.tree_count, objs.placed, o->object_n, o->object_d,
+               (unsigned long long)objs.bytes.total, (unsigned long long)objs.top_bytes, objs.leaf_size, max_leaf,
+               objs.build_ms, update_ms, timed);
+        if (single)
+            printf(", \"single\": {\"n\": %d, \"d\": %d, \"leaf\": %.9g, \"pool_bytes\": %llu, \"build_ms\": %.3f}, "
+                   "\"pool_ratio\": %.6f, \"update_over_single_build\": %.6f",
+                   single->n, single->d, pn_ntree_cell_size(single, single->d),
+                   (unsigned long long)single_pools->bytes.total, single->build_ms, pool_ratio, update_ratio);
+        printf("}\n");
+    } else if (rc == PN_EXIT_OK) {
+        printf("%s: per-object trees LS(%d,%d): %u trees for %u objects of %u meshes (%u placed, with the rest)\n",
+               scene->name, o->object_n, o->object_d, objs.tree_count, scene->object_count, scene->mesh_count,
+               objs.placed);
+        printf("  pools: %.2f MiB, top level %.1f KiB; leaves %.4g..%.4g wide in world units\n",
+               objs.bytes.total / 1048576.0, objs.top_bytes / 1024.0, objs.leaf_size, max_leaf);
+        printf("  build: %.1f ms; a moving object: %.3f ms (top level rebuilt%s, median of %lld)\n", objs.build_ms,
+               update_ms, o->upload ? " and uploaded" : "", timed);
+        if (single)
+            printf("  against the scene-wide LS(%d,%d) (leaves %.4g wide): pools %.4fx (%.2f MiB), a move costs "
+                   "%.3f%% of its build (%.1f ms)\n",
+                   single->n, single->d, pn_ntree_cell_size(single, single->d), pool_ratio,
+                   single_pools->bytes.total / 1048576.0, 100 * update_ratio, single->build_ms);
+    }
+    pn_gpu_objects_destroy(dev, &gpu);
+    pn_objects_destroy(&objs);
+    return rc;
 }
 
 int pn_cmd_build(int argc, char **argv)
@@ -110,11 +207,15 @@ int pn_cmd_build(int argc, char **argv)
     pn_ntree tree;
     pn_pools pools = {0};
     pn_gpu_pools gpu = {0};
-    if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes, .max_pool_bytes = max_pool, .cull_light = cull ? (const float(*)[3])corners : NULL}, &tree) == PN_OK) {
+    if (o.trees == PN_BUILD_TREES_OBJECT) {
+        rc = build_objects(&dev, &scene, &o, (const float(*)[3])corners, max_bytes, max_pool, NULL, NULL);
+    } else if (pn_ntree_build(&scene, &(pn_ntree_desc){.n = n, .d = d, .max_bytes = max_bytes, .max_pool_bytes = max_pool, .cull_light = cull ? (const float(*)[3])corners : NULL}, &tree) == PN_OK) {
         if (pn_pools_pack(&tree, &pools) == PN_OK && (!upload || pn_gpu_pools_create(&dev, &pools, &gpu) == PN_OK))
             rc = PN_EXIT_OK;
         double share = tree.node_count ? (double)tree.set_bits / ((double)tree.node_count * pn_ls_bits(n)) : 0;
-        if (rc == PN_EXIT_OK && json) {
+        if (rc == PN_EXIT_OK && o.trees == PN_BUILD_TREES_BOTH) {
+            rc = build_objects(&dev, &scene, &o, (const float(*)[3])corners, max_bytes, max_pool, &tree, &pools);
+        } else if (rc == PN_EXIT_OK && json) {
             printf("{\"scene\": ");
             pn_json_string(stdout, scene.name);
             printf(", \"n\": %d, \"d\": %d, \"triangles\": %u, \"culled_triangles\": %u, \"threads\": %u, \"filled_per_level\": [", n, d,

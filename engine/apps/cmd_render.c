@@ -123,6 +123,7 @@ typedef struct render_stats {
     double build_ms;     // N-tree and line spaces
     pn_pool_bytes pools; // zero without a tree
     uint32_t subdivided;
+    uint32_t trees, objects; // per-object trees: trees, and objects in the top level
     uint32_t culled; // triangles left out of the tree
     uint64_t exact_bytes; // triangle pools of the exact tests (triangles, BVH, candidate lists)
     uint32_t culled_box;        // of those, outside the view's receivers and the light
@@ -180,7 +181,11 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
         return PN_EXIT_FAILURE;
     st->build_ms = s.build_ms;
     st->subdivided = s.accel.tree.node_count;
-    st->culled = s.accel.tree.culled;
+    for (uint32_t i = 0; i < s.accel.objects.tree_count; i++)
+        st->subdivided += s.accel.objects.trees[i].node_count;
+    st->trees = s.accel.objects.tree_count;
+    st->objects = s.accel.objects.placed;
+    st->culled = s.accel.desc.per_object ? s.accel.objects.culled : s.accel.tree.culled;
     st->culled_box = s.accel.tree.culled_box;
     st->pools = s.pool_bytes;
     st->exact_bytes = s.exact_bytes;
@@ -227,14 +232,16 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
             printf("\"tile\": [%u, %u], ", o->r.tile_w, o->r.tile_h);
         else
             printf("\"tile\": null, ");
-        if (tree)
+        if (tree) {
+            printf("\"per_object_trees\": %u, \"objects\": %u, ", st->trees, st->objects);
             printf("\"tree\": [%d, %d], \"subdivided_nodes\": %u, \"culled_triangles\": %u, \"culled_by_view\": %u, \"build_ms\": %.3f, \"pool_bytes\": {\"tree\": %llu, "
                    "\"node\": %llu, \"linespace\": %llu, \"planes\": %llu, \"total\": %llu}, ",
                    o->r.tree_n, o->r.tree_d, st->subdivided, st->culled, st->culled_box, st->build_ms, (unsigned long long)st->pools.tree,
                    (unsigned long long)st->pools.node, (unsigned long long)st->pools.linespace,
                    (unsigned long long)st->pools.planes, (unsigned long long)st->pools.total);
-        else
+        } else {
             printf("\"tree\": null, \"build_ms\": %.3f, \"pool_bytes\": null, ", st->build_ms);
+        }
         printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);
         if (st->quality_auto) {
             const pn_quality_choice *q = &st->quality;
@@ -266,13 +273,18 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
     printf("%s: %u triangles, %ux%u, mode %s", scene->name, pn_scene_triangle_count(scene), o->r.width, o->r.height,
            mode->name);
     if (tree)
-        printf(" LS(%d,%d) %s", o->r.tree_n, o->r.tree_d, pn_traversal_names[o->r.traversal]);
+        printf(" LS(%d,%d)%s %s", o->r.tree_n, o->r.tree_d, o->r.per_object ? " per object" : "",
+               pn_traversal_names[o->r.traversal]);
     if (mode->traces)
         printf(" %s %lld spp", pn_sampler_names[o->r.sampler], o->r.spp);
     if (o->r.filter != PN_FILTER_NONE)
         printf(" filter %s %ux%u", pn_filter_names[o->r.filter], o->r.tile_w, o->r.tile_h);
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");
-    if (tree)
+    if (tree && st->trees)
+        printf("  per-object trees: %u for %u objects, %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; "
+               "%u triangles of no object left out (they cannot block a shadow ray)\n",
+               st->trees, st->objects, st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled);
+    else if (tree)
         printf("  tree: %u subdivided nodes, %.1f MiB of pools, built in %.1f ms; %u triangles left out "
                "(they cannot block a shadow ray; %u of them outside the view and light)\n",
                st->subdivided, st->pools.total / 1048576.0, st->build_ms, st->culled, st->culled_box);

@@ -27,7 +27,12 @@ typedef struct pn_build_opts {
     int tree_n, tree_d;
     uint64_t max_bytes; // 0: half the device's heap (1 GiB with --no-upload)
     bool json, ground, upload, cull;
+    int trees;                   // PN_BUILD_TREES_*
+    int object_n, object_d;      // the per-object trees (default: --tree's)
+    long long updates;           // moves of object 0 timed with --trees object|both
 } pn_build_opts;
+
+enum { PN_BUILD_TREES_SCENE, PN_BUILD_TREES_OBJECT, PN_BUILD_TREES_BOTH };
 
 int pn_build_parse(int argc, char **argv, pn_build_opts *o);
 

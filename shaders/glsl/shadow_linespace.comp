@@ -549,7 +549,7 @@ uint objects_blocked(vec3 o, vec3 corners[4], uint count, uint rays)
         dir[j] = dir_world[j];
         t_rise[j] = rise_world[j];
     }
-    truncated = truncated || more;
+    truncated = truncated || (more && (rays & ~blocked) != 0u); // cut short, not done because all are blocked
     return blocked;
 }
 
