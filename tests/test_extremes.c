@@ -2,7 +2,11 @@
 // sweep of scales (1e-4 .. 1e6), translations (1e5, 1e7), light placements (along each axis and each
 // diagonal, grazing, touching and cutting through geometry, a point light, a light larger than the
 // scene), trees (N = 2 and 16, d = 1 and the largest that fits), 1 and 1024 samples, receivers on
-// cell boundaries, cell corners and the root box's faces, and degenerate and single-triangle scenes.
+// cell boundaries, cell corners and the root box's faces, and degenerate and single-triangle scenes;
+// and per-object trees (linespace, --trees object): one mesh instanced translated, scaled
+// non-uniformly and turned, and at half size, two of them cutting through each other, with the
+// receiver and a block as the rest (GEO_OBJECTS), at scales 1e-4, 1 and 1e4 and at 1e5, ray and
+// packet traversal, with receivers also on the objects' faces and their trees' lattices in world.
 //
 // Every case renders twice per mode: once through the raster pass (receivers wherever the camera
 // sees geometry) and once with a crafted G-buffer (pn_renderer_set_gbuffer: receivers on the
@@ -41,6 +45,13 @@
 //    (leaf_plane_blocks), and a point of such a leaf is within 2 s of it.
 // A triangle whose plane is the receiver's own tangent plane through g cannot block g's rays (they
 // leave the plane at g); it is skipped, as the shaders' origin offsets skip it.
+// Per-object trees: each tree is in its object's frame, where a leaf of edge l spans at most
+// world_leaf = l max_r sum_c |A[r][c]| along a world axis (A its to_world), a last-level node N
+// times that, and a ray rises by its object's world_leaf (objects_blocked). So linespace's bounds
+// hold with s = the largest world_leaf of the instances (the rest's included) and the slack scaled
+// as the leaf; the oracle's triangles are the world ones. The case also requires that the build
+// made per-object trees (one per mesh, one for the rest, every object placed), so that it cannot
+// pass on the scene-wide tree.
 #include "apps/setup.h"
 #include "gpu/device.h"
 #include "gpu/shadow_pass.h"
@@ -52,7 +63,7 @@
 enum { MODES = PN_SHADOW_MODE_COUNT };
 #define MODE_NAME(mi) (pn_shadow_mode_get((pn_shadow_mode)(mi))->name)
 
-enum { GEO_FULL, GEO_DEGENERATE, GEO_SINGLE, GEO_FILTER };
+enum { GEO_FULL, GEO_DEGENERATE, GEO_SINGLE, GEO_FILTER, GEO_OBJECTS };
 enum { EXPECT_RENDER, EXPECT_SCENE_REFUSED, EXPECT_TREE_REFUSED };
 
 #define SIZE 32 // G-buffer edge, pixels
@@ -122,6 +133,8 @@ static int filter_triangles(tri *out)
     return n;
 }
 
+// In local coordinates: GEO_FULL, GEO_DEGENERATE and GEO_SINGLE as above; GEO_OBJECTS the triangles
+// of no object (the receiver and the block; its occluders are object_triangles' instances).
 static int local_triangles(int geometry, tri *out)
 {
     static const double quad_r[4][3] = {{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}};
@@ -137,6 +150,8 @@ static int local_triangles(int geometry, tri *out)
         return filter_triangles(out);
     const double(*quads[2])[3] = {quad_r, quad_o};
     for (int q = 0; q < 2; q++) {
+        if (geometry == GEO_OBJECTS && q == 1)
+            continue; // the occluders are the objects (object_triangles)
         out[n++] = (tri){{{quads[q][0][0], quads[q][0][1], quads[q][0][2]},
                           {quads[q][1][0], quads[q][1][1], quads[q][1][2]},
                           {quads[q][2][0], quads[q][2][1], quads[q][2][2]}}};
@@ -179,6 +194,76 @@ static void to_world(const sweep_case *c, const double l[3], double w[3])
     to_world_dir(c, l, w);
     for (int k = 0; k < 3; k++)
         w[k] = c->shift + c->scale * w[k];
+}
+
+// The objects of GEO_OBJECTS (per-object trees, accel/objects.h): one mesh, a flat octahedron
+// (vertices at +-0.25 on x and z, +-0.1 on y; no face parallel to its tree's cells, whose filled
+// leaves then step along every face) in its own frame, instanced three times over the receiver:
+// translated; scaled by (1.7, 0.6, 1.3), tilted 20 degrees about x and turned 35 about y, cutting
+// through the first (add_objects checks that they cross); and at half size turned 90 degrees
+// about z, standing on edge above the block. Each instance's map is
+// R_y(yaw) R_x(pitch) R_z(roll) diag(scale) x + t in local coordinates, then the case's world map.
+enum { OBJECT_COUNT = 3, OBJECT_MESH_TRIS = 8 };
+
+typedef struct placement {
+    double scale[3], yaw, pitch, roll, t[3]; // degrees
+} placement;
+
+static const placement PLACEMENTS[OBJECT_COUNT] = {
+    {{1, 1, 1}, 0, 0, 0, {-.55, .55, .3}},
+    {{1.7, .6, 1.3}, 35, 20, 0, {-.3, .62, .1}},
+    {{.5, .5, .5}, 0, 0, 90, {.75, .75, 0}},
+};
+
+static int object_triangles(tri *out)
+{
+    const double r[3] = {.25, .1, .25}; // the vertices: +-r[k] on axis k
+    int n = 0;
+    for (int f = 0; f < 8; f++) {
+        double v[3][3] = {{0}};
+        int sx = f & 1 ? -1 : 1, sy = f & 2 ? -1 : 1, sz = f & 4 ? -1 : 1;
+        v[0][0] = sx * r[0];
+        v[1][1] = sy * r[1];
+        v[2][2] = sz * r[2];
+        int b = sx * sy * sz > 0 ? 1 : 2; // counter-clockwise seen from outside
+        out[n++] = (tri){{{v[0][0], v[0][1], v[0][2]}, {v[b][0], v[b][1], v[b][2]}, {v[3 - b][0], v[3 - b][1], v[3 - b][2]}}};
+    }
+    return n;
+}
+
+// Object i's map from its mesh's frame to world, as the scene stores it (float, as the glTF loader
+// rounds a node's world matrix): the placement, then the case's scale, signed permutation and shift.
+static void object_to_world(const sweep_case *c, int i, float out[3][4])
+{
+    const placement *p = &PLACEMENTS[i];
+    const double deg = 3.14159265358979323846 / 180;
+    double a[3] = {p->yaw * deg, p->pitch * deg, p->roll * deg}, cs[3], sn[3];
+    for (int k = 0; k < 3; k++) { // exact 0 and 1 at right angles
+        cs[k] = fabs(cos(a[k])) < 1e-12 ? 0 : cos(a[k]);
+        sn[k] = fabs(sin(a[k])) < 1e-12 ? 0 : sin(a[k]);
+    }
+    const double ry[3][3] = {{cs[0], 0, sn[0]}, {0, 1, 0}, {-sn[0], 0, cs[0]}};
+    const double rx[3][3] = {{1, 0, 0}, {0, cs[1], -sn[1]}, {0, sn[1], cs[1]}};
+    const double rz[3][3] = {{cs[2], -sn[2], 0}, {sn[2], cs[2], 0}, {0, 0, 1}};
+    double yx[3][3], m[3][3];
+    for (int r = 0; r < 3; r++)
+        for (int j = 0; j < 3; j++) {
+            yx[r][j] = 0;
+            for (int k = 0; k < 3; k++)
+                yx[r][j] += ry[r][k] * rx[k][j];
+        }
+    for (int r = 0; r < 3; r++)
+        for (int j = 0; j < 3; j++) {
+            m[r][j] = 0;
+            for (int k = 0; k < 3; k++)
+                m[r][j] += yx[r][k] * rz[k][j];
+            m[r][j] *= p->scale[j];
+        }
+    for (int k = 0; k < 3; k++) {
+        for (int j = 0; j < 3; j++)
+            out[k][j] = (float)(c->scale * c->sign[k] * m[c->axis[k]][j]);
+        out[k][3] = (float)(c->shift + c->scale * c->sign[k] * p->t[c->axis[k]]);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -467,39 +552,97 @@ typedef struct stats {
     double err_sum, err_max;    // |V - V_exact| over pixels, same G-buffer (exact rendered first)
 } stats;
 
-static void build_scene(const sweep_case *c, pn_scene *sc, tri *world, int *count)
+// Appends world-space triangles w (double) as one draw: float positions, the face normal, and the
+// float triangles to world[] (the oracle's).
+static void append_triangles(pn_scene *sc, const tri *w, int n, uint32_t material, tri *world)
 {
-    memset(sc, 0, sizeof *sc);
-    snprintf(sc->name, sizeof sc->name, "extremes:%s", c->name);
-    tri local[64];
-    int n = local_triangles(c->geometry, local);
     pn_vertex v[3 * 64];
     uint32_t idx[3 * 64];
     for (int i = 0; i < n; i++) {
-        double w[3][3], e0[3], e1[3], nrm[3];
-        for (int j = 0; j < 3; j++)
-            to_world(c, local[i].v[j], w[j]);
-        sub3(w[1], w[0], e0);
-        sub3(w[2], w[0], e1);
+        double e0[3], e1[3], nrm[3];
+        sub3(w[i].v[1], w[i].v[0], e0);
+        sub3(w[i].v[2], w[i].v[0], e1);
         cross3(e0, e1, nrm);
         double nl = len3(nrm);
         for (int j = 0; j < 3; j++) {
             pn_vertex *pv = &v[3 * i + j];
             memset(pv, 0, sizeof *pv);
             for (int k = 0; k < 3; k++) {
-                pv->pos[k] = (float)w[j][k];
+                pv->pos[k] = (float)w[i].v[j][k];
                 pv->normal[k] = nl > 0 ? (float)(nrm[k] / nl) : (k == 1);
                 world[i].v[j][k] = pv->pos[k];
             }
             idx[3 * i + j] = 3 * i + j;
         }
     }
+    CHECK(pn_scene_add_mesh(sc, v, 3 * n, idx, 3 * n, material) == PN_OK);
+}
+
+// GEO_OBJECTS: the mesh of object_triangles (float, its own frame) and its instances, each with
+// its triangles also in the world-space list (computed in double from the float local triangles
+// and the float map, then rounded, as the glTF loader does). Appends them to world[] after *count.
+static void add_objects(const sweep_case *c, pn_scene *sc, uint32_t material, tri *world, int *count)
+{
+    tri local[OBJECT_MESH_TRIS];
+    int n = object_triangles(local);
+    sc->meshes = calloc(1, sizeof *sc->meshes);
+    sc->objects = calloc(OBJECT_COUNT, sizeof *sc->objects);
+    float(*tris)[3][3] = sc->meshes ? malloc(sizeof *tris * n) : NULL;
+    CHECK(sc->meshes && sc->objects && tris);
+    if (!sc->meshes || !sc->objects || !tris)
+        exit(1);
+    sc->meshes[0] = (pn_scene_mesh){tris, (uint32_t)n};
+    sc->mesh_count = 1;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++)
+                tris[i][j][k] = (float)local[i].v[j][k];
+    for (int o = 0; o < OBJECT_COUNT; o++) {
+        pn_scene_object *obj = &sc->objects[sc->object_count++];
+        *obj = (pn_scene_object){.mesh = 0, .node = (uint32_t)o, .first_index = sc->index_count,
+                                 .first_vertex = sc->vertex_count};
+        object_to_world(c, o, obj->to_world);
+        tri w[OBJECT_MESH_TRIS];
+        for (int i = 0; i < n; i++)
+            for (int j = 0; j < 3; j++)
+                for (int r = 0; r < 3; r++)
+                    w[i].v[j][r] = (double)obj->to_world[r][0] * tris[i][j][0] + (double)obj->to_world[r][1] * tris[i][j][1] +
+                                   (double)obj->to_world[r][2] * tris[i][j][2] + (double)obj->to_world[r][3];
+        append_triangles(sc, w, n, material, world + *count);
+        *count += n;
+        obj->index_count = sc->index_count - obj->first_index;
+        obj->vertex_count = sc->vertex_count - obj->first_vertex;
+    }
+    // The first two instances cut through each other: an edge of one crosses a face of the other.
+    const tri *a = world + *count - OBJECT_COUNT * n, *b = a + n;
+    bool cut = false;
+    for (int i = 0; i < n && !cut; i++)
+        for (int e = 0; e < 3 && !cut; e++)
+            for (int j = 0; j < n && !cut; j++) {
+                double x[3];
+                cut = crosses_sure(a[i].v[e], a[i].v[(e + 1) % 3], &b[j], 0, x) ||
+                      crosses_sure(b[i].v[e], b[i].v[(e + 1) % 3], &a[j], 0, x);
+            }
+    CHECK_MSG(cut, "%s: objects 0 and 1 do not cut through each other", c->name);
+}
+
+static void build_scene(const sweep_case *c, pn_scene *sc, tri *world, int *count)
+{
+    memset(sc, 0, sizeof *sc);
+    snprintf(sc->name, sizeof sc->name, "extremes:%s", c->name);
+    tri local[64], w[64];
+    int n = local_triangles(c->geometry, local);
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < 3; j++)
+            to_world(c, local[i].v[j], w[i].v[j]);
     const float grey[4] = {0.8f, 0.8f, 0.8f, 1};
     uint32_t m = 0;
     CHECK(pn_scene_add_material(sc, grey, &m) == PN_OK);
-    CHECK(pn_scene_add_mesh(sc, v, 3 * n, idx, 3 * n, m) == PN_OK);
-    pn_scene_update_bounds(sc);
+    append_triangles(sc, w, n, m, world);
     *count = n;
+    if (c->geometry == GEO_OBJECTS)
+        add_objects(c, sc, m, world, count);
+    pn_scene_update_bounds(sc);
 }
 
 static void make_light(const sweep_case *c, pn_light *l)
@@ -554,17 +697,51 @@ static void add_receiver(receivers *rc, const double w[3], const double nrm[3])
     (*count)++;
 }
 
+// Receivers on a tree's lattice, up to `limit` in all: the root box's corners, then cell corners
+// (a third of them on the root box's faces), mapped to world by `map` (an object's to_world; NULL:
+// the tree is in world space).
+static void lattice_receivers(receivers *rc, const pn_ntree *tree, const float (*map)[4], uint32_t limit,
+                              const double up_w[3])
+{
+    if (!tree || !tree->node_count)
+        return;
+    uint32_t keep = rc->limit;
+    rc->limit = limit < keep ? limit : keep;
+    double cells = pow(tree->n, tree->d), leaf = tree->root_size / cells;
+    uint32_t st = 12345;
+    for (int tries = -8; rc->count < rc->limit && tries < 100000; tries++) {
+        double ijk[3], l[3], w[3];
+        if (tries < 0) { // the root box's corners
+            for (int k = 0; k < 3; k++)
+                l[k] = tree->root_min[k] + (((tries + 8) >> k) & 1) * tree->root_size;
+        } else {
+            for (int k = 0; k < 3; k++)
+                ijk[k] = (double)(lcg(&st) % ((uint32_t)cells + 1));
+            if (tries % 3 == 0) // on a face of the root box
+                ijk[lcg(&st) % 3] = (lcg(&st) & 1) ? cells : 0;
+            for (int k = 0; k < 3; k++)
+                l[k] = tree->root_min[k] + ijk[k] * leaf;
+        }
+        for (int r = 0; r < 3; r++)
+            w[r] = map ? (double)map[r][0] * l[0] + (double)map[r][1] * l[1] + (double)map[r][2] * l[2] + map[r][3] : l[r];
+        add_receiver(rc, w, up_w);
+    }
+    rc->limit = keep;
+}
+
 // The crafted G-buffer: a grid on the receiver plane, points aligned with light samples (exact zero
 // direction components when the light's corners are dyadic), and points on the tree's lattice:
-// cell corners, the root box's corners and faces.
+// cell corners, the root box's corners and faces. With per-object trees (`objs`; `tree` NULL),
+// on every tree's lattice in world: the rest's, and each object's through its map, sharing what is
+// left of the receivers evenly.
 static void crafted_gbuffer(const sweep_case *c, const pn_scene *scene, const pn_light *light, const pn_ntree *tree,
-                            float *P, float *N)
+                            const pn_objects *objs, float *P, float *N)
 {
     memset(P, 0, sizeof(float) * 4 * SIZE * SIZE);
     memset(N, 0, sizeof(float) * 4 * SIZE * SIZE);
     double up_l[3] = {0, 1, 0}, up_w[3];
     to_world_dir(c, up_l, up_w);
-    bool culled = tree && tree->culled;
+    bool culled = (tree && tree->culled) || (objs && objs->culled);
     receivers rc = {P, N, 0, c->receivers < SIZE * SIZE ? c->receivers : SIZE * SIZE, culled ? scene->bounds_min : NULL,
                     culled ? scene->bounds_max : NULL};
     // Aligned with the light's samples: same coordinates as the sample on the two axes other than
@@ -592,25 +769,35 @@ static void crafted_gbuffer(const sweep_case *c, const pn_scene *scene, const pn
             to_world(c, l, w);
             add_receiver(&rc, w, up_w);
         }
-    // The tree's lattice.
-    if (tree && tree->node_count) {
-        double cells = pow(tree->n, tree->d), leaf = tree->root_size / cells;
-        uint32_t st = 12345;
-        for (int corner = 0; corner < 8; corner++) {
-            double w[3];
-            for (int k = 0; k < 3; k++)
-                w[k] = tree->root_min[k] + ((corner >> k) & 1) * tree->root_size;
-            add_receiver(&rc, w, up_w);
+    // The tree's lattice, or the trees'.
+    lattice_receivers(&rc, tree, NULL, rc.limit, up_w);
+    if (objs) {
+        // Points on every object's faces, with the faces' normals: their rays leave the surface of
+        // a tree in its object's frame, and rise by that object's leaves (objects_blocked).
+        static const double bary[4][3] = {{1 / 3., 1 / 3., 1 / 3.}, {2 / 3., 1 / 6., 1 / 6.}, {1 / 6., 2 / 3., 1 / 6.},
+                                          {1 / 6., 1 / 6., 2 / 3.}};
+        for (uint32_t i = 0; i < scene->object_count; i++) {
+            const pn_scene_object *ob = &scene->objects[i];
+            for (uint32_t t = ob->first_index; t < ob->first_index + ob->index_count; t += 3)
+                for (int b = 0; b < 4; b++) {
+                    double w[3] = {0, 0, 0}, nrm[3];
+                    for (int j = 0; j < 3; j++)
+                        for (int k = 0; k < 3; k++)
+                            w[k] += bary[b][j] * scene->vertices[scene->indices[t + j]].pos[k];
+                    for (int k = 0; k < 3; k++)
+                        nrm[k] = scene->vertices[scene->indices[t]].normal[k];
+                    add_receiver(&rc, w, nrm);
+                }
         }
-        for (int tries = 0; rc.count < rc.limit && tries < 100000; tries++) {
-            double ijk[3], w[3];
-            for (int k = 0; k < 3; k++)
-                ijk[k] = (double)(lcg(&st) % ((uint32_t)cells + 1));
-            if (tries % 3 == 0) // on a face of the root box
-                ijk[lcg(&st) % 3] = (lcg(&st) & 1) ? cells : 0;
-            for (int k = 0; k < 3; k++)
-                w[k] = tree->root_min[k] + ijk[k] * leaf;
-            add_receiver(&rc, w, up_w);
+        bool rest = objs->tree_count > scene->mesh_count;
+        uint32_t lattices = scene->object_count + rest;
+        for (uint32_t i = 0; i < lattices; i++) {
+            uint32_t limit = rc.count + (rc.limit - rc.count) / (lattices - i);
+            if (i < scene->object_count)
+                lattice_receivers(&rc, &objs->trees[scene->objects[i].mesh], (const float(*)[4])scene->objects[i].to_world,
+                                  limit, up_w);
+            else
+                lattice_receivers(&rc, &objs->trees[scene->mesh_count], NULL, limit, up_w);
         }
     }
 }
@@ -960,6 +1147,7 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
                            .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1,
                            .filter = PN_FILTER_INTERLEAVED, .tile_w = FILTER_TILE, .tile_h = FILTER_TILE};
     pn_shadow_accel_bind(acc, &rd);
+    rd.objects = NULL; // per-object trees serve linespace only (renderer.c)
     pn_renderer ren;
     pn_result r = pn_renderer_create(dev, scene, &rd, &ren);
     CHECK_MSG(r == PN_OK, "%s filter: renderer: %s", c->name, pn_result_str(r));
@@ -1220,7 +1408,9 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
 
     // One set of acceleration structures serves every mode: the N-tree as the line-space modes
     // build it (with the per-leaf triangle lists of hybrid and exact-ls), the BVH and the exact
-    // pools. d = 0 finds the largest depth that fits.
+    // pools. d = 0 finds the largest depth that fits. GEO_OBJECTS builds per-object trees instead
+    // (accel/objects.h), which serve linespace alone: the other tree modes are not run.
+    bool per_object = c->geometry == GEO_OBJECTS;
     float corners[4][3];
     pn_light_corners(&light, corners);
     uint64_t max_bytes = pn_gpu_device_pool_budget(dev), max_pool = pn_gpu_device_max_buffer(dev);
@@ -1230,7 +1420,10 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
     pn_result tr = PN_ERR_INVALID;
     for (int try_d = d ? d : PN_NTREE_MAX_DEPTH; try_d >= (d ? d : 1); try_d--) {
         pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(dev), .tree_n = c->tree_n, .tree_d = try_d,
-                                   .max_bytes = max_bytes, .max_pool_bytes = max_pool, .light = &light};
+                                   .max_bytes = max_bytes, .max_pool_bytes = max_pool, .light = &light,
+                                   .per_object = per_object};
+        if (per_object) // no candidate lists or leaf planes in per-object trees
+            ad.needs.candidates = ad.needs.planes = false;
         pn_log_level level = pn_log_get_level();
         if (!d)
             pn_log_set_level(PN_LOG_QUIET); // the deeper trees' refusals are expected here
@@ -1268,14 +1461,25 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
         pn_scene_destroy(&scene);
         return;
     }
-    const pn_ntree *tree = tr == PN_OK ? &acc.tree : NULL;
+    const pn_ntree *tree = tr == PN_OK && !per_object ? &acc.tree : NULL;
+    const pn_objects *objs = tr == PN_OK && per_object ? &acc.objects : NULL;
+    if (objs) {
+        // Really per-object trees: one per mesh and one for the rest (the block: the receiver alone
+        // would be culled), every instance placed (none is flat), and no scene-wide tree.
+        bool rest = objs->tree_count > scene.mesh_count;
+        CHECK_MSG(rest && objs->tree_count == scene.mesh_count + 1 && objs->placed == scene.object_count + rest &&
+                      acc.tree.node_count == 0,
+                  "%s: per-object trees: %u trees for %u meshes, %u placed of %u objects (rest %s), scene-wide tree %u"
+                  " nodes", c->name, objs->tree_count, scene.mesh_count, objs->placed, scene.object_count,
+                  rest ? "built" : "absent", acc.tree.node_count);
+    }
 
     float *P = malloc(sizeof(float) * 4 * SIZE * SIZE), *N = malloc(sizeof(float) * 4 * SIZE * SIZE);
     float *exact_v[2] = {malloc(sizeof(float) * SIZE * SIZE), malloc(sizeof(float) * SIZE * SIZE)};
     CHECK(P && N && exact_v[0] && exact_v[1]);
     if (!P || !N || !exact_v[0] || !exact_v[1])
         exit(1);
-    crafted_gbuffer(c, &scene, &light, tree, P, N);
+    crafted_gbuffer(c, &scene, &light, tree, objs, P, N);
 
     oracle o = {.tris = world, .tri_count = tri_count, .n = c->tree_n};
     for (int i = 0; i < tri_count; i++)
@@ -1306,6 +1510,22 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
         o.leaf = tree->root_size / pow(tree->n, tree->d);
         o.slack = tree->slack;
     }
+    if (objs) {
+        // Per-object trees: a tree's leaf (edge l, in its frame) spans at most world_leaf = l max_r
+        // sum_c |A[r][c]| along a world axis, and its slack (its frame's units) likewise; the bounds
+        // hold with every instance's (shadow_linespace.comp, objects_blocked: a ray rises by its
+        // object's world leaf), so with the largest: s = max world_leaf.
+        double lo = INFINITY;
+        for (uint32_t i = 0; i < objs->placed; i++) {
+            const pn_object_instance *in = &objs->instances[i];
+            const pn_ntree *t = &objs->trees[in->tree];
+            o.leaf = fmax(o.leaf, in->world_leaf);
+            o.slack = fmax(o.slack, t->slack * in->world_leaf / pn_ntree_cell_size(t, t->d));
+            lo = fmin(lo, in->world_leaf);
+        }
+        fprintf(stderr, "  per-object trees: %u trees, %u placed, world leaves %.4g to %.4g (leaf_size %.4g), %u culled\n",
+                objs->tree_count, objs->placed, lo, o.leaf, objs->leaf_size, objs->culled);
+    }
 
     pn_camera cam;
     pn_camera_frame(scene.bounds_min, scene.bounds_max, 45, &cam);
@@ -1323,12 +1543,20 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
             fprintf(stderr, "  %-9s skipped: the device lacks %s\n", MODE_NAME(mi), lack);
             continue;
         }
-        if (tree_mode && !tree)
+        if (objs && tree_mode && mode != PN_SHADOW_LINESPACE) {
+            fprintf(stderr, "  %-9s skipped: per-object trees serve linespace only\n", MODE_NAME(mi));
+            continue;
+        }
+        if (tree_mode && !tree && !objs)
             continue; // refused above, as expected or reported
         pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = mode,
                                .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY,
                                .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1};
         pn_shadow_accel_bind(&acc, &rd);
+        if (mode != PN_SHADOW_LINESPACE)
+            rd.objects = NULL; // per-object trees serve linespace only (renderer.c)
+        else if (objs)
+            CHECK_MSG(rd.objects && !rd.pools, "%s: linespace not bound to the per-object trees", c->name);
         pn_renderer ren;
         pn_result r = pn_renderer_create(dev, &scene, &rd, &ren);
         CHECK_MSG(r == PN_OK, "%s %s: renderer: %s", c->name, MODE_NAME(mi), pn_result_str(r));
@@ -1431,6 +1659,19 @@ int main(int argc, char **argv)
         {"degenerate 1e-4", 1e-4, 0, ID, ABOVE, 8, 2, 16, GEO_DEGENERATE, EXPECT_RENDER, false, 1024},
         {"single triangle", 1, 0, ID, ABOVE, 6, 3, 16, GEO_SINGLE, EXPECT_RENDER, false, 1024},
         {"single triangle LS(16,max)", 1, 0, ID, ABOVE, 16, 0, 4, GEO_SINGLE, EXPECT_RENDER, false, 1024},
+        // Per-object trees (linespace; the other modes without a tree): one mesh instanced three
+        // times, translated, scaled non-uniformly and turned (cutting through the first), and
+        // turned at half size; the receiver and the block are the rest. At 1e5 the rest's tree, in
+        // world space, limits the depth as the scene-wide tree's does (its leaves are refused, the
+        // objects' are in their own frames), and LS(2,2)'s leaves make the linespace bound [0, 1]
+        // (as at 1e5, LS(2,3)): values and the other modes are checked there.
+        {"objects", 1, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
+        {"objects packet", 1, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
+        {"objects scale 1e4", 1e4, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
+        {"objects scale 1e-4 packet", 1e-4, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
+        {"objects at 1e5, LS(6,3)", 1, 1e5, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_TREE_REFUSED, false, 1024},
+        {"objects at 1e5, LS(2,2)", 1, 1e5, ID, ABOVE, 2, 2, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
+        {"objects at 1e5, LS(2,2) packet", 1, 1e5, ID, ABOVE, 2, 2, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
         // The filter's own scene (filter_triangles) at scale 1, at the sweep's extremes of scale, and
         // shifted to 1e4 and 1e5, where 16 ulps of the coordinates are a tenth of a footprint and
         // about one.
