@@ -1348,7 +1348,7 @@ pn_result Loader::emit(pn_scene *out)
             m.triangle_count = (uint32_t)(mesh_soup_[i].size() / 9);
             m.tris = static_cast<float(*)[3][3]>(std::malloc(mesh_soup_[i].size() * sizeof(float) + 1));
             ok = m.tris != nullptr;
-            if (ok)
+            if (ok && !mesh_soup_[i].empty()) // a mesh whose primitives gave no triangles has none
                 std::memcpy(m.tris, mesh_soup_[i].data(), mesh_soup_[i].size() * sizeof(float));
         }
     }
