@@ -1422,8 +1422,6 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filt
         pn_shadow_accel_desc ad = {.needs = pn_shadow_needs_all(dev), .tree_n = c->tree_n, .tree_d = try_d,
                                    .max_bytes = max_bytes, .max_pool_bytes = max_pool, .light = &light,
                                    .per_object = per_object};
-        if (per_object) // no candidate lists or leaf planes in per-object trees
-            ad.needs.candidates = ad.needs.planes = false;
         pn_log_level level = pn_log_get_level();
         if (!d)
             pn_log_set_level(PN_LOG_QUIET); // the deeper trees' refusals are expected here

@@ -48,7 +48,8 @@ static pn_result mesh_scene(const pn_scene *scene, uint32_t m, pn_scene *out)
 }
 
 // The triangles no object holds, in world space; index_count 0 if there are none. Shares the
-// scene's vertices (free only out->indices).
+// scene's vertices (free only out->indices). Its bounds are the whole scene's: the tree judges which
+// of its triangles can block a ray against them and the lights (ntree.c, can_block).
 static pn_result rest_scene(const pn_scene *scene, pn_scene *out)
 {
     memset(out, 0, sizeof *out);
@@ -75,7 +76,8 @@ static pn_result rest_scene(const pn_scene *scene, pn_scene *out)
     free(held);
     out->vertices = scene->vertices;
     out->vertex_count = scene->vertex_count;
-    pn_scene_update_bounds(out);
+    memcpy(out->bounds_min, scene->bounds_min, sizeof out->bounds_min);
+    memcpy(out->bounds_max, scene->bounds_max, sizeof out->bounds_max);
     return PN_OK;
 }
 
@@ -96,11 +98,9 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
     out->instances = calloc(out->instance_count ? out->instance_count : 1, sizeof *out->instances);
     if (!out->trees || !out->pools || !out->instances)
         r = PN_ERR_MEMORY;
-    // Trees alone: no culling by light or view (objects.h). The byte limits hold for all together.
+    // The meshes' trees are not culled, the rest's by the lights (objects.h). The byte limit holds
+    // for all trees together.
     pn_ntree_desc td = {.n = desc->n, .d = desc->d, .max_pool_bytes = desc->max_pool_bytes};
-    // The rest's triangles are judged against the whole scene's bounds and the lights (can_block).
-    memcpy(rest.bounds_min, scene->bounds_min, sizeof rest.bounds_min);
-    memcpy(rest.bounds_max, scene->bounds_max, sizeof rest.bounds_max);
     for (uint32_t i = 0; r == PN_OK && i < out->tree_count; i++) {
         bool is_rest = i == scene->mesh_count;
         if (!is_rest && scene->meshes[i].triangle_count == 0)

@@ -17,11 +17,8 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
         pn_light_corners(&desc->light[i], &corners[4 * i]);
     uint32_t light_corners = 4 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS);
     if (desc->needs.tree && desc->per_object) {
-        // Per-object trees hold line spaces only: no candidate lists or leaf planes (yet).
-        if (desc->needs.candidates || desc->needs.planes) {
-            pn_error("%s: per-object trees (--trees object) serve the linespace mode only", scene->name);
-            return PN_ERR_INVALID;
-        }
+        // Line spaces only: no candidate lists or leaf planes; the renderer binds per-object trees
+        // for linespace alone.
         pn_ntree_desc td = {.n = desc->tree_n, .d = desc->tree_d, .max_bytes = desc->max_bytes,
                             .max_pool_bytes = desc->max_pool_bytes, .cull_light = (const float(*)[3])corners,
                             .cull_light_corners = light_corners};

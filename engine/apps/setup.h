@@ -27,8 +27,8 @@ typedef struct pn_shadow_accel_desc {
     const float *keep_box;  // and, when given (lo xyz, hi xyz), those wholly outside this box
     const pn_bvh *reuse_bvh; // for needs.bvh: put this one in the exact pools instead of building one
                              // (not owned; must outlive the accel)
-    bool per_object;         // needs.tree as one tree per mesh and a top level (accel/objects.h);
-                             // linespace mode only (pn_shadow_accel_build says so otherwise)
+    bool per_object;         // needs.tree as one tree per mesh and a top level (accel/objects.h), of
+                             // line spaces only: the renderer binds them for linespace mode alone
 } pn_shadow_accel_desc;
 
 typedef struct pn_shadow_accel {

@@ -26,7 +26,7 @@ typedef struct pn_renderer_desc {
     const pn_gpu_pools *pools; // the uploaded N-tree, for the modes whose needs.tree is set
     const struct pn_gpu_objects *objects; // or the per-object trees (gpu/pools.h), for needs.tree
     double leaf_size;          // edge of a leaf cell of that tree, world units (per-object trees:
-                               // the largest extent of a leaf along a world axis)
+                               // the finest tree's leaf extent along a world axis, pn_objects.leaf_size)
     const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools
     uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
     VkAccelerationStructureKHR tlas; // the device-built structure, for needs.tlas (gpu/tlas.h)
