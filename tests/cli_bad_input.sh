@@ -115,6 +115,10 @@ expect 2 "--traversal: expected one of" -- "${R[@]}" --traversal bfs
 expect 2 "--sampler: expected one of" -- "${R[@]}" --sampler halton
 expect 2 "--filter: expected one of" -- "${R[@]}" --filter bilateral
 expect 2 "--tile: expected WIDTHxHEIGHT" -- "${R[@]}" --tile 9x3
+expect 2 "--split: expected one of" -- "${R[@]}" --split half
+expect 2 "budgeted split .* needs filter none.*got filter interleaved" -- "${R[@]}" --split budget --filter interleaved
+expect 2 "budgeted split .* needs filter none.*sampler grid" -- "${R[@]}" --sampler grid --split budget
+expect 2 "budgeted split .* ray dump" -- "${R[@]}" --mode exact --split budget --ray-dump "$TMP/rays.bin"
 expect 2 "--tile: expected WIDTHxHEIGHT" -- "${R[@]}" --tile 0x3
 expect 2 "option --size needs a value" -- "${R[@]}" --size
 expect 2 "more than one scene" -- "${R[@]}" builtin:plane builtin:default

@@ -51,8 +51,8 @@ void main()
     put(uvec2(params.tris)); put(uvec2(params.bvh)); put(uvec2(params.bvh_tris));
     put(uvec2(params.cand_offset)); put(uvec2(params.cand_tris)); put(uvec2(params.dump));
     put(params.dump_rays); put(params.cand_first); put(uvec2(params.work)); put(params.tile_w);
-    put(params.tile_h); put(params.object_count); put(params.pad3);
-    put(uvec2(params.objects)); put(uvec2(params.top)); put(uvec2(params.top_ids)); put(params.pad4); put(params.pad5);
+    put(params.tile_h); put(params.object_count); put(params.split);
+    put(uvec2(params.objects)); put(uvec2(params.top)); put(uvec2(params.top_ids)); put(params.light_count); put(params.budget);
     for (int i = 0; i < PN_MAX_LIGHTS; i++)
         put_light(params.lights[i]);
 

@@ -39,9 +39,9 @@ static const field params_fields[] = {
     F(pn_shadow_params, bvh),                 F(pn_shadow_params, bvh_tris),    F(pn_shadow_params, cand_offset),
     F(pn_shadow_params, cand_tris),           F(pn_shadow_params, dump),        F(pn_shadow_params, dump_rays),
     F(pn_shadow_params, cand_first),          F(pn_shadow_params, work),        F(pn_shadow_params, tile_w),
-    F(pn_shadow_params, tile_h),              F(pn_shadow_params, object_count), F(pn_shadow_params, pad3),
+    F(pn_shadow_params, tile_h),              F(pn_shadow_params, object_count), F(pn_shadow_params, split),
     F(pn_shadow_params, objects),             F(pn_shadow_params, top),         F(pn_shadow_params, top_ids),
-    F(pn_shadow_params, pad4),                F(pn_shadow_params, pad5),
+    F(pn_shadow_params, light_count),         F(pn_shadow_params, budget),
     LIGHT(0), LIGHT(1), LIGHT(2), LIGHT(3), LIGHT(4), LIGHT(5), LIGHT(6), LIGHT(7),
     LIGHT(8), LIGHT(9), LIGHT(10), LIGHT(11), LIGHT(12), LIGHT(13), LIGHT(14), LIGHT(15),
     {0}};

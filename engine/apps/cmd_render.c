@@ -102,6 +102,10 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
         pn_error("--ray-dump: mode %s traces no rays", pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
     }
+    pn_renderer_desc frame = pn_render_opts_setup(&o->r).frame;
+    frame.dump_rays = o->ray_dump != NULL;
+    if (pn_renderer_check_split(&frame) != PN_OK)
+        return PN_EXIT_USAGE;
     return PN_EXIT_OK;
 }
 
@@ -224,10 +228,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(", \"scene\": ");
         pn_json_string(stdout, scene->name);
         printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"traversal\": \"%s\", "
-               "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, \"filter\": \"%s\", ",
+               "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, \"filter\": \"%s\", \"split\": \"%s\", ",
                o->r.width, o->r.height, pn_scene_triangle_count(scene), mode->name,
                pn_traversal_names[o->r.traversal], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed,
-               pn_filter_names[o->r.filter]);
+               pn_filter_names[o->r.filter], pn_split_names[o->r.split]);
         if (o->r.filter != PN_FILTER_NONE)
             printf("\"tile\": [%u, %u], ", o->r.tile_w, o->r.tile_h);
         else
@@ -276,7 +280,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(" LS(%d,%d)%s %s", o->r.tree_n, o->r.tree_d, o->r.per_object ? " per object" : "",
                pn_traversal_names[o->r.traversal]);
     if (mode->traces)
-        printf(" %s %lld spp", pn_sampler_names[o->r.sampler], o->r.spp);
+        printf(" %s %lld spp%s", pn_sampler_names[o->r.sampler], o->r.spp,
+               o->r.split == PN_SPLIT_BUDGET ? " per light, budgeted split" : "");
     if (o->r.filter != PN_FILTER_NONE)
         printf(" filter %s %ux%u", pn_filter_names[o->r.filter], o->r.tile_w, o->r.tile_h);
     printf(" -> %s%s%s\n", output, o->preview ? ", " : "", o->preview ? o->preview : "");

@@ -199,12 +199,16 @@ static void toggle_traversal(pn_demo *d, float unused)
 static void toggle_sampler(pn_demo *d, float unused)
 {
     d->opts.sampler = d->opts.sampler == PN_SAMPLER_GRID ? PN_SAMPLER_STRATIFIED : PN_SAMPLER_GRID;
+    if (d->opts.sampler == PN_SAMPLER_GRID)
+        d->opts.split = PN_SPLIT_EVEN; // a budgeted split has no grid to fit its counts
     d->renderer_dirty = d->restart = true;
 }
 
 static void toggle_filter(pn_demo *d, float unused)
 {
     d->opts.filter = d->opts.filter == PN_FILTER_NONE ? PN_FILTER_INTERLEAVED : PN_FILTER_NONE;
+    if (d->opts.filter != PN_FILTER_NONE)
+        d->opts.split = PN_SPLIT_EVEN; // interleaving shares one sample set per tile: no budgeted counts
     d->renderer_dirty = d->restart = true;
 }
 

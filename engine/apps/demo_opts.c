@@ -93,5 +93,8 @@ int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
                  pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
     }
+    pn_renderer_desc frame = pn_render_opts_setup(&o->r).frame;
+    if (pn_renderer_check_split(&frame) != PN_OK)
+        return PN_EXIT_USAGE;
     return PN_EXIT_OK;
 }

@@ -153,6 +153,15 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         int m = v ? pn_parse_choice("--filter", v, pn_filter_names) : -1;
         ok = m >= 0;
         o->filter = ok ? (pn_filter)m : o->filter;
+        o->has_filter = ok;
+    } else if (pn_args_value(a, "--split", &v, err)) {
+        int m = v ? pn_parse_choice("--split", v, pn_split_names) : -1;
+        ok = m >= 0;
+        o->split = ok ? (pn_split)m : o->split;
+        // A budgeted split gives every pixel its own sample counts, which a tile's interleaving
+        // cannot share: unless asked for, no filter (the renderer refuses one).
+        if (ok && o->split == PN_SPLIT_BUDGET && !o->has_filter)
+            o->filter = PN_FILTER_NONE;
     } else if (pn_args_value(a, "--tile", &v, err)) {
         ok = v && pn_parse_size("--tile", v, PN_FILTER_MAX_TILE, &o->tile_w, &o->tile_h);
     } else {
@@ -209,7 +218,12 @@ void pn_render_opts_print_help(void)
            "                        V agrees up to the samples' noise; the EXR keeps the\n"
            "                        unfiltered V as shadow.V_raw (default interleaved: lower error\n"
            "                        at 4-64 spp on the bench's views; none for a reference)\n"
-           "  --tile WxH            the tile and filter window, 1..8 each (default 3x3)\n");
+           "  --tile WxH            the tile and filter window, 1..8 each (default 3x3)\n"
+           "  --split even|budget   several lights: S rays per pixel for each (default even), or S x\n"
+           "                        lights rays per pixel in all, shared by each light's unshadowed\n"
+           "                        irradiance at the pixel, at least one per light that reaches it\n"
+           "                        (budget: stratified sampler; the filter defaults to none, the\n"
+           "                        interleaved one shares one set of samples per tile)\n");
 }
 
 // The camera and light feed float arithmetic that squares distances (the view matrix, the light's
@@ -376,6 +390,7 @@ pn_setup_desc pn_render_opts_setup(const pn_render_opts *o)
                   .traversal = o->traversal,
                   .sampler = o->sampler,
                   .filter = o->filter,
+                  .split = o->split,
                   .tile_w = o->tile_w,
                   .tile_h = o->tile_h,
                   .spp = (uint32_t)o->spp,

@@ -30,7 +30,9 @@ typedef struct pn_render_opts {
     pn_traversal traversal;
     pn_sampler sampler;
     pn_filter filter;
+    bool has_filter;    // --filter given: --split budget otherwise turns the filter off
     uint32_t tile_w, tile_h;
+    pn_split split;     // --split: how several lights share a pixel's rays
     int tree_n, tree_d;
     bool per_object;    // --trees object: one tree per mesh and a top level (accel/objects.h)
     // --move-object I:DX,DY,DZ: object I (the file's I-th node with a mesh) moved by that much in
@@ -51,7 +53,7 @@ typedef struct pn_render_opts {
 pn_render_opts pn_render_opts_default(void);
 
 // If argv[a->i] is one of the shared options (--size, --camera-*, --fov, --light-*, --ground,
-// --no-ground, --exposure, --seed, --spp, --tree, --trees, --move-object, --max-memory, --mode, --traversal, --sampler, --filter, --tile),
+// --no-ground, --exposure, --seed, --spp, --tree, --trees, --move-object, --max-memory, --mode, --traversal, --sampler, --filter, --tile, --split),
 // consumes it and returns true; a bad value is logged and sets *err.
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
 

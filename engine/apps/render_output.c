@@ -126,6 +126,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = pn_sampler_names[o->sampler]},
         {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
         {.name = "penumbra.filter", .type = PN_EXR_ATTR_STRING, .s = pn_filter_names[o->filter]},
+        {.name = "penumbra.split", .type = PN_EXR_ATTR_STRING, .s = pn_split_names[o->split]},
         {.name = "penumbra.tile.w", .type = PN_EXR_ATTR_INT, .i = o->filter ? (int32_t)o->tile_w : 0},
         {.name = "penumbra.tile.h", .type = PN_EXR_ATTR_INT, .i = o->filter ? (int32_t)o->tile_h : 0},
         {.name = "penumbra.tree.n", .type = PN_EXR_ATTR_INT, .i = tree ? o->tree_n : 0},

@@ -12,6 +12,14 @@
 typedef enum pn_filter { PN_FILTER_NONE, PN_FILTER_INTERLEAVED } pn_filter;
 extern const char *const pn_filter_names[];
 
+// How a pixel's rays are shared among the frame's lights. even: spp rays for every light.
+// budget: spp x lights rays per pixel in all (as many as even), given to each light by its share of
+// the pixel's unshadowed irradiance, at least one to each light that reaches the pixel (budget_rays
+// in shadow_frame.glsl). A pixel's count then varies per light, so budget draws its samples from
+// the R2 sequence rather than a grid, and works without interleaving (filter none) or ray dumps.
+typedef enum pn_split { PN_SPLIT_EVEN = PN_SPLIT_EVEN_ID, PN_SPLIT_BUDGET = PN_SPLIT_BUDGET_ID } pn_split;
+extern const char *const pn_split_names[];
+
 // Zero-initialised means: mode none, per-ray traversal, stratified sampler, seed 0; width, height and spp
 // must be set (apps/render_opts.c fills one from the command line).
 typedef struct pn_renderer_desc {
@@ -23,6 +31,7 @@ typedef struct pn_renderer_desc {
     uint32_t seed; // fixes the stratified jitter
     pn_filter filter;
     uint32_t tile_w, tile_h; // the interleaving tile and filter window (with filter; 0 means 3)
+    pn_split split;          // with several lights (stratified sampler, no filter, no ray dump for budget)
     const pn_gpu_pools *pools; // the uploaded N-tree, for the modes whose needs.tree is set
     const struct pn_gpu_objects *objects; // or the per-object trees (gpu/pools.h), for needs.tree
     double leaf_size;          // edge of a leaf cell of that tree, world units (per-object trees:

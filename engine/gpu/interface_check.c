@@ -55,7 +55,7 @@ AT(pn_shadow_params, tile_h, 164);
 AT(pn_shadow_params, object_count, 168);
 AT(pn_shadow_params, objects, 176);
 AT(pn_shadow_params, top_ids, 192);
-AT(pn_shadow_params, pad5, 204);
+AT(pn_shadow_params, budget, 204);
 AT(pn_shadow_params, lights, 208); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
 SIZE(pn_shadow_params, 208 + 96 * PN_MAX_LIGHTS);
 AT(pn_gpu_object, tree, 0);

@@ -67,6 +67,23 @@ static pn_result create_targets(pn_renderer *r)
 
 // ---------------------------------------------------------------------------------------------
 
+// A budgeted split gives each pixel its own number of rays per light: no tile can share one set of
+// samples (interleaving), no grid fits every count, and the ray dump holds spp rays per pixel.
+pn_result pn_renderer_check_split(const pn_renderer_desc *d)
+{
+    if ((unsigned)d->split > PN_SPLIT_BUDGET) {
+        pn_error("split %d: even or budget", (int)d->split);
+        return PN_ERR_INVALID;
+    }
+    if (d->split == PN_SPLIT_BUDGET && (d->filter != PN_FILTER_NONE || d->sampler != PN_SAMPLER_STRATIFIED || d->dump_rays)) {
+        pn_error("the budgeted split draws a number of rays per pixel and light of its own: it needs filter none, "
+                 "the stratified sampler and no ray dump (got filter %s, sampler %s%s)",
+                 pn_filter_names[d->filter], pn_sampler_names[d->sampler], d->dump_rays ? ", ray dump" : "");
+        return PN_ERR_INVALID;
+    }
+    return PN_OK;
+}
+
 pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn_renderer_desc *desc,
                              pn_renderer *out)
 {
@@ -116,6 +133,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
                  desc->tile_h, PN_FILTER_MAX_TILE);
         return PN_ERR_INVALID;
     }
+    PN_TRY(pn_renderer_check_split(desc));
     if (desc->spp == 0 && mode->traces) {
         pn_error("spp must be at least 1");
         return PN_ERR_INVALID;
@@ -357,7 +375,10 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     uint32_t samples[PN_MAX_LIGHTS], noise_samples[PN_MAX_LIGHTS], spp = r->desc.spp ? r->desc.spp : 1;
     for (uint32_t i = 0; i < light_count; i++) {
         l[i] = pn_light_to_gpu(&lights[i]);
-        samples[i] = pn_shadow_samples(spp, &lights[i]);
+        // A budgeted split: up to the whole budget for one light; each pixel stops at its own count.
+        samples[i] = r->desc.split == PN_SPLIT_BUDGET && !pn_light_is_point(&lights[i])
+                         ? pn_shadow_budget(spp, light_count)
+                         : pn_shadow_samples(spp, &lights[i]);
         noise_samples[i] = pn_filter_noise_samples(spp, &lights[i]);
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
@@ -439,6 +460,9 @@ pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile
                  PN_FILTER_MAX_TILE);
         return PN_ERR_INVALID;
     }
+    pn_renderer_desc d = r->desc;
+    d.filter = filter;
+    PN_TRY(pn_renderer_check_split(&d));
     r->desc.filter = filter, r->desc.tile_w = tile_w, r->desc.tile_h = tile_h;
     // The queue is idle between frames (pn_renderer_render waits), so the shading pass's set may be
     // rewritten; the readback buffer always has room for V_raw (create_targets).
@@ -464,7 +488,19 @@ pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on)
         pn_error("ray dumps need a renderer created with dump_rays and at most its %u spp", r->shadow.dump_spp);
         return PN_ERR_INVALID;
     }
+    pn_renderer_desc d = r->desc;
+    d.dump_rays = on;
+    PN_TRY(pn_renderer_check_split(&d));
     r->desc.dump_rays = on;
+    return PN_OK;
+}
+
+pn_result pn_renderer_set_split(pn_renderer *r, pn_split split)
+{
+    pn_renderer_desc d = r->desc;
+    d.split = split;
+    PN_TRY(pn_renderer_check_split(&d));
+    r->desc.split = split;
     return PN_OK;
 }
 

@@ -72,6 +72,15 @@ pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile
 // exceed the desc's (the dump's buffer holds that many rays per pixel): PN_ERR_INVALID, logged.
 pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp);
 
+// PN_OK if desc's split goes with its filter, sampler and ray dump; else logs why (the command
+// lines check it before any set-up, as a usage error).
+pn_result pn_renderer_check_split(const pn_renderer_desc *desc);
+
+// Changes how the rays are shared among several lights from the next frame on (the bench's --lights
+// rows time both splits on one set-up). Budget needs filter none, the stratified sampler and no ray
+// dump: PN_ERR_INVALID, logged, otherwise.
+pn_result pn_renderer_set_split(pn_renderer *r, pn_split split);
+
 // Turns the ray dump off and on again from the next frame on (a renderer created with dump_rays;
 // on: spp at most the desc's). The bench times exact without it and dumps one more frame for Embree.
 pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on);

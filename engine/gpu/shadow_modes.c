@@ -71,6 +71,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
 
 const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet", NULL};
 const char *const pn_filter_names[] = {[PN_FILTER_NONE] = "none", [PN_FILTER_INTERLEAVED] = "interleaved", NULL};
+const char *const pn_split_names[] = {[PN_SPLIT_EVEN] = "even", [PN_SPLIT_BUDGET] = "budget", NULL};
 const char *const pn_sampler_names[] = {[PN_SAMPLER_STRATIFIED] = "stratified", [PN_SAMPLER_GRID] = "grid", NULL};
 
 const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m)

@@ -15,6 +15,8 @@ double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_ligh
     return shadow_ms > 0 ? (double)covered_pixels * pn_shadow_samples(spp, light) / (shadow_ms * 1e-3) : 0;
 }
 
+uint32_t pn_shadow_budget(uint32_t spp, uint32_t light_count) { return (spp ? spp : 1) * (light_count ? light_count : 1); }
+
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
 {
     uint32_t u = 1;
@@ -131,6 +133,9 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     for (uint32_t i = 0; i < light_count && i < PN_MAX_LIGHTS; i++)
         sp.lights[i] = lights[i];
     sp.spp = desc->spp ? desc->spp : 1;
+    sp.light_count = light_count;
+    sp.split = (uint32_t)desc->split;
+    sp.budget = pn_shadow_budget(sp.spp, light_count); // at least the light count: budget_rays relies on it
     pn_sample_grid(sp.spp, &sp.grid_u, &sp.grid_v);
     sp.sampler_kind = (uint32_t)desc->sampler;
     sp.seed = desc->seed;

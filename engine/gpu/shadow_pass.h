@@ -30,6 +30,8 @@ typedef struct pn_shadow_pass {
 // Light samples the shadow pass traces per pixel for spp: one for a point light, whose samples all
 // coincide (the first decides V), else spp. Shadow rays per second count these.
 uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light);
+// A budgeted split's rays per pixel over all `light_count` lights: as many as the even split's.
+uint32_t pn_shadow_budget(uint32_t spp, uint32_t light_count);
 
 // The samples one pixel's V is the mean of, as the filter's noise model counts them (FilterPush.samples):
 // pn_shadow_samples, but 0 for a point light, whose V has no noise (every sample is the same ray).

@@ -42,6 +42,9 @@
 // ShadowParams.sampler_kind. Zero is each enum's default on the command line.
 #define PN_SAMPLER_STRATIFIED_ID 0 // jittered strata, per-pixel rotated R2 jitters (the default)
 #define PN_SAMPLER_GRID_ID 1 // the paper's uniform grid
+// ShadowParams.split: how a pixel's rays are shared among several lights.
+#define PN_SPLIT_EVEN_ID 0   // spp rays for every light
+#define PN_SPLIT_BUDGET_ID 1 // a budget of rays per pixel, shared by each light's unshadowed irradiance
 
 // Descriptor bindings, set 0 of each pass.
 #define PN_GBUFFER_BINDING_MATERIALS 0 // storage buffer of Material
@@ -234,12 +237,12 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(tile_w)                 // interleaved sampling: the tile whose pixels share the light's
     PN_UINT(tile_h)                 // strata (1 x 1: every pixel has all of them; light_sample)
     PN_UINT(object_count)           // per-object trees: objects in `objects`; 0: the one tree in `tree`
-    PN_UINT(pad3)
+    PN_UINT(split)                  // PN_SPLIT_*_ID: how a pixel's rays are shared among the lights
     PN_ADDR(ObjectPool, objects)    // per-object trees: the objects, each with its tree
     PN_ADDR(BvhPool, top)           // a BVH over the objects' world boxes
     PN_ADDR(IndexPool, top_ids)     // object indices in the top BVH's leaf order
-    PN_UINT(pad4)
-    PN_UINT(pad5)
+    PN_UINT(light_count)            // lights in `lights`
+    PN_UINT(budget)                 // PN_SPLIT_BUDGET_ID: rays per pixel over all the lights
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 

@@ -62,12 +62,17 @@ vec2 light_sample(uint k, uvec2 pixel)
     // The shift may vary per cell but not per tile: a window that straddles tiles must still hold
     // each sub-cell of a cell once, so the pixel's class alone decides its sub-cell.
     uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(pcg(params.seed) + k) : 0u)) % tiles;
+    vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+    const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
+    // Budgeted split: each pixel draws its own number of samples per light (chunk_count), so there
+    // is no grid to stratify; the first n points of the rotated R2 sequence are evenly spread over
+    // the light for every n (the sequence's discrepancy is O(log n / n) at each prefix). The light
+    // index enters the rotation so that two lights of one pixel do not share a pattern.
+    if (params.split == PN_SPLIT_BUDGET_ID)
+        return fract(rotation + alpha * float(k + 1u) + alpha.yx * float(chunk.light));
     vec2 jitter = vec2(0.5);
-    if (params.sampler_kind == SAMPLER_STRATIFIED) {
-        vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
-        const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
+    if (params.sampler_kind == SAMPLER_STRATIFIED)
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
-    }
     vec2 cell = vec2(i * tile_size.x + sub % tile_size.x, j * tile_size.y + sub / tile_size.x);
     return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
 }

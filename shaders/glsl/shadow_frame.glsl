@@ -1,5 +1,6 @@
 // The skeleton of a shadow shader: the pixel, its chunk of rays, the counts. Include after
 // shadow_common.glsl.
+#include "light.glsl"
 
 layout(set = 0, binding = PN_SHADOW_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_SHADOW_BINDING_N, rgba32f) uniform readonly image2D img_n;
@@ -40,6 +41,60 @@ vec3 shadow_origin(vec3 p, vec3 nrm, float rise_leaves, out float rise)
     float mag = max(max(max(abs(p.x), abs(p.y)), abs(p.z)), params.scene_mag);
     rise = rise_leaves * params.leaf_size * (abs(nrm.x) + abs(nrm.y) + abs(nrm.z));
     return p + nrm * (8.0 * ulp_bound(mag));
+}
+
+// The rays this pixel traces for the dispatch's light in its budgeted split: a lit point light
+// takes one (its V is exact with one ray); every lit area light at least one, so that its V is an
+// unbiased estimate however dim it is; the rest of the budget goes to the area lights in
+// proportion to their unshadowed irradiance at the pixel (largest remainders round it, so the
+// counts sum to the budget). Proportional is the split that minimises the variance of the
+// radiance, sum_l E_l^2 V_l (1 - V_l) / n_l under sum_l n_l = B, when nothing is known of V. 0 for
+// an unlit light: its term is zero whatever V is. Every dispatch of the frame computes the same
+// counts from the same G-buffer texel.
+uint budget_rays(vec3 p, vec3 nrm)
+{
+    float e[PN_MAX_LIGHTS];
+    float total = 0.0;
+    uint areas = 0u, points = 0u;
+    for (uint j = 0u; j < params.light_count; j++) {
+        Light l = params.lights[j];
+        // The radiance's mean over r, g and b: the error figures average the three channels.
+        e[j] = light_irradiance(l, p, nrm) * (l.radiance.r + l.radiance.g + l.radiance.b);
+        bool lit = e[j] > 0.0;
+        points += lit && l.radiance.w != 0.0 ? 1u : 0u;
+        areas += lit && l.radiance.w == 0.0 ? 1u : 0u;
+        total += lit && l.radiance.w == 0.0 ? e[j] : 0.0;
+    }
+    uint me = chunk.light;
+    if (!(e[me] > 0.0))
+        return 0u;
+    if (LIGHT.radiance.w != 0.0)
+        return 1u;
+    // The host makes the budget at least the light count (pn_shadow_pass_update).
+    uint rest = params.budget - min(params.budget, points + areas);
+    float share = float(rest) / total;
+    uint given = 0u;
+    for (uint j = 0u; j < params.light_count; j++)
+        given += e[j] > 0.0 && params.lights[j].radiance.w == 0.0 ? uint(floor(e[j] * share)) : 0u;
+    uint left = rest - min(rest, given);
+    float mine = e[me] * share, frac_me = mine - floor(mine);
+    uint ahead = 0u; // area lights whose remainder comes first
+    for (uint j = 0u; j < params.light_count; j++) {
+        float x = e[j] * share, f = x - floor(x);
+        bool area = e[j] > 0.0 && params.lights[j].radiance.w == 0.0;
+        ahead += area && (f > frac_me || (f == frac_me && j < me)) ? 1u : 0u;
+    }
+    return 1u + uint(floor(mine)) + (ahead < left ? 1u : 0u);
+}
+
+// The rays of this dispatch's chunk at this pixel: the chunk's, or under a budgeted split the part
+// of the chunk below the pixel's own count for the light (possibly none).
+uint chunk_count(vec3 p, vec3 nrm)
+{
+    uint end = chunk.sample_end;
+    if (params.split == PN_SPLIT_BUDGET_ID)
+        end = min(end, budget_rays(p, nrm));
+    return min(end - min(end, chunk.sample_begin), MAX_CHUNK);
 }
 
 // Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry

@@ -564,7 +564,7 @@ void main()
     float rise;
     vec3 o = shadow_origin(p, nrm, RISE_LEAVES, rise);
     TreeInfo t = params.tree;
-    uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
+    uint count = chunk_count(p, nrm), i;
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     // The rays to trace: the valid ones; in linespace and ls-leaf only those that rise clear of their

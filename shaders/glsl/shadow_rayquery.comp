@@ -30,7 +30,7 @@ void main()
         return;
     float rise;
     vec3 o = shadow_origin(p, nrm, RISE_SHAFT_LEAVES, rise);
-    uint count = min(chunk.sample_end - chunk.sample_begin, MAX_CHUNK), i;
+    uint count = chunk_count(p, nrm), i;
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
