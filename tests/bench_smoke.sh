@@ -84,12 +84,29 @@ assert all(r["width"] == 64 and r["height"] == 48 and r["bias"]["max"] == 0 for 
 # --lights 1,2: per configuration a frame of one and of two lights over a tree built for them, with
 # the ratios to the view's light alone and to each light's frame alone.
 lights = json.load(open(sys.argv[1]))["lights"]
-assert [(l["mode"], l["lights"]) for l in lights] == [("exact", 1), ("exact", 2), ("exact-ls", 1), ("exact-ls", 2)], lights
+# Two lights also with the budgeted split. No radiance error at shader level: no albedo.
+assert [(l["mode"], l["lights"], l["split"]) for l in lights] == [
+    ("exact", 1, "even"), ("exact", 2, "even"), ("exact", 2, "budget"),
+    ("exact-ls", 1, "even"), ("exact-ls", 2, "even"), ("exact-ls", 2, "budget")], lights
 for l in lights:
     assert l["frame_ms"] > l["shadow_ms"] > 0 and l["shade_ms"] > 0 and l["vs_sum"] > 0 and l["pool_mb"] > 0, l
     assert l["spp"] == 9 and l["filter"] == "none" and l["tree"] == (None if l["mode"] == "exact" else [5, 2]), l
+    assert l["radiance_error"] is None, l
     if l["lights"] == 1:
         assert l["vs_one"] == 1, l
 print("shader-level rows ok")
+PY
+# Frame level: each set's radiance against its converged reference, both splits.
+"$BIN" bench --scenes builtin:default --size 64x48 --modes exact --filter none --spp 4 --repeat 1 --warmup 0 --no-embree \
+  --lights 1,3 --out "$OUT/lights" > "$OUT/lights.txt" || { echo "FAIL: bench --lights"; fail=1; }
+python3 - "$OUT/lights/bench.json" <<'PY' || fail=1
+import json, sys
+lights = json.load(open(sys.argv[1]))["lights"]
+assert [(l["mode"], l["lights"], l["split"]) for l in lights] == [("exact", 1, "even"), ("exact", 3, "even"), ("exact", 3, "budget")], lights
+for l in lights:
+    e = l["radiance_error"]
+    # 4 rays per light against 1024: noisy, so above zero; and far under the radiance itself.
+    assert e is not None and 0 < e["mae_rel"] < 0.5 and 0 < e["rmse_rel"] < 1, l
+print("light rows ok")
 PY
 exit $fail

@@ -128,6 +128,7 @@ typedef struct bench_light_row {
     int n, d;
     pn_filter filter;
     uint32_t lights;
+    pn_split split;           // how the pixel's rays are shared among the lights
     double build_ms, pool_mb; // the tree (and BVH) for the set of lights
     uint32_t culled;          // triangles the tree leaves out for the set
     double frame_ms;          // median of G-buffer + shadow + filter + shading passes
@@ -137,6 +138,11 @@ typedef struct bench_light_row {
     // same run): below 1 where sharing the G-buffer and the tree pays; "k lights cost at most k
     // times one light" means at most 1 here, whatever each light costs.
     double vs_sum;
+    // The radiance's error against the set's converged reference (exact, --reference-spp rays per
+    // light, another seed, even split), over the covered pixels, r + g + b per pixel, relative to
+    // the reference's mean: MAE and RMSE. has_error false with --gbuffer (no albedo, no radiance).
+    bool has_error;
+    double mae_rel, rmse_rel;
 } bench_light_row;
 
 typedef struct bench_rows {

@@ -433,9 +433,12 @@ static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows 
 }
 
 // --lights: the view's light turned about the vertical (+Y) axis through `centre` in k even steps,
-// each with 1/k of its radiance (so the set lights the scene about as brightly as the one light).
+// light i with 2^-i of the first's radiance and all together with the one light's (so the set
+// lights the scene about as brightly as it): a bright light and dimmer ones, as real sets are, so
+// that a budgeted split has shares to follow.
 static void light_set(const pn_light *light, const float centre[3], uint32_t k, pn_light *out)
 {
+    double weights = 2.0 - ldexp(1.0, 1 - (int)k); // sum of 2^-i, i < k
     for (uint32_t i = 0; i < k; i++) {
         double a = 2.0 * 3.14159265358979323846 * i / k, c = cos(a), s = sin(a);
         pn_light *l = &out[i];
@@ -451,7 +454,7 @@ static void light_set(const pn_light *light, const float centre[3], uint32_t k, 
             w[j][2] = (float)(-s * v[j][0] + c * v[j][2]);
         }
         for (int ch = 0; ch < 3; ch++)
-            l->radiance[ch] = light->radiance[ch] / (float)k;
+            l->radiance[ch] = (float)(light->radiance[ch] * ldexp(1.0, -(int)i) / weights);
     }
 }
 
@@ -463,9 +466,57 @@ static bool push_light_row(bench_rows *rows, const bench_light_row *r)
     return true;
 }
 
+// The converged reference of a set of lights: exact, --reference-spp rays per light and pixel,
+// stratified, a seed no measured frame uses, the even split, no filter. Its radiance (rgba per pixel)
+// into `out`; not cached on disk (bench_reference.c caches one light's V).
+static pn_result lights_reference(const group *g, const pn_light *set, uint32_t k, float *out)
+{
+    pn_setup s;
+    pn_setup_desc sd = {.frame = {.width = g->frame.width, .height = g->frame.height, .mode = PN_SHADOW_REFERENCE,
+                                  .sampler = PN_SAMPLER_STRATIFIED, .spp = g->o->reference_spp,
+                                  .seed = PN_REFERENCE_SEED},
+                        .light_count = k};
+    uint64_t t0 = pn_time_ns();
+    PN_TRY(pn_setup_create(g->dev, g->scene, set, &sd, &s));
+    pn_frame_times t;
+    pn_result r = pn_renderer_render_lights(&s.renderer, g->cam, set, k, &t);
+    if (r == PN_OK) {
+        pn_frame_images img;
+        pn_renderer_images(&s.renderer, &img);
+        memcpy(out, img.radiance, (size_t)g->frame.width * g->frame.height * 4 * sizeof *out);
+        fprintf(stderr, "bench: %s %ux%u: converged reference of %u lights (exact, %u spp per light) in %.1f s\n",
+                g->base.scene, g->frame.width, g->frame.height, k, g->o->reference_spp, pn_ms_since(t0) * 1e-3);
+    }
+    pn_setup_destroy(g->dev, &s);
+    return r;
+}
+
+// The last frame's radiance against the reference (bench_light_row's mae_rel, rmse_rel).
+static void lights_error(const pn_renderer *r, const float *ref, bench_light_row *row)
+{
+    pn_frame_images img;
+    pn_renderer_images(r, &img);
+    size_t px = (size_t)r->width * r->height, n = 0;
+    double ae = 0, se = 0, level = 0;
+    for (size_t i = 0; i < px; i++) {
+        if (!(ref[4 * i + 3] > 0))
+            continue;
+        double want = (double)ref[4 * i] + ref[4 * i + 1] + ref[4 * i + 2];
+        double d = (double)img.radiance[4 * i] + img.radiance[4 * i + 1] + img.radiance[4 * i + 2] - want;
+        ae += fabs(d), se += d * d, level += want;
+        n++;
+    }
+    row->has_error = n > 0 && level > 0;
+    row->mae_rel = row->has_error ? ae / level : 0;
+    row->rmse_rel = row->has_error ? sqrt(se / (double)n) / (level / (double)n) : 0;
+}
+
 // --lights for one configuration: per light count, a set-up whose tree is built for that set, and
-// frames of all its lights timed as the matrix times its cells.
-static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode, int tn, int td, bench_rows *rows)
+// frames of all its lights timed as the matrix times its cells, with the even split and (several
+// lights, stratified sampler) the budgeted one. refs[li]: light count li's reference radiance, or
+// NULL (--gbuffer).
+static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode, int tn, int td,
+                      float *const *refs, bench_rows *rows)
 {
     const bench_opts *o = g->o;
     double one_ms = 0;
@@ -482,8 +533,11 @@ static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode
         if (pn_setup_create(g->dev, g->scene, set, &sd, &s) != PN_OK)
             return PN_EXIT_FAILURE;
         bench_row t = {.filter = sd.frame.filter};
+        bench_light_row r = {0};
         bool ok = (!o->gbuffer || pn_renderer_set_gbuffer(&s.renderer, o->gb_p, o->gb_n) == PN_OK) &&
                   time_frames_lights(o, &s.renderer, g->cam, set, k, &t) == PN_OK;
+        if (ok && refs[li])
+            lights_error(&s.renderer, refs[li], &r); // the set's last frame, before the single lights'
         // Each light of the set alone, on the same set-up: what k separate frames would cost.
         double sum_ms = 0;
         for (uint32_t i = 0; i < k && ok; i++) {
@@ -491,18 +545,36 @@ static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode
             ok = time_frames_lights(o, &s.renderer, g->cam, &set[i], 1, &ti) == PN_OK;
             sum_ms += ti.gbuffer_ms + ti.shadow_ms + ti.filter_ms + ti.shade_ms;
         }
-        bench_light_row r = {.width = g->frame.width, .height = g->frame.height, .spp = sd.frame.spp, .mode = mode,
-                             .n = tn, .d = td, .filter = sd.frame.filter, .lights = k, .build_ms = s.build_ms,
-                             .pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0,
-                             .culled = s.accel.tree.culled, .shadow_ms = t.shadow_ms, .shade_ms = t.shade_ms};
+        r.width = g->frame.width, r.height = g->frame.height, r.spp = sd.frame.spp, r.mode = mode, r.n = tn, r.d = td;
+        r.filter = sd.frame.filter, r.lights = k, r.build_ms = s.build_ms, r.culled = s.accel.tree.culled;
+        r.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
+        r.shadow_ms = t.shadow_ms, r.shade_ms = t.shade_ms;
         snprintf(r.scene, sizeof r.scene, "%s", g->base.scene);
         r.frame_ms = t.gbuffer_ms + t.shadow_ms + t.filter_ms + t.shade_ms;
         if (k == 1)
             one_ms = r.frame_ms;
         r.vs_one = one_ms > 0 ? r.frame_ms / one_ms : 0;
         r.vs_sum = sum_ms > 0 ? r.frame_ms / sum_ms : 0;
+        ok = ok && push_light_row(rows, &r);
+        // The budgeted split over the same set-up and rays per pixel: it needs the stratified sampler
+        // and no filter (one light alone gets the whole budget: the even split).
+        if (ok && k > 1 && sd.frame.sampler == PN_SAMPLER_STRATIFIED) {
+            bench_light_row b = r;
+            bench_row tb = {.filter = PN_FILTER_NONE};
+            ok = pn_renderer_set_filter(&s.renderer, PN_FILTER_NONE, o->tile_w, o->tile_h) == PN_OK &&
+                 pn_renderer_set_split(&s.renderer, PN_SPLIT_BUDGET) == PN_OK &&
+                 time_frames_lights(o, &s.renderer, g->cam, set, k, &tb) == PN_OK;
+            b.split = PN_SPLIT_BUDGET, b.filter = PN_FILTER_NONE, b.has_error = false;
+            if (ok && refs[li])
+                lights_error(&s.renderer, refs[li], &b);
+            b.shadow_ms = tb.shadow_ms, b.shade_ms = tb.shade_ms;
+            b.frame_ms = tb.gbuffer_ms + tb.shadow_ms + tb.filter_ms + tb.shade_ms;
+            b.vs_one = one_ms > 0 ? b.frame_ms / one_ms : 0;
+            b.vs_sum = sum_ms > 0 ? b.frame_ms / sum_ms : 0;
+            ok = ok && push_light_row(rows, &b);
+        }
         pn_setup_destroy(g->dev, &s);
-        if (!ok || !push_light_row(rows, &r))
+        if (!ok)
             return PN_EXIT_FAILURE;
     }
     return PN_EXIT_OK;
@@ -566,7 +638,16 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
         float centre[3];
         for (int k = 0; k < 3; k++)
             centre[k] = 0.5f * (prep.object_min[k] + prep.object_max[k]);
-        // --lights: exact, then every mode available with its first tree.
+        // --lights: each set's converged reference (not with --gbuffer: its albedo is black, so
+        // there is no radiance to compare), then exact and every mode available with its first tree.
+        float *refs[MAX_LIST] = {0};
+        for (int li = 0; li < o->light_count_count && rc == PN_EXIT_OK && !o->gbuffer; li++) {
+            pn_light set[PN_MAX_LIGHTS];
+            light_set(&light, centre, o->light_counts[li], set);
+            refs[li] = malloc(px * 4 * sizeof *refs[li]);
+            if (!refs[li] || lights_reference(&g, set, o->light_counts[li], refs[li]) != PN_OK)
+                rc = PN_EXIT_FAILURE;
+        }
         for (int m = -1; m < o->mode_count && rc == PN_EXIT_OK && o->light_count_count; m++) {
             pn_shadow_mode mode = m < 0 ? PN_SHADOW_REFERENCE : o->modes[m];
             const pn_shadow_mode_info *info = pn_shadow_mode_get(mode);
@@ -574,8 +655,10 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
             if ((m >= 0 && mode == PN_SHADOW_REFERENCE) || !pn_shadow_mode_available(dev, mode, &lack))
                 continue;
             rc = run_lights(&g, centre, mode, info->needs.tree ? o->trees[0][0] : 0,
-                            info->needs.tree ? o->trees[0][1] : 0, rows);
+                            info->needs.tree ? o->trees[0][1] : 0, refs, rows);
         }
+        for (int li = 0; li < o->light_count_count; li++)
+            free(refs[li]);
         if (o->gbuffer && o->max_error_count)
             pn_warn("bench: --max-error is not checked with --gbuffer (--quality auto renders its own G-buffer)");
         for (int b = 0; b < o->max_error_count && rc == PN_EXIT_OK && !o->gbuffer && rows->count > first_row; b++)

@@ -84,11 +84,15 @@ void pn_bench_print_light_row(const bench_light_row *r)
     char tree[16] = "-";
     if (r->n)
         snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
-    printf("lights: %-16.16s %4ux%-4u %4u spp %-9s %-5s %-11s %2u lights: frame %8.1f ms (shadow %8.1f, shade %6.1f) "
-           "= %5.2fx one light's, %4.2fx its lights' frames alone; tree/BVH %7.1f MB built in %7.1f ms, %u "
-           "triangles left out\n",
+    char err[64] = "";
+    if (r->has_error)
+        snprintf(err, sizeof err, "; radiance error %.4f MAE, %.4f RMSE", r->mae_rel, r->rmse_rel);
+    printf("lights: %-16.16s %4ux%-4u %4u spp %-9s %-5s %-11s %2u lights %-6s: frame %8.1f ms (shadow %8.1f, shade "
+           "%6.1f) = %5.2fx one light's, %4.2fx its lights' frames alone; tree/BVH %7.1f MB built in %7.1f ms, %u "
+           "triangles left out%s\n",
            r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, pn_filter_names[r->filter], r->lights,
-           r->frame_ms, r->shadow_ms, r->shade_ms, r->vs_one, r->vs_sum, r->pool_mb, r->build_ms, r->culled);
+           pn_split_names[r->split], r->frame_ms, r->shadow_ms, r->shade_ms, r->vs_one, r->vs_sum, r->pool_mb,
+           r->build_ms, r->culled, err);
     fflush(stdout);
 }
 
@@ -294,10 +298,15 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"mode\": \"%s\", \"filter\": \"%s\", \"tree\": ",
                 r->width, r->height, r->spp, MODE_NAME(r->mode), pn_filter_names[r->filter]);
         json_tree(f, r->n, r->d);
-        fprintf(f, ", \"lights\": %u, \"frame_ms\": %.4f, \"shadow_ms\": %.4f, \"shade_ms\": %.4f, \"vs_one\": %.4f, "
-                   "\"vs_sum\": %.4f, \"pool_mb\": %.4f, \"build_ms\": %.3f, \"culled\": %u}",
-                r->lights, r->frame_ms, r->shadow_ms, r->shade_ms, r->vs_one, r->vs_sum, r->pool_mb, r->build_ms,
-                r->culled);
+        fprintf(f, ", \"lights\": %u, \"split\": \"%s\", \"frame_ms\": %.4f, \"shadow_ms\": %.4f, \"shade_ms\": %.4f, "
+                   "\"vs_one\": %.4f, \"vs_sum\": %.4f, \"pool_mb\": %.4f, \"build_ms\": %.3f, \"culled\": %u, "
+                   "\"radiance_error\": ",
+                r->lights, pn_split_names[r->split], r->frame_ms, r->shadow_ms, r->shade_ms, r->vs_one, r->vs_sum,
+                r->pool_mb, r->build_ms, r->culled);
+        if (r->has_error)
+            fprintf(f, "{\"mae_rel\": %.6f, \"rmse_rel\": %.6f}}", r->mae_rel, r->rmse_rel);
+        else
+            fprintf(f, "null}");
     }
     fprintf(f, "], \"quality\": [");
     for (int i = 0; i < rows->quality_count; i++) {

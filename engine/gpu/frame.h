@@ -16,7 +16,7 @@ extern const char *const pn_filter_names[];
 // budget: spp x lights rays per pixel in all (as many as even), given to each light by its share of
 // the pixel's unshadowed irradiance, at least one to each light that reaches the pixel (budget_rays
 // in shadow_frame.glsl). A pixel's count then varies per light, so budget draws its samples from
-// the R2 sequence rather than a grid, and works without interleaving (filter none) or ray dumps.
+// a digitally shifted Sobol' sequence rather than a grid, and works without interleaving (filter none) or ray dumps.
 typedef enum pn_split { PN_SPLIT_EVEN = PN_SPLIT_EVEN_ID, PN_SPLIT_BUDGET = PN_SPLIT_BUDGET_ID } pn_split;
 extern const char *const pn_split_names[];
 

@@ -38,6 +38,22 @@ uint pcg(uint v)
     return (word >> 22u) ^ word;
 }
 
+// Point k of the two-dimensional Sobol' sequence (van der Corput in base 2, and the Pascal
+// matrix's dimension), digitally shifted by `shift` (bits XORed in, two hashes of it per axis).
+// Every prefix of 2^m points is a (0, m, 2)-net: each of the 2^m equal strata of any shape
+// (2^a x 2^b, a + b = m) holds one point, and a shift keeps that. So any count n is as evenly
+// spread as a jittered grid of n at a power of two, and close to it between them, which the R2
+// sequence of the stratified sampler is not at small n.
+vec2 sobol_sample(uint k, uint shift)
+{
+    uint x = bitfieldReverse(k), y = 0u;
+    for (uint v = 1u << 31u, i = k; i != 0u; i >>= 1u, v ^= v >> 1u)
+        y ^= (i & 1u) != 0u ? v : 0u;
+    x ^= pcg(shift), y ^= pcg(shift ^ 0x9e3779b9u);
+    // The top 24 bits: floats of [0, 1) exactly (a 32-bit value would round up to 1.0).
+    return vec2(float(x >> 8u), float(y >> 8u)) * (1.0 / 16777216.0);
+}
+
 // Light sample k of this pixel as (s, t) in [0,1)^2 over the light's width and height.
 // Grid: the centres of a grid_u x grid_v grid, the paper's uniform grid (bilinear interpolation of the
 // corner directions is the same point). Stratified: one jittered point per grid cell; the jitters are
@@ -62,17 +78,16 @@ vec2 light_sample(uint k, uvec2 pixel)
     // The shift may vary per cell but not per tile: a window that straddles tiles must still hold
     // each sub-cell of a cell once, so the pixel's class alone decides its sub-cell.
     uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(pcg(params.seed) + k) : 0u)) % tiles;
-    vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
-    const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
     // Budgeted split: each pixel draws its own number of samples per light (chunk_count), so there
-    // is no grid to stratify; the first n points of the rotated R2 sequence are evenly spread over
-    // the light for every n (the sequence's discrepancy is O(log n / n) at each prefix). The light
-    // index enters the rotation so that two lights of one pixel do not share a pattern.
+    // is no grid to stratify.
     if (params.split == PN_SPLIT_BUDGET_ID)
-        return fract(rotation + alpha * float(k + 1u) + alpha.yx * float(chunk.light));
+        return sobol_sample(k, pcg(h + chunk.light));
     vec2 jitter = vec2(0.5);
-    if (params.sampler_kind == SAMPLER_STRATIFIED)
+    if (params.sampler_kind == SAMPLER_STRATIFIED) {
+        vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+        const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
+    }
     vec2 cell = vec2(i * tile_size.x + sub % tile_size.x, j * tile_size.y + sub / tile_size.x);
     return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
 }

@@ -1,6 +1,5 @@
 // The skeleton of a shadow shader: the pixel, its chunk of rays, the counts. Include after
 // shadow_common.glsl.
-#include "light.glsl"
 
 layout(set = 0, binding = PN_SHADOW_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_SHADOW_BINDING_N, rgba32f) uniform readonly image2D img_n;
@@ -43,11 +42,44 @@ vec3 shadow_origin(vec3 p, vec3 nrm, float rise_leaves, out float rise)
     return p + nrm * (8.0 * ulp_bound(mag));
 }
 
+// A light's share of the pixel's unshadowed irradiance, for the budgeted split. Every dispatch of
+// every light evaluates it for all the lights, so it must cost little (light_irradiance's clipped
+// edge sum, k^2 times a frame, cost more than the rays on simple scenes): radiance x area x
+// cos(light) / r^2 at the light's centre, times the receiver's cosine averaged over the centre and
+// the four corners (so a light half below the horizon keeps about its half), at most pi x radiance
+// (the whole hemisphere). That is the irradiance once the light is small against its distance;
+// nearer, only the counts are less well placed: any deterministic count of at least one ray keeps
+// V unbiased. Zero exactly where light_irradiance is: no corner above the receiver's plane, or
+// the pixel behind the light.
+float light_weight(Light l, vec3 p, vec3 nrm)
+{
+    vec3 centre = 0.25 * (l.corners[0].xyz + l.corners[1].xyz + l.corners[2].xyz + l.corners[3].xyz);
+    vec3 d = centre - p;
+    if (dot(l.normal.xyz, -d) <= 0.0)
+        return 0.0;
+    // Unit directions: |d|^4 would leave float range for scenes far from the origin.
+    float r2 = max(dot(d, d), 1e-30);
+    float cos_r = max(dot(nrm, d), 0.0) * inversesqrt(r2);
+    bool above = false;
+    for (int c = 0; c < 4; c++) {
+        vec3 dc = l.corners[c].xyz - p;
+        float h = dot(nrm, dc);
+        above = above || h > 0.0;
+        cos_r += max(h, 0.0) * inversesqrt(max(dot(dc, dc), 1e-30));
+    }
+    if (!above)
+        return 0.0;
+    float area = length(cross(l.corners[1].xyz - l.corners[0].xyz, l.corners[3].xyz - l.corners[0].xyz));
+    float cosines = dot(l.normal.xyz, -d) * inversesqrt(r2) * (cos_r / 5.0);
+    float radiance = l.radiance.r + l.radiance.g + l.radiance.b; // the error figures sum r, g and b
+    return max(radiance * min(area / r2 * cosines, 3.14159265), 1e-30);
+}
+
 // The rays this pixel traces for the dispatch's light in its budgeted split: a lit point light
 // takes one (its V is exact with one ray); every lit area light at least one, so that its V is an
 // unbiased estimate however dim it is; the rest of the budget goes to the area lights in
-// proportion to their unshadowed irradiance at the pixel (largest remainders round it, so the
-// counts sum to the budget). Proportional is the split that minimises the variance of the
+// proportion to their weight at the pixel (largest remainders round it, so the counts sum to the
+// budget). Proportional to the irradiance is the split that minimises the variance of the
 // radiance, sum_l E_l^2 V_l (1 - V_l) / n_l under sum_l n_l = B, when nothing is known of V. 0 for
 // an unlit light: its term is zero whatever V is. Every dispatch of the frame computes the same
 // counts from the same G-buffer texel.
@@ -58,8 +90,7 @@ uint budget_rays(vec3 p, vec3 nrm)
     uint areas = 0u, points = 0u;
     for (uint j = 0u; j < params.light_count; j++) {
         Light l = params.lights[j];
-        // The radiance's mean over r, g and b: the error figures average the three channels.
-        e[j] = light_irradiance(l, p, nrm) * (l.radiance.r + l.radiance.g + l.radiance.b);
+        e[j] = light_weight(l, p, nrm);
         bool lit = e[j] > 0.0;
         points += lit && l.radiance.w != 0.0 ? 1u : 0u;
         areas += lit && l.radiance.w == 0.0 ? 1u : 0u;
