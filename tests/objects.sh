@@ -65,4 +65,10 @@ out=$("$BIN" render "$T/d2.glb" --size 16x16 --trees object --mode exact -o "$T/
 [ $? -ne 0 ] && grep -q "linespace" <<<"$out" && [ ! -e "$T/bad.exr" ] || { echo "FAIL: --trees object --mode exact: $out"; exit 1; }
 out=$("$BIN" render "$T/d2.glb" --size 16x16 --move-object 2:1,0,0 -o "$T/bad.exr" 2>&1)
 [ $? -ne 0 ] && grep -q "no object 2" <<<"$out" && [ ! -e "$T/bad.exr" ] || { echo "FAIL: --move-object 2: $out"; exit 1; }
+# An object far from the origin: its leaves, carried into world space, must stay 16 float steps
+# wide there (as the scene-wide tree's must), though they are wide enough in its own frame.
+out=$("$BIN" render "$T/d2.glb" --size 16x16 --trees object --tree 6,3 --no-ground --move-object 0:100000,0,0 \
+  -o "$T/bad.exr" 2>&1)
+[ $? -ne 0 ] && grep -q "object 0: LS(6,3) leaves .* float steps" <<<"$out" && [ ! -e "$T/bad.exr" ] \
+  || { echo "FAIL: object at 1e5 with LS(6,3): $out"; exit 1; }
 echo "objects: ok"

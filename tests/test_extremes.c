@@ -5,7 +5,7 @@
 // cell boundaries, cell corners and the root box's faces, and degenerate and single-triangle scenes;
 // and per-object trees (linespace, --trees object): one mesh instanced translated, scaled
 // non-uniformly and turned, and at half size, two of them cutting through each other, with the
-// receiver and a block as the rest (GEO_OBJECTS), at scales 1e-4, 1 and 1e4 and at 1e5, ray and
+// receiver and a block as the rest (GEO_OBJECTS), at scales 1e-4, 1 and 1e4 and at 1e4 and 1e5, ray and
 // packet traversal, with receivers also on the objects' faces and their trees' lattices in world.
 //
 // Every case renders twice per mode: once through the raster pass (receivers wherever the camera
@@ -1659,17 +1659,18 @@ int main(int argc, char **argv)
         {"single triangle LS(16,max)", 1, 0, ID, ABOVE, 16, 0, 4, GEO_SINGLE, EXPECT_RENDER, false, 1024},
         // Per-object trees (linespace; the other modes without a tree): one mesh instanced three
         // times, translated, scaled non-uniformly and turned (cutting through the first), and
-        // turned at half size; the receiver and the block are the rest. At 1e5 the rest's tree, in
-        // world space, limits the depth as the scene-wide tree's does (its leaves are refused, the
-        // objects' are in their own frames), and LS(2,2)'s leaves make the linespace bound [0, 1]
-        // (as at 1e5, LS(2,3)): values and the other modes are checked there.
+        // turned at half size; the receiver and the block are the rest. Far from the origin the
+        // rest's tree, in world space, limits the depth as the scene-wide tree's does, and so do
+        // the objects' leaves carried into world space (pn_objects_update): at 1e5 even LS(2,2)'s
+        // are under 16 float steps of the squeezed instance (6.8), at 1e4 LS(3,2)'s are not.
         {"objects", 1, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
         {"objects packet", 1, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
         {"objects scale 1e4", 1e4, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
         {"objects scale 1e-4 packet", 1e-4, 0, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
         {"objects at 1e5, LS(6,3)", 1, 1e5, ID, ABOVE, 6, 3, 16, GEO_OBJECTS, EXPECT_TREE_REFUSED, false, 1024},
-        {"objects at 1e5, LS(2,2)", 1, 1e5, ID, ABOVE, 2, 2, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
-        {"objects at 1e5, LS(2,2) packet", 1, 1e5, ID, ABOVE, 2, 2, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
+        {"objects at 1e5, LS(2,2)", 1, 1e5, ID, ABOVE, 2, 2, 16, GEO_OBJECTS, EXPECT_TREE_REFUSED, false, 1024},
+        {"objects at 1e4, LS(3,2)", 1, 1e4, ID, ABOVE, 3, 2, 16, GEO_OBJECTS, EXPECT_RENDER, false, 1024},
+        {"objects at 1e4, LS(3,2) packet", 1, 1e4, ID, ABOVE, 3, 2, 16, GEO_OBJECTS, EXPECT_RENDER, true, 1024},
         // The filter's own scene (filter_triangles) at scale 1, at the sweep's extremes of scale, and
         // shifted to 1e4 and 1e5, where 16 ulps of the coordinates are a tenth of a footprint and
         // about one.

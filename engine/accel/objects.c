@@ -197,18 +197,40 @@ pn_result pn_objects_update(const pn_scene *scene, pn_objects *o)
         }
         pn_object_instance *inst = &o->instances[count++];
         inst->tree = tree;
+        double inv_rows = 0.0; // the largest row sum of |A^-1|
         for (int r = 0; r < 3; r++) {
-            double t = 0.0;
+            double t = 0.0, row = 0.0;
             for (int c = 0; c < 3; c++) {
                 double inv = cof[c][r] / det; // (A^-1)[r][c] = cof[c][r] / det
                 inst->to_local[r][c] = (float)inv;
                 t -= inv * a[c][3];
+                row += fabs(inv);
             }
             inst->to_local[r][3] = (float)t;
+            inv_rows = fmax(inv_rows, row);
         }
         const pn_ntree *tr = &o->trees[tree];
         world_box(tr, (const double(*)[4])a, inst->box);
         double leaf = pn_ntree_cell_size(tr, tr->d), ext = 0.0;
+        // The shader carries world-space rays into the tree's frame in float: a world coordinate
+        // is known to one ulp of the object's world magnitude, which the map turns into up to
+        // ulp x (row sum of |A^-1|) in the frame. As for the scene-wide tree (pn_ntree_build), a
+        // leaf must be 16 such steps wide, so that the traversal's 4-step allowance stays a
+        // quarter of a leaf; the tree's own frame is checked when it is built.
+        float mag = 0.0f;
+        for (int k = 0; k < 6; k++)
+            mag = fmaxf(mag, fabsf(inst->box[k]));
+        double step = ((double)nextafterf(mag, INFINITY) - (double)mag) * inv_rows;
+        if (tr->triangles && leaf < 16.0 * step) {
+            char what[32] = "the triangles of no object";
+            if (!is_rest)
+                snprintf(what, sizeof what, "object %u", i);
+            pn_error("%s: %s: LS(%d,%d) leaves would be %.3g wide in its frame, only %.1f float steps of its world "
+                     "position (%.3g from the origin) carried into that frame; use a smaller N or d, or move the "
+                     "scene towards the origin",
+                     scene->name, what, tr->n, tr->d, leaf, leaf / step, (double)mag);
+            return PN_ERR_UNSUPPORTED;
+        }
         for (int r = 0; r < 3; r++)
             ext = fmax(ext, leaf * (fabs(a[r][0]) + fabs(a[r][1]) + fabs(a[r][2])));
         inst->world_leaf = ext;
