@@ -35,6 +35,11 @@ typedef struct pn_objects {
     pn_pool_bytes bytes;      // of every tree's pools together
     uint64_t top_bytes;       // object table, top BVH and its index list
     uint32_t culled;          // triangles of no object left out (they cannot block a shadow ray)
+    // What they were judged against (pn_ntree_can_block): the scene's bounds at build and the
+    // lights' corners; pn_objects_cull_holds asks again after objects moved.
+    float cull_box[6];
+    float cull_light[4 * PN_MAX_LIGHTS][3];
+    uint32_t cull_light_corners;
     double leaf_size;         // the smallest world_leaf: rays rise clear of their surface by it, and
                               // by world_leaf before the instance's own tree may block them
     double build_ms;          // trees, line spaces and top level
@@ -49,5 +54,13 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
 // Recomputes every instance's map and box from the scene's object transforms and rebuilds the top
 // level: what a moving object costs. The trees stay.
 pn_result pn_objects_update(const pn_scene *scene, pn_objects *objects);
+
+// Whether the rest's culling still holds for the scene as it stands, after objects moved: every
+// triangle of no object left out at build must still have the scene's bounds and the lights on one
+// closed side of its plane. Moving objects changes neither the rest's triangles nor the lights, only
+// the bounds, and an object moved across such a plane (under the ground) could meet rays the
+// left-out triangle would block. False: rebuild (pn_objects_build) before drawing the moved scene.
+// O(1) while the bounds stay within those of the build, else one test per triangle of no object.
+bool pn_objects_cull_holds(const pn_scene *scene, const pn_objects *objects);
 
 void pn_objects_destroy(pn_objects *objects);
