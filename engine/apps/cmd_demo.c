@@ -62,8 +62,9 @@ static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
 {
     // What every mode needs together (candidate lists, the shared BVH), so that switching modes
     // never needs a rebuild; with the same light it is the tree render builds (culling included).
+    // Per-object trees serve linespace alone (the renderer's rule): its needs only.
     return (pn_shadow_accel_desc){
-        .needs = pn_shadow_needs_all(&d->dev),
+        .needs = d->opts.per_object ? pn_shadow_mode_get(PN_SHADOW_LINESPACE)->needs : pn_shadow_needs_all(&d->dev),
         .tree_n = n,
         .tree_d = depth,
         .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_pool_budget(&d->dev),
@@ -71,6 +72,7 @@ static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
         .light = d->lights,
         .light_count = d->light_count,
         .reuse_bvh = &d->bvh,
+        .per_object = d->opts.per_object,
     };
 }
 
@@ -108,22 +110,22 @@ static pn_result update_tree(pn_demo *d)
             pn_renderer_destroy(&d->exact);
             pn_shadow_accel_destroy(&d->dev, &d->accel);
             d->accel = fresh;
-            d->opts.tree_n = d->accel.tree.n, d->opts.tree_d = d->accel.tree.d;
+            d->opts.tree_n = d->accel.desc.tree_n, d->opts.tree_d = d->accel.desc.tree_d;
             pn_info("demo: tree LS(%d,%d) swapped in: built in %.0f ms on a worker thread, %.1f MB of pools",
-                    d->accel.tree.n, d->accel.tree.d, d->accel.build_ms,
+                    d->accel.desc.tree_n, d->accel.desc.tree_d, d->accel.build_ms,
                     pn_shadow_accel_gpu_bytes(&d->accel) / 1048576.0);
             d->build_message[0] = '\0';
             d->renderer_dirty = true;
         } else {
             snprintf(d->build_message, sizeof d->build_message, "tree LS(%d,%d) failed: %s; still LS(%d,%d)",
-                     d->builder.desc.tree_n, d->builder.desc.tree_d, pn_result_str(status), d->accel.tree.n,
-                     d->accel.tree.d);
+                     d->builder.desc.tree_n, d->builder.desc.tree_d, pn_result_str(status), d->accel.desc.tree_n,
+                     d->accel.desc.tree_d);
             pn_shadow_accel_destroy(&d->dev, &fresh);
-            d->want_n = d->accel.tree.n, d->want_d = d->accel.tree.d; // no retry loop
+            d->want_n = d->accel.desc.tree_n, d->want_d = d->accel.desc.tree_d; // no retry loop
         }
     }
     bool idle = atomic_load(&d->builder.state) == PN_DEMO_BUILD_IDLE;
-    if (idle && (d->want_n != d->accel.tree.n || d->want_d != d->accel.tree.d || d->want_rebuild)) {
+    if (idle && (d->want_n != d->accel.desc.tree_n || d->want_d != d->accel.desc.tree_d || d->want_rebuild)) {
         pn_shadow_accel_desc desc = tree_desc(d, d->want_n, d->want_d);
         PN_TRY(pn_demo_builder_start(&d->builder, &d->scene, &desc));
         d->want_rebuild = false;
@@ -131,7 +133,7 @@ static pn_result update_tree(pn_demo *d)
     if (atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE)
         snprintf(d->build_message, sizeof d->build_message,
                  "tree LS(%d,%d): building on the CPU, %.1f s; drawing with LS(%d,%d)", d->builder.desc.tree_n,
-                 d->builder.desc.tree_d, pn_demo_builder_elapsed(&d->builder), d->accel.tree.n, d->accel.tree.d);
+                 d->builder.desc.tree_d, pn_demo_builder_elapsed(&d->builder), d->accel.desc.tree_n, d->accel.desc.tree_d);
     return PN_OK;
 }
 

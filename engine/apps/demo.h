@@ -154,7 +154,7 @@ typedef struct pn_demo {
     pn_demo_builder builder;
     int want_n, want_d;       // the tree the user asked for
     bool want_rebuild;        // a light moved and the tree's culling depends on it
-    char build_message[160];  // shown while a rebuild runs or after one failed
+    char build_message[160];  // shown while a rebuild runs, after one failed, or why a key did nothing
     pn_renderer renderer;     // the current mode
     pn_renderer exact;        // exact mode, for the error view (zeroed otherwise)
     double renderer_ms;       // time the last renderer (re)creation took

@@ -74,7 +74,7 @@ void pn_demo_zoom(pn_demo *d, float factor)
 static void light_changed(pn_demo *d)
 {
     d->restart = true;
-    if (d->accel.tree.culled > 0)
+    if (d->accel.tree.culled + d->accel.objects.culled > 0) // per-object trees cull the rest alone
         d->want_rebuild = true;
 }
 
@@ -159,12 +159,13 @@ static void next_light(pn_demo *d, float step)
 // Shadow parameters and views
 
 // The modes the demo offers: those that trace and that the device can run, in table order
-// (gpu/shadow_modes.c).
+// (gpu/shadow_modes.c); with per-object trees, linespace alone (the one mode they serve).
 static int tracing_modes(const pn_demo *d, pn_shadow_mode out[PN_SHADOW_MODE_COUNT])
 {
     int count = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
-        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces && pn_shadow_mode_available(&d->dev, (pn_shadow_mode)m, NULL))
+        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces && pn_shadow_mode_available(&d->dev, (pn_shadow_mode)m, NULL) &&
+            (!d->opts.per_object || m == PN_SHADOW_LINESPACE))
             out[count++] = (pn_shadow_mode)m;
     return count;
 }
@@ -238,6 +239,12 @@ static void step_tree_d(pn_demo *d, float dir) { d->want_d = clamp_int(d->want_d
 
 static void toggle_view(pn_demo *d, float view)
 {
+    if ((pn_demo_view)view == PN_DEMO_ERROR && d->opts.per_object) {
+        snprintf(d->build_message, sizeof d->build_message,
+                 "error view: exact mode needs the scene-wide BVH, not built with --trees object");
+        pn_warn("demo: %s", d->build_message);
+        return;
+    }
     d->view = d->view == (pn_demo_view)view ? PN_DEMO_SHADED : (pn_demo_view)view;
     d->renderer_dirty = d->restart = true; // the error view adds (or drops) the exact renderer
 }

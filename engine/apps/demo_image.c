@@ -230,8 +230,8 @@ static void params_text(const pn_demo *d, char *out, size_t n)
     const pn_shadow_mode_info *mode = pn_shadow_mode_get(o->mode);
     int at = snprintf(out, n, "%s", mode->name);
     if (mode->needs.tree && at >= 0 && (size_t)at < n)
-        at += snprintf(out + at, n - (size_t)at, " LS(%d,%d) %s", d->accel.tree.n, d->accel.tree.d,
-                       pn_traversal_names[o->traversal]);
+        at += snprintf(out + at, n - (size_t)at, " LS(%d,%d)%s %s", d->accel.desc.tree_n, d->accel.desc.tree_d,
+                       d->accel.desc.per_object ? " per object" : "", pn_traversal_names[o->traversal]);
     if (at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
                        o->filter != PN_FILTER_NONE ? " filtered" : "");
