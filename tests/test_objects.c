@@ -1,9 +1,27 @@
-// Per-object trees after objects move (accel/objects.h): the triangles of no object left out at
-// build (a receiver under everything, lit from above) stay left out rightly while the moved objects
-// stay on their side of it, and pn_objects_cull_holds says when they do not.
+// Objects that move (pn_scene_move_object, the demo's live moves) and per-object trees
+// (accel/objects.h): the scene's bounds after each move are those a pass over the whole scene finds;
+// the triangles of no object left out at build (a receiver under everything, lit from above) stay
+// left out rightly while the moved objects stay on their side of it, and pn_objects_cull_holds says
+// when they do not.
 #include "accel/objects.h"
 #include "scene/view.h"
 #include "test_util.h"
+
+// Moves object i and checks the bounds it leaves against pn_scene_update_bounds'.
+static pn_result move(pn_scene *s, uint32_t i, float dx, float dy, float dz)
+{
+    pn_result r = pn_scene_move_object(s, i, (const float[3]){dx, dy, dz});
+    float lo[3], hi[3];
+    memcpy(lo, s->bounds_min, sizeof lo);
+    memcpy(hi, s->bounds_max, sizeof hi);
+    pn_scene_update_bounds(s);
+    CHECK_MSG(!memcmp(lo, s->bounds_min, sizeof lo) && !memcmp(hi, s->bounds_max, sizeof hi),
+              "after moving by (%g, %g, %g): bounds (%g %g %g)-(%g %g %g), a full pass finds (%g %g %g)-(%g %g %g)",
+              (double)dx, (double)dy, (double)dz, (double)lo[0], (double)lo[1], (double)lo[2], (double)hi[0],
+              (double)hi[1], (double)hi[2], (double)s->bounds_min[0], (double)s->bounds_min[1],
+              (double)s->bounds_min[2], (double)s->bounds_max[0], (double)s->bounds_max[1], (double)s->bounds_max[2]);
+    return r;
+}
 
 int main(void)
 {
@@ -39,23 +57,31 @@ int main(void)
     CHECK(pn_objects_cull_holds(&s, &o));
 
     // Sideways over the receiver: the bounds stay those of the build.
-    CHECK(pn_scene_move_object(&s, 0, (const float[3]){1, 0, 0}) == PN_OK);
+    CHECK(move(&s, 0, 1, 0, 0) == PN_OK);
     CHECK(pn_objects_cull_holds(&s, &o));
     // Up, above the build's bounds: still over the receiver's plane, on the light's side.
-    CHECK(pn_scene_move_object(&s, 0, (const float[3]){0, 2, 0}) == PN_OK);
+    CHECK(move(&s, 0, 0, 2, 0) == PN_OK);
     CHECK(pn_objects_cull_holds(&s, &o));
     // Under the receiver: a ray from the object to the light crosses it, which was left out.
-    CHECK(pn_scene_move_object(&s, 0, (const float[3]){0, -3, 0}) == PN_OK);
+    CHECK(move(&s, 0, 0, -3, 0) == PN_OK);
     CHECK(!pn_objects_cull_holds(&s, &o));
     // Back above: holds again (the question is about the scene as it stands).
-    CHECK(pn_scene_move_object(&s, 0, (const float[3]){0, 1, 0}) == PN_OK);
+    CHECK(move(&s, 0, 0, 1, 0) == PN_OK);
     CHECK(pn_objects_cull_holds(&s, &o));
+    // The occluder holds the top face of the bounds (y = 0.5): along it, off it and back onto it,
+    // past the receiver's edge and back (the receiver then holds the x faces again).
+    CHECK(move(&s, 0, -1, 0, 0) == PN_OK);
+    CHECK(move(&s, 0, 0, -0.25f, 0) == PN_OK);
+    CHECK(move(&s, 0, 0, 0.5f, 0) == PN_OK);
+    CHECK(move(&s, 0, 3, 0, 0) == PN_OK);
+    CHECK(move(&s, 0, -3, 0, 0.125f) == PN_OK);
+    CHECK(move(&s, 0, 0, 0, -0.125f) == PN_OK);
 
     // Nothing left out (no light to cull by): nothing to hold, whatever moves.
     pn_objects all;
     CHECK(pn_objects_build(&s, &(pn_ntree_desc){.n = 4, .d = 2}, &all) == PN_OK);
     CHECK(all.culled == 0);
-    CHECK(pn_scene_move_object(&s, 0, (const float[3]){0, -5, 0}) == PN_OK);
+    CHECK(move(&s, 0, 0, -5, 0) == PN_OK);
     CHECK(pn_objects_cull_holds(&s, &all));
 
     pn_objects_destroy(&all);
