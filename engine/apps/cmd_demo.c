@@ -338,17 +338,28 @@ static int by_value(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-enum { ALL_FRAMES = -1, FRAMES_STILL = 0, FRAMES_MOVED = 1 };
+typedef enum frame_set { ALL_FRAMES, FRAMES_MOVED, FRAMES_STILL, FRAMES_BUILDING, FRAMES_IDLE } frame_set;
 
-// Median of one field (a double at byte offset `field` of pn_demo_stats) over the rendered frames,
-// all of them or those with (FRAMES_MOVED) or without (FRAMES_STILL) objects moved; *count (when
+static bool in_set(const pn_demo_stats *s, frame_set which)
+{
+    switch (which) {
+    case FRAMES_MOVED: return s->move_ms > 0;
+    case FRAMES_STILL: return !(s->move_ms > 0);
+    case FRAMES_BUILDING: return s->building;
+    case FRAMES_IDLE: return !s->building;
+    default: return true;
+    }
+}
+
+// Median of one field (a double at byte offset `field` of pn_demo_stats) over the rendered frames
+// of a set (objects moved or not before the frame, a tree build running or not); *count (when
 // given) gets how many.
-static double median(const pn_demo *d, size_t field, int which, size_t *count)
+static double median(const pn_demo *d, size_t field, frame_set which, size_t *count)
 {
     double *v = malloc((d->history_count ? d->history_count : 1) * sizeof *v);
     size_t n = 0;
     for (size_t i = 0; v && i < d->history_count; i++)
-        if (which == ALL_FRAMES || (d->history[i].move_ms > 0) == (which == FRAMES_MOVED))
+        if (in_set(&d->history[i], which))
             memcpy(&v[n++], (const char *)&d->history[i] + field, sizeof *v);
     if (count)
         *count = n;
@@ -374,14 +385,21 @@ static void print_summary(const pn_demo *d, const pn_demo_opts *o, uint32_t widt
            d->history_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
            MED(times.shadow_ms), MED(times.shade_ms), MED(rays_per_s));
 #undef MED
-    size_t moved, still;
+    // What moves and rebuilds cost the frame: with against without.
+    size_t moved, still, building, idle;
     double moved_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_MOVED, &moved);
     double move_ms = median(d, offsetof(pn_demo_stats, move_ms), FRAMES_MOVED, NULL);
     double still_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_STILL, &still);
-    if (moved > 0) // the frame time with objects moving against without
+    double building_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_BUILDING, &building);
+    double idle_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_IDLE, &idle);
+    if (moved > 0)
         printf("  frames with objects moved: %zu, median frame %.1f ms (the move's update %.2f ms); without: %zu, "
                "median frame %.1f ms\n",
                moved, moved_ms, move_ms, still, still_ms);
+    if (building > 0)
+        printf("  frames while a tree build ran on the worker: %zu, median frame %.1f ms; the others: %zu, median "
+               "frame %.1f ms\n",
+               building, building_ms, idle, idle_ms);
 }
 
 // Applies the script's events for this frame; returns the path of a screenshot asked for, or NULL.
@@ -498,6 +516,7 @@ static int run(pn_demo *d, const pn_demo_opts *o, pn_demo_script *script)
             return PN_EXIT_FAILURE;
 
         uint64_t t1 = pn_time_ns();
+        d->stats.building = atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE;
         held = d->image.frames >= accumulate_limit(d) && !d->restart;
         if (!held) {
             if (render(d) != PN_OK)

@@ -145,6 +145,7 @@ typedef struct pn_demo_stats {
     double render_ms, compose_ms, present_ms;
     double error_mae, error_p99, error_max; // error view, over pixels with geometry
     double move_ms;             // objects moved before this frame: their whole update (0: none)
+    bool building;              // a tree build ran on the worker thread (sharing the cores)
 } pn_demo_stats;
 
 // Objects moved between two frames, and what bringing the frame up to them cost (wall ms).
