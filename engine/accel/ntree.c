@@ -303,8 +303,8 @@ static pn_result gather_triangles(const pn_scene *s, float (**tri)[9], float (**
 // such a segment then stays in that closed half-space and meets the plane at most where it starts,
 // on the plane. With several lights the plane must have them all on that side, or a ray to one of
 // them could cross it: the tree is then the same for every light of the set.
-static bool can_block(const float v[9], const float lo[3], const float hi[3], const float (*light)[3],
-                      uint32_t corners)
+bool pn_ntree_can_block(const float v[9], const float lo[3], const float hi[3], const float (*light)[3],
+                        uint32_t corners)
 {
     double e0[3], e1[3], n[3];
     for (int k = 0; k < 3; k++) {
@@ -468,8 +468,8 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         t->triangles = 0;
         for (uint32_t i = 0; i < total; i++) {
-            if (desc->cull_light && !can_block(tri[i], s->bounds_min, s->bounds_max, desc->cull_light,
-                                              desc->cull_light_corners ? desc->cull_light_corners : 4))
+            if (desc->cull_light && !pn_ntree_can_block(tri[i], s->bounds_min, s->bounds_max, desc->cull_light,
+                                                        desc->cull_light_corners ? desc->cull_light_corners : 4))
                 continue;
             const float *kb = desc->keep_box;
             if (kb && (box[i][0] > kb[3] || box[i][1] > kb[4] || box[i][2] > kb[5] || box[i][3] < kb[0] ||

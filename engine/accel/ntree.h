@@ -81,6 +81,12 @@ pn_pool_bytes pn_ntree_pool_bytes(int n, uint64_t subdivided_nodes);
 pn_result pn_ntree_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_ntree *out);
 void pn_ntree_destroy(pn_ntree *tree);
 
+// The cull_light test: can triangle v (3 vertices, xyz each) block a segment between two points of
+// the box [lo, hi] (the scene's bounds), or between one and a light? Not if its plane has the box's
+// corners and the `corners` light corners all on one closed side. Degenerate triangles can.
+bool pn_ntree_can_block(const float v[9], const float lo[3], const float hi[3], const float (*light)[3],
+                        uint32_t corners);
+
 // Edge length of a cell at `level` (root = level 0).
 double pn_ntree_cell_size(const pn_ntree *t, int level);
 

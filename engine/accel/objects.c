@@ -49,7 +49,7 @@ static pn_result mesh_scene(const pn_scene *scene, uint32_t m, pn_scene *out)
 
 // The triangles no object holds, in world space; index_count 0 if there are none. Shares the
 // scene's vertices (free only out->indices). Its bounds are the whole scene's: the tree judges which
-// of its triangles can block a ray against them and the lights (ntree.c, can_block).
+// of its triangles can block a ray against them and the lights (pn_ntree_can_block).
 static pn_result rest_scene(const pn_scene *scene, pn_scene *out)
 {
     memset(out, 0, sizeof *out);
@@ -133,6 +133,12 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
         out->bytes.total += out->pools[i].bytes.total;
     }
     free(rest.indices);
+    memcpy(out->cull_box, scene->bounds_min, 3 * sizeof(float));
+    memcpy(out->cull_box + 3, scene->bounds_max, 3 * sizeof(float));
+    uint32_t corners = desc->cull_light ? (desc->cull_light_corners ? desc->cull_light_corners : 4) : 0;
+    out->cull_light_corners = corners < 4 * PN_MAX_LIGHTS ? corners : 4 * PN_MAX_LIGHTS;
+    if (out->cull_light_corners)
+        memcpy(out->cull_light, desc->cull_light, out->cull_light_corners * sizeof out->cull_light[0]);
     if (r == PN_OK)
         r = pn_objects_update(scene, out);
     if (r != PN_OK) {
@@ -165,6 +171,27 @@ static void world_box(const pn_ntree *tree, const double a[3][4], float box[6])
         box[k] = (float)(lo[k] - pad);
         box[3 + k] = (float)(hi[k] + pad);
     }
+}
+
+// The shader carries world-space rays into the tree's frame in float: a world coordinate is known
+// to one ulp of the object's world magnitude, which the map turns into up to ulp x inv_rows in the
+// frame. As for the scene-wide tree (pn_ntree_build), a leaf must be 16 such steps wide, so that
+// the traversal's 4-step allowance stays a quarter of a leaf; the tree's own frame is checked
+// when it is built. Returns the leaf's width in those steps.
+static double leaf_steps(const pn_ntree *tree, double inv_rows, float world_mag)
+{
+    double step = ((double)nextafterf(world_mag, INFINITY) - (double)world_mag) * inv_rows;
+    return pn_ntree_cell_size(tree, tree->d) / step;
+}
+
+bool pn_objects_resolves(const pn_objects *o, uint32_t object, float world_mag)
+{
+    for (uint32_t i = 0; i < o->placed; i++) {
+        const pn_object_instance *inst = &o->instances[i];
+        if (inst->object == object)
+            return !o->trees[inst->tree].triangles || leaf_steps(&o->trees[inst->tree], inst->inv_rows, world_mag) >= 16.0;
+    }
+    return true;
 }
 
 pn_result pn_objects_update(const pn_scene *scene, pn_objects *o)
@@ -211,24 +238,21 @@ pn_result pn_objects_update(const pn_scene *scene, pn_objects *o)
         }
         const pn_ntree *tr = &o->trees[tree];
         world_box(tr, (const double(*)[4])a, inst->box);
+        inst->object = i;
+        inst->inv_rows = inv_rows;
         double leaf = pn_ntree_cell_size(tr, tr->d), ext = 0.0;
-        // The shader carries world-space rays into the tree's frame in float: a world coordinate
-        // is known to one ulp of the object's world magnitude, which the map turns into up to
-        // ulp x (row sum of |A^-1|) in the frame. As for the scene-wide tree (pn_ntree_build), a
-        // leaf must be 16 such steps wide, so that the traversal's 4-step allowance stays a
-        // quarter of a leaf; the tree's own frame is checked when it is built.
         float mag = 0.0f;
         for (int k = 0; k < 6; k++)
             mag = fmaxf(mag, fabsf(inst->box[k]));
-        double step = ((double)nextafterf(mag, INFINITY) - (double)mag) * inv_rows;
-        if (tr->triangles && leaf < 16.0 * step) {
+        double steps = leaf_steps(tr, inv_rows, mag);
+        if (tr->triangles && steps < 16.0) {
             char what[32] = "the triangles of no object";
             if (!is_rest)
                 snprintf(what, sizeof what, "object %u", i);
             pn_error("%s: %s: LS(%d,%d) leaves would be %.3g wide in its frame, only %.1f float steps of its world "
                      "position (%.3g from the origin) carried into that frame; use a smaller N or d, or move the "
                      "scene towards the origin",
-                     scene->name, what, tr->n, tr->d, leaf, leaf / step, (double)mag);
+                     scene->name, what, tr->n, tr->d, leaf, steps, (double)mag);
             return PN_ERR_UNSUPPORTED;
         }
         for (int r = 0; r < 3; r++)
@@ -254,6 +278,34 @@ pn_result pn_objects_update(const pn_scene *scene, pn_objects *o)
                    (uint64_t)count * sizeof(uint32_t);
     o->update_ms = pn_ms_since(t0);
     return r;
+}
+
+bool pn_objects_cull_holds(const pn_scene *scene, const pn_objects *o)
+{
+    if (o->culled == 0)
+        return true;
+    // A plane with the build's box on one closed side has every box within it there too.
+    bool inside = true;
+    for (int k = 0; k < 3; k++)
+        inside = inside && scene->bounds_min[k] >= o->cull_box[k] && scene->bounds_max[k] <= o->cull_box[3 + k];
+    if (inside)
+        return true;
+    pn_scene rest;
+    if (rest_scene(scene, &rest) != PN_OK)
+        return false; // out of memory: cannot tell, so the caller rebuilds
+    bool holds = true;
+    for (uint32_t t = 0; holds && t < rest.index_count / 3; t++) {
+        float v[9];
+        for (int c = 0; c < 3; c++)
+            memcpy(v + 3 * c, scene->vertices[rest.indices[3 * t + c]].pos, 3 * sizeof(float));
+        // Left out at build (the same test on the same inputs as pn_ntree_build's), and able to block now?
+        bool culled = !pn_ntree_can_block(v, o->cull_box, o->cull_box + 3, (const float(*)[3])o->cull_light,
+                                          o->cull_light_corners);
+        holds = !(culled && pn_ntree_can_block(v, scene->bounds_min, scene->bounds_max,
+                                               (const float(*)[3])o->cull_light, o->cull_light_corners));
+    }
+    free(rest.indices);
+    return holds;
 }
 
 void pn_objects_destroy(pn_objects *o)

@@ -1,7 +1,8 @@
 // penumbra demo: render's passes in a window, every frame, with the knobs live.
 //
 // One frame: script events and window input -> (swapchain and renderers recreated if the size or
-// a parameter changed; a finished background tree swapped in) -> pn_renderer_render (and the exact
+// a parameter changed; moved objects brought into the renderers and trees; a finished background
+// tree swapped in) -> pn_renderer_render (and the exact
 // renderer in the error view) -> accumulate -> compose on the CPU (tone map or view, cell overlay)
 // -> copy into the acquired swapchain image with the overlay text -> present.
 #include <math.h>
@@ -62,15 +63,17 @@ static pn_shadow_accel_desc tree_desc(const pn_demo *d, int n, int depth)
 {
     // What every mode needs together (candidate lists, the shared BVH), so that switching modes
     // never needs a rebuild; with the same light it is the tree render builds (culling included).
+    // Per-object trees serve linespace alone (the renderer's rule): its needs only.
     return (pn_shadow_accel_desc){
-        .needs = pn_shadow_needs_all(&d->dev),
+        .needs = d->opts.per_object ? pn_shadow_mode_get(PN_SHADOW_LINESPACE)->needs : pn_shadow_needs_all(&d->dev),
         .tree_n = n,
         .tree_d = depth,
         .max_bytes = d->opts.max_bytes ? d->opts.max_bytes : pn_gpu_device_pool_budget(&d->dev),
         .max_pool_bytes = pn_gpu_device_max_buffer(&d->dev),
         .light = d->lights,
         .light_count = d->light_count,
-        .reuse_bvh = &d->bvh,
+        .reuse_bvh = d->scene_moved ? NULL : &d->bvh,
+        .per_object = d->opts.per_object,
     };
 }
 
@@ -100,30 +103,38 @@ static pn_result update_tree(pn_demo *d)
     pn_shadow_accel fresh;
     pn_result status;
     if (pn_demo_builder_poll(&d->builder, &fresh, &status)) {
+        // Per-object trees hold no world positions: placed as the objects stand now (they may have
+        // moved while the worker built), and the rest's culling asked again.
+        if (status == PN_OK && fresh.desc.needs.tree && fresh.desc.per_object) {
+            status = pn_objects_update(&d->scene, &fresh.objects);
+            d->want_rebuild |= !pn_objects_cull_holds(&d->scene, &fresh.objects);
+        }
+        // The scene the worker built from: exact pools and the device's acceleration structure must
+        // hold the triangles its BVH is over. Objects moved since want_rebuild: the next build follows.
         if (status == PN_OK)
-            status = pn_shadow_accel_upload(&d->dev, &d->scene, &fresh);
+            status = pn_shadow_accel_upload(&d->dev, d->builder.scene, &fresh);
         if (status == PN_OK) {
             // The renderers point at the old pools: they go first.
             pn_renderer_destroy(&d->renderer);
             pn_renderer_destroy(&d->exact);
             pn_shadow_accel_destroy(&d->dev, &d->accel);
             d->accel = fresh;
-            d->opts.tree_n = d->accel.tree.n, d->opts.tree_d = d->accel.tree.d;
+            d->opts.tree_n = d->accel.desc.tree_n, d->opts.tree_d = d->accel.desc.tree_d;
             pn_info("demo: tree LS(%d,%d) swapped in: built in %.0f ms on a worker thread, %.1f MB of pools",
-                    d->accel.tree.n, d->accel.tree.d, d->accel.build_ms,
+                    d->accel.desc.tree_n, d->accel.desc.tree_d, d->accel.build_ms,
                     pn_shadow_accel_gpu_bytes(&d->accel) / 1048576.0);
             d->build_message[0] = '\0';
             d->renderer_dirty = true;
         } else {
             snprintf(d->build_message, sizeof d->build_message, "tree LS(%d,%d) failed: %s; still LS(%d,%d)",
-                     d->builder.desc.tree_n, d->builder.desc.tree_d, pn_result_str(status), d->accel.tree.n,
-                     d->accel.tree.d);
+                     d->builder.desc.tree_n, d->builder.desc.tree_d, pn_result_str(status), d->accel.desc.tree_n,
+                     d->accel.desc.tree_d);
             pn_shadow_accel_destroy(&d->dev, &fresh);
-            d->want_n = d->accel.tree.n, d->want_d = d->accel.tree.d; // no retry loop
+            d->want_n = d->accel.desc.tree_n, d->want_d = d->accel.desc.tree_d; // no retry loop
         }
     }
     bool idle = atomic_load(&d->builder.state) == PN_DEMO_BUILD_IDLE;
-    if (idle && (d->want_n != d->accel.tree.n || d->want_d != d->accel.tree.d || d->want_rebuild)) {
+    if (idle && (d->want_n != d->accel.desc.tree_n || d->want_d != d->accel.desc.tree_d || d->want_rebuild)) {
         pn_shadow_accel_desc desc = tree_desc(d, d->want_n, d->want_d);
         PN_TRY(pn_demo_builder_start(&d->builder, &d->scene, &desc));
         d->want_rebuild = false;
@@ -131,7 +142,67 @@ static pn_result update_tree(pn_demo *d)
     if (atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE)
         snprintf(d->build_message, sizeof d->build_message,
                  "tree LS(%d,%d): building on the CPU, %.1f s; drawing with LS(%d,%d)", d->builder.desc.tree_n,
-                 d->builder.desc.tree_d, pn_demo_builder_elapsed(&d->builder), d->accel.tree.n, d->accel.tree.d);
+                 d->builder.desc.tree_d, pn_demo_builder_elapsed(&d->builder), d->accel.desc.tree_n, d->accel.desc.tree_d);
+    return PN_OK;
+}
+
+// Waits for the tree builds running or due (a script's screenshot shows the scene as it stands,
+// whatever the machine's speed).
+static pn_result settle_tree(pn_demo *d)
+{
+    for (;;) {
+        PN_TRY(update_tree(d)); // swaps a finished build in; starts the next one due
+        if (atomic_load(&d->builder.state) == PN_DEMO_BUILD_IDLE)
+            return PN_OK;
+        pn_demo_builder_wait(&d->builder);
+    }
+}
+
+// Brings the renderers and the shadow structure up to the objects moved since the last frame
+// (pn_demo_move_object moved the scene's vertices, transforms and bounds), and reports the cost.
+// Per-object trees hold no world positions: the top level alone is rebuilt, no line space. The rest's
+// tree (triangles of no object, e.g. --ground) was culled by the lights against the scene's bounds at
+// build; a move changes neither its triangles nor the lights, only the bounds, so its culling holds
+// while the moved objects stay on the kept side of every left-out triangle's plane
+// (pn_objects_cull_holds), else the trees are rebuilt. The scene-wide tree, the BVH and the
+// device's acceleration structure hold world-space triangles: rebuilt on the worker thread while
+// the old ones keep drawing (update_tree).
+static pn_result apply_moves(pn_demo *d)
+{
+    pn_demo_move *m = &d->move;
+    if (m->count == 0)
+        return PN_OK;
+    uint64_t t0 = pn_time_ns();
+    // Renderers not created yet (the first frame) are made from the moved scene.
+    uint32_t count = m->end - m->first;
+    if (d->renderer.dev)
+        PN_TRY(pn_renderer_update_vertices(&d->renderer, &d->scene, m->first, count));
+    if (d->exact.dev)
+        PN_TRY(pn_renderer_update_vertices(&d->exact, &d->scene, m->first, count));
+    m->vertices_ms = pn_ms_since(t0);
+    uint64_t t1 = pn_time_ns();
+    if (d->accel.desc.needs.tree && d->accel.desc.per_object) {
+        // A translation keeps every instance's leaf extent: the renderers' leaf_size stays right.
+        PN_TRY(pn_objects_update(&d->scene, &d->accel.objects));
+        m->top_ms = d->accel.objects.update_ms;
+        PN_TRY(pn_gpu_objects_update(&d->dev, &d->accel.objects, &d->accel.gpu_objects));
+        m->rebuild = !pn_objects_cull_holds(&d->scene, &d->accel.objects);
+        m->top_upload_ms = pn_ms_since(t1) - m->top_ms;
+    } else {
+        m->rebuild = true;
+    }
+    d->want_rebuild |= m->rebuild;
+    m->total_ms = m->scene_ms + pn_ms_since(t0);
+    printf("demo: frame %llu: object %u moved%s in %.2f ms (scene %.2f, G-buffer vertices %.2f", (unsigned long long)d->frame,
+           m->object, m->count > 1 ? " (and others)" : "", m->total_ms, m->scene_ms, m->vertices_ms);
+    if (d->accel.desc.per_object)
+        printf(", top level %.2f + upload %.2f); per-object trees: %s\n", m->top_ms, m->top_upload_ms,
+               m->rebuild ? "the rest's culling no longer holds, trees rebuilt on a worker thread" : "no tree rebuilt");
+    else
+        printf("); scene-wide tree, BVH and acceleration structure rebuilt on a worker thread\n");
+    d->stats.move_ms = m->total_ms;
+    d->last_move = *m;
+    memset(m, 0, sizeof *m);
     return PN_OK;
 }
 
@@ -267,18 +338,37 @@ static int by_value(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-// Median of one field (a double at byte offset `field` of pn_demo_stats) over the rendered frames.
-static double median(const pn_demo *d, size_t field)
+typedef enum frame_set { ALL_FRAMES, FRAMES_MOVED, FRAMES_STILL, FRAMES_BUILDING, FRAMES_IDLE } frame_set;
+
+static bool in_set(const pn_demo_stats *s, frame_set which)
 {
-    double *v = malloc(d->history_count * sizeof *v);
-    if (!v || d->history_count == 0) {
+    switch (which) {
+    case FRAMES_MOVED: return s->move_ms > 0;
+    case FRAMES_STILL: return !(s->move_ms > 0);
+    case FRAMES_BUILDING: return s->building;
+    case FRAMES_IDLE: return !s->building;
+    default: return true;
+    }
+}
+
+// Median of one field (a double at byte offset `field` of pn_demo_stats) over the rendered frames
+// of a set (objects moved or not before the frame, a tree build running or not); *count (when
+// given) gets how many.
+static double median(const pn_demo *d, size_t field, frame_set which, size_t *count)
+{
+    double *v = malloc((d->history_count ? d->history_count : 1) * sizeof *v);
+    size_t n = 0;
+    for (size_t i = 0; v && i < d->history_count; i++)
+        if (in_set(&d->history[i], which))
+            memcpy(&v[n++], (const char *)&d->history[i] + field, sizeof *v);
+    if (count)
+        *count = n;
+    if (!v || n == 0) {
         free(v);
         return 0;
     }
-    for (size_t i = 0; i < d->history_count; i++)
-        memcpy(&v[i], (const char *)&d->history[i] + field, sizeof *v);
-    qsort(v, d->history_count, sizeof *v, by_value);
-    double m = v[d->history_count / 2];
+    qsort(v, n, sizeof *v, by_value);
+    double m = v[n / 2];
     free(v);
     return m;
 }
@@ -289,12 +379,27 @@ static void print_summary(const pn_demo *d, const pn_demo_opts *o, uint32_t widt
            o->screenshot ? " -> " : "", o->screenshot ? o->screenshot : "");
     if (d->history_count == 0)
         return;
-#define MED(f) median(d, offsetof(pn_demo_stats, f))
+#define MED(f) median(d, offsetof(pn_demo_stats, f), ALL_FRAMES, NULL)
     printf("  medians of %zu rendered frames: frame %.1f ms (render %.1f, compose %.1f, present %.1f); "
            "gpu ms gbuffer %.2f, shadow %.2f, shade %.2f; %.3g shadow rays/s\n",
            d->history_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
            MED(times.shadow_ms), MED(times.shade_ms), MED(rays_per_s));
 #undef MED
+    // What moves and rebuilds cost the frame: with against without.
+    size_t moved, still, building, idle;
+    double moved_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_MOVED, &moved);
+    double move_ms = median(d, offsetof(pn_demo_stats, move_ms), FRAMES_MOVED, NULL);
+    double still_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_STILL, &still);
+    double building_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_BUILDING, &building);
+    double idle_ms = median(d, offsetof(pn_demo_stats, frame_ms), FRAMES_IDLE, &idle);
+    if (moved > 0)
+        printf("  frames with objects moved: %zu, median frame %.1f ms (the move's update %.2f ms); without: %zu, "
+               "median frame %.1f ms\n",
+               moved, moved_ms, move_ms, still, still_ms);
+    if (building > 0)
+        printf("  frames while a tree build ran on the worker: %zu, median frame %.1f ms; the others: %zu, median "
+               "frame %.1f ms\n",
+               building, building_ms, idle, idle_ms);
 }
 
 // Applies the script's events for this frame; returns the path of a screenshot asked for, or NULL.
@@ -310,6 +415,7 @@ static const char *apply_script(pn_demo *d, pn_demo_script *script)
         case PN_DEMO_EVENT_ZOOM: pn_demo_zoom(d, e->a); break;
         case PN_DEMO_EVENT_RESIZE: glfwSetWindowSize(d->window, (int)e->a, (int)e->b); break;
         case PN_DEMO_EVENT_SCREENSHOT: shot = e->path; break;
+        case PN_DEMO_EVENT_MOVE_OBJECT: pn_demo_move_object(d, e->object, e->move); break;
         }
     }
     return shot;
@@ -383,6 +489,7 @@ static int run(pn_demo *d, const pn_demo_opts *o, pn_demo_script *script)
     int fw, fh;
     while (!d->quit && !glfwWindowShouldClose(d->window)) {
         uint64_t t0 = pn_time_ns();
+        d->stats.move_ms = 0;
         const char *shot = apply_script(d, script);
         bool held = d->image.frames >= accumulate_limit(d) && !d->restart && !d->renderer_dirty;
         bool building = atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE;
@@ -403,12 +510,13 @@ static int run(pn_demo *d, const pn_demo_opts *o, pn_demo_script *script)
         stale = false;
         if (d->swapchain.extent.width == 0)
             continue;
-        if (update_tree(d) != PN_OK)
+        if (apply_moves(d) != PN_OK || (shot ? settle_tree(d) : update_tree(d)) != PN_OK)
             return PN_EXIT_FAILURE;
         if (d->renderer_dirty && create_renderers(d) != PN_OK)
             return PN_EXIT_FAILURE;
 
         uint64_t t1 = pn_time_ns();
+        d->stats.building = atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE;
         held = d->image.frames >= accumulate_limit(d) && !d->restart;
         if (!held) {
             if (render(d) != PN_OK)
@@ -473,6 +581,11 @@ int pn_cmd_demo(int argc, char **argv)
         return prc;
     }
     d.scene = prep.scene, d.camera = prep.camera, d.light_count = prep.light_count;
+    if (o.script && pn_demo_script_check(&script, o.script, &d.scene) != PN_OK) {
+        pn_scene_destroy(&d.scene);
+        pn_demo_script_destroy(&script);
+        return PN_EXIT_USAGE;
+    }
     memcpy(d.lights, prep.lights, sizeof d.lights);
     d.camera_home = d.camera;
     memcpy(d.lights_home, d.lights, sizeof d.lights_home);

@@ -2,8 +2,8 @@
 // callbacks reach it through glfwSetWindowUserPointer.
 //
 //   cmd_demo.c       options, window, the frame loop
-//   demo_controls.c  key bindings (one table for --help, the H overlay and the script), camera
-//                    and light moves
+//   demo_controls.c  key bindings (one table for --help, the H overlay and the script), camera,
+//                    light and object moves
 //   demo_image.c     accumulation, views (shaded, visibility, error, N-tree cells), overlay text
 //   demo_builder.c   N-tree rebuilds on a worker thread
 //   demo_script.c    --script files
@@ -63,7 +63,13 @@ typedef enum pn_demo_build_state { PN_DEMO_BUILD_IDLE, PN_DEMO_BUILD_RUNNING, PN
 typedef struct pn_demo_builder {
     pthread_t thread;
     atomic_int state;          // pn_demo_build_state; DONE is set by the worker, IDLE by poll
+    // What the build reads: `snapshot`, or the demo's own scene when it has no objects to move.
+    // Stays after poll, for the upload (exact pools and the device's acceleration structure must
+    // hold the triangles the BVH was built over), until the next start.
     const pn_scene *scene;
+    // The geometry at start: vertices, objects and bounds copied (the frame loop moves objects
+    // while the worker builds), the rest (indices, meshes' local triangles, materials) shared.
+    pn_scene snapshot;
     pn_shadow_accel_desc desc; // desc.light points to `lights`
     pn_light lights[PN_MAX_LIGHTS];
     pn_shadow_accel result;
@@ -71,11 +77,13 @@ typedef struct pn_demo_builder {
     uint64_t start_ns;
 } pn_demo_builder;
 
-// Starts building `desc` (its lights are copied). The builder must be idle.
+// Starts building `desc` (its lights and the scene's moving parts are copied). The builder must be idle.
 pn_result pn_demo_builder_start(pn_demo_builder *b, const pn_scene *scene, const pn_shadow_accel_desc *desc);
 // Non-blocking: when a build has finished, joins the worker, moves the result to *out (zeroed on
 // failure), stores its status and returns true.
 bool pn_demo_builder_poll(pn_demo_builder *b, pn_shadow_accel *out, pn_result *status);
+// Blocks until a running build is done (poll then takes it at once).
+void pn_demo_builder_wait(const pn_demo_builder *b);
 // Seconds since the running build started.
 double pn_demo_builder_elapsed(const pn_demo_builder *b);
 // Waits for a running build and discards it.
@@ -88,7 +96,9 @@ void pn_demo_builder_destroy(pn_demo_builder *b);
 //     frame FRAME pan X Y             move camera and target, in view heights at the target
 //     frame FRAME zoom F              distance to the target times F
 //     frame FRAME resize W H          resize the window
-//     frame FRAME screenshot FILE     save frame FRAME (without the overlay text) as PNG
+//     frame FRAME move-object I DX DY DZ   move object I (as --move-object counts) by DX,DY,DZ
+//     frame FRAME screenshot FILE     save frame FRAME (without the overlay text) as PNG, after
+//                                     any tree rebuild running or due (the scene as it stands)
 // '#' starts a comment; blank lines are ignored.
 
 typedef enum pn_demo_event_kind {
@@ -98,6 +108,7 @@ typedef enum pn_demo_event_kind {
     PN_DEMO_EVENT_ZOOM,
     PN_DEMO_EVENT_RESIZE,
     PN_DEMO_EVENT_SCREENSHOT,
+    PN_DEMO_EVENT_MOVE_OBJECT,
 } pn_demo_event_kind;
 
 typedef struct pn_demo_event {
@@ -106,6 +117,8 @@ typedef struct pn_demo_event {
     pn_demo_event_kind kind;
     int key, mods;   // KEY
     float a, b;      // ORBIT, PAN, ZOOM (a), RESIZE (a x b)
+    uint32_t object; // MOVE_OBJECT: which, and by how much in world space
+    float move[3];
     char path[1024]; // SCREENSHOT
 } pn_demo_event;
 
@@ -116,6 +129,9 @@ typedef struct pn_demo_script {
 
 // Parses the file; logs "FILE:LINE: problem" and fails on the first bad line.
 pn_result pn_demo_script_load(const char *path, pn_demo_script *out);
+// What needs the scene (read after the script): every move-object names one of its objects. Logs
+// "FILE:LINE: problem" and fails on the first that does not.
+pn_result pn_demo_script_check(const pn_demo_script *s, const char *path, const pn_scene *scene);
 void pn_demo_script_destroy(pn_demo_script *s);
 
 // ---------------------------------------------------------------------------------------------
@@ -128,7 +144,23 @@ typedef struct pn_demo_stats {
     double frame_ms;            // wall time of the last rendered frame, input to present
     double render_ms, compose_ms, present_ms;
     double error_mae, error_p99, error_max; // error view, over pixels with geometry
+    double move_ms;             // objects moved before this frame: their whole update (0: none)
+    bool building;              // a tree build ran on the worker thread (sharing the cores)
 } pn_demo_stats;
+
+// Objects moved between two frames, and what bringing the frame up to them cost (wall ms).
+typedef struct pn_demo_move {
+    uint32_t count;       // moves (key presses, script events)
+    uint32_t object;      // the last one moved
+    uint32_t first, end;  // the vertices they moved: one range over all of them
+    double scene_ms;      // pn_scene_move_object: world vertices, transforms, bounds (CPU)
+    double vertices_ms;   // the renderers' G-buffer vertices, clip planes and scene_mag
+    double top_ms;        // per-object trees: the top level rebuilt (CPU: instances, BVH over their boxes)
+    double top_upload_ms; // and uploaded (object table, BVH), the rest's culling checked
+    double total_ms;
+    bool rebuild;         // a tree rebuild on the worker thread follows (scene-wide tree, BVH and
+                          // device acceleration structure; or per-object trees whose rest's culling no longer holds)
+} pn_demo_move;
 
 typedef struct pn_demo {
     // What is shown: the render options (size, mode, traversal, sampler, spp, seed, tree, exposure)
@@ -145,6 +177,7 @@ typedef struct pn_demo {
     bool accumulate;         // progressive refinement while nothing changes
     uint32_t accumulate_max; // frames, then the image is held
     bool show_help, show_hud;
+    uint32_t object_sel;     // the object the object keys move (O selects the next)
 
     GLFWwindow *window;
     pn_gpu_device dev;
@@ -153,8 +186,11 @@ typedef struct pn_demo {
     pn_shadow_accel accel;    // the tree being drawn with
     pn_demo_builder builder;
     int want_n, want_d;       // the tree the user asked for
-    bool want_rebuild;        // a light moved and the tree's culling depends on it
-    char build_message[160];  // shown while a rebuild runs or after one failed
+    bool want_rebuild;        // a light moved and the tree's culling depends on it, or an object moved
+    bool scene_moved;         // an object moved: `bvh` is no longer the scene's (rebuilds make their own)
+    pn_demo_move move;        // moved since the last frame, not yet in the renderers and trees
+    pn_demo_move last_move;   // the last one brought into the frame, for the figures
+    char build_message[160];  // shown while a rebuild runs, after one failed, or why a key did nothing
     pn_renderer renderer;     // the current mode
     pn_renderer exact;        // exact mode, for the error view (zeroed otherwise)
     double renderer_ms;       // time the last renderer (re)creation took
@@ -185,6 +221,10 @@ void pn_demo_key(pn_demo *d, int key, int mods, bool repeat);
 void pn_demo_orbit(pn_demo *d, float yaw_deg, float pitch_deg);
 void pn_demo_pan(pn_demo *d, float x, float y); // view heights at the target's distance
 void pn_demo_zoom(pn_demo *d, float factor);
+// Moves object `index` (pn_scene.objects) by `delta` in world space: the scene's vertices, transform
+// and bounds now, the renderers and trees before the next frame (cmd_demo.c). Logs and returns false
+// for no such object, or a move beyond PN_MAX_COORD from the origin.
+bool pn_demo_move_object(pn_demo *d, uint32_t index, const float delta[3]);
 // Parses a key name as scripts write it ("M", "shift+N", "-", "left", "pageup"); false if unknown.
 bool pn_demo_key_parse(const char *name, int *key, int *mods);
 // The controls, one per line, for --help and the H overlay. Writes at most n bytes.

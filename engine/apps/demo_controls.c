@@ -1,11 +1,12 @@
 // The demo's controls: one table of key bindings drives the keyboard, scripts, --help and the H
-// overlay; camera and light moves shared by mouse, keys and scripts.
+// overlay; camera, light and object moves shared by mouse, keys and scripts.
 #include <cglm/cglm.h>
 #include <math.h>
 #include <string.h>
 #include <strings.h>
 
 #include "apps/demo.h"
+#include "core/timer.h"
 
 // ---------------------------------------------------------------------------------------------
 // Camera: orbit, pan and zoom around the target. Positive yaw moves the camera to its right,
@@ -74,7 +75,7 @@ void pn_demo_zoom(pn_demo *d, float factor)
 static void light_changed(pn_demo *d)
 {
     d->restart = true;
-    if (d->accel.tree.culled > 0)
+    if (d->accel.tree.culled + d->accel.objects.culled > 0) // per-object trees cull the rest alone
         d->want_rebuild = true;
 }
 
@@ -98,17 +99,20 @@ static void light_aim(pn_demo *d)
 
 enum { MOVE_LEFT, MOVE_RIGHT, MOVE_AWAY, MOVE_NEAR, MOVE_UP, MOVE_DOWN };
 
-static void light_move(pn_demo *d, float dir)
+// A step of length `step` in direction `dir` (MOVE_*) across the view: the camera's forward and
+// right directions flattened onto the ground (+Y up), or up and down. The light and object keys
+// move alike.
+static void view_step(const pn_demo *d, float dir, float step, vec3 move)
 {
-    // Across the view: the camera's forward and right directions flattened onto the ground (+Y up).
-    vec3 world_up = {0, 1, 0}, fwd, right, move = {0, 0, 0};
-    glm_vec3_sub(d->camera.target, d->camera.pos, fwd);
+    vec3 world_up = {0, 1, 0}, fwd, right;
+    glm_vec3_zero(move);
+    for (int k = 0; k < 3; k++) // cglm takes no const
+        fwd[k] = d->camera.target[k] - d->camera.pos[k];
     fwd[1] = 0;
     if (glm_vec3_norm(fwd) < 1e-6f)
         glm_vec3_copy((vec3){0, 0, -1}, fwd);
     glm_vec3_normalize(fwd);
     glm_vec3_crossn(fwd, world_up, right);
-    float step = 0.1f * d->radius;
     switch ((int)dir) {
     case MOVE_LEFT: glm_vec3_scale(right, -step, move); break;
     case MOVE_RIGHT: glm_vec3_scale(right, step, move); break;
@@ -117,6 +121,12 @@ static void light_move(pn_demo *d, float dir)
     case MOVE_UP: move[1] = step; break;
     case MOVE_DOWN: move[1] = -step; break;
     }
+}
+
+static void light_move(pn_demo *d, float dir)
+{
+    vec3 move;
+    view_step(d, dir, 0.1f * d->radius, move);
     pn_light *l = &d->lights[d->light_sel];
     glm_vec3_add(l->pos, move, l->pos);
     light_aim(d);
@@ -156,15 +166,104 @@ static void next_light(pn_demo *d, float step)
 }
 
 // ---------------------------------------------------------------------------------------------
+// Objects (glTF nodes with a mesh). A move changes the scene's vertices, the object's transform and
+// the bounds here; the frame loop brings the renderers and trees up to it before the next frame
+// (cmd_demo.c, apply_moves), where its cost is measured.
+
+// The world box of object i's vertices.
+static void object_box(const pn_demo *d, uint32_t i, float lo[3], float hi[3])
+{
+    const pn_scene_object *o = &d->scene.objects[i];
+    for (int k = 0; k < 3; k++)
+        lo[k] = INFINITY, hi[k] = -INFINITY;
+    for (uint32_t v = o->first_vertex; v < o->first_vertex + o->vertex_count; v++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fminf(lo[k], d->scene.vertices[v].pos[k]);
+            hi[k] = fmaxf(hi[k], d->scene.vertices[v].pos[k]);
+        }
+}
+
+bool pn_demo_move_object(pn_demo *d, uint32_t index, const float delta[3])
+{
+    if (index >= d->scene.object_count) {
+        pn_error("demo: no object %u to move: %s has %u (glTF nodes with a mesh)", index, d->scene.name,
+                 d->scene.object_count);
+        return false;
+    }
+    // Refused before moving: float additions do not undo exactly.
+    float lo[3], hi[3];
+    object_box(d, index, lo, hi);
+    for (int k = 0; k < 3; k++)
+        if (!(fabsf(lo[k] + delta[k]) <= PN_MAX_COORD && fabsf(hi[k] + delta[k]) <= PN_MAX_COORD)) {
+            pn_error("demo: object %u moved by (%g, %g, %g) would reach beyond %g from the origin, where float "
+                     "arithmetic overflows",
+                     index, (double)delta[0], (double)delta[1], (double)delta[2], (double)PN_MAX_COORD);
+            return false;
+        }
+    // Per-object trees: the tree's leaves must stay 16 float steps wide at the new world position
+    // (pn_objects_update refuses them otherwise; a scene-wide tree's rebuild checks its own).
+    float mag = 0.0f;
+    for (int k = 0; k < 3; k++)
+        mag = fmaxf(mag, fmaxf(fabsf(lo[k] + delta[k]), fabsf(hi[k] + delta[k])));
+    if (d->accel.desc.needs.tree && d->accel.desc.per_object && !pn_objects_resolves(&d->accel.objects, index, mag)) {
+        pn_error("demo: object %u moved to %g from the origin: its tree's leaves would be under 16 float steps "
+                 "there; a smaller N or d lets it go that far", index, (double)mag);
+        return false;
+    }
+    uint64_t t0 = pn_time_ns();
+    if (pn_scene_move_object(&d->scene, index, delta) != PN_OK)
+        return false;
+    pn_demo_move *m = &d->move;
+    const pn_scene_object *o = &d->scene.objects[index];
+    uint32_t end = o->first_vertex + o->vertex_count;
+    m->first = m->count && m->first < o->first_vertex ? m->first : o->first_vertex;
+    m->end = m->count && m->end > end ? m->end : end;
+    m->count++;
+    m->object = index;
+    m->scene_ms += pn_ms_since(t0);
+    d->scene_moved = true;
+    d->restart = true;
+    return true;
+}
+
+static void next_object(pn_demo *d, float step)
+{
+    uint32_t n = d->scene.object_count;
+    if (n == 0) {
+        pn_warn("demo: %s has no objects to select (glTF nodes with a mesh)", d->scene.name);
+        return;
+    }
+    d->object_sel = (uint32_t)(((int64_t)d->object_sel + (int64_t)step + n) % n);
+    d->restart = true; // the overlay names it
+}
+
+static void object_move(pn_demo *d, float dir)
+{
+    if (d->object_sel >= d->scene.object_count) {
+        pn_warn("demo: %s has no objects to move (glTF nodes with a mesh)", d->scene.name);
+        return;
+    }
+    // A quarter of the object's own size: it visibly moves, and its shadow with it, whatever the
+    // scene's size; four presses move it by its largest extent.
+    float lo[3], hi[3];
+    object_box(d, d->object_sel, lo, hi);
+    float size = fmaxf(fmaxf(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
+    vec3 move;
+    view_step(d, dir, 0.25f * (size > 0 ? size : d->radius), move);
+    pn_demo_move_object(d, d->object_sel, move);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Shadow parameters and views
 
 // The modes the demo offers: those that trace and that the device can run, in table order
-// (gpu/shadow_modes.c).
+// (gpu/shadow_modes.c); with per-object trees, linespace alone (the one mode they serve).
 static int tracing_modes(const pn_demo *d, pn_shadow_mode out[PN_SHADOW_MODE_COUNT])
 {
     int count = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
-        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces && pn_shadow_mode_available(&d->dev, (pn_shadow_mode)m, NULL))
+        if (pn_shadow_mode_get((pn_shadow_mode)m)->traces && pn_shadow_mode_available(&d->dev, (pn_shadow_mode)m, NULL) &&
+            (!d->opts.per_object || m == PN_SHADOW_LINESPACE))
             out[count++] = (pn_shadow_mode)m;
     return count;
 }
@@ -242,6 +341,12 @@ static void step_tree_d(pn_demo *d, float dir) { d->want_d = clamp_int(d->want_d
 
 static void toggle_view(pn_demo *d, float view)
 {
+    if ((pn_demo_view)view == PN_DEMO_ERROR && d->opts.per_object) {
+        snprintf(d->build_message, sizeof d->build_message,
+                 "error view: exact mode needs the scene-wide BVH, not built with --trees object");
+        pn_warn("demo: %s", d->build_message);
+        return;
+    }
     d->view = d->view == (pn_demo_view)view ? PN_DEMO_SHADED : (pn_demo_view)view;
     d->renderer_dirty = d->restart = true; // the error view adds (or drops) the exact renderer
 }
@@ -287,6 +392,15 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_COMMA, 0, true, light_rotate, -15.0f, ", .", "rotate the light about its normal"},
     {GLFW_KEY_PERIOD, 0, true, light_rotate, 15.0f},
     {GLFW_KEY_L, 0, false, next_light, 0, "L", "with several lights: the keys above move the next one"},
+    {GLFW_KEY_O, 0, false, next_object, 1, "O shift+O", "select the next, previous object (glTF node with a mesh)"},
+    {GLFW_KEY_O, SHIFT, false, next_object, -1},
+    {GLFW_KEY_LEFT, SHIFT, true, object_move, MOVE_LEFT, "shift+arrows", "move the selected object across the view"},
+    {GLFW_KEY_RIGHT, SHIFT, true, object_move, MOVE_RIGHT},
+    {GLFW_KEY_UP, SHIFT, true, object_move, MOVE_AWAY},
+    {GLFW_KEY_DOWN, SHIFT, true, object_move, MOVE_NEAR},
+    {GLFW_KEY_PAGE_UP, SHIFT, true, object_move, MOVE_UP, "shift+pageup/down",
+     "move it up, down: --trees object rebuilds the top level only, else the tree (background)"},
+    {GLFW_KEY_PAGE_DOWN, SHIFT, true, object_move, MOVE_DOWN},
     {GLFW_KEY_M, 0, false, next_mode, 1, "M shift+M", "next, previous mode"},
     {GLFW_KEY_M, SHIFT, false, next_mode, -1},
     {GLFW_KEY_1, 0, false, set_mode, 1, "1 2 3 4 ...", "the modes in --help's order (linespace, ls-leaf, ...)"},

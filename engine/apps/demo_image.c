@@ -230,8 +230,8 @@ static void params_text(const pn_demo *d, char *out, size_t n)
     const pn_shadow_mode_info *mode = pn_shadow_mode_get(o->mode);
     int at = snprintf(out, n, "%s", mode->name);
     if (mode->needs.tree && at >= 0 && (size_t)at < n)
-        at += snprintf(out + at, n - (size_t)at, " LS(%d,%d) %s", d->accel.tree.n, d->accel.tree.d,
-                       pn_traversal_names[o->traversal]);
+        at += snprintf(out + at, n - (size_t)at, " LS(%d,%d)%s %s", d->accel.desc.tree_n, d->accel.desc.tree_d,
+                       d->accel.desc.per_object ? " per object" : "", pn_traversal_names[o->traversal]);
     if (at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
                        o->filter != PN_FILTER_NONE ? " filtered" : "");
@@ -300,6 +300,20 @@ void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra)
             ADD("accumulated %u of %u frames%s\n", d->image.frames, d->accumulate_max,
                 d->image.frames >= d->accumulate_max ? " (held)" : "");
         ADD("view %s%s\n", view_name(d), d->cells ? " + tree cells" : "");
+        if (d->scene.object_count > 0) {
+            // What a move costs the frame: per-object trees rebuild the top level only.
+            const pn_demo_move *m = &d->last_move;
+            ADD("object %u (0-%u; O: next, shift+arrows: move)", d->object_sel, d->scene.object_count - 1);
+            if (m->count && !m->rebuild)
+                ADD("  last move %.2f ms (top level %.2f + upload %.2f, no tree rebuilt)", m->total_ms, m->top_ms,
+                    m->top_upload_ms);
+            else if (m->count && d->accel.desc.per_object)
+                ADD("  last move %.2f ms; the rest's culling lost: trees rebuilt in the background", m->total_ms);
+            else if (m->count)
+                ADD("  last move %.2f ms + the tree rebuilt in the background (--trees object: top level only)",
+                    m->total_ms);
+            ADD("\n");
+        }
         if (d->view == PN_DEMO_ERROR)
             ADD("error vs exact: MAE %.4f  p99 %.3f  max %.3f\n", s->error_mae, s->error_p99, s->error_max);
         ADD("H: controls");

@@ -37,7 +37,14 @@ void pn_print_demo_help(void)
            "  frame N pan X Y           move the scene on screen by X, Y view heights (y down)\n"
            "  frame N zoom F            multiply the distance to the target by F\n"
            "  frame N resize W H        resize the window\n"
-           "  frame N screenshot FILE   save frame N (without the text) as PNG\n"
+           "  frame N move-object I DX DY DZ\n"
+           "                            move object I (the file's I-th node with a mesh, as render's\n"
+           "                            --move-object counts) by DX,DY,DZ in world space. It costs a\n"
+           "                            top-level rebuild with --trees object (no line space), a tree\n"
+           "                            rebuild on a worker thread with the scene-wide tree; stdout\n"
+           "                            says what it cost\n"
+           "  frame N screenshot FILE   save frame N (without the text) as PNG, once the tree builds\n"
+           "                            running or due (N, D, a light or an object moved) are done\n"
            "The frame counter counts presented frames. PN_VALIDATION=1 makes any validation message\n"
            "an exit code of 3, as for render.\n");
 }
@@ -90,6 +97,11 @@ int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
         o->scene = "builtin:default";
     if (!pn_shadow_mode_get(o->r.mode)->traces) {
         pn_error("demo: --mode %s casts no shadows to look at; pick a mode that traces rays (penumbra render --help)",
+                 pn_shadow_mode_get(o->r.mode)->name);
+        return PN_EXIT_USAGE;
+    }
+    if (o->r.per_object && o->r.mode != PN_SHADOW_LINESPACE) {
+        pn_error("demo: per-object trees (--trees object) serve mode linespace only, not %s",
                  pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
     }

@@ -31,11 +31,12 @@ static bool parse_float(const char *s, float *out)
 // One line into *ev; returns an error message, or NULL.
 static const char *parse_line(char *line, pn_demo_event *ev)
 {
-    char *tok[6], *save = NULL;
+    enum { MAX_WORDS = 7 }; // frame N move-object I DX DY DZ
+    char *tok[MAX_WORDS + 1], *save = NULL;
     int n = 0;
-    for (char *t = strtok_r(line, " \t\r\n", &save); t && n < 6; t = strtok_r(NULL, " \t\r\n", &save))
+    for (char *t = strtok_r(line, " \t\r\n", &save); t && n < MAX_WORDS + 1; t = strtok_r(NULL, " \t\r\n", &save))
         tok[n++] = t;
-    if (n > 5)
+    if (n > MAX_WORDS)
         return "too many words";
     if (n < 3 || strcmp(tok[0], "frame") != 0)
         return "expected 'frame N COMMAND ...'";
@@ -62,13 +63,19 @@ static const char *parse_line(char *line, pn_demo_event *ev)
         if (args != 2 || !parse_uint(tok[3], &w) || !parse_uint(tok[4], &h) || w < 1 || h < 1 || w > 16384 || h > 16384)
             return "resize needs a width and a height in 1..16384";
         ev->a = (float)w, ev->b = (float)h;
+    } else if (!strcmp(cmd, "move-object")) {
+        ev->kind = PN_DEMO_EVENT_MOVE_OBJECT;
+        if (args != 4 || !parse_uint(tok[3], &ev->object) || !parse_float(tok[4], &ev->move[0]) ||
+            !parse_float(tok[5], &ev->move[1]) || !parse_float(tok[6], &ev->move[2]))
+            return "move-object needs an object index (0, 1, ...: the file's nodes with a mesh, as --move-object "
+                   "counts) and three numbers DX DY DZ";
     } else if (!strcmp(cmd, "screenshot")) {
         ev->kind = PN_DEMO_EVENT_SCREENSHOT;
         if (args != 1 || strlen(tok[3]) >= sizeof ev->path)
             return "screenshot needs one file name";
         strcpy(ev->path, tok[3]);
     } else {
-        return "unknown command (key, orbit, pan, zoom, resize, screenshot)";
+        return "unknown command (key, orbit, pan, zoom, resize, move-object, screenshot)";
     }
     return NULL;
 }
@@ -129,6 +136,19 @@ pn_result pn_demo_script_load(const char *path, pn_demo_script *out)
         return r;
     }
     qsort(out->events, out->count, sizeof *out->events, by_frame);
+    return PN_OK;
+}
+
+pn_result pn_demo_script_check(const pn_demo_script *s, const char *path, const pn_scene *scene)
+{
+    for (uint32_t i = 0; i < s->count; i++) {
+        const pn_demo_event *e = &s->events[i];
+        if (e->kind == PN_DEMO_EVENT_MOVE_OBJECT && e->object >= scene->object_count) {
+            pn_error("%s:%u: move-object %u: %s has %u object(s) to move (glTF nodes with a mesh, counted from 0)",
+                     path, e->line, e->object, scene->name, scene->object_count);
+            return PN_ERR_INVALID;
+        }
+    }
     return PN_OK;
 }
 

@@ -226,11 +226,6 @@ void pn_render_opts_print_help(void)
            "                        interleaved one shares one set of samples per tile)\n");
 }
 
-// The camera and light feed float arithmetic that squares distances (the view matrix, the light's
-// corners, the shading integral): beyond this distance from the origin those squares overflow.
-// The same limit pn_scene_validate puts on the scene's positions.
-#define PN_MAX_COORD 1e18f
-
 // Normalises v in double precision, so that neither huge (1e30) nor tiny (1e-30) components
 // overflow or underflow on the way; false for a zero or non-finite vector.
 static bool v3_unit(const float v[3], float out[3])

@@ -12,6 +12,11 @@
 // --move-object options at most.
 enum { PN_MAX_MOVES = 16 };
 
+// The camera and light feed float arithmetic that squares distances (the view matrix, the light's
+// corners, the shading integral): beyond this distance from the origin those squares overflow.
+// The same limit pn_scene_validate puts on the scene's positions (and the demo on moved objects).
+#define PN_MAX_COORD 1e18f
+
 // The parameters of one render. The has_* flags mark what the command line set explicitly; the
 // rest comes from the scene (pn_render_setup_view).
 typedef struct pn_render_opts {

@@ -61,6 +61,10 @@ pn_result pn_shadow_accel_upload(pn_gpu_device *dev, const pn_scene *scene, pn_s
         PN_TRY(pn_gpu_objects_create(dev, &a->objects, &a->gpu_objects));
     else if (a->desc.needs.tree)
         PN_TRY(pn_gpu_pools_create(dev, &a->pools, &a->gpu_pools));
+    // Re-pointed here: an accel built on a worker is handed over by value (the demo's), its own
+    // BVH with it.
+    if (a->exact_bvh)
+        a->exact_bvh = a->desc.reuse_bvh ? a->desc.reuse_bvh : &a->bvh;
     if (a->desc.needs.exact_pools)
         PN_TRY(pn_gpu_exact_pools_create(dev, scene, a->exact_bvh, &a->tree, &a->exact));
     if (a->desc.needs.tlas) {

@@ -38,7 +38,8 @@ typedef struct pn_shadow_accel {
     pn_objects objects;        // with needs.tree and per_object
     pn_gpu_objects gpu_objects; // after upload, with per_object
     pn_bvh bvh;                // built for needs.bvh without reuse_bvh
-    const pn_bvh *exact_bvh;   // the BVH of the exact pools: &bvh, desc.reuse_bvh or NULL
+    const pn_bvh *exact_bvh;   // the BVH of the exact pools: &bvh, desc.reuse_bvh or NULL (&bvh: as
+                               // of the build or the upload; the struct may move in between)
     double build_ms;           // N-tree with line spaces, and BVH
     pn_gpu_pools gpu_pools;    // after upload, with needs.tree
     pn_gpu_exact_pools exact;  // after upload, with needs.exact_pools

@@ -264,6 +264,22 @@ void pn_gbuffer_pass_destroy(pn_gpu_device *dev, pn_gbuffer_pass *g)
     memset(g, 0, sizeof *g);
 }
 
+pn_result pn_gbuffer_pass_update_vertices(pn_gpu_device *dev, pn_gbuffer_pass *g, const pn_scene *scene,
+                                          uint32_t first, uint32_t count)
+{
+    if (first > scene->vertex_count || count > scene->vertex_count - first ||
+        (VkDeviceSize)scene->vertex_count * sizeof(pn_vertex) != g->vertices.size) {
+        pn_error("%s: vertices %u..%u to update, the G-buffer holds %llu of the scene's %u", scene->name, first,
+                 first + count, (unsigned long long)(g->vertices.size / sizeof(pn_vertex)), scene->vertex_count);
+        return PN_ERR_INVALID;
+    }
+    PN_TRY(pn_gpu_buffer_write(dev, &g->vertices, (VkDeviceSize)first * sizeof(pn_vertex), scene->vertices + first,
+                               (VkDeviceSize)count * sizeof(pn_vertex)));
+    memcpy(g->scene_min, scene->bounds_min, sizeof g->scene_min);
+    memcpy(g->scene_max, scene->bounds_max, sizeof g->scene_max);
+    return PN_OK;
+}
+
 pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *r, const pn_camera *cam, uint32_t width, uint32_t height)
 {
     pn_gbuffer_push out = {0}, *push = &out;

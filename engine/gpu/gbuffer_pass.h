@@ -33,6 +33,12 @@ typedef struct pn_gbuffer_targets {
 pn_result pn_gbuffer_pass_create(pn_gpu_device *dev, const pn_scene *scene, pn_gbuffer_pass *out);
 void pn_gbuffer_pass_destroy(pn_gpu_device *dev, pn_gbuffer_pass *g);
 
+// The scene's vertices [first, first + count) moved (pn_scene_move_object): copies them to the pass's
+// vertex buffer and takes the scene's new bounds for the clip planes. Indices, draws and materials
+// stay. The queue must be idle.
+pn_result pn_gbuffer_pass_update_vertices(pn_gpu_device *dev, pn_gbuffer_pass *g, const pn_scene *scene,
+                                          uint32_t first, uint32_t count);
+
 // The pass's SPIR-V (stage 0: vertex, 1: fragment) and its size in bytes: what a cache of rendered
 // images keys on (apps/bench_reference.c), since these shaders place P and N.
 const uint32_t *pn_gbuffer_pass_spirv(int stage, size_t *size);

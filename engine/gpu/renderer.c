@@ -65,6 +65,16 @@ static pn_result create_targets(pn_renderer *r)
     return PN_OK;
 }
 
+// The largest |coordinate| of the scene's bounds: it bounds every vertex's, which the shadow rays'
+// origin offset scales with (shadow_frame.glsl).
+static float scene_magnitude(const pn_scene *scene)
+{
+    float mag = 0;
+    for (int k = 0; k < 3; k++)
+        mag = fmaxf(mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
+    return mag;
+}
+
 // ---------------------------------------------------------------------------------------------
 
 // A budgeted split gives each pixel its own number of rays per light: no tile can share one set of
@@ -147,11 +157,8 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     pn_result r = pn_gbuffer_pass_create(dev, scene, &out->gbuffer);
     if (r == PN_OK)
         r = create_targets(out);
-    float scene_mag = 0;
-    for (int k = 0; k < 3; k++)
-        scene_mag = fmaxf(scene_mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
     if (r == PN_OK)
-        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_mag, &out->shadow);
+        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene), &out->shadow);
     if (r == PN_OK)
         r = pn_filter_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->v_raw, &out->v,
                                   &out->filter);
@@ -161,6 +168,15 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r != PN_OK)
         pn_renderer_destroy(out);
     return r;
+}
+
+pn_result pn_renderer_update_vertices(pn_renderer *r, const pn_scene *scene, uint32_t first, uint32_t count)
+{
+    // The queue is idle between frames (pn_renderer_render waits); the shadow pass writes its
+    // parameters, scene_mag among them, at every frame (pn_shadow_pass_update).
+    PN_TRY(pn_gbuffer_pass_update_vertices(r->dev, &r->gbuffer, scene, first, count));
+    r->shadow.scene_mag = scene_magnitude(scene);
+    return PN_OK;
 }
 
 void pn_renderer_destroy(pn_renderer *r)

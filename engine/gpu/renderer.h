@@ -35,6 +35,13 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
                              pn_renderer *out);
 void pn_renderer_destroy(pn_renderer *r);
 
+// The scene's vertices [first, first + count) moved (pn_scene_move_object, the demo's live moves):
+// copies them to the G-buffer pass and takes the scene's new bounds for what the renderer derives
+// from them at create (clip planes, the shadow rays' origin offset scene_mag), so that the next
+// frame is the frame a renderer created on the moved scene would draw. The shadow pass's pools are
+// the caller's to update (per-object trees: pn_objects_update, pn_gpu_objects_update).
+pn_result pn_renderer_update_vertices(pn_renderer *r, const pn_scene *scene, uint32_t first, uint32_t count);
+
 // Records, submits and waits for one frame; fills `times` and leaves the images readable through
 // pn_renderer_images until the next call.
 pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);

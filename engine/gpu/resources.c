@@ -83,18 +83,17 @@ void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf)
     memset(buf, 0, sizeof *buf);
 }
 
-pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const void *data, VkDeviceSize size,
-                                         VkBufferUsageFlags usage, pn_gpu_buffer *out)
+// Copies `size` bytes of `data` to `dst` at `offset` through a staging buffer, and waits.
+static pn_result copy_through_staging(pn_gpu_device *dev, const pn_gpu_buffer *dst, VkDeviceSize offset,
+                                      const void *data, VkDeviceSize size)
 {
     pn_gpu_buffer staging;
     PN_TRY(pn_gpu_buffer_create(dev, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
     memcpy(staging.mapped, data, size);
-    pn_result r = pn_gpu_buffer_create(dev, size, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_DEVICE_LOCAL, out);
     VkCommandBuffer cmd;
-    if (r == PN_OK)
-        r = pn_gpu_begin_once(dev, &cmd);
+    pn_result r = pn_gpu_begin_once(dev, &cmd);
     if (r == PN_OK) {
-        vkCmdCopyBuffer(cmd, staging.buffer, out->buffer, 1, &(VkBufferCopy){.size = size});
+        vkCmdCopyBuffer(cmd, staging.buffer, dst->buffer, 1, &(VkBufferCopy){.dstOffset = offset, .size = size});
         // Later submissions read it in any stage: make the copy visible to all of them.
         pn_gpu_cmd_barrier(cmd,
                            &(VkMemoryBarrier2){
@@ -108,9 +107,29 @@ pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const void *data, V
         r = pn_gpu_submit_wait(dev, cmd);
     }
     pn_gpu_buffer_destroy(dev, &staging);
+    return r;
+}
+
+pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const void *data, VkDeviceSize size,
+                                         VkBufferUsageFlags usage, pn_gpu_buffer *out)
+{
+    pn_result r = pn_gpu_buffer_create(dev, size, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_DEVICE_LOCAL, out);
+    if (r == PN_OK)
+        r = copy_through_staging(dev, out, 0, data, size);
     if (r != PN_OK)
         pn_gpu_buffer_destroy(dev, out);
     return r;
+}
+
+pn_result pn_gpu_buffer_write(pn_gpu_device *dev, pn_gpu_buffer *buf, VkDeviceSize offset, const void *data,
+                              VkDeviceSize size)
+{
+    if (offset > buf->size || size > buf->size - offset) {
+        pn_error("buffer write of %llu bytes at %llu past the buffer's %llu", (unsigned long long)size,
+                 (unsigned long long)offset, (unsigned long long)buf->size);
+        return PN_ERR_INVALID;
+    }
+    return size ? copy_through_staging(dev, buf, offset, data, size) : PN_OK;
 }
 
 pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc, pn_gpu_image *out)

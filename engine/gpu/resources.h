@@ -22,6 +22,13 @@ void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf);
 pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const void *data, VkDeviceSize size,
                                          VkBufferUsageFlags usage, pn_gpu_buffer *out);
 
+// Overwrites bytes [offset, offset + size) of a device-local buffer made by
+// pn_gpu_buffer_create_with_data (which gives it TRANSFER_DST), through a staging buffer. The queue
+// must be idle (no submitted command still reads the buffer); the copy is complete and visible to
+// every later command when this returns.
+pn_result pn_gpu_buffer_write(pn_gpu_device *dev, pn_gpu_buffer *buf, VkDeviceSize offset, const void *data,
+                              VkDeviceSize size);
+
 typedef struct pn_gpu_image {
     VkImage image;
     VkDeviceMemory memory;
