@@ -39,7 +39,7 @@ uint pcg(uint v)
 }
 
 // Point k of the two-dimensional Sobol' sequence (van der Corput in base 2, and the Pascal
-// matrix's dimension), digitally shifted by `shift` (bits XORed in, two hashes of it per axis).
+// matrix's dimension), digitally shifted by `shift` (a hash of it XORed into each axis).
 // Every prefix of 2^m points is a (0, m, 2)-net: each of the 2^m equal strata of any shape
 // (2^a x 2^b, a + b = m) holds one point, and a shift keeps that. So any count n is as evenly
 // spread as a jittered grid of n at a power of two, and close to it between them, which the R2
