@@ -76,6 +76,10 @@ int main(void)
     CHECK(move(&s, 0, 3, 0, 0) == PN_OK);
     CHECK(move(&s, 0, -3, 0, 0.125f) == PN_OK);
     CHECK(move(&s, 0, 0, 0, -0.125f) == PN_OK);
+    // Steps that round (0.1 and 0.3 are not floats): the moved box must still be the one a full
+    // pass finds, to the bit, growing the bounds outwards in every axis.
+    CHECK(move(&s, 0, 2.1f, 0.3f, -2.7f) == PN_OK);
+    CHECK(move(&s, 0, -4.3f, -0.1f, 5.3f) == PN_OK);
 
     // Nothing left out (no light to cull by): nothing to hold, whatever moves.
     pn_objects all;

@@ -88,10 +88,11 @@ pn_result pn_scene_move_object(pn_scene *s, uint32_t index, const float delta[3]
         pn_scene_update_bounds(s);
         return PN_OK;
     }
-    object_bounds(s, o, lo, hi);
+    // The moved box without a second pass: rounding x + d to float is nondecreasing in x, so the
+    // least (greatest) moved coordinate is the least (greatest) one moved, to the bit.
     for (int k = 0; k < 3; k++) {
-        s->bounds_min[k] = fminf(s->bounds_min[k], lo[k]);
-        s->bounds_max[k] = fmaxf(s->bounds_max[k], hi[k]);
+        s->bounds_min[k] = fminf(s->bounds_min[k], lo[k] + delta[k]);
+        s->bounds_max[k] = fmaxf(s->bounds_max[k], hi[k] + delta[k]);
     }
     return PN_OK;
 }
