@@ -21,6 +21,10 @@
 
 enum { MAX_LIST = 32, MAX_BUDGETS = 8 };
 
+// The tree kinds of --tree-kinds, and their names in reports.
+enum { PN_TREE_KIND_SCENE, PN_TREE_KIND_OBJECT };
+extern const char *const pn_bench_tree_kind_names[]; // "scene", "object", NULL
+
 // A standard view (bench_views.c): camera and light in units of the object's bounding-sphere radius
 // r, from its centre.
 typedef struct pn_bench_view_spec {
@@ -46,6 +50,10 @@ typedef struct bench_opts {
     int mode_count;
     int trees[MAX_LIST][2];
     int tree_count;
+    // --tree-kinds: an axis of the matrix for the line-space trees, the scene-wide tree (culled by
+    // the view and lights) and per-object trees (one per mesh, shared by its instances, and a top
+    // level; mode linespace only): kinds[PN_TREE_KIND_*] (default the scene-wide alone).
+    bool kinds[2];
     uint32_t spps[MAX_LIST]; // ascending
     int spp_count;
     uint32_t sizes[MAX_LIST][2];
@@ -76,10 +84,15 @@ typedef struct bench_row {
     uint32_t width, height, spp;
     pn_shadow_mode mode;
     int n, d;
+    bool per_object;         // the tree as per-object trees (--tree-kinds object)
     pn_filter filter;        // with interleaved, tile_w x tile_h tiles
     uint32_t tile_w, tile_h; // 0 without a filter
     uint32_t triangles;
     double build_ms, pool_mb;
+    // What moving one object costs the configuration's acceleration structures: a rebuild of all of
+    // them (build_ms), except with per-object trees, where it is the top level's rebuild and upload
+    // (timed). Moving the vertices and their G-buffer upload is the same for every configuration.
+    double move_ms;
     double gbuffer_ms, shadow_ms, filter_ms, shade_ms; // medians (filter_ms 0 without a filter)
     double shadow_min_ms, shadow_max_ms;          // spread
     double rays_per_s;
@@ -94,8 +107,10 @@ typedef struct bench_row {
 // trades against each other); the time-to-error table, the plots' front and --max-error use it.
 static inline double pn_bench_row_ms(const bench_row *r) { return r->shadow_ms + r->filter_ms; }
 
-// A configuration's name in tables and plots: the mode, and "+filter" for a filtered cell.
+// A configuration's name in tables and plots: the mode, "+filter" for a filtered cell and
+// "/objects" with per-object trees.
 static inline const char *pn_bench_filter_suffix(pn_filter f) { return f == PN_FILTER_NONE ? "" : "+filter"; }
+static inline const char *pn_bench_kind_suffix(bool per_object) { return per_object ? "/objects" : ""; }
 
 // --max-error: what --quality auto picked for one view, size and budget, next to the matrix's front.
 typedef struct bench_quality {

@@ -83,21 +83,21 @@ static bool push_row(bench_rows *rows, const bench_row *r)
     return true;
 }
 
-static void tree_label(char *out, size_t n, int tn, int td)
+static void tree_label(char *out, size_t n, int tn, int td, bool per_object)
 {
     if (tn)
-        snprintf(out, n, " LS(%d,%d)", tn, td);
+        snprintf(out, n, " LS(%d,%d)%s", tn, td, per_object ? " per object" : "");
     else
         out[0] = '\0';
 }
 
-// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter][_LSn_d].
+// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter][_LSn_d][_objects].
 static void cell_label(char *out, size_t n, const bench_row *r)
 {
     int len = snprintf(out, n, "%s_%ux%u_%uspp_%s%s", r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode),
                        r->filter != PN_FILTER_NONE ? "_filter" : "");
     if (r->n && len > 0 && (size_t)len < n)
-        snprintf(out + len, n - (size_t)len, "_LS%d_%d", r->n, r->d);
+        snprintf(out + len, n - (size_t)len, "_LS%d_%d%s", r->n, r->d, r->per_object ? "_objects" : "");
 }
 
 // o->out_dir/PREFIX_LABEL.exr, with the characters a file name should not hold in the label replaced.
@@ -143,11 +143,11 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
 {
     bench_quality bq = {.width = frame->width, .height = frame->height, .budget = budget};
     snprintf(bq.scene, sizeof bq.scene, "%s", rows->rows[first_row].scene);
-    // --quality auto chooses among unfiltered configurations, so the front it is held to is the
-    // unfiltered cells'.
+    // --quality auto chooses among unfiltered configurations over the scene-wide tree, so the front
+    // it is held to is those cells'.
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        if (r->filter == PN_FILTER_NONE && r->ref.mae <= budget && (!bq.has_best || r->shadow_ms < bq.best_ms)) {
+        if (r->filter == PN_FILTER_NONE && !r->per_object && r->ref.mae <= budget && (!bq.has_best || r->shadow_ms < bq.best_ms)) {
             bq.has_best = true;
             bq.best_mode = r->mode, bq.best_n = r->n, bq.best_d = r->d, bq.best_spp = r->spp;
             bq.best_ms = r->shadow_ms, bq.best_mae = r->ref.mae;
@@ -164,7 +164,7 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
     const bench_row *cell = NULL;
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        if (r->filter == PN_FILTER_NONE && r->mode == q->mode && r->n == q->tree_n && r->d == q->tree_d &&
+        if (r->filter == PN_FILTER_NONE && !r->per_object && r->mode == q->mode && r->n == q->tree_n && r->d == q->tree_d &&
             r->spp == q->spp)
             cell = r;
     }
@@ -214,13 +214,13 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
     if (!push_quality(rows, &bq))
         return PN_EXIT_FAILURE;
     char tree[32], best_tree[32];
-    tree_label(tree, sizeof tree, q->tree_n, q->tree_d);
+    tree_label(tree, sizeof tree, q->tree_n, q->tree_d, false);
     printf("quality auto (max error %.4g): %s%s %u spp%s, shadow %.1f ms, reference MAE %.4f (pilot %.4f; chosen in "
            "%.1f s)",
            budget, MODE_NAME(q->mode), tree, q->spp, cell ? " (a cell of the matrix)" : "", bq.shadow_ms, bq.ref.mae,
            q->pilot_mae, bq.choose_ms * 1e-3);
     if (bq.has_best && bq.best_ms > 0) {
-        tree_label(best_tree, sizeof best_tree, bq.best_n, bq.best_d);
+        tree_label(best_tree, sizeof best_tree, bq.best_n, bq.best_d, false);
         printf("; the matrix's fastest within the budget: %s%s %u spp %.1f ms (MAE %.4f); side by side auto takes "
                "%.2fx its time (%.1f / %.1f ms)\n",
                MODE_NAME(bq.best_mode), best_tree, bq.best_spp, bq.best_ms, bq.best_mae,
@@ -304,6 +304,7 @@ typedef struct group {
     float *v_exact;
     double exact_ms[2 * MAX_LIST], embree_ms[MAX_LIST];
     pn_bench_embree_scene *rtc; // traces exact's rays
+    double move_ms;             // the configuration's (bench_row.move_ms)
 } group;
 
 // A filtered cell's edge leak (metrics.h); with --edge-images also its EXR of V, V_raw, the
@@ -350,6 +351,7 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     row.spp = spp;
     row.mode = mode;
     row.n = sd->tree_n, row.d = sd->tree_d;
+    row.per_object = sd->per_object;
     row.filter = sd->frame.filter;
     if (row.filter != PN_FILTER_NONE)
         row.tile_w = pn_filter_tile(sd->frame.tile_w), row.tile_h = pn_filter_tile(sd->frame.tile_h);
@@ -377,7 +379,8 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
         pn_renderer_images(&s->renderer, &img);
     }
     row.build_ms = s->build_ms;
-    row.pool_mb = (s->pool_bytes.total + s->exact_bytes) / 1048576.0;
+    row.move_ms = g->move_ms;
+    row.pool_mb = pn_shadow_accel_gpu_bytes(&s->accel) / 1048576.0; // with per-object trees' top level
     row.rays_per_s = pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
     row.vs_exact = g->exact_ms[ci] > 0 ? pn_bench_row_ms(&row) / g->exact_ms[ci] : 0;
     row.embree_ms = g->embree_ms[pi];
@@ -397,18 +400,39 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     return PN_EXIT_OK;
 }
 
-static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows *rows, bool push)
+// What moving one object costs the set-up's acceleration structures (bench_row.move_ms): per-object
+// trees rebuild their top level from the objects' transforms and upload it, the same work whether
+// an object moved or not (pn_objects_update recomputes every instance), so it is timed on the scene
+// as it stands, the least of a few runs; every other structure is rebuilt whole.
+static pn_result time_move(group *g, pn_setup *s, double *ms)
+{
+    if (!s->accel.desc.per_object) {
+        *ms = s->build_ms;
+        return PN_OK;
+    }
+    *ms = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        uint64_t t0 = pn_time_ns();
+        PN_TRY(pn_objects_update(g->scene, &s->accel.objects));
+        PN_TRY(pn_gpu_objects_update(g->dev, &s->accel.objects, &s->accel.gpu_objects));
+        double t = pn_ms_since(t0);
+        *ms = t < *ms ? t : *ms;
+    }
+    return PN_OK;
+}
+
+static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bool per_object, bench_rows *rows, bool push)
 {
     const bench_opts *o = g->o;
     bool exact = mode == PN_SHADOW_REFERENCE;
     pn_setup s;
-    pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td,
+    pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td, .per_object = per_object,
                         .view = o->gbuffer ? NULL : g->cam}; // the tree models what the picture needs
     sd.frame.mode = mode;
     sd.frame.spp = o->spps[o->spp_count - 1]; // the most: the ray dump holds that many rays per pixel
     sd.frame.dump_rays = exact && g->rtc;
     char cell[64];
-    tree_label(cell, sizeof cell, tn, td);
+    tree_label(cell, sizeof cell, tn, td, per_object);
     fprintf(stderr, "bench: %s %ux%u %s%s\n", g->base.scene, g->frame.width, g->frame.height, MODE_NAME(mode), cell);
     if (pn_setup_create(g->dev, g->scene, g->light, &sd, &s) != PN_OK) {
         if (exact)
@@ -417,6 +441,13 @@ static int run_config(group *g, pn_shadow_mode mode, int tn, int td, bench_rows 
         return PN_EXIT_OK;
     }
     int rc = PN_EXIT_OK;
+    // Timed before the cells, which then report it: the top level rebuilt from the same transforms
+    // is the one built with the trees.
+    if (time_move(g, &s, &g->move_ms) != PN_OK) {
+        pn_error("bench: %s%s: the top level's rebuild failed", MODE_NAME(mode), cell);
+        pn_setup_destroy(g->dev, &s);
+        return PN_EXIT_FAILURE;
+    }
     double pixel_angle = 2.0 * tan(0.5 * g->cam->yfov_deg * 3.14159265358979323846 / 180.0) / g->frame.height;
     for (int fi = 0; fi < o->filter_count && rc == PN_EXIT_OK; fi++) {
         pn_filter filter = o->filters[fi];
@@ -547,7 +578,7 @@ static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode
         }
         r.width = g->frame.width, r.height = g->frame.height, r.spp = sd.frame.spp, r.mode = mode, r.n = tn, r.d = td;
         r.filter = sd.frame.filter, r.lights = k, r.build_ms = s.build_ms, r.culled = s.accel.tree.culled;
-        r.pool_mb = (s.pool_bytes.total + s.exact_bytes) / 1048576.0;
+        r.pool_mb = pn_shadow_accel_gpu_bytes(&s.accel) / 1048576.0;
         r.shadow_ms = t.shadow_ms, r.shade_ms = t.shade_ms;
         snprintf(r.scene, sizeof r.scene, "%s", g->base.scene);
         r.frame_ms = t.gbuffer_ms + t.shadow_ms + t.filter_ms + t.shade_ms;
@@ -618,7 +649,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
         for (size_t i = 0; i < px; i++)
             g.covered += mask[i];
         int first_row = rows->count; // this group's rows start here
-        rc = run_config(&g, PN_SHADOW_REFERENCE, 0, 0, rows, want_exact);
+        rc = run_config(&g, PN_SHADOW_REFERENCE, 0, 0, false, rows, want_exact);
         for (int m = 0; m < o->mode_count && rc == PN_EXIT_OK; m++) {
             const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
             const char *lack;
@@ -629,11 +660,25 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
                     pn_warn("bench: %s skipped: %s lacks %s", info->name, dev->props.deviceName, lack);
                 continue;
             }
-            // A mode without a tree is one configuration; a tree mode one per tree.
-            int configs = info->needs.tree ? o->tree_count : 1;
-            for (int ti = 0; ti < configs && rc == PN_EXIT_OK; ti++)
-                rc = run_config(&g, o->modes[m], info->needs.tree ? o->trees[ti][0] : 0,
-                                info->needs.tree ? o->trees[ti][1] : 0, rows, true);
+            // A mode without a tree is one configuration; a tree mode one per tree and tree kind
+            // (per-object trees serve linespace alone).
+            for (int kind = PN_TREE_KIND_SCENE; kind <= PN_TREE_KIND_OBJECT && rc == PN_EXIT_OK; kind++) {
+                bool per_object = kind == PN_TREE_KIND_OBJECT;
+                if (!info->needs.tree) {
+                    if (kind == PN_TREE_KIND_SCENE)
+                        rc = run_config(&g, o->modes[m], 0, 0, false, rows, true);
+                    continue;
+                }
+                if (!o->kinds[kind])
+                    continue;
+                if (per_object && o->modes[m] != PN_SHADOW_LINESPACE) {
+                    if (si == 0)
+                        pn_warn("bench: %s has no per-object trees (they serve linespace alone)", info->name);
+                    continue;
+                }
+                for (int ti = 0; ti < o->tree_count && rc == PN_EXIT_OK; ti++)
+                    rc = run_config(&g, o->modes[m], o->trees[ti][0], o->trees[ti][1], per_object, rows, true);
+            }
         }
         float centre[3];
         for (int k = 0; k < 3; k++)

@@ -110,6 +110,8 @@ static bool add_view_arg(bench_opts *o, const char *name)
     return add_view(o, &v);
 }
 
+const char *const pn_bench_tree_kind_names[] = {"scene", "object", NULL};
+
 static int cmp_u32(const void *a, const void *b)
 {
     uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
@@ -120,7 +122,7 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {
     *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
                       .reference_spp = PN_REFERENCE_SPP, .out_dir = "bench-out", .embree = true,
-                      .tile_w = 3, .tile_h = 3};
+                      .tile_w = 3, .tile_h = 3, .kinds = {[PN_TREE_KIND_SCENE] = true}};
     bool quick = false;
     char scenes_buf[4096] = "", views_buf[512] = "";
     pn_args a = {argc, argv, 0};
@@ -177,6 +179,20 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
                     }
                 o->tree_count += ok;
             }
+        } else if (pn_args_value(&a, "--tree-kinds", &v, &err)) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v ? v : "");
+            o->kinds[PN_TREE_KIND_SCENE] = o->kinds[PN_TREE_KIND_OBJECT] = false;
+            int count = 0;
+            for (char *tok = strtok(buf, ","); tok && ok; tok = strtok(NULL, ",")) {
+                int k = pn_parse_choice("--tree-kinds", tok, pn_bench_tree_kind_names);
+                ok = k >= 0 && !o->kinds[k];
+                if (k >= 0 && !ok)
+                    pn_error("--tree-kinds: %s is listed twice", tok);
+                if (ok)
+                    o->kinds[k] = true, count++;
+            }
+            ok = ok && count > 0;
         } else if (pn_args_value(&a, "--spp", &v, &err)) {
             ok = v && parse_list_u32("--spp", v, o->spps, &o->spp_count, 1, 4096);
             qsort(o->spps, (size_t)o->spp_count, sizeof o->spps[0], cmp_u32);

@@ -16,24 +16,32 @@
 // "ref" against the converged reference, "bias" against exact with the same samples.
 void pn_bench_print_header(void)
 {
-    printf("%-16s %-9s %4s %-9s %-5s %-6s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s %6s\n", "view", "size",
-           "spp", "mode", "tree", "filter", "build ms", "MB", "shadow ms", "min", "max", "filter ms", "Mray/s", "ref MAE",
+    printf("%-16s %-9s %4s %-9s %-9s %-6s %8s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s %6s\n", "view",
+           "size", "spp", "mode", "tree", "filter", "build ms", "move ms", "MB", "shadow ms", "min", "max", "filter ms", "Mray/s", "ref MAE",
            "ref p99", "bias MAE", "bias mx", "/exact", "/embree", "edge%", "away%");
+}
+
+// A row's tree in the console: "N,d", "N,d obj" for per-object trees, "-" without a tree.
+static void tree_cell(char *out, size_t n, int tn, int td, bool per_object)
+{
+    if (tn)
+        snprintf(out, n, "%d,%d%s", tn, td, per_object ? " obj" : "");
+    else
+        snprintf(out, n, "-");
 }
 
 void pn_bench_print_row(const bench_row *r)
 {
-    char tree[16] = "-", filter[16] = "-", edge[16] = "-", away[16] = "-";
-    if (r->n)
-        snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
+    char tree[16], filter[16] = "-", edge[16] = "-", away[16] = "-";
+    tree_cell(tree, sizeof tree, r->n, r->d, r->per_object);
     if (r->filter != PN_FILTER_NONE) {
         snprintf(filter, sizeof filter, "%ux%u", r->tile_w, r->tile_h);
         snprintf(edge, sizeof edge, "%.2f", 100.0 * r->edge.share);
         snprintf(away, sizeof away, "%.2f", 100.0 * r->edge.away_share);
     }
-    printf("%-16.16s %4ux%-4u %4u %-9s %-5s %-6s %8.1f %7.1f %9.1f [%7.1f %7.1f] %8.2f %7.2f %8.4f %7.4f %8.4f %6.3f %6.2f "
-           "%7.2f %6s %6s\n",
-           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, filter, r->build_ms, r->pool_mb,
+    printf("%-16.16s %4ux%-4u %4u %-9s %-9s %-6s %8.1f %8.2f %7.1f %9.1f [%7.1f %7.1f] %8.2f %7.2f %8.4f %7.4f %8.4f %6.3f "
+           "%6.2f %7.2f %6s %6s\n",
+           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, filter, r->build_ms, r->move_ms, r->pool_mb,
            r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->filter_ms, r->rays_per_s / 1e6, r->ref.mae, r->ref.p99,
            r->bias.mae, r->bias.max, r->vs_exact, r->vs_embree, edge, away);
     fflush(stdout);
@@ -81,9 +89,8 @@ static bool close_out(FILE *f, const char *path, const char *tmp)
 
 void pn_bench_print_light_row(const bench_light_row *r)
 {
-    char tree[16] = "-";
-    if (r->n)
-        snprintf(tree, sizeof tree, "%d,%d", r->n, r->d);
+    char tree[16];
+    tree_cell(tree, sizeof tree, r->n, r->d, false);
     char err[64] = "";
     if (r->has_error)
         snprintf(err, sizeof err, "; radiance error %.4f MAE, %.4f RMSE", r->mae_rel, r->rmse_rel);
@@ -105,16 +112,17 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
     fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
                "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share,"
-               "away_pixels,away_grown,away_share\n");
+               "away_pixels,away_grown,away_share,tree_kind,move_ms\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
                 r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
-                r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share);
+                r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share,
+                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms);
     }
     return close_out(f, path, tmp);
 }
@@ -129,6 +137,15 @@ static void json_tree(FILE *f, int n, int d)
 {
     if (n)
         fprintf(f, "[%d, %d]", n, d);
+    else
+        fprintf(f, "null");
+}
+
+// "scene" or "object" for a row with a tree, null without one.
+static void json_kind(FILE *f, int n, bool per_object)
+{
+    if (n)
+        fprintf(f, "\"%s\"", pn_bench_tree_kind_names[per_object]);
     else
         fprintf(f, "null");
 }
@@ -151,44 +168,49 @@ static int group_end(const bench_rows *rows, int first)
     return end;
 }
 
-// A column of the time-to-error table: a mode with or without the filter.
+// A column of the time-to-error table: a mode with or without the filter, over the scene-wide tree
+// or per-object trees.
 typedef struct mode_filter {
     pn_shadow_mode mode;
     pn_filter filter;
+    bool per_object;
 } mode_filter;
 
-// The fastest row of rows [first, end) with mode and filter c whose reference MAE is at most
-// `level` (a filtered cell's time includes its filter pass); NULL when none reaches it.
+// The fastest row of rows [first, end) of column c whose reference MAE is at most `level` (a
+// filtered cell's time includes its filter pass); NULL when none reaches it.
 static const bench_row *fastest_within(const bench_rows *rows, int first, int end, mode_filter c, double level)
 {
     const bench_row *best = NULL;
     for (int j = first; j < end; j++) {
         const bench_row *r = &rows->rows[j];
-        if (r->mode == c.mode && r->filter == c.filter && r->ref.mae <= level &&
+        if (r->mode == c.mode && r->filter == c.filter && r->per_object == c.per_object && r->ref.mae <= level &&
             (!best || pn_bench_row_ms(r) < pn_bench_row_ms(best)))
             best = r;
     }
     return best;
 }
 
-enum { MAX_COLUMNS = 2 * PN_SHADOW_MODE_COUNT };
+enum { MAX_COLUMNS = 4 * PN_SHADOW_MODE_COUNT };
 
-// The modes and filters present in rows [first, end), in the order of the mode table, each mode
-// unfiltered first.
+// The columns present in rows [first, end), in the order of the mode table, each mode over the
+// scene-wide tree first, unfiltered first.
 static int group_modes(const bench_rows *rows, int first, int end, mode_filter *out)
 {
     int n = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
-        for (int f = PN_FILTER_NONE; f <= PN_FILTER_INTERLEAVED; f++)
-            for (int j = first; j < end; j++)
-                if (rows->rows[j].mode == (pn_shadow_mode)m && rows->rows[j].filter == (pn_filter)f) {
-                    out[n++] = (mode_filter){(pn_shadow_mode)m, (pn_filter)f};
-                    break;
+        for (int k = 0; k < 2; k++)
+            for (int f = PN_FILTER_NONE; f <= PN_FILTER_INTERLEAVED; f++)
+                for (int j = first; j < end; j++) {
+                    const bench_row *r = &rows->rows[j];
+                    if (r->mode == (pn_shadow_mode)m && r->filter == (pn_filter)f && r->per_object == (k == 1)) {
+                        out[n++] = (mode_filter){(pn_shadow_mode)m, (pn_filter)f, k == 1};
+                        break;
+                    }
                 }
     return n;
 }
 
-static const mode_filter EXACT = {PN_SHADOW_REFERENCE, PN_FILTER_NONE};
+static const mode_filter EXACT = {PN_SHADOW_REFERENCE, PN_FILTER_NONE, false};
 
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows)
 {
@@ -237,6 +259,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             fprintf(f, "[%u, %u]", r->tile_w, r->tile_h);
         else
             fprintf(f, "null");
+        fprintf(f, ", \"tree_kind\": ");
+        json_kind(f, r->n, r->per_object);
+        fprintf(f, ", \"move_ms\": %.4f", r->move_ms);
         fprintf(f, ", \"triangles\": %u, \"build_ms\": %.3f, \"pool_mb\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, "
                    "\"shadow\": %.4f, \"shadow_min\": %.4f, \"shadow_max\": %.4f, \"filter\": %.4f, \"shade\": %.4f}, "
                    "\"cell_ms\": %.4f, \"shadow_rays_per_s\": %.6g, ",
@@ -276,6 +301,8 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 fprintf(f, "%s{\"mode\": \"%s\", \"filter\": \"%s\", \"tree\": ", k++ ? ", " : "", MODE_NAME(r->mode),
                         pn_filter_names[r->filter]);
                 json_tree(f, r->n, r->d);
+                fprintf(f, ", \"tree_kind\": ");
+                json_kind(f, r->n, r->per_object);
                 fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g, \"vs_exact\": ", r->spp,
                         r->shadow_ms, pn_bench_row_ms(r), r->ref.mae);
                 if (ex && ex->shadow_ms > 0)
@@ -349,7 +376,8 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
 static void config_label(char *out, size_t n, const bench_row *r)
 {
     if (r->n)
-        snprintf(out, n, "%s%s LS(%d,%d)", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter), r->n, r->d);
+        snprintf(out, n, "%s%s%s LS(%d,%d)", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter),
+                 pn_bench_kind_suffix(r->per_object), r->n, r->d);
     else
         snprintf(out, n, "%s%s", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter));
 }
@@ -371,7 +399,8 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                          "(+filter: shadow and filter passes) (configuration, x exact's time)\n\n| MAE <= |",
                     g0->scene, g0->width, g0->height, g0->triangles);
             for (int m = 0; m < nm; m++)
-                fprintf(out, " %s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter));
+                fprintf(out, " %s%s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter),
+                        pn_bench_kind_suffix(modes[m].per_object));
             fprintf(out, " Embree 3, exact's rays |\n|---|");
             for (int m = 0; m <= nm; m++)
                 fprintf(out, "---|");
@@ -465,7 +494,8 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
                 box.x1 = fmax(box.x1, log10(r->embree_ms));
             }
             bool new_config = a == 0 || rows->rows[idx[a - 1]].mode != r->mode || rows->rows[idx[a - 1]].n != r->n ||
-                              rows->rows[idx[a - 1]].d != r->d || rows->rows[idx[a - 1]].filter != r->filter;
+                              rows->rows[idx[a - 1]].d != r->d || rows->rows[idx[a - 1]].filter != r->filter ||
+                              rows->rows[idx[a - 1]].per_object != r->per_object;
             if (new_config) {
                 if (configs)
                     fprintf(f, "\n\n");
