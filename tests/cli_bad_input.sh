@@ -201,6 +201,9 @@ expect 2 "--fail: expected a non-negative number for max" -- diff a.exr b.exr --
 expect 2 "option --channel needs a value" -- diff a.exr b.exr --channel
 expect 2 "missing.exr" -- diff "$TMP/missing.exr" "$TMP/missing.exr"
 expect 2 "info: unexpected argument '--bogus'" -- info --bogus
+expect 2 "--tree-kinds: expected one of scene\|object, got .foo." -- bench --tree-kinds foo
+expect 2 "--tree-kinds: scene is listed twice" -- bench --tree-kinds scene,scene
+expect 2 "--tree-kinds: expected scene, object or both" -- bench --tree-kinds ,
 
 # --- outputs: every one is checked before any work, and refused when it cannot be written
 expect 1 "nonexistent-dir/x.exr.*cannot write" -- render --size 32x32 builtin:plane -o "$TMP/nonexistent-dir/x.exr"

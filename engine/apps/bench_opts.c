@@ -192,6 +192,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
                 if (ok)
                     o->kinds[k] = true, count++;
             }
+            if (ok && !count)
+                pn_error("--tree-kinds: expected scene, object or both, got '%s'", v ? v : "");
             ok = ok && count > 0;
         } else if (pn_args_value(&a, "--spp", &v, &err)) {
             ok = v && parse_list_u32("--spp", v, o->spps, &o->spp_count, 1, 4096);
