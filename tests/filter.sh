@@ -14,13 +14,28 @@ view=(builtin:default --size 480x360 --fov 45 --mode exact)
 "$BIN" render "${view[@]}" --spp 4 --filter interleaved --tile 3x3 --aovs -o "$T/f.exr" >/dev/null \
   || { echo "FAIL: filtered render"; exit 1; }
 "$BIN" render "${view[@]}" --spp 1024 --filter none --seed 46524401 -o "$T/ref.exr" >/dev/null || { echo "FAIL: reference"; exit 1; }
-for c in shadow.V shadow.V_raw A P.X P.Y P.Z N.X N.Y N.Z Z; do
+for c in shadow.V shadow.V_raw shadow.valid A P.X P.Y P.Z N.X N.Y N.Z Z; do
   oiiotool "$T/f.exr" --ch "$c" -d float -o "$T/$c.fits" || { echo "FAIL: no channel $c in the filtered EXR"; exit 1; }
 done
 oiiotool "$T/ref.exr" --ch shadow.V -d float -o "$T/ref.fits" || exit 1
+exrheader "$T/f.exr" | grep "penumbra.light" > "$T/light.txt" || { echo "FAIL: no light in the header"; exit 1; }
 python3 - "$T" <<'PY'
-import math, struct, sys
+import math, re, struct, sys
 T = sys.argv[1]
+# The light's corners, from the EXR's header.
+L = {}
+for line in open(T + "/light.txt"):
+    m = re.match(r"\s*penumbra\.light\.(\w+) \(type \w+\): \(?([-0-9.e+ ]+)\)?", line)
+    if m:
+        L[m.group(1)] = [float(v) for v in m.group(2).split()]
+ln, up = L["normal"], L["up"]
+dot = lambda a, b: sum(a[k] * b[k] for k in range(3))
+vv = [up[k] - dot(up, ln) * ln[k] for k in range(3)]
+vv = [c / math.sqrt(dot(vv, vv)) for c in vv]
+uu = [ln[1] * vv[2] - ln[2] * vv[1], ln[2] * vv[0] - ln[0] * vv[2], ln[0] * vv[1] - ln[1] * vv[0]]
+corners = [[L["pos"][k] + su * L["width"][0] / 2 * uu[k] + sv * L["height"][0] / 2 * vv[k] for k in range(3)]
+           for su in (-1, 1) for sv in (-1, 1)]
+size = max(L["width"][0], L["height"][0])
 def fits(path):
     b = open(path, "rb").read()
     hdr, off = {}, 0
@@ -36,6 +51,7 @@ def fits(path):
     return w, h, list(struct.unpack(">%df" % (w * h), b[off:off + 4 * w * h]))
 w, h, V = fits(T + "/shadow.V.fits")
 _, _, R = fits(T + "/shadow.V_raw.fits")
+_, _, VALID = fits(T + "/shadow.valid.fits")
 _, _, A = fits(T + "/A.fits")
 P = [fits(T + "/P.%s.fits" % c)[2] for c in "XYZ"]
 N = [fits(T + "/N.%s.fits" % c)[2] for c in "XYZ"]
@@ -52,10 +68,26 @@ def offset(p, n, footprint, q):
     mag = max(max(abs(c) for c in p), max(abs(c) for c in q))
     off = max(abs(sum(n[k] * (q[k] - p[k]) for k in range(3))) - 8 * ulp(mag), 0.0)
     return off / max(footprint, 1e-30)
-worst, partial = 0.0, 0
+worst, partial, kept, borrowed, unsure = 0.0, 0, 0, 0, 0
 for i in covered:
     x, y = i % w, i // w
     p = [P[k][i] for k in range(3)]; n = [N[k][i] for k in range(3)]
+    # No valid ray: does any of the light lie above the horizon, in front of the light? Where a
+    # corner lies within rounding of the tangent plane (1e-5 of the light's size: the shader tests
+    # from the ray origin, raised off the surface), either answer is the shader's to give.
+    reaches = None
+    if VALID[i] == 0:
+        heights = [dot([c[k] - p[k] for k in range(3)], n) for c in corners]
+        front = dot(ln, [p[k] - corners[0][k] for k in range(3)])
+        reaches = front > 0 and max(heights) > 0
+        if abs(front) < 1e-5 * size or abs(max(heights)) < 1e-5 * size:
+            reaches = None
+            unsure += 1
+            continue
+        if not reaches:
+            assert V[i] == R[i] == 1.0, (i, V[i], R[i])  # the convention, kept
+            kept += 1
+            continue
     taps = []
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
@@ -63,8 +95,8 @@ for i in covered:
             if not (0 <= qx < w and 0 <= qy < h):
                 continue
             j = qy * w + qx
-            if A[j] <= 0:
-                continue
+            if A[j] <= 0 or VALID[j] == 0:
+                continue  # background, or no estimate of V
             q = [P[k][j] for k in range(3)]; m = [N[k][j] for k in range(3)]
             px = max(abs(dx), abs(dy))
             rho = max(offset(p, n, Z[i] * pixel_angle * px, q), offset(q, m, Z[j] * pixel_angle * px, p))
@@ -73,6 +105,11 @@ for i in covered:
     # The range weight: neighbours whose V_raw is more than 2.5 standard deviations of a difference
     # of two 4-sample means of the window's geometry-weighted V away from the pixel's drop out.
     wsum = sum(t[0] for t in taps)
+    if reaches:  # no V of its own: its neighbours' geometric mean
+        want = min(max(sum(t[0] * t[1] for t in taps) / wsum, 0.0), 1.0) if wsum > 0 else 1.0
+        worst = max(worst, abs(want - V[i]))
+        borrowed += wsum > 0
+        continue
     mean = min(max(sum(t[0] * t[1] for t in taps) / wsum, 0.0), 1.0)
     spread = 2.5 * math.sqrt(2 * mean * (1 - mean) / 4)
     s = wsum = 0.0
@@ -81,11 +118,14 @@ for i in covered:
         wt = wg * (1.0 if d == 0 else max(1 - (d / max(spread, 1e-30)) ** 2, 0.0))
         s += wt * v; wsum += wt
         partial += 0 < wt < wg
+    worst = max(worst, abs(min(max(s / wsum, 0.0), 1.0) - V[i]))
 # float against double: the weights' rounding moves a mean of values in [0, 1] by a few float ulps.
 print("filtered V against the recomputed filter: max |difference| %.2e over %d pixels, %d taps cut by the range"
-      " weight" % (worst, len(covered), partial))
+      " weight; without a valid ray: %d keep V = 1 (the light is below the horizon), %d take their neighbours' V,"
+      " %d too close to call" % (worst, len(covered), partial, kept, borrowed, unsure))
 assert worst < 1e-4, worst
 assert partial > 0, "the range weight never acted"
+assert kept > 0 and borrowed > 0, "a rule for pixels without a valid ray never acted"
 mae_f = sum(abs(V[i] - REF[i]) for i in covered) / len(covered)
 mae_r = sum(abs(R[i] - REF[i]) for i in covered) / len(covered)
 print("MAE against the converged reference, 4 spp: filtered %.4f, unfiltered %.4f" % (mae_f, mae_r))

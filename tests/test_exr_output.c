@@ -8,7 +8,8 @@
 
 // The default render filters (--filter interleaved), so its unfiltered V is there too.
 static const char *const CHANNELS[] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
-                                       "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z", "shadow.V_raw"};
+                                       "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z", "shadow.V_raw",
+                                       "shadow.valid"};
 static const char *const ATTRS[] = {"penumbra.scene", "penumbra.mode", "penumbra.triangles",
                                     "penumbra.camera.pos", "penumbra.camera.target", "penumbra.camera.fov",
                                     "penumbra.light.pos", "penumbra.light.normal", "penumbra.light.up",
@@ -89,6 +90,11 @@ int main(void)
         CHECK_MSG(a == 0.0f || a == 1.0f, "A = %g at %d", a, i);
         CHECK_MSG(v >= 0.0f && v <= 1.0f && ch[15][i] >= 0.0f && ch[15][i] <= 1.0f, "shadow.V = %g, V_raw = %g at %d",
                   v, ch[15][i], i);
+        // shadow.valid: a whole number of rays, V_raw their visible share (1 with none), 0 on the background
+        float valid = ch[16][i], visible = ch[15][i] * valid;
+        CHECK_MSG(valid >= 0 && valid == floorf(valid) && (a == 1.0f || valid == 0), "shadow.valid = %g at %d", valid, i);
+        CHECK_MSG(valid > 0 ? fabsf(visible - roundf(visible)) < 1e-3f : a == 0.0f || ch[15][i] == 1.0f,
+                  "V_raw = %g of %g valid rays at %d", ch[15][i], valid, i);
         if (a == 1.0f) {
             covered++;
             double nl = sqrt(ch[8][i] * ch[8][i] + ch[9][i] * ch[9][i] + ch[10][i] * ch[10][i]);

@@ -877,6 +877,10 @@ typedef struct filter_frame {
     float eye_mag;     // the camera position's largest coordinate magnitude
     float pixel_angle; // what filter_pass.c passes: 2 tan(yfov / 2) / height
     float p[4 * SIZE * SIZE], n[4 * SIZE * SIZE], v[SIZE * SIZE], v_raw[SIZE * SIZE];
+    // The shadow pass's counts: valid rays per pixel, and whether the light reaches above the
+    // pixel's horizon (filter.comp: a pixel without a valid ray has no V of its own)
+    uint32_t valid[SIZE * SIZE];
+    bool reaches[SIZE * SIZE];
     uint64_t range_between; // check_filter_frame's count of pixels with a range weight between 0 and 1
 } filter_frame;
 
@@ -1045,15 +1049,23 @@ typedef struct filter_window {
 //  - each tap's range weight then lies in filter_range_weight_float's interval (exactly 1 at
 //    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
 //    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
+//
+// A pixel without a valid ray keeps its V_raw where the light cannot reach it and otherwise takes
+// the geometric mean of its neighbours'; a neighbour without a valid ray is no tap.
 static void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
 {
     int lo = -(FILTER_TILE - 1) / 2, k = 0;
     float v_p = f->v_raw[y * SIZE + x];
+    bool unknown = f->valid[y * SIZE + x] == 0;
     double sum = 0, dw = 0;
-    o->wg = 0;
+    memset(o, 0, sizeof *o);
+    if (unknown && !f->reaches[y * SIZE + x]) {
+        o->v = v_p;
+        return;
+    }
     for (int dy = lo; dy < lo + FILTER_TILE; dy++)
         for (int dx = lo; dx < lo + FILTER_TILE; dx++, k++) {
-            o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]);
+            o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]) && f->valid[(y + dy) * SIZE + x + dx] > 0;
             if (!o->in[k])
                 continue;
             o->v_raw[k] = f->v_raw[(y + dy) * SIZE + x + dx];
@@ -1064,6 +1076,11 @@ static void filter_recompute(const filter_frame *f, int x, int y, filter_window 
         }
     o->mean = o->wg > 0 ? fmin(fmax(sum / o->wg, 0), 1) : v_p;
     o->mean_tol = filter_mean_tol(o->wg, dw);
+    if (unknown) {
+        o->v = o->wg > 0 ? o->mean : 1;
+        o->tol = o->wg > 0 ? o->mean_tol : 0;
+        return;
+    }
     o->spread = filter_spread(o->mean, f->samples);
     double s_lo, s_hi;
     filter_spread_range(fmax(o->mean - o->mean_tol, 0), fmin(o->mean + o->mean_tol, 1), f->samples, &s_lo, &s_hi);
@@ -1098,7 +1115,7 @@ static void filter_recompute(const filter_frame *f, int x, int y, filter_window 
 // 0 and 1 (filter_window.range_between).
 static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
 {
-    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0, range = 0;
+    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0, range = 0, no_ray = 0, borrowed = 0;
     double diff_max = 0, tol_max = 0;
     for (int y = 0; y < SIZE; y++)
         for (int x = 0; x < SIZE; x++) {
@@ -1120,7 +1137,9 @@ static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
             tol_max = fmax(tol_max, o.tol);
             // The pixel's own geometric weight is |n|^4 = 1 up to rounding: a sum at most that means
             // no neighbour continued its surface, and the filter kept the pixel's own V.
-            alone += o.wg <= 1 + 16 * FLOAT_U;
+            alone += f->valid[px] > 0 && o.wg <= 1 + 16 * FLOAT_U;
+            no_ray += f->valid[px] == 0;
+            borrowed += f->valid[px] == 0 && f->reaches[px] && o.wg > 0;
             changed += v != raw;
             range += o.range_between;
             if (d > o.tol && off++ < 5)
@@ -1129,9 +1148,11 @@ static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
                         c->name, x, y, v, o.v, d, o.tol, o.mean, o.mean_tol, o.spread, o.w, o.wg);
         }
     fprintf(stderr, "  filter    %dx%d exact spp %u (samples %u): %llu px, |V - recomputed| max %.2e (bound max %.2e),"
-                    " %llu px alone on their surface, %llu changed, %llu with range weights between 0 and 1\n",
+                    " %llu px alone on their surface, %llu changed, %llu with range weights between 0 and 1,"
+                    " %llu without a valid ray (%llu taking their neighbours' V)\n",
             FILTER_TILE, FILTER_TILE, c->spp, f->samples, (unsigned long long)covered, diff_max, tol_max,
-            (unsigned long long)alone, (unsigned long long)changed, (unsigned long long)range);
+            (unsigned long long)alone, (unsigned long long)changed, (unsigned long long)range,
+            (unsigned long long)no_ray, (unsigned long long)borrowed);
     CHECK_MSG(bad == 0 && off == 0, "%s filter: %llu bad values, %llu of %llu pixels off the recomputed filter", c->name,
               (unsigned long long)bad, (unsigned long long)off, (unsigned long long)covered);
     CHECK_MSG(covered > 0, "%s filter: no covered pixels", c->name);
@@ -1164,6 +1185,8 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
         memcpy(out->n, img.n, sizeof out->n);
         memcpy(out->v, img.v, sizeof out->v);
         memcpy(out->v_raw, img.v_raw, sizeof out->v_raw);
+        for (int i = 0; i < SIZE * SIZE; i++)
+            out->valid[i] = img.counts[4 * i + 1], out->reaches[i] = img.counts[4 * i + 2] != 0;
         out->pixel_angle = (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE);
         out->eye_mag = fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2])));
         // As renderer.c passes it to the filter.
@@ -1269,7 +1292,8 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                     double slack = 16 * mag_a * 0x1p-23 / ca->scale + 16 * mag_b * 0x1p-23 / cb->scale;
                     if (nn < 1 - 1e-4 || dist > 0.25 * fp_local + slack)
                         same_geometry = false;
-                    if (fa->v_raw[q] != fb->v_raw[q])
+                    if (fa->v_raw[q] != fb->v_raw[q] || (fa->valid[q] == 0) != (fb->valid[q] == 0) ||
+                        fa->reaches[q] != fb->reaches[q])
                         same_v = false;
                 }
             if (!same_geometry) {

@@ -6,8 +6,8 @@
 #include "filter_comp.h"
 
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v_raw, const pn_gpu_image *v,
-                                pn_filter_pass *out)
+                                const pn_gpu_image *n, const pn_gpu_image *v_raw, const pn_gpu_image *counts,
+                                const pn_gpu_image *v, pn_filter_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
@@ -16,6 +16,7 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
     images[PN_FILTER_BINDING_N] = n->view;
     images[PN_FILTER_BINDING_V_RAW] = v_raw->view;
     images[PN_FILTER_BINDING_V] = v->view;
+    images[PN_FILTER_BINDING_COUNTS] = counts->view;
     return pn_gpu_compute_create_images(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, images,
                                         PN_FILTER_BINDING_COUNT, sizeof(pn_filter_push), &out->compute);
 }

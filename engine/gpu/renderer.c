@@ -10,8 +10,9 @@
 enum { TS_START, TS_GBUFFER, TS_LIGHT, TS_SHADOW = 0, TS_FILTER = 1, TS_SHADE = 2, TS_COUNT = TS_LIGHT + 3 * PN_MAX_LIGHTS };
 
 // Floats per pixel of the frame's images in the readback buffer: P, N, albedo and radiance (rgba),
-// V and V_raw; with several lights each light's V and V_raw follow (pn_renderer_images).
-#define PN_READBACK_FLOATS_PER_PIXEL (4 * 4 + 2)
+// V and V_raw, the shadow pass's counts (rgba32ui); with several lights each light's V and V_raw
+// follow (pn_renderer_images).
+#define PN_READBACK_FLOATS_PER_PIXEL (4 * 4 + 2 + 4)
 
 static pn_result reserve_readback(pn_renderer *r, uint32_t light_count);
 
@@ -160,8 +161,8 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r == PN_OK)
         r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene), &out->shadow);
     if (r == PN_OK)
-        r = pn_filter_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->v_raw, &out->v,
-                                  &out->filter);
+        r = pn_filter_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->v_raw,
+                                  &out->shadow.counts, &out->v, &out->filter);
     if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
@@ -221,19 +222,26 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
     const VkAccessFlags2 READ = VK_ACCESS_2_TRANSFER_READ_BIT;
     const VkAccessFlags2 STORAGE = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
     const pn_gpu_image *v = filtered(r) ? &r->v : &r->v_raw;
-    const pn_gpu_image *src[6] = {&r->p, &r->n, &r->albedo, v, &r->radiance, &r->v_raw};
-    int count = filtered(r) ? 6 : 5;
-    VkImageMemoryBarrier2 to_copy[6] = {
+    // The counts (the last light's) come last, so that the unfiltered frame's images stay in place.
+    const pn_gpu_image *src[7] = {&r->p, &r->n, &r->albedo, v, &r->radiance, &r->v_raw, &r->shadow.counts};
+    bool with_raw = filtered(r);
+    VkImageMemoryBarrier2 to_copy[7] = {
         pn_gpu_image_barrier(&r->p, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->n, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->albedo, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(v, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->radiance, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->v_raw, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
+        pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
     };
+    if (!with_raw) // no V_raw: the counts take its barrier's place
+        to_copy[5] = to_copy[6], src[5] = src[6];
+    int count = with_raw ? 7 : 6;
     pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count, to_copy);
     VkDeviceSize px = (VkDeviceSize)r->width * r->height, offset = 0;
     for (int i = 0; i < count; i++) {
+        if (src[i] == &r->shadow.counts) // at a fixed place, after V_raw's whether it is there or not
+            offset = (PN_READBACK_FLOATS_PER_PIXEL - 4) * 4 * px;
         VkBufferImageCopy copy = {
             .bufferOffset = offset,
             .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
@@ -346,8 +354,11 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         }
         uint32_t ts = TS_LIGHT + 3 * i;
         pn_shadow_pass_record(cmd, &r->shadow, samples[i], i); // P, N -> V raw
-        VkImageMemoryBarrier2 raw_ready = pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
-        pn_gpu_cmd_barrier(cmd, NULL, 1, &raw_ready);
+        VkImageMemoryBarrier2 raw_ready[2] = {
+            pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL),
+            pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL), // the filter's
+        };
+        pn_gpu_cmd_barrier(cmd, NULL, 2, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
             pn_filter_pass_record(cmd, &r->filter, pn_filter_tile(r->desc.tile_w), pn_filter_tile(r->desc.tile_h),
@@ -451,6 +462,7 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->v = out->albedo + 4 * px;
     out->radiance = out->v + px;
     out->v_raw = filtered(r) ? out->radiance + 4 * px : NULL;
+    out->counts = (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 4) * px);
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;

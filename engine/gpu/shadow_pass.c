@@ -86,10 +86,12 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     }
     if (r == PN_OK)
         r = pn_gpu_image_create(dev,
-                                &(pn_gpu_image_desc){.format = VK_FORMAT_R32G32_UINT,
+                                &(pn_gpu_image_desc){.format = VK_FORMAT_R32G32B32A32_UINT,
                                                      .width = desc->width,
                                                      .height = desc->height,
-                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT},
+                                                     // read back with the frame (pn_frame_images.counts)
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT |
+                                                              VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
                                 &out->counts);
     if (r != PN_OK) {
         pn_shadow_pass_destroy(dev, out);

@@ -8,6 +8,13 @@
 // own up to the samples' noise, so a sharp shadow edge on one surface stays sharp. Background stays
 // 0; V stays in [0, 1] (a weighted mean of values in [0, 1] with weights >= 0 and the pixel's own
 // weight 1).
+//
+// A pixel none of whose rays was valid (every sample below its horizon or behind the light) has no
+// estimate of V: its V_raw is the convention 1. It lends nothing to its neighbours. Where the light
+// does reach above its horizon (counts.z, shadow_finish), its rays only missed that sliver, and it
+// takes its neighbours' V on the same surface: the converged V there is the sliver's, and a grazing
+// sliver is mostly blocked, which the convention's 1 contradicts. Where the light cannot reach it,
+// it keeps the convention: V carries no light there.
 #include "interface.h"
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
@@ -16,6 +23,7 @@ layout(set = 0, binding = PN_FILTER_BINDING_P, rgba32f) uniform readonly image2D
 layout(set = 0, binding = PN_FILTER_BINDING_N, rgba32f) uniform readonly image2D img_n;
 layout(set = 0, binding = PN_FILTER_BINDING_V_RAW, r32f) uniform readonly image2D img_v_raw;
 layout(set = 0, binding = PN_FILTER_BINDING_V, r32f) uniform writeonly image2D img_v;
+layout(set = 0, binding = PN_FILTER_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
 
 layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 
@@ -48,6 +56,12 @@ void main()
         imageStore(img_v, px, vec4(0.0));
         return;
     }
+    uvec4 counts_p = imageLoad(img_counts, px);
+    bool unknown = counts_p.y == 0u; // no valid ray: no estimate of V
+    if (unknown && counts_p.z == 0u) {
+        imageStore(img_v, px, imageLoad(img_v_raw, px));
+        return;
+    }
     vec4 n = imageLoad(img_n, px);
     float footprint_p = n.w * pc.pixel_angle;
     ivec2 tile = ivec2(pc.tile_w, pc.tile_h);
@@ -65,8 +79,8 @@ void main()
             if (any(lessThan(qx, ivec2(0))) || any(greaterThanEqual(qx, size)))
                 continue;
             vec4 q = imageLoad(img_p, qx);
-            if (q.w <= 0.0)
-                continue;
+            if (q.w <= 0.0 || imageLoad(img_counts, qx).y == 0u)
+                continue; // background, or a neighbour without an estimate of V
             vec4 m = imageLoad(img_n, qx);
             float pixels = float(max(abs(dx), abs(dy)));
             // Both tangent planes, so that the weight is symmetric: a point on a wall next to a floor
@@ -84,6 +98,12 @@ void main()
             sum += wg[k] * vq[k];
             weight += wg[k];
         }
+    }
+    // Without an estimate of its own, the geometric mean of its neighbours' (the convention 1 if
+    // none has one).
+    if (unknown) {
+        imageStore(img_v, px, vec4(weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : 1.0));
+        return;
     }
     float v_p = vq[-lo.y * tile.x - lo.x]; // the pixel's own tap (dx = dy = 0), covered and inside
     // V's own weight (a cross-bilateral range term): a shadow edge sharper than the window (a contact

@@ -53,7 +53,8 @@
 #define PN_SHADOW_BINDING_N 1       // rgba32f: normal, w = view depth
 #define PN_SHADOW_BINDING_V 2       // r32f: visibility out
 #define PN_SHADOW_BINDING_PARAMS 3  // uniform ShadowParams
-#define PN_SHADOW_BINDING_COUNTS 4  // rg32ui: (visible, valid) samples so far, between chunks
+#define PN_SHADOW_BINDING_COUNTS 4  // rgba32ui: (visible, valid) samples so far, between chunks; after
+                                    // the last, (visible, valid, reaches, 0) for the filter (shadow_finish)
 #define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe: loop budget spent)
 #define PN_SHADOW_BINDING_COUNT 6
 #define PN_SHADOW_BINDING_TLAS 6    // acceleration structure: only the modes whose needs.tlas is set
@@ -67,7 +68,8 @@
 #define PN_FILTER_BINDING_N 1     // rgba32f: normal, w = view depth
 #define PN_FILTER_BINDING_V_RAW 2 // r32f: the shadow pass's V
 #define PN_FILTER_BINDING_V 3     // r32f: filtered V out
-#define PN_FILTER_BINDING_COUNT 4
+#define PN_FILTER_BINDING_COUNTS 4 // rgba32ui: the shadow pass's (visible, valid, reaches) per pixel
+#define PN_FILTER_BINDING_COUNT 5
 // The largest tile edge (--tile): a window of 8 x 8 = 64 neighbours per pixel already costs the
 // filter pass more than a few light samples would (filter.comp loads three images per neighbour).
 #define PN_FILTER_MAX_TILE 8

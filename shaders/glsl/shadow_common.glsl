@@ -24,7 +24,7 @@ bool budget_spent()
     return iterations != params.canary;
 }
 
-layout(set = 0, binding = PN_SHADOW_BINDING_COUNTS, rg32ui) uniform uimage2D img_counts; // (visible, valid) so far
+layout(set = 0, binding = PN_SHADOW_BINDING_COUNTS, rgba32ui) uniform uimage2D img_counts; // (visible, valid) so far
 layout(std430, set = 0, binding = PN_SHADOW_BINDING_STATUS) buffer Status { uint truncated; } status;
 
 const uint SAMPLER_GRID = PN_SAMPLER_GRID_ID;

@@ -175,10 +175,22 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     counts.y += uint(bitCount(valid_rays));
     if (cut_short || truncated || budget_spent())
         atomicOr(status.truncated, 1u);
+    // The last chunk leaves the counts for the filter, with whether any of the light lies above the
+    // receiver's horizon and in front of the light (the corners decide: the light is a convex
+    // quad). A pixel without a valid ray then tells two cases apart: the light cannot reach it (V is
+    // the convention 1 and carries no light), or its rays missed the sliver that does (V unknown).
+    uint reaches = 1u;
+    if (chunk.last != 0u && counts.y == 0u) {
+        vec3 nrm = imageLoad(img_n, px).xyz;
+        bool front = dot(LIGHT.normal.xyz, o - LIGHT.corners[0].xyz) > 0.0;
+        bool above = false;
+        for (int c = 0; c < 4; c++)
+            above = above || dot(LIGHT.corners[c].xyz - o, nrm) > 0.0;
+        reaches = front && above ? 1u : 0u;
+    }
+    imageStore(img_counts, px, uvec4(counts, reaches, 0u));
     if (chunk.last != 0u)
         imageStore(img_v, px, vec4(counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0));
-    else
-        imageStore(img_counts, px, uvec4(counts, 0u, 0u));
 }
 
 // Background pixels: V = 0. Returns false for them.
@@ -188,7 +200,9 @@ bool shadow_pixel(ivec2 px, out vec3 p, out vec3 nrm)
     vec4 pw = inside ? imageLoad(img_p, px) : vec4(0.0);
     p = pw.xyz;
     nrm = inside ? imageLoad(img_n, px).xyz : vec3(0.0, 1.0, 0.0);
-    if (inside && pw.w <= 0.0 && chunk.last != 0u)
+    if (inside && pw.w <= 0.0 && chunk.last != 0u) {
         imageStore(img_v, px, vec4(0.0));
+        imageStore(img_counts, px, uvec4(0u)); // no rays (pn_frame_images.counts)
+    }
     return inside && pw.w > 0.0;
 }

@@ -9,6 +9,7 @@ layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 layout(set = 0, binding = PN_SHADOW_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_SHADOW_BINDING_N, rgba32f) uniform readonly image2D img_n;
 layout(set = 0, binding = PN_SHADOW_BINDING_V, r32f) uniform writeonly image2D img_v;
+layout(set = 0, binding = PN_SHADOW_BINDING_COUNTS, rgba32ui) uniform writeonly uimage2D img_counts;
 
 void main()
 {
@@ -17,4 +18,6 @@ void main()
         return;
     float covered = imageLoad(img_p, px).w;
     imageStore(img_v, px, vec4(covered > 0.0 ? 1.0 : 0.0));
+    // For the filter: one valid, visible sample where there is geometry (V = 1 is exact).
+    imageStore(img_counts, px, covered > 0.0 ? uvec4(1u, 1u, 1u, 0u) : uvec4(0u));
 }
