@@ -671,7 +671,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
                 }
                 if (!o->kinds[kind])
                     continue;
-                if (per_object && o->modes[m] != PN_SHADOW_LINESPACE) {
+                if (per_object && !info->objects) {
                     if (si == 0)
                         pn_warn("bench: %s has no per-object trees (they serve linespace alone)", info->name);
                     continue;

@@ -100,7 +100,7 @@ int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
                  pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
     }
-    if (o->r.per_object && o->r.mode != PN_SHADOW_LINESPACE) {
+    if (o->r.per_object && !pn_shadow_mode_get(o->r.mode)->objects) {
         pn_error("demo: per-object trees (--trees object) serve mode linespace only, not %s",
                  pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;

@@ -114,7 +114,7 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         pn_error("shadow mode %d does not exist", (int)desc->frame.mode);
         return PN_ERR_INVALID;
     }
-    if (desc->per_object && desc->frame.mode != PN_SHADOW_LINESPACE) {
+    if (desc->per_object && !mode->objects) {
         pn_error("%s: per-object trees (--trees object) serve mode linespace only, not %s", scene->name, mode->name);
         return PN_ERR_INVALID;
     }

@@ -122,10 +122,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the N-tree's pools", mode->name);
         return PN_ERR_INVALID;
     }
-    // Per-object trees carry rays into each object's frame; only the paper's method decides there
-    // from line spaces alone (the other modes read candidate lists, leaf planes or a light normal
-    // and leaf size of one world-space tree).
-    if (desc->objects && desc->mode != PN_SHADOW_LINESPACE) {
+    if (desc->objects && !mode->objects) {
         pn_error("%s shadows need one scene-wide tree: per-object trees (--trees object) serve linespace only",
                  mode->name);
         return PN_ERR_INVALID;
@@ -222,9 +219,8 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
     const VkAccessFlags2 READ = VK_ACCESS_2_TRANSFER_READ_BIT;
     const VkAccessFlags2 STORAGE = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
     const pn_gpu_image *v = filtered(r) ? &r->v : &r->v_raw;
-    // The counts (the last light's) come last, so that the unfiltered frame's images stay in place.
-    const pn_gpu_image *src[7] = {&r->p, &r->n, &r->albedo, v, &r->radiance, &r->v_raw, &r->shadow.counts};
-    bool with_raw = filtered(r);
+    const pn_gpu_image *src[6] = {&r->p, &r->n, &r->albedo, v, &r->radiance, &r->v_raw};
+    int count = filtered(r) ? 6 : 5;
     VkImageMemoryBarrier2 to_copy[7] = {
         pn_gpu_image_barrier(&r->p, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->n, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
@@ -232,16 +228,11 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         pn_gpu_image_barrier(v, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->radiance, COMPUTE, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->v_raw, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
-        pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
     };
-    if (!with_raw) // no V_raw: the counts take its barrier's place
-        to_copy[5] = to_copy[6], src[5] = src[6];
-    int count = with_raw ? 7 : 6;
-    pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count, to_copy);
+    to_copy[count] = pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
+    pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count + 1, to_copy);
     VkDeviceSize px = (VkDeviceSize)r->width * r->height, offset = 0;
     for (int i = 0; i < count; i++) {
-        if (src[i] == &r->shadow.counts) // at a fixed place, after V_raw's whether it is there or not
-            offset = (PN_READBACK_FLOATS_PER_PIXEL - 4) * 4 * px;
         VkBufferImageCopy copy = {
             .bufferOffset = offset,
             .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
@@ -250,6 +241,13 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         vkCmdCopyImageToBuffer(cmd, src[i]->image, SRC, r->readback.buffer, 1, &copy);
         offset += px * (src[i]->format == VK_FORMAT_R32_SFLOAT ? 4 : 16);
     }
+    // The shadow pass's counts (the last light's), at their place after V_raw's, filtered or not.
+    VkBufferImageCopy counts = {
+        .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL - 4) * 4 * px,
+        .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+        .imageExtent = {r->width, r->height, 1},
+    };
+    vkCmdCopyImageToBuffer(cmd, r->shadow.counts.image, SRC, r->readback.buffer, 1, &counts);
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){
                            .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,

@@ -23,6 +23,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                              .variant = PN_VARIANT_LINESPACE,
                              .needs = {.tree = true},
                              .traces = true,
+                             .objects = true,
                              .auto_trees = 4},
     [PN_SHADOW_LEAF] = {.name = "ls-leaf",
                         .help = "line spaces down to the leaves: a filled leaf a ray crosses blocks it",

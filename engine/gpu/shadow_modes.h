@@ -52,6 +52,10 @@ typedef struct pn_shadow_mode_info {
     pn_shadow_needs needs;
     bool traces;               // traces shadow rays (every mode but none)
     bool exact;                // its V equals exact ray tracing's for the same samples
+    // Runs over per-object trees (accel/objects.h, --trees object): it decides from line spaces
+    // alone, in each object's frame. The others read candidate lists, leaf planes or the leaf size
+    // of one world-space tree.
+    bool objects;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)
 } pn_shadow_mode_info;

@@ -42,8 +42,9 @@ vec3 shadow_origin(vec3 p, vec3 nrm, float rise_leaves, out float rise)
     return p + nrm * (8.0 * ulp_bound(mag));
 }
 
-// A light's share of the pixel's unshadowed irradiance, for the budgeted split. Every dispatch of
-// every light evaluates it for all the lights, so it must cost little (light_irradiance's clipped
+// A light's share of the pixel's unshadowed irradiance, for the budgeted split (and whether it is
+// zero, for the filter: shadow_finish). Every dispatch of every light evaluates it for all the
+// lights, so it must cost little (light_irradiance's clipped
 // edge sum, k^2 times a frame, cost more than the rays on simple scenes): radiance x area x
 // cos(light) / r^2 at the light's centre, times the receiver's cosine averaged over the centre and
 // the four corners (so a light half below the horizon keeps about its half), at most pi x radiance
@@ -176,18 +177,12 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     if (cut_short || truncated || budget_spent())
         atomicOr(status.truncated, 1u);
     // The last chunk leaves the counts for the filter, with whether any of the light lies above the
-    // receiver's horizon and in front of the light (the corners decide: the light is a convex
-    // quad). A pixel without a valid ray then tells two cases apart: the light cannot reach it (V is
-    // the convention 1 and carries no light), or its rays missed the sliver that does (V unknown).
+    // receiver's horizon and in front of the light (light_weight is zero exactly where none does).
+    // A pixel without a valid ray then tells two cases apart: the light cannot reach it (V is the
+    // convention 1 and carries no light), or its rays missed the sliver that does (V unknown).
     uint reaches = 1u;
-    if (chunk.last != 0u && counts.y == 0u) {
-        vec3 nrm = imageLoad(img_n, px).xyz;
-        bool front = dot(LIGHT.normal.xyz, o - LIGHT.corners[0].xyz) > 0.0;
-        bool above = false;
-        for (int c = 0; c < 4; c++)
-            above = above || dot(LIGHT.corners[c].xyz - o, nrm) > 0.0;
-        reaches = front && above ? 1u : 0u;
-    }
+    if (chunk.last != 0u && counts.y == 0u)
+        reaches = light_weight(LIGHT, o, imageLoad(img_n, px).xyz) > 0.0 ? 1u : 0u;
     imageStore(img_counts, px, uvec4(counts, reaches, 0u));
     if (chunk.last != 0u)
         imageStore(img_v, px, vec4(counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0));
