@@ -2,8 +2,10 @@
 # --filter interleaved on the default scene (exact, 4 spp):
 #  - the EXR keeps the unfiltered V as shadow.V_raw; V stays in [0, 1] and 0 on the background;
 #  - the filtered V is what filter.comp documents, recomputed here in double precision from the
-#    render's own P, N, view depth and V_raw (an independent implementation of the geometric and
-#    the range weights, the latter acting on some taps);
+#    render's own P, N, view depth, V_raw and penumbra widths (an independent implementation of the
+#    geometric, the penumbra and the range weights, the latter two acting on some taps);
+#  - the penumbra width is FLT_MAX exactly where no valid ray was blocked (V_raw = 1), and finite
+#    and not negative where one was;
 #  - the filter pays: against the converged reference (exact, 1024 spp, another seed) the filtered
 #    V's mean error is below the unfiltered V's of the same frame.
 set -u
@@ -14,7 +16,7 @@ view=(builtin:default --size 480x360 --fov 45 --mode exact)
 "$BIN" render "${view[@]}" --spp 4 --filter interleaved --tile 3x3 --aovs -o "$T/f.exr" >/dev/null \
   || { echo "FAIL: filtered render"; exit 1; }
 "$BIN" render "${view[@]}" --spp 1024 --filter none --seed 46524401 -o "$T/ref.exr" >/dev/null || { echo "FAIL: reference"; exit 1; }
-for c in shadow.V shadow.V_raw shadow.valid A P.X P.Y P.Z N.X N.Y N.Z Z; do
+for c in shadow.V shadow.V_raw shadow.valid shadow.penumbra A P.X P.Y P.Z N.X N.Y N.Z Z; do
   oiiotool "$T/f.exr" --ch "$c" -d float -o "$T/$c.fits" || { echo "FAIL: no channel $c in the filtered EXR"; exit 1; }
 done
 oiiotool "$T/ref.exr" --ch shadow.V -d float -o "$T/ref.fits" || exit 1
@@ -52,6 +54,7 @@ def fits(path):
 w, h, V = fits(T + "/shadow.V.fits")
 _, _, R = fits(T + "/shadow.V_raw.fits")
 _, _, VALID = fits(T + "/shadow.valid.fits")
+_, _, WIDTH = fits(T + "/shadow.penumbra.fits")
 _, _, A = fits(T + "/A.fits")
 P = [fits(T + "/P.%s.fits" % c)[2] for c in "XYZ"]
 N = [fits(T + "/N.%s.fits" % c)[2] for c in "XYZ"]
@@ -62,13 +65,20 @@ assert len(covered) > w * h // 2, len(covered)
 assert all(0.0 <= V[i] <= 1.0 for i in range(w * h)), "V outside [0, 1]"
 assert all(V[i] == 0.0 for i in range(w * h) if A[i] <= 0), "background V is not 0"
 assert any(V[i] != R[i] for i in covered), "the filter changed nothing"
+FLT_MAX = struct.unpack(">f", bytes.fromhex("7f7fffff"))[0]
+for i in covered:
+    if VALID[i] > 0:
+        none = R[i] == 1.0  # no valid ray blocked
+        assert (WIDTH[i] == FLT_MAX) == none and 0 <= WIDTH[i], (i, R[i], WIDTH[i])
+finite = [WIDTH[i] for i in covered if VALID[i] > 0 and WIDTH[i] < FLT_MAX]
+assert len(finite) > 100 and max(finite) > 0, "no pixel with a finite penumbra width"
 pixel_angle = 2 * math.tan(math.radians(45) / 2) / h
 ulp = lambda x: max(abs(x), 1e-30) * 1.1920929e-7
 def offset(p, n, footprint, q):
     mag = max(max(abs(c) for c in p), max(abs(c) for c in q))
     off = max(abs(sum(n[k] * (q[k] - p[k]) for k in range(3))) - 8 * ulp(mag), 0.0)
     return off / max(footprint, 1e-30)
-worst, partial, kept, borrowed, unsure = 0.0, 0, 0, 0, 0
+worst, partial, kept, borrowed, unsure, pen_cut = 0.0, 0, 0, 0, 0, 0
 for i in covered:
     x, y = i % w, i // w
     p = [P[k][i] for k in range(3)]; n = [N[k][i] for k in range(3)]
@@ -101,7 +111,16 @@ for i in covered:
             px = max(abs(dx), abs(dy))
             rho = max(offset(p, n, Z[i] * pixel_angle * px, q), offset(q, m, Z[j] * pixel_angle * px, p))
             c = max(sum(n[k] * m[k] for k in range(3)), 0.0)
-            taps.append((max(1 - rho * rho, 0.0) * c * c, R[j]))
+            wg = max(1 - rho * rho, 0.0) * c * c
+            # The penumbra weight: V changes by up to distance / width over the narrower penumbra;
+            # the weight falls to 0 where that reaches 1/2 (a pixel without a V of its own skips it).
+            if not reaches:
+                tol = min(WIDTH[i], WIDTH[j]) * 0.5
+                dist2 = sum((q[k] - p[k]) ** 2 for k in range(3))
+                wp = max(1 - dist2 / tol ** 2, 0.0) if tol > 0 else 0.0
+                pen_cut += wg > 0 and wp < 1
+                wg *= wp
+            taps.append((wg, R[j]))
     # The range weight: neighbours whose V_raw is more than 2.5 standard deviations of a difference
     # of two 4-sample means of the window's geometry-weighted V away from the pixel's drop out.
     wsum = sum(t[0] for t in taps)
@@ -121,10 +140,11 @@ for i in covered:
     worst = max(worst, abs(min(max(s / wsum, 0.0), 1.0) - V[i]))
 # float against double: the weights' rounding moves a mean of values in [0, 1] by a few float ulps.
 print("filtered V against the recomputed filter: max |difference| %.2e over %d pixels, %d taps cut by the range"
-      " weight; without a valid ray: %d keep V = 1 (the light is below the horizon), %d take their neighbours' V,"
-      " %d too close to call" % (worst, len(covered), partial, kept, borrowed, unsure))
+      " weight, %d by the penumbra weight; without a valid ray: %d keep V = 1 (the light is below the horizon),"
+      " %d take their neighbours' V, %d too close to call" % (worst, len(covered), partial, pen_cut, kept, borrowed, unsure))
 assert worst < 1e-4, worst
 assert partial > 0, "the range weight never acted"
+assert pen_cut > 0, "the penumbra weight never acted"
 assert kept > 0 and borrowed > 0, "a rule for pixels without a valid ray never acted"
 mae_f = sum(abs(V[i] - REF[i]) for i in covered) / len(covered)
 mae_r = sum(abs(R[i] - REF[i]) for i in covered) / len(covered)

@@ -881,7 +881,9 @@ typedef struct filter_frame {
     // pixel's horizon (filter.comp: a pixel without a valid ray has no V of its own)
     uint32_t valid[SIZE * SIZE];
     bool reaches[SIZE * SIZE];
+    float width[SIZE * SIZE]; // the penumbra width at the pixel's mean blocker (filter.comp's penumbra_weight)
     uint64_t range_between; // check_filter_frame's count of pixels with a range weight between 0 and 1
+    uint64_t pen_between;   // ... with a penumbra weight between 0 and 1
 } filter_frame;
 
 // A weight strictly between 0 and 1, i.e. neither keeping nor dropping its tap: more than 1e-3 from
@@ -891,7 +893,9 @@ static bool filter_between(double w) { return w > 1e-3 && w < 1 - 1e-3; }
 // One neighbour q of a pixel p in its window, as filter.comp weighs it, evaluated in double from the
 // frame's float P and N.
 typedef struct filter_tap {
-    double w;         // max(1 - rho^2, 0) c^2: the geometric weight
+    double w;         // max(1 - rho^2, 0) c^2: the geometric weight (times pen, filter_recompute)
+    double wgeo;      // the geometric weight alone
+    double pen;       // filter_penumbra: 1 for a pixel without a V of its own
     double rho;       // the larger of the two plane offsets over their footprints
     double c;         // max(n.m, 0)
     double err;       // bound on |w - the shader's float w| (filter_tap_at)
@@ -947,7 +951,8 @@ static bool filter_tap_at(const filter_frame *f, int x, int y, int dx, int dy, f
     }
     t->rho = fmax(r1, r2);
     t->c = fmax(nm, 0);
-    t->w = filter_weight(t->rho, t->c);
+    t->w = t->wgeo = filter_weight(t->rho, t->c);
+    t->pen = 1;
     // The float weight: rho within the larger of the two offsets' intervals, c within gamma_3 s2
     // (3.1u s2) of its double, so w lies between w(rho_hi, c_lo) and w(rho_lo, c_hi);
     // the roundings of rho^2, 1 - rho^2, c c and the product add 4u where that is not exactly 0.
@@ -960,6 +965,28 @@ static bool filter_tap_at(const filter_frame *f, int x, int y, int dx, int dy, f
     t->footprint = fmin(fp_p, fp_q);
     t->depth = fmin(n[3], m[3]);
     return true;
+}
+
+// filter.comp's penumbra_weight of taps p and q (pixel indices): max(1 - |q - p|^2 / (width / 2)^2, 0)
+// with width the smaller of the two pixels' penumbra widths, 0 at width 0. *err bounds the shader's
+// float evaluation against this double one: q - p rounds each component (u), the width's halving
+// is exact, the division adds 2.5 ulp (5u) and the dot product gamma_3 (3.1u), so r^2 is within
+// 2 (u + 5u) + 3.1u = 15.1u of its double, relative; 1 - r^2 adds u absolute. Twice that, for
+// contraction and reordering.
+#define FILTER_PENUMBRA_TOLERANCE 0.5 // filter.comp's PENUMBRA_TOLERANCE
+static double filter_penumbra(const filter_frame *f, int p, int q, double *err)
+{
+    double width = fmin(f->width[p], f->width[q]) * FILTER_PENUMBRA_TOLERANCE, r2 = 0;
+    if (!(width > 0)) {
+        *err = 0;
+        return 0;
+    }
+    for (int k = 0; k < 3; k++) {
+        double r = ((double)f->p[4 * q + k] - f->p[4 * p + k]) / width;
+        r2 += r * r;
+    }
+    *err = r2 * (1 + 15.1 * FLOAT_U) >= 1 ? (r2 * (1 - 15.1 * FLOAT_U) >= 1 ? 0 : 1) : 2 * (15.1 * FLOAT_U * r2 + FLOAT_U);
+    return fmax(1 - r2, 0);
 }
 
 // filter.comp's spread for a window mean m: RANGE_SIGMAS standard deviations of the difference of
@@ -1034,6 +1061,7 @@ typedef struct filter_window {
     double w, v, tol;          // second loop: the sum of the weights wg wr, the filtered V and a
                                // bound on |V - the shader's float V|
     bool range_between;        // a tap the geometry keeps has a range weight between 0 and 1
+    bool pen_between;          // ... a penumbra weight between 0 and 1
 } filter_window;
 
 // filter.comp at pixel (x, y), covered. Both loops are weighted means of the window's V_raw
@@ -1068,6 +1096,14 @@ static void filter_recompute(const filter_frame *f, int x, int y, filter_window 
             o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]) && f->valid[(y + dy) * SIZE + x + dx] > 0;
             if (!o->in[k])
                 continue;
+            if (!unknown) { // the penumbra weight, and its error next to the geometric weight's
+                filter_tap *t = &o->t[k];
+                double pen_err;
+                t->pen = filter_penumbra(f, y * SIZE + x, (y + dy) * SIZE + x + dx, &pen_err);
+                t->w = t->wgeo * t->pen;
+                t->err = t->err * t->pen + (t->wgeo + t->err) * pen_err + 2 * FLOAT_U * t->w;
+                o->pen_between = o->pen_between || (t->wgeo > 1e-3 && filter_between(t->pen));
+            }
             o->v_raw[k] = f->v_raw[(y + dy) * SIZE + x + dx];
             o->d[k] = fabs((double)o->v_raw[k] - v_p);
             sum += o->t[k].w * o->v_raw[k];
@@ -1115,7 +1151,7 @@ static void filter_recompute(const filter_frame *f, int x, int y, filter_window 
 // 0 and 1 (filter_window.range_between).
 static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
 {
-    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0, range = 0, no_ray = 0, borrowed = 0;
+    uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0, range = 0, pen = 0, no_ray = 0, borrowed = 0;
     double diff_max = 0, tol_max = 0;
     for (int y = 0; y < SIZE; y++)
         for (int x = 0; x < SIZE; x++) {
@@ -1142,20 +1178,22 @@ static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
             borrowed += f->valid[px] == 0 && f->reaches[px] && o.wg > 0;
             changed += v != raw;
             range += o.range_between;
+            pen += o.pen_between;
             if (d > o.tol && off++ < 5)
                 fprintf(stderr, "  %s filter: pixel (%d, %d): V = %.9f, recomputed %.9f (|difference| %.3g > %.3g;"
                                 " mean %.9f +- %.3g, spread %.6g, W %.6g of geometric %.6g)\n",
                         c->name, x, y, v, o.v, d, o.tol, o.mean, o.mean_tol, o.spread, o.w, o.wg);
         }
     fprintf(stderr, "  filter    %dx%d exact spp %u (samples %u): %llu px, |V - recomputed| max %.2e (bound max %.2e),"
-                    " %llu px alone on their surface, %llu changed, %llu with range weights between 0 and 1,"
+                    " %llu px alone on their surface, %llu changed, %llu with range and %llu with penumbra weights between 0 and 1,"
                     " %llu without a valid ray (%llu taking their neighbours' V)\n",
             FILTER_TILE, FILTER_TILE, c->spp, f->samples, (unsigned long long)covered, diff_max, tol_max,
-            (unsigned long long)alone, (unsigned long long)changed, (unsigned long long)range,
+            (unsigned long long)alone, (unsigned long long)changed, (unsigned long long)range, (unsigned long long)pen,
             (unsigned long long)no_ray, (unsigned long long)borrowed);
     CHECK_MSG(bad == 0 && off == 0, "%s filter: %llu bad values, %llu of %llu pixels off the recomputed filter", c->name,
               (unsigned long long)bad, (unsigned long long)off, (unsigned long long)covered);
     CHECK_MSG(covered > 0, "%s filter: no covered pixels", c->name);
+    ((filter_frame *)f)->pen_between = pen;
     return range;
 }
 
@@ -1186,7 +1224,8 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
         memcpy(out->v, img.v, sizeof out->v);
         memcpy(out->v_raw, img.v_raw, sizeof out->v_raw);
         for (int i = 0; i < SIZE * SIZE; i++)
-            out->valid[i] = img.counts[4 * i + 1], out->reaches[i] = img.counts[4 * i + 2] != 0;
+            out->valid[i] = img.counts[4 * i + 1], out->reaches[i] = img.counts[4 * i + 2] != 0,
+            memcpy(&out->width[i], &img.counts[4 * i + 3], sizeof(float));
         out->pixel_angle = (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE);
         out->eye_mag = fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2])));
         // As renderer.c passes it to the filter.
@@ -1213,6 +1252,8 @@ typedef struct filter_pair_stats {
     uint64_t partial;                      // tight ones with a geometric weight strictly between 0 and 1
     uint64_t range;                        // tight ones with a range weight strictly between 0 and 1
     uint64_t skip_geometry, skip_v_raw;    // windows whose surfaces or V_raw differ
+    double width_rel;                      // largest relative difference of the local penumbra widths
+    uint64_t width_none;                   // taps with a width in one frame and none in the other
     double tight_diff, tight_bound, loose_diff;
 } filter_pair_stats;
 
@@ -1314,7 +1355,7 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                 if (!wa.in[k] || !wb.in[k])
                     continue;
                 const filter_tap *ta = &wa.t[k], *tb = &wb.t[k];
-                partial = partial || filter_between(ta->w);
+                partial = partial || filter_between(ta->wgeo);
                 dg[k] = fabs(ta->c * ta->c - tb->c * tb->c);
                 if (ta->rho != 0) {
                     double ma = fmax(ta->mag, fa->eye_mag), mb = fmax(tb->mag, fb->eye_mag);
@@ -1323,9 +1364,21 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                     double delta = ea / ta->depth + eb / tb->depth;
                     double rlo = fmax(ta->rho - u, 0) / (1 + delta), rhi = (ta->rho + u) * (1 + delta);
                     double flo = filter_weight(rlo, tb->c), fhi = filter_weight(rhi, tb->c);
-                    dg[k] = fmax(fmax(flo - ta->w, ta->w - fhi), 0);
+                    dg[k] = fmax(fmax(flo - ta->wgeo, ta->wgeo - fhi), 0);
                 }
+                // The penumbra weights: the widths come from each frame's own blocker distances, the
+                // first hit its BVH walk found, and a BVH built at another magnitude may find another
+                // blocker of the same ray first (their spread is printed below: about 1e-5 relative
+                // where the two BVHs match, up to 0.4 where they do not). So the frames' own weights
+                // bound their difference; a width in one frame only would be a blocked ray in one
+                // only, which the equal V_raw rules out, and is checked.
+                dg[k] = dg[k] * tb->pen + ta->wgeo * fabs(ta->pen - tb->pen);
                 dg_sum += dg[k];
+                double wa_w = fa->width[(y + k / FILTER_TILE + lo) * SIZE + x + k % FILTER_TILE + lo];
+                double wb_w = fb->width[(y + k / FILTER_TILE + lo) * SIZE + x + k % FILTER_TILE + lo];
+                if (wa_w < FLT_MAX && wb_w < FLT_MAX && wa_w > 0)
+                    s.width_rel = fmax(s.width_rel, fabs(wb_w / cb->scale - wa_w / ca->scale) / (wa_w / ca->scale));
+                s.width_none += (wa_w == FLT_MAX) != (wb_w == FLT_MAX);
             }
             // The range weights', through frame b's mean.
             double dm = wb.wg > 0 ? dg_sum / wb.wg : 1, s_lo, s_hi, dw = 0;
@@ -1334,6 +1387,7 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                 if (!wa.in[k] || !wb.in[k])
                     continue;
                 double w_a = wa.t[k].w * wa.wr[k];
+                // (dg bounds the product of the geometric and the penumbra weights.)
                 double w_lo = fmax(wa.t[k].w - dg[k], 0) * filter_range_weight(wa.d[k], s_lo);
                 double w_hi = (wa.t[k].w + dg[k]) * filter_range_weight(wa.d[k], s_hi);
                 dw += fmax(w_hi - w_a, w_a - w_lo);
@@ -1362,6 +1416,10 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
             cb->name, ca->name, (unsigned long long)s.tight, (unsigned long long)s.partial, (unsigned long long)s.range,
             s.tight_diff, s.tight_bound, (unsigned long long)s.loose, s.loose_diff, (unsigned long long)s.skip_geometry,
             (unsigned long long)s.skip_v_raw);
+    fprintf(stderr, "  penumbra widths, %s against %s: local widths within %.2e relative, %llu taps with one in one frame only\n",
+            cb->name, ca->name, s.width_rel, (unsigned long long)s.width_none);
+    CHECK_MSG(s.width_none == 0, "%s against %s: %llu taps have a penumbra width in one frame only", cb->name, ca->name,
+              (unsigned long long)s.width_none);
     CHECK_MSG(off == 0, "%s against %s: %llu pixels' filtered V differ beyond the bound", cb->name, ca->name,
               (unsigned long long)off);
     st->tight += s.tight;

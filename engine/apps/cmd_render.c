@@ -29,6 +29,8 @@ void pn_print_render_help(void)
            "                        (A = 1 where geometry is) and shadow.V, all 32-bit float\n"
            "  --aovs                also write P.X/Y/Z, N.X/Y/Z, albedo.R/G/B, Z (view depth) and, with one\n"
            "                        light, shadow.valid (the rays above the horizon and in front of the light)\n"
+           "                        and shadow.penumbra (the penumbra width at the mean blocker the filter\n"
+           "                        reads, in world units; 3.4e38 where no ray was blocked)\n"
            "  --preview FILE        tone-mapped sRGB PNG of the radiance\n"
            "  --exposure E          preview exposure multiplier (default 1)\n"
            "  --size WxH            image size (default 1280x720)\n"

@@ -53,7 +53,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     const pn_light *light = &rec->lights[0];
     uint32_t lights = rec->light_count ? rec->light_count : 1;
     size_t px = (size_t)o->width * o->height;
-    enum { PLANES = 16 };
+    enum { PLANES = 17 };
     float *buf = malloc(px * PLANES * sizeof(float));
     if (!buf) {
         pn_error("%s: out of memory for the image", path);
@@ -74,10 +74,11 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         }
         pl[14][i] = img->n[4 * i + 3];
         pl[15][i] = (float)img->counts[4 * i + 1];
+        memcpy(&pl[16][i], &img->counts[4 * i + 3], sizeof(float));
     }
     static const char *const names[PLANES] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                               "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z",
-                                              "shadow.valid"};
+                                              "shadow.valid", "shadow.penumbra"};
     // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs. With
     // several lights a V (and V_raw) per light, already planar.
     pn_exr_channel ch[PLANES + 2 * PN_MAX_LIGHTS];
@@ -98,7 +99,8 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         if (c == 5 && img->v_raw && lights == 1)
             ch[count++] = (pn_exr_channel){"shadow.V_raw", img->v_raw}; // already planar
         // shadow.valid: the rays of the pixel above its horizon and in front of the light, which V
-        // is the share of (the last light's counts: one light only).
+        // is the share of; shadow.penumbra: the penumbra width the filter reads (the last light's
+        // counts: one light only).
         if (c < 5 || (aovs && (c < 15 || lights == 1)))
             ch[count++] = (pn_exr_channel){names[c], pl[c]};
     }

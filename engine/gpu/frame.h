@@ -60,8 +60,10 @@ typedef struct pn_frame_images {
     const float *v;        // one float: visibility of the light, 0..1 (filtered, with a filter)
     const float *v_raw;    // with a filter: the shadow pass's V before it; NULL without
     // The shadow pass's samples per pixel (rgba, of the frame's last light): visible, valid (above
-    // the horizon and in front of the light; V = visible / valid, 1 without one), and whether any of
-    // the light lies above the horizon and in front (1 wherever valid > 0).
+    // the horizon and in front of the light; V = visible / valid, 1 without one), whether any of
+    // the light lies above the horizon and in front (1 wherever valid > 0), and the float bits of
+    // the penumbra width at the pixel's mean blocker (world units; FLT_MAX where no ray was
+    // blocked, 0 for a point light's blocked rays and on the background).
     const uint32_t *counts;
     const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are

@@ -17,7 +17,8 @@ typedef struct pn_shadow_pass {
     pn_gpu_buffer ray_dump; // with desc.dump_rays
     pn_gpu_buffer work;     // with desc.count_work
     pn_gpu_image counts;    // (visible, valid) sample counts between chunks; after the last, with
-                            // whether the light reaches above the horizon (the filter reads them)
+                            // whether the light reaches above the horizon and the penumbra width
+                            // (the filter reads them; pn_frame_images.counts)
     uint32_t width, height;
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.

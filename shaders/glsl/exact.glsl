@@ -32,8 +32,9 @@ WRay wray(vec3 o, vec3 d)
 }
 
 // Does the ray hit triangle (a, b, c) at t in (t_min, t_max)? Two-sided. Edges and vertices are
-// shared without gaps: the edge functions are exact in sign, recomputed in double when zero.
-bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max)
+// shared without gaps: the edge functions are exact in sign, recomputed in double when zero. t_hit:
+// the hit's t where it hits.
+bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out float t_hit)
 {
     vec3 A = a - r.o, B = b - r.o, C = c - r.o;
     float Ax = A[r.k.x] - r.s.x * A[r.k.z], Ay = A[r.k.y] - r.s.y * A[r.k.z];
@@ -51,15 +52,23 @@ bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max)
     float T = U * (r.s.z * A[r.k.z]) + V * (r.s.z * B[r.k.z]) + W * (r.s.z * C[r.k.z]);
     // t = T / det; compare without dividing (flip both for a negative determinant).
     float sd = det < 0.0 ? -1.0 : 1.0;
-    return hit && T * sd > t_min * det * sd && T * sd < t_max * det * sd;
+    hit = hit && T * sd > t_min * det * sd && T * sd < t_max * det * sd;
+    t_hit = hit ? T / det : t_max;
+    return hit;
 }
+
+// The t of the last hit tri_hit found: where bvh_blocked and leaf_blocked met their blocker.
+float hit_t = 1.0;
 
 bool tri_hit(WRay r, uint tri, float t_min, float t_max)
 {
     if (COUNT_WORK)
         work.z++;
-    return wt_hit(r, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz,
-                  t_min, t_max);
+    float t;
+    bool hit = wt_hit(r, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz,
+                      params.tris.v[3u * tri + 2u].xyz, t_min, t_max, t);
+    hit_t = hit ? t : hit_t;
+    return hit;
 }
 
 // Slab test of the box against the ray's t range; the far distance is grown by 2 gamma(3) (Ize

@@ -73,6 +73,8 @@
 // The largest tile edge (--tile): a window of 8 x 8 = 64 neighbours per pixel already costs the
 // filter pass more than a few light samples would (filter.comp loads three images per neighbour).
 #define PN_FILTER_MAX_TILE 8
+// The penumbra width (counts.w, shadow_finish) of a pixel whose rays met no blocker: FLT_MAX.
+#define PN_PENUMBRA_NONE 3.4028234663852886e38
 
 // ---------------------------------------------------------------------------------------------
 // Field macros

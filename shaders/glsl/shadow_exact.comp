@@ -21,7 +21,11 @@ void main()
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
-    for (uint j = 0u; j < count; j++)
-        blocked |= (valid_rays & (1u << j)) != 0u && bvh_blocked(o, dir[j], 0.0, 1.0) ? (1u << j) : 0u;
+    for (uint j = 0u; j < count; j++) {
+        bool hit = (valid_rays & (1u << j)) != 0u && bvh_blocked(o, dir[j], 0.0, 1.0);
+        blocked |= hit ? (1u << j) : 0u;
+        if (hit)
+            blocker_at(j, hit_t);
+    }
     shadow_finish(px, o, count, valid_rays, blocked, i < count);
 }

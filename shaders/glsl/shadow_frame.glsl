@@ -12,6 +12,12 @@ const uint MAX_CHUNK = PN_MAX_CHUNK; // rays of one dispatch (shadow_pass.c keep
 vec3 dir[MAX_CHUNK];
 float t_rise[MAX_CHUNK];
 bool truncated = false; // llvmpipe: set when the loop budget ended a loop early
+// Where each blocked ray met its blocker, as the segment parameter t in [0, 1): where a traversal
+// blocks ray i it records the t of the hit, or of the node or leaf whose line space or slab decided
+// it (the blocker lies beyond). shadow_finish turns their mean into the pixel's penumbra width for
+// the filter.
+float blocker_t[MAX_CHUNK];
+void blocker_at(uint i, float t) { blocker_t[i] = min(blocker_t[i], max(t, 0.0)); }
 
 // Work counters (the bench's --work): a separate build of each shadow shader, with COUNT_WORK on,
 // counts per pixel the nodes visited (N-tree or BVH), line-space lookups, triangle tests and the
@@ -146,11 +152,33 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
+        blocker_t[i] = 1.0;
         bool rises = valid && t_rise[i] < 1.0;
         st_lo = rises ? min(st_lo, st) : st_lo;
         st_hi = rises ? max(st_hi, st) : st_hi;
     }
     return valid_rays;
+}
+
+// The width of the penumbra a blocker at segment parameter t casts at the receiver o: the light's
+// extent seen through the blocker's edge, L t / (1 - t) by similar triangles (the blocker t of the
+// way to the light), with L the light's shorter side foreshortened as seen from o (the narrowest
+// penumbra any edge's orientation gives). Across it V runs from 0 to 1, so two receiver points a
+// distance x apart see V differ by about x / width: the filter's bound on what averaging them
+// costs (filter.comp). The receiver's own tilt only widens the penumbra along the surface and is
+// left out: the bound errs on the sharp side. PN_PENUMBRA_NONE without a blocker (V has no edge
+// here); 0 for a point light (hard shadows).
+float penumbra_width(vec3 o, float t)
+{
+    vec3 c0 = LIGHT.corners[0].xyz, c1 = LIGHT.corners[1].xyz, c3 = LIGHT.corners[3].xyz;
+    vec3 d = 0.25 * (c0 + c1 + LIGHT.corners[2].xyz + c3) - o;
+    // The cosine from d scaled to a max norm of 1: its square neither overflows nor underflows at
+    // any scale positions take (pn_scene_validate).
+    float m = max(max(abs(d.x), abs(d.y)), abs(d.z));
+    vec3 u = m > 0.0 ? d / m : vec3(0.0);
+    float cos_l = m > 0.0 ? max(dot(LIGHT.normal.xyz, -u), 0.0) / length(u) : 0.0;
+    float side = min(distance(c1, c0), distance(c3, c0)) * cos_l;
+    return t < 1.0 ? side * (t / (1.0 - t)) : PN_PENUMBRA_NONE;
 }
 
 // Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid.
@@ -183,7 +211,14 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     uint reaches = 1u;
     if (chunk.last != 0u && counts.y == 0u)
         reaches = light_weight(LIGHT, o, imageLoad(img_n, px).xyz) > 0.0 ? 1u : 0u;
-    imageStore(img_counts, px, uvec4(counts, reaches, 0u));
+    // And the penumbra width at the pixel's mean blocker (as PCSS estimates it), as float bits: until
+    // the last chunk the sum of the blocked rays' t, which counts.y - counts.x of them are.
+    float t_sum = chunk.first != 0u ? 0.0 : uintBitsToFloat(imageLoad(img_counts, px).w);
+    for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u)
+        t_sum += blocker_t[findLSB(b)];
+    uint blocked_rays = counts.y - counts.x;
+    float w = chunk.last == 0u ? t_sum : penumbra_width(o, blocked_rays > 0u ? t_sum / float(blocked_rays) : 1.0);
+    imageStore(img_counts, px, uvec4(counts, reaches, floatBitsToUint(w)));
     if (chunk.last != 0u)
         imageStore(img_v, px, vec4(counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0));
 }

@@ -235,14 +235,18 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             // only rays in a face plane walk them): the mode decides (leaf_blocks). The DDA has moved
             // on: the leaf is the cell it left. ls-leaf and ls-plane need where the ray is in it:
             // the same slab test as the packet traversal's, in the node's frame (leaf_l).
+            // Also where the leaf blocks the ray in linespace mode (rays in a face plane), for the
+            // blocker's t (hybrid and exact-ls record their triangles' hits).
             float t_in = 0.0, t_out = 1.0;
-            if (entry == CELL_FILLED && (LEAF || PLANE)) {
+            if (entry == CELL_FILLED && !(HYBRID || EXACT_LS)) {
                 uvec3 c = uvec3(child % t.n, (child / t.n) % t.n, child / (t.n * t.n));
                 Local lc = Local(leaf_l.o - vec3(c), leaf_l.d, leaf_l.eps);
                 ls_slabs(lc, 1.0, t_in, t_out);
             }
             if (entry == CELL_FILLED)
                 blocked = leaf_blocks(f.node, child, n3, o, d, leaf_l.o, leaf_l.d, leaf_l.eps, t_in, t_out);
+            if (blocked)
+                blocker_at(ray, HYBRID || EXACT_LS ? hit_t : max(t_in, t_start));
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -255,6 +259,8 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             float t_in, t_out;
             bool hit = ls_slabs(l, fn, t_in, t_out);
             int c = ls_classify_local(t, uint(depth + 1), next * t.ls_words, l, hit, t_in, t_out, t_start, t_trust);
+            if (ls_blocks(c))
+                blocker_at(ray, max(t_in, t_start));
             blocked = blocked || ls_blocks(c);
             if (ls_walks(c) && depth + 1 < MAX_DEPTH) {
                 s0 = depth == 0 ? f : s0;
@@ -361,6 +367,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
     for (uint left = rays; left != 0u; left &= left - 1u) {
         uint i = uint(findLSB(left));
         int r = ls_classify(t, root, o, dir[i], ray_start(i), ray_trust(i));
+        if (ls_blocks(r))
+            blocker_at(i, ray_start(i)); // a root without children: the blocker lies beyond the start
         blocked |= ls_blocks(r) ? (1u << i) : 0u;
         descend |= ls_walks(r) ? (1u << i) : 0u;
     }
@@ -434,6 +442,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     bool hit = ls_slabs(l, 1.0, t_in, t_out) && t_in <= 1.0 && t_out >= ray_start(i);
                     uint ci = uint((cell.z * n + cell.y) * n + cell.x);
                     hit = hit && leaf_blocks(f.node, ci, n3, o, dir[i], l.o + vec3(cell), l.d, l.eps, t_in, t_out);
+                    if (hit)
+                        blocker_at(i, HYBRID || EXACT_LS ? hit_t : max(t_in, ray_start(i)));
                     blocked |= hit ? (1u << i) : 0u;
                 }
             } else if (entry != CELL_EMPTY && live != 0u) {
@@ -451,6 +461,8 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     // The child's level is depth + 1, its line space at index * ls_words (pools.h).
                     int r = ls_classify_local(t, uint(depth + 1), child_index * t.ls_words, l, hit, t_in, t_out,
                                               ray_start(i), ray_trust(i));
+                    if (ls_blocks(r))
+                        blocker_at(i, max(t_in, ray_start(i)));
                     blocked |= ls_blocks(r) ? (1u << i) : 0u;
                     down |= ls_walks(r) ? (1u << i) : 0u;
                 }

@@ -19,5 +19,5 @@ void main()
     float covered = imageLoad(img_p, px).w;
     imageStore(img_v, px, vec4(covered > 0.0 ? 1.0 : 0.0));
     // For the filter: one valid, visible sample where there is geometry (V = 1 is exact).
-    imageStore(img_counts, px, covered > 0.0 ? uvec4(1u, 1u, 1u, 0u) : uvec4(0u));
+    imageStore(img_counts, px, covered > 0.0 ? uvec4(1u, 1u, 1u, floatBitsToUint(PN_PENUMBRA_NONE)) : uvec4(0u));
 }
