@@ -57,7 +57,7 @@ float plane_offset(vec3 p, vec3 n, float footprint, vec3 q)
 // cannot see that at a few samples, where the noise is as large as the step. Where no blocker is
 // near, V is smooth and the window averages freely. Dimensionless: the same at every scale.
 // Measured (bench, exact, 4 spp, default scene; edge leak / reference MAE): without this weight
-// 3.2% / 0.0089; tolerance 1: 2.0% / 0.0089; 0.5: 0.8% / 0.0088; 0.25: 0.6% / 0.0095 (the
+// 3.2% / 0.0089; tolerance 1: 2.0% / 0.0088; 0.5: 0.8% / 0.0088; 0.25: 0.7% / 0.0091 (the
 // window no longer averages the noise away).
 const float PENUMBRA_TOLERANCE = 0.5;
 float penumbra_weight(vec3 p, uint width_p, vec3 q, uint width_q)
