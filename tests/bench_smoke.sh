@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # penumbra bench end to end on a small matrix: it writes the CSV, JSON, time-to-error table and
-# plot; exact-ls, which is exact by construction, measures zero bias (against exact with the same
-# samples); line-space rows measure a bias above zero (the method over-occludes); every row has a
+# plot; exact-ls, which is exact by construction, measures zero bias unfiltered (against exact with
+# the same samples); line-space rows measure a bias above zero (the method over-occludes); every row has a
 # reference error above zero (9 samples are noisy against the converged reference); every row has a
 # positive time and an Embree ratio; the context names the driver and the reference. The filter is an
 # axis: every configuration appears unfiltered and filtered (3x3), a filtered cell's time is its
@@ -47,7 +47,9 @@ for r in rows:
 for r in rows:
     assert r["gpu_ms"]["shadow"] > 0 and r["shadow_rays_per_s"] > 0 and r["vs_embree"] > 0, r
     assert r["spp"] == 9 and r["reference"]["mae"] > 0 and r["reference"]["max"] >= r["reference"]["p99"], r
-    if r["mode"] in ("exact", "exact-ls"):
+    # Unfiltered: a filtered V reads penumbra widths from the blocker each walk meets first, which
+    # exact-ls's tree and exact's BVH may order differently (filter.comp).
+    if r["mode"] in ("exact", "exact-ls") and r["filter"] == "none":
         assert r["bias"]["max"] == 0, r
     if r["mode"] == "linespace":
         assert r["bias"]["mae"] > 0, r

@@ -1,6 +1,7 @@
 // The render's EXR is right: read back with OpenEXRCore (through the engine's reader for the
 // pixels and directly for the attributes) and checked by Debian's exrheader; channel names and
 // attributes as documented; no NaN or Inf anywhere; the --json summary has the documented keys.
+#include <float.h>
 #include <openexr.h>
 
 #include "io/exr.h"
@@ -9,7 +10,7 @@
 // The default render filters (--filter interleaved), so its unfiltered V is there too.
 static const char *const CHANNELS[] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                        "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z", "shadow.V_raw",
-                                       "shadow.valid"};
+                                       "shadow.valid", "shadow.penumbra"};
 static const char *const ATTRS[] = {"penumbra.scene", "penumbra.mode", "penumbra.triangles",
                                     "penumbra.camera.pos", "penumbra.camera.target", "penumbra.camera.fov",
                                     "penumbra.light.pos", "penumbra.light.normal", "penumbra.light.up",
@@ -95,6 +96,11 @@ int main(void)
         CHECK_MSG(valid >= 0 && valid == floorf(valid) && (a == 1.0f || valid == 0), "shadow.valid = %g at %d", valid, i);
         CHECK_MSG(valid > 0 ? fabsf(visible - roundf(visible)) < 1e-3f : a == 0.0f || ch[15][i] == 1.0f,
                   "V_raw = %g of %g valid rays at %d", ch[15][i], valid, i);
+        // shadow.penumbra: FLT_MAX exactly where no valid ray was blocked, else a width >= 0; 0 on the
+        // background
+        float width = ch[17][i];
+        CHECK_MSG(a == 1.0f ? width >= 0 && (width == FLT_MAX) == (valid == 0 || ch[15][i] == 1.0f) : width == 0,
+                  "shadow.penumbra = %g with V_raw %g of %g valid rays at %d", width, ch[15][i], valid, i);
         if (a == 1.0f) {
             covered++;
             double nl = sqrt(ch[8][i] * ch[8][i] + ch[9][i] * ch[9][i] + ch[10][i] * ch[10][i]);

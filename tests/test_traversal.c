@@ -16,7 +16,7 @@ static int render(const char *scene, const char *traversal, const char *name, pn
 {
     char args[2048];
     const char *out = pn_test_tmp(name);
-    snprintf(args, sizeof args, "render %s --size 96x96 --aovs --spp 16 --tree 6,3 --sampler stratified --seed 7 --traversal %s -o %s",
+    snprintf(args, sizeof args, "render %s --size 96x96 --aovs --spp 16 --tree 6,3 --sampler stratified --seed 7 --filter none --traversal %s -o %s",
              scene, traversal, out);
     int rc = pn_test_run(args);
     CHECK_MSG(rc == 0, "render %s exited %d", traversal, rc);
