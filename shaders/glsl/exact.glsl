@@ -32,9 +32,9 @@ WRay wray(vec3 o, vec3 d)
 }
 
 // Does the ray hit triangle (a, b, c) at t in (t_min, t_max)? Two-sided. Edges and vertices are
-// shared without gaps: the edge functions are exact in sign, recomputed in double when zero. t_hit:
-// the hit's t where it hits.
-bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out float t_hit)
+// shared without gaps: the edge functions are exact in sign, recomputed in double when zero.
+// t_frac: (T, det), the hit's t = T / det where it hits (divided only for the hit that blocks).
+bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out vec2 t_frac)
 {
     vec3 A = a - r.o, B = b - r.o, C = c - r.o;
     float Ax = A[r.k.x] - r.s.x * A[r.k.z], Ay = A[r.k.y] - r.s.y * A[r.k.z];
@@ -52,22 +52,22 @@ bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out float 
     float T = U * (r.s.z * A[r.k.z]) + V * (r.s.z * B[r.k.z]) + W * (r.s.z * C[r.k.z]);
     // t = T / det; compare without dividing (flip both for a negative determinant).
     float sd = det < 0.0 ? -1.0 : 1.0;
-    hit = hit && T * sd > t_min * det * sd && T * sd < t_max * det * sd;
-    t_hit = hit ? T / det : t_max;
-    return hit;
+    t_frac = vec2(T, det);
+    return hit && T * sd > t_min * det * sd && T * sd < t_max * det * sd;
 }
 
-// The t of the last hit tri_hit found: where bvh_blocked and leaf_blocked met their blocker.
-float hit_t = 1.0;
+// The last hit tri_hit found as (T, det): where bvh_blocked and leaf_blocked met their blocker.
+vec2 hit_frac = vec2(1.0);
+float last_hit_t() { return hit_frac.x / hit_frac.y; }
 
 bool tri_hit(WRay r, uint tri, float t_min, float t_max)
 {
     if (COUNT_WORK)
         work.z++;
-    float t;
+    vec2 t_frac;
     bool hit = wt_hit(r, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz,
-                      params.tris.v[3u * tri + 2u].xyz, t_min, t_max, t);
-    hit_t = hit ? t : hit_t;
+                      params.tris.v[3u * tri + 2u].xyz, t_min, t_max, t_frac);
+    hit_frac = hit ? t_frac : hit_frac;
     return hit;
 }
 

@@ -25,7 +25,7 @@ void main()
         bool hit = (valid_rays & (1u << j)) != 0u && bvh_blocked(o, dir[j], 0.0, 1.0);
         blocked |= hit ? (1u << j) : 0u;
         if (hit)
-            blocker_at(j, hit_t);
+            blocker_at(j, last_hit_t());
     }
     shadow_finish(px, o, count, valid_rays, blocked, i < count);
 }

@@ -199,7 +199,8 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
             params.dump.v[pixels + pixel * params.spp + chunk.sample_begin + i] = vec4(o + dir[i], uintBitsToFloat(flags));
         }
     }
-    uvec2 counts = chunk.first != 0u ? uvec2(0u) : imageLoad(img_counts, px).xy; // (visible, valid)
+    uvec4 earlier = chunk.first != 0u ? uvec4(0u) : imageLoad(img_counts, px); // the earlier chunks' counts
+    uvec2 counts = earlier.xy; // (visible, valid)
     counts.x += uint(bitCount(valid_rays & ~blocked));
     counts.y += uint(bitCount(valid_rays));
     if (cut_short || truncated || budget_spent())
@@ -213,7 +214,7 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
         reaches = light_weight(LIGHT, o, imageLoad(img_n, px).xyz) > 0.0 ? 1u : 0u;
     // And the penumbra width at the pixel's mean blocker (as PCSS estimates it), as float bits: until
     // the last chunk the sum of the blocked rays' t, which counts.y - counts.x of them are.
-    float t_sum = chunk.first != 0u ? 0.0 : uintBitsToFloat(imageLoad(img_counts, px).w);
+    float t_sum = uintBitsToFloat(earlier.w);
     for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u)
         t_sum += blocker_t[findLSB(b)];
     uint blocked_rays = counts.y - counts.x;

@@ -246,7 +246,7 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             if (entry == CELL_FILLED)
                 blocked = leaf_blocks(f.node, child, n3, o, d, leaf_l.o, leaf_l.d, leaf_l.eps, t_in, t_out);
             if (blocked)
-                blocker_at(ray, HYBRID || EXACT_LS ? hit_t : max(t_in, t_start));
+                blocker_at(ray, HYBRID || EXACT_LS ? last_hit_t() : max(t_in, t_start));
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -443,7 +443,7 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     uint ci = uint((cell.z * n + cell.y) * n + cell.x);
                     hit = hit && leaf_blocks(f.node, ci, n3, o, dir[i], l.o + vec3(cell), l.d, l.eps, t_in, t_out);
                     if (hit)
-                        blocker_at(i, HYBRID || EXACT_LS ? hit_t : max(t_in, ray_start(i)));
+                        blocker_at(i, HYBRID || EXACT_LS ? last_hit_t() : max(t_in, ray_start(i)));
                     blocked |= hit ? (1u << i) : 0u;
                 }
             } else if (entry != CELL_EMPTY && live != 0u) {

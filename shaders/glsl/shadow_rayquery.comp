@@ -12,18 +12,15 @@ layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 layout(set = 0, binding = PN_SHADOW_BINDING_TLAS) uniform accelerationStructureEXT scene_as;
 
 // Any hit of the segment o + t*d, t in [0, 1]: d is not normalised, so t is the same parameter
-// as exact mode's (the light sample at t = 1).
-// The hit's t, where rq_blocked found one.
-float hit_t = 1.0;
-
-bool rq_blocked(vec3 o, vec3 d)
+// as exact mode's (the light sample at t = 1). t_hit: the hit's t where it found one.
+bool rq_blocked(vec3 o, vec3 d, out float t_hit)
 {
     rayQueryEXT q;
     rayQueryInitializeEXT(q, scene_as, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xffu, o, 0.0, d, 1.0);
     while (rayQueryProceedEXT(q)) {
     }
     bool hit = rayQueryGetIntersectionTypeEXT(q, true) != gl_RayQueryCommittedIntersectionNoneEXT;
-    hit_t = hit ? rayQueryGetIntersectionTEXT(q, true) : 1.0;
+    t_hit = hit ? rayQueryGetIntersectionTEXT(q, true) : 1.0;
     return hit;
 }
 
@@ -40,10 +37,11 @@ void main()
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
     for (uint j = 0u; j < count; j++) {
-        bool hit = (valid_rays & (1u << j)) != 0u && rq_blocked(o, dir[j]);
+        float t = 1.0;
+        bool hit = (valid_rays & (1u << j)) != 0u && rq_blocked(o, dir[j], t);
         blocked |= hit ? (1u << j) : 0u;
         if (hit)
-            blocker_at(j, hit_t);
+            blocker_at(j, t);
     }
     shadow_finish(px, o, count, valid_rays, blocked, i < count);
 }
