@@ -1797,9 +1797,9 @@ int main(int argc, char **argv)
             pairs++;
         }
     }
-    uint64_t frames_range = 0;
+    uint64_t frames_range = 0, frames_pen = 0;
     for (int i = 0; i < n; i++)
-        frames_range += filtered[i].range_between;
+        frames_range += filtered[i].range_between, frames_pen += filtered[i].pen_between;
     fprintf(stderr, "filter scale invariance, %d pairs: %llu px compared (%llu with geometric and %llu with range weights"
                     " between 0 and 1; |dV| max %.2e, bound max %.2e), %llu px where rounding is not small against the"
                     " footprint (|dV| max %.3f); skipped %llu + %llu px; %llu px of the filtered frames with range"
@@ -1812,6 +1812,10 @@ int main(int argc, char **argv)
     // geometric weights between 0 and 1 (the filter scene's) and some with range weights between 0
     // and 1 (penumbrae, where neighbours' V_raw differ by less than the spread), or the check says
     // nothing of them.
+    // The recomputed penumbra weight must act somewhere too (the bars' penumbrae), or requirement 1
+    // says nothing of it.
+    if (argc < 2)
+        CHECK_MSG(frames_pen > 0, "filter: no pixel of the filtered frames has a penumbra weight between 0 and 1");
     if (argc < 2)
         CHECK_MSG(fps.tight > 0 && fps.partial > 0 && fps.range > 0 && frames_range > 0,
                   "filter scale invariance: %d pairs, %llu pixels compared, %llu with geometric and %llu with range"
