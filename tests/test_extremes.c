@@ -12,7 +12,7 @@
 // sees geometry) and once with a crafted G-buffer (pn_renderer_set_gbuffer: receivers on the
 // tree's lattice, aligned with light samples so that ray directions have exact zero components).
 // For each pixel the oracle counts, over the grid sampler's light samples (which it computes as the
-// shader does), the rays that are surely valid, surely free and surely blocked under the mode's
+// shader does, in the box of the part of the light above the pixel's horizon), the rays that are surely valid, surely free and surely blocked under the mode's
 // documented bound (README, "Accuracy at the extremes"), and requires
 //     free_sure / (valid + unsure) <= V <= (valid - blocked_sure + unsure) / (valid + unsure)
 // plus: every V finite and in [0,1], background V = 0, radiance finite and >= 0, mode none V = 1.
@@ -458,18 +458,76 @@ static bool own_plane(const oracle *o, const tri *t, const double g[3], const do
     return len3(c) <= 1e-6 * tl && fabs(dot3(ag, tn)) / tl <= o->e;
 }
 
+// horizon_box (shadow_frame.glsl) in double: the box, in the light's (s, t), of the part of the light
+// above the plane through g with normal nrm (the whole light if no part is), and in *dst how far the
+// shader's float box may lie from it in s or t. The shader's heights of the corners over the plane
+// err by at most dh = 2 e |n|_1 (its origin and corners are within e of these). A corner within dh
+// of the plane may go either way; then the box gains or loses the corner, or a crossing next to it,
+// which lies within dh / (|h_a - h_b| - 2 dh) of it along the edge. A crossing's f = h_a / (h_a - h_b)
+// moves by at most 2 dh / (|h_a - h_b| - 2 dh) when both heights do. An edge with both ends within
+// dh of the plane (the light's edge in the plane, within rounding) leaves the box unknown: dst = 1.
+// The float divisions and lerps add a few 2^-24: 2^-20 covers them.
+static void oracle_horizon_box(const oracle *o, const double g[3], const double nrm[3], double lo[2], double hi[2],
+                               double *dst)
+{
+    static const double square[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    double h[4], d[3], dh = 2 * o->e * (fabs(nrm[0]) + fabs(nrm[1]) + fabs(nrm[2]));
+    bool near = false;
+    for (int c = 0; c < 4; c++) {
+        sub3(o->corners[c], g, d);
+        h[c] = dot3(d, nrm);
+        near = near || fabs(h[c]) <= dh;
+    }
+    lo[0] = lo[1] = 1;
+    hi[0] = hi[1] = 0;
+    *dst = 0;
+    for (int c = 0; c < 4; c++) {
+        int n = (c + 1) & 3;
+        bool up = h[c] > 0;
+        if (up)
+            for (int k = 0; k < 2; k++)
+                lo[k] = fmin(lo[k], square[c][k]), hi[k] = fmax(hi[k], square[c][k]);
+        if (up != (h[n] > 0)) {
+            double f = up ? h[c] / (h[c] - h[n]) : h[n] / (h[n] - h[c]);
+            for (int k = 0; k < 2; k++) {
+                double x = up ? square[c][k] + f * (square[n][k] - square[c][k])
+                              : square[n][k] + f * (square[c][k] - square[n][k]);
+                lo[k] = fmin(lo[k], x), hi[k] = fmax(hi[k], x);
+            }
+        }
+        if (up != (h[n] > 0) || fabs(h[c]) <= dh || fabs(h[n]) <= dh) {
+            double gap = fabs(h[c] - h[n]) - 2 * dh;
+            *dst = fmax(*dst, gap > 0 ? 2 * dh / gap : 1);
+        }
+    }
+    if (lo[0] > hi[0] || lo[1] > hi[1]) { // no part above: the whole light, all of it invalid
+        lo[0] = lo[1] = 0;
+        hi[0] = hi[1] = 1;
+        *dst = near ? 1 : 0;
+    }
+    *dst = fmin(*dst + 0x1p-20, 1);
+}
+
 static bounds pixel_bounds(const oracle *o, const double g[3], const double nrm[3])
 {
+    // The samples lie in the box of the part of the light above g's horizon, up to dst in s and t:
+    // up to dst times the light's sides in world units, added to the slack of every sample.
+    double box_lo[2], box_hi[2], dst, s0[3], t0[3];
+    oracle_horizon_box(o, g, nrm, box_lo, box_hi, &dst);
+    sub3(o->corners[1], o->corners[0], s0);
+    sub3(o->corners[3], o->corners[0], t0);
+    const double e = o->e + dst * (len3(s0) + len3(t0));
     double node = o->n * o->leaf;
     const pn_shadow_mode_info *mode = pn_shadow_mode_get(o->mode);
     double dil = mode->needs.tree && !mode->exact ? 2 * (o->leaf + o->slack) : 0;
-    double free_r = sqrt(3.0) * (dil + o->e); // Euclidean radius of the max-norm dilation, + slack
-    double e_euclid = sqrt(3.0) * o->e;
+    double free_r = sqrt(3.0) * (dil + e); // Euclidean radius of the max-norm dilation, + slack
+    double e_euclid = sqrt(3.0) * e;
     double n1 = fabs(nrm[0]) + fabs(nrm[1]) + fabs(nrm[2]);
     uint32_t valid = 0, unsure = 0, free_sure = 0, blocked_sure = 0;
     for (uint32_t j = 0; j < o->grid_v; j++)
         for (uint32_t i = 0; i < o->grid_u; i++) {
-            double s = (i + 0.5) / o->grid_u, t = (j + 0.5) / o->grid_v, q[3];
+            double s = box_lo[0] + (i + 0.5) / o->grid_u * (box_hi[0] - box_lo[0]);
+            double t = box_lo[1] + (j + 0.5) / o->grid_v * (box_hi[1] - box_lo[1]), q[3];
             for (int k = 0; k < 3; k++) {
                 double a = o->corners[0][k] + s * (o->corners[1][k] - o->corners[0][k]);
                 double b = o->corners[3][k] + s * (o->corners[2][k] - o->corners[3][k]);
@@ -481,9 +539,9 @@ static bounds pixel_bounds(const oracle *o, const double g[3], const double nrm[
             double dn = dot3(d, nrm), ln = dot3(o->light_n, back);
             // The shader's dn and ln are within e of these (its q and origin are): a sample is
             // surely invalid (carries no light) at -e or below, surely valid above e.
-            if (dn <= -o->e || ln <= -o->e)
+            if (dn <= -e || ln <= -e)
                 continue;
-            if (!(dn > o->e && ln > o->e)) {
+            if (!(dn > e && ln > e)) {
                 unsure++;
                 continue;
             }
@@ -513,17 +571,17 @@ static bounds pixel_bounds(const oracle *o, const double g[3], const double nrm[
                         inf_g = fmax(inf_g, fabs(gx[k]));
                     }
                     if (o->mode == PN_SHADOW_LINESPACE)
-                        counts = dot3(nrm, gx) > (3 + o->n) * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e &&
-                                 inf_q > node * (1 + 0x1p-10) + 2 * o->e;
+                        counts = dot3(nrm, gx) > (3 + o->n) * o->leaf * n1 * (1 + 0x1p-10) + 2 * e &&
+                                 inf_q > node * (1 + 0x1p-10) + 2 * e;
                     else if (o->mode == PN_SHADOW_LEAF) {
                         double qx[3], m1 = fabs(o->light_n[0]) + fabs(o->light_n[1]) + fabs(o->light_n[2]);
                         sub3(x, q, qx);
-                        counts = dot3(nrm, gx) > 1.25 * o->leaf * n1 * (1 + 0x1p-10) + 2 * o->e &&
-                                 dot3(o->light_n, qx) > 1.25 * o->leaf * m1 * (1 + 0x1p-10) + 2 * o->e;
+                        counts = dot3(nrm, gx) > 1.25 * o->leaf * n1 * (1 + 0x1p-10) + 2 * e &&
+                                 dot3(o->light_n, qx) > 1.25 * o->leaf * m1 * (1 + 0x1p-10) + 2 * e;
                     }
                     else if (o->mode == PN_SHADOW_PLANE)
-                        counts = inf_g > 2 * o->leaf * (1 + 0x1p-10) + 2 * o->e &&
-                                 inf_q > 2 * o->leaf * (1 + 0x1p-10) + 2 * o->e;
+                        counts = inf_g > 2 * o->leaf * (1 + 0x1p-10) + 2 * e &&
+                                 inf_q > 2 * o->leaf * (1 + 0x1p-10) + 2 * e;
                     if (counts)
                         blocked = true;
                     near = true;

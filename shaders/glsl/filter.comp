@@ -14,8 +14,10 @@
 //
 // A pixel none of whose rays was valid (every sample below its horizon or behind the light) has no
 // estimate of V: its V_raw is the convention 1. It lends nothing to its neighbours. Where the light
-// does reach above its horizon (counts.z, shadow_finish), its rays only missed that sliver, and it
-// takes its neighbours' V on the same surface: the converged V there is the sliver's, and a grazing
+// does reach above its horizon (counts.z, shadow_finish), its rays only missed that sliver (rare:
+// they are drawn in the box of the part above, horizon_box, which that part fills at least half
+// of; it takes fewer than 4 samples, or the budgeted split's single rays), and it takes its
+// neighbours' V on the same surface: the converged V there is the sliver's, and a grazing
 // sliver is mostly blocked, which the convention's 1 contradicts. Where the light cannot reach it,
 // it keeps the convention: V carries no light there.
 #include "interface.h"

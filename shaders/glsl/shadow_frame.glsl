@@ -135,6 +135,40 @@ uint chunk_count(vec3 p, vec3 nrm)
     return min(end - min(end, chunk.sample_begin), MAX_CHUNK);
 }
 
+// The box, in the light's (s, t), of the part of the light above the receiver's plane through o
+// with normal nrm (lo > hi if no part is). The height of the light's point (s, t) over that plane
+// is affine in s and t (the light is a parallelogram), so the part above is the unit square
+// clipped by a line: its box spans the corners above and the edges' crossings. Samples drawn in
+// this box instead of the whole light are still uniform over the part above, which is all that
+// V = visible / valid measures (the rest is invalid whatever is in the way): so a grazing pixel,
+// which sees only a sliver of the light above its horizon, spends its rays on the sliver and gets
+// the estimate that uniform samples over the whole light mostly discard or miss.
+void horizon_box(vec3 o, vec3 nrm, out vec2 lo, out vec2 hi)
+{
+    const vec2 square[4] = vec2[4](vec2(0.0, 0.0), vec2(1.0, 0.0), vec2(1.0, 1.0), vec2(0.0, 1.0));
+    float h[4];
+    for (int c = 0; c < 4; c++)
+        h[c] = dot(LIGHT.corners[c].xyz - o, nrm);
+    lo = vec2(1.0);
+    hi = vec2(0.0);
+    for (int c = 0; c < 4; c++) {
+        int e = (c + 1) & 3;
+        if (h[c] > 0.0) {
+            lo = min(lo, square[c]);
+            hi = max(hi, square[c]);
+        }
+        if ((h[c] > 0.0) != (h[e] > 0.0)) {
+            // The crossing, from the corner above (h > 0 >= the other's h, so 0 < f <= 1): the
+            // same point whichever end it starts from, and never outside the edge.
+            bool up = h[c] > 0.0;
+            float f = up ? h[c] / (h[c] - h[e]) : h[e] / (h[e] - h[c]);
+            vec2 x = up ? mix(square[c], square[e], f) : mix(square[e], square[c], f);
+            lo = min(lo, x);
+            hi = max(hi, x);
+        }
+    }
+}
+
 // Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry
 // light: above the receiver's horizon and in front of the one-sided light). `i` ends at the ray
 // count (llvmpipe: unless the loop budget ran out). st_lo, st_hi: the box, in the light's (s, t),
@@ -144,8 +178,12 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
     uint valid_rays = 0u;
     st_lo = vec2(1.0);
     st_hi = vec2(0.0);
+    vec2 box_lo, box_hi;
+    horizon_box(o, nrm, box_lo, box_hi);
+    if (any(greaterThan(box_lo, box_hi)))
+        box_lo = vec2(0.0), box_hi = vec2(1.0); // none of the light is above: every ray is invalid
     for (i = 0u; i < count; i++) {
-        vec2 st = light_sample(chunk.sample_begin + i, pixel);
+        vec2 st = box_lo + light_sample(chunk.sample_begin + i, pixel) * (box_hi - box_lo);
         vec3 d = light_point(st) - o;
         float dn = dot(d, nrm);
         bool valid = dn > 0.0 && dot(LIGHT.normal.xyz, -d) > 0.0;
