@@ -314,18 +314,32 @@ static bool measure_edges(const group *g, const pn_frame_images *img, bench_row 
     uint32_t w = g->frame.width, h = g->frame.height;
     size_t px = (size_t)w * h;
     uint8_t *cls = g->o->edge_images ? malloc(px) : NULL;
-    float *plane = cls ? malloc(px * sizeof *plane) : NULL;
+    // The edge classes, then the filter's inputs (P, N, view depth, valid rays, penumbra width), so
+    // that the filter can be reproduced from the file.
+    enum { PLANES = 10 };
+    float *plane = cls ? malloc(PLANES * px * sizeof *plane) : NULL;
     bool ok = (!g->o->edge_images || (cls && plane)) &&
               pn_edge_leak_measure(img->p, img->n, img->v, img->v_raw, g->v_conv, w, h, pixel_angle, cls, &row->edge);
     if (ok && plane) {
-        for (size_t i = 0; i < px; i++)
+        for (size_t i = 0; i < px; i++) {
             plane[i] = cls[i];
+            for (int c = 0; c < 3; c++) {
+                plane[(1 + c) * px + i] = img->p[4 * i + c];
+                plane[(4 + c) * px + i] = img->n[4 * i + c];
+            }
+            plane[7 * px + i] = img->n[4 * i + 3];
+            plane[8 * px + i] = (float)img->counts[4 * i + 1];
+            memcpy(&plane[9 * px + i], &img->counts[4 * i + 3], sizeof(float));
+        }
         char label[512], path[4096];
         cell_label(label, sizeof label, row);
         cell_path(path, sizeof path, g->o, "edge", label);
-        pn_exr_channel ch[4] = {{"shadow.V", img->v}, {"shadow.V_raw", img->v_raw}, {"reference.V", g->v_conv},
-                                {"edge", plane}};
-        ok = pn_exr_write(path, (int)w, (int)h, ch, 4, NULL, 0) == PN_OK;
+        static const char *const names[PLANES] = {"edge", "P.X", "P.Y", "P.Z", "N.X",
+                                                  "N.Y",  "N.Z", "Z",   "shadow.valid", "shadow.penumbra"};
+        pn_exr_channel ch[3 + PLANES] = {{"shadow.V", img->v}, {"shadow.V_raw", img->v_raw}, {"reference.V", g->v_conv}};
+        for (int c = 0; c < PLANES; c++)
+            ch[3 + c] = (pn_exr_channel){names[c], plane + c * px};
+        ok = pn_exr_write(path, (int)w, (int)h, ch, 3 + PLANES, NULL, 0) == PN_OK;
     }
     free(cls);
     free(plane);
