@@ -12,12 +12,19 @@ set -u
 BIN=${PN_BIN:?PN_BIN not set}
 OUT=${PN_TEST_TMP:-/tmp}/bench_smoke
 rm -rf "$OUT"
-"$BIN" bench --scenes builtin:default --size 64x48 --spp 9 --trees 5,2:6,3 --repeat 2 --warmup 1 --out "$OUT" \
+"$BIN" bench --scenes builtin:default --size 64x48 --spp 9 --trees 5,2:6,3 --repeat 2 --warmup 1 --edge-images --out "$OUT" \
   || { echo "FAIL: bench exited $?"; exit 1; }
 fail=0
 for f in bench.csv bench.json time_to_error.md builtin_default_64x48.dat builtin_default_64x48.png; do
   [ -s "$OUT/$f" ] || { echo "FAIL: $f missing"; fail=1; }
 done
+# --edge-images: per filtered cell the filter's outputs, the reference, the edge classes and the
+# filter's inputs, with the G-buffer's positions where geometry is.
+edge="$OUT/edge_builtin_default_64x48_9spp_exact_filter.exr"
+chans=$(exrheader "$edge" 2>/dev/null | sed -n 's/^ *\([A-Za-z._]*\), 32-bit floating-point.*/\1/p' | sort | tr '\n' ' ')
+[ "$chans" = "N.X N.Y N.Z P.X P.Y P.Z Z edge reference.V shadow.V shadow.V_raw shadow.penumbra shadow.valid " ] \
+  || { echo "FAIL: $edge has channels '$chans'"; fail=1; }
+oiiotool "$edge" --ch Z --printstats 2>/dev/null | grep -q "Max: *[1-9]" || { echo "FAIL: $edge has no view depth"; fail=1; }
 rq=0
 "$BIN" info | grep -q "ray queries: *yes" && rq=1
 python3 - "$OUT/bench.json" "$rq" <<'PY' || fail=1
