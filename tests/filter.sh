@@ -6,6 +6,9 @@
 #    geometric, the penumbra and the range weights, the latter two acting on some taps);
 #  - the penumbra width is FLT_MAX exactly where no valid ray was blocked (V_raw = 1), and finite
 #    and not negative where one was;
+#  - at 4 spp every pixel the light reaches above its horizon has a valid ray (the samples are
+#    drawn in the part above, shadow_frame.glsl's horizon_box); at 1 spp some miss it, and those
+#    take their neighbours' V as filter.comp says (recomputed at those pixels);
 #  - the filter pays: against the converged reference (exact, 1024 spp, another seed) the filtered
 #    V's mean error is below the unfiltered V's of the same frame.
 set -u
