@@ -69,7 +69,6 @@ FLT_MAX = struct.unpack(">f", bytes.fromhex("7f7fffff"))[0]
 # Recomputes the filter of the render in T/<tag>.*.fits at spp samples per pixel; with `unknown_only`
 # only at its pixels without a valid ray. Returns the counters and the render's V, V_raw, coverage.
 def check(tag, spp, unknown_only):
-    global w, h
     w, h, V = fits(T + "/%s.shadow.V.fits" % tag)
     _, _, R = fits(T + "/%s.shadow.V_raw.fits" % tag)
     _, _, VALID = fits(T + "/%s.shadow.valid.fits" % tag)

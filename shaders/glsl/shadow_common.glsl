@@ -67,7 +67,8 @@ vec2 sobol_sample(uint k, uint shift)
 // per tile, not per pixel: the union over the tile is one jittered point per sub-cell, a stratified
 // set of spp * T samples, and every pixel's own spp are still one per cell. Any tile_w x tile_h
 // window holds one pixel of each of the tile's classes, so the filter's window sees all T subsets.
-// A 1 x 1 tile gives the per-pixel sampler exactly.
+// A 1 x 1 tile gives the per-pixel sampler exactly. chunk_rays maps (s, t) into the pixel's
+// horizon_box, which keeps the strata: they become the box's.
 vec2 light_sample(uint k, uvec2 pixel)
 {
     uint i = k % params.grid_u, j = k / params.grid_u;
