@@ -9,6 +9,8 @@
 #  - at 4 spp every pixel the light reaches above its horizon has a valid ray (the samples are
 #    drawn in the part above, shadow_frame.glsl's horizon_box); at 1 spp some miss it, and those
 #    take their neighbours' V as filter.comp says (recomputed at those pixels);
+#  - so is a window other than 3x3 (2x4: even, so off centre, and not square), whose pipeline the
+#    renderer specialises for it (filter_pass.c);
 #  - the filter pays: against the converged reference (exact, 1024 spp, another seed) the filtered
 #    V's mean error is below the unfiltered V's of the same frame.
 set -u
@@ -20,8 +22,10 @@ view=(builtin:default --size 480x360 --fov 45 --mode exact)
   || { echo "FAIL: filtered render"; exit 1; }
 "$BIN" render "${view[@]}" --spp 1 --filter interleaved --tile 3x3 --aovs -o "$T/f1.exr" >/dev/null \
   || { echo "FAIL: filtered render at 1 spp"; exit 1; }
+"$BIN" render "${view[@]}" --spp 4 --filter interleaved --tile 2x4 --aovs -o "$T/f24.exr" >/dev/null \
+  || { echo "FAIL: filtered render with a 2x4 tile"; exit 1; }
 "$BIN" render "${view[@]}" --spp 1024 --filter none --seed 46524401 -o "$T/ref.exr" >/dev/null || { echo "FAIL: reference"; exit 1; }
-for f in f f1; do
+for f in f f1 f24; do
   for c in shadow.V shadow.V_raw shadow.valid shadow.penumbra A P.X P.Y P.Z N.X N.Y N.Z Z; do
     oiiotool "$T/$f.exr" --ch "$c" -d float -o "$T/$f.$c.fits" || { echo "FAIL: no channel $c in $T/$f.exr"; exit 1; }
   done
@@ -66,9 +70,10 @@ def offset(p, n, footprint, q):
     return off / max(footprint, 1e-30)
 FLT_MAX = struct.unpack(">f", bytes.fromhex("7f7fffff"))[0]
 
-# Recomputes the filter of the render in T/<tag>.*.fits at spp samples per pixel; with `unknown_only`
-# only at its pixels without a valid ray. Returns the counters and the render's V, V_raw, coverage.
-def check(tag, spp, unknown_only):
+# Recomputes the filter of the render in T/<tag>.*.fits at spp samples per pixel over a tile (w, h)
+# window; with `unknown_only` only at its pixels without a valid ray. Returns the counters and the
+# render's V, V_raw, coverage.
+def check(tag, spp, unknown_only, tile=(3, 3)):
     w, h, V = fits(T + "/%s.shadow.V.fits" % tag)
     _, _, R = fits(T + "/%s.shadow.V_raw.fits" % tag)
     _, _, VALID = fits(T + "/%s.shadow.valid.fits" % tag)
@@ -112,9 +117,14 @@ def check(tag, spp, unknown_only):
                 tally["kept"] += 1
                 continue
         taps = []
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                qx, qy = x + dx, y + dy
+        # The window's first offset, -(edge - 1) / 2 rounded toward zero as GLSL's integer division
+        # does: odd edges are centred, even ones reach one pixel further right and down.
+        lo = [-((e - 1) // 2) for e in tile]
+        for dy in range(lo[1], lo[1] + tile[1]):
+            for dx in range(lo[0], lo[0] + tile[0]):
+                # FITS stores the bottom row first (oiiotool flips the EXR's top-down rows), so the
+                # image's dy rows down are -dy rows here: it matters for windows not symmetric in y.
+                qx, qy = x + dx, y - dy
                 if not (0 <= qx < w and 0 <= qy < h):
                     continue
                 j = qy * w + qx
@@ -172,6 +182,11 @@ print("1 spp: %d pixels take their neighbours' V, %d keep V = 1, max |difference
       % (tally1["borrowed"], tally1["kept"], tally1["worst"]))
 assert tally1["worst"] < 1e-4, tally1["worst"]
 assert tally1["borrowed"] > 0, "the rule for pixels the light reaches without a valid ray never acted"
+tally24, _, _, _ = check("f24", 4, False, (2, 4))
+print("2x4 tile: max |difference| %.2e, %d taps cut by the range weight, %d by the penumbra weight"
+      % (tally24["worst"], tally24["partial"], tally24["pen_cut"]))
+assert tally24["worst"] < 1e-4, tally24["worst"]
+assert tally24["partial"] > 0 and tally24["pen_cut"] > 0, tally24
 mae_f = sum(abs(V[i] - REF[i]) for i in covered) / len(covered)
 mae_r = sum(abs(R[i] - REF[i]) for i in covered) / len(covered)
 print("MAE against the converged reference, 4 spp: filtered %.4f, unfiltered %.4f" % (mae_f, mae_r))

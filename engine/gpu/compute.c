@@ -115,7 +115,7 @@ void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c)
 
 pn_result pn_gpu_compute_create_images(pn_gpu_device *dev, const uint32_t *spirv, size_t spirv_size,
                                        const VkImageView *images, uint32_t count, uint32_t push_size,
-                                       pn_gpu_compute *out)
+                                       const VkSpecializationInfo *spec, pn_gpu_compute *out)
 {
     VkDescriptorSetLayoutBinding bindings[PN_GPU_MAX_IMAGE_BINDINGS];
     if (count > PN_GPU_MAX_IMAGE_BINDINGS)
@@ -127,7 +127,8 @@ pn_result pn_gpu_compute_create_images(pn_gpu_device *dev, const uint32_t *spirv
                                                         .spirv_size = spirv_size,
                                                         .bindings = bindings,
                                                         .binding_count = count,
-                                                        .push_size = push_size},
+                                                        .push_size = push_size,
+                                                        .spec = spec},
                                  out));
     for (uint32_t i = 0; i < count; i++)
         pn_gpu_compute_write_image(dev, out, i, images[i]);

@@ -5,20 +5,35 @@
 
 #include "filter_comp.h"
 
-pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v_raw, const pn_gpu_image *counts,
-                                const pn_gpu_image *v, pn_filter_pass *out)
+// The pipeline specialised for a tile_w x tile_h window, its set pointed at f's images.
+static pn_result create_pipeline(pn_gpu_device *dev, const pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h,
+                                 pn_gpu_compute *out)
+{
+    if (tile_w < 1 || tile_w > PN_FILTER_MAX_TILE || tile_h < 1 || tile_h > PN_FILTER_MAX_TILE)
+        return PN_ERR_INVALID;
+    int32_t tile[2] = {(int32_t)tile_w, (int32_t)tile_h};
+    VkSpecializationMapEntry entries[2] = {{.constantID = PN_SPEC_TILE_W, .offset = 0, .size = 4},
+                                           {.constantID = PN_SPEC_TILE_H, .offset = 4, .size = 4}};
+    VkSpecializationInfo spec = {.mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof tile, .pData = tile};
+    return pn_gpu_compute_create_images(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, f->images,
+                                        PN_FILTER_BINDING_COUNT, sizeof(pn_filter_push), &spec, out);
+}
+
+pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
+                                uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
+                                const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *v,
+                                pn_filter_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
-    VkImageView images[PN_FILTER_BINDING_COUNT];
-    images[PN_FILTER_BINDING_P] = p->view;
-    images[PN_FILTER_BINDING_N] = n->view;
-    images[PN_FILTER_BINDING_V_RAW] = v_raw->view;
-    images[PN_FILTER_BINDING_V] = v->view;
-    images[PN_FILTER_BINDING_COUNTS] = counts->view;
-    return pn_gpu_compute_create_images(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, images,
-                                        PN_FILTER_BINDING_COUNT, sizeof(pn_filter_push), &out->compute);
+    out->images[PN_FILTER_BINDING_P] = p->view;
+    out->images[PN_FILTER_BINDING_N] = n->view;
+    out->images[PN_FILTER_BINDING_V_RAW] = v_raw->view;
+    out->images[PN_FILTER_BINDING_V] = v->view;
+    out->images[PN_FILTER_BINDING_COUNTS] = counts->view;
+    PN_TRY(create_pipeline(dev, out, tile_w, tile_h, &out->compute));
+    out->tile_w = tile_w, out->tile_h = tile_h;
+    return PN_OK;
 }
 
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f)
@@ -27,13 +42,23 @@ void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f)
     memset(f, 0, sizeof *f);
 }
 
-void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h,
-                           uint32_t samples, float yfov_deg)
+pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h)
+{
+    if (tile_w == f->tile_w && tile_h == f->tile_h)
+        return PN_OK;
+    // The old pipeline stays if the new one cannot be made.
+    pn_gpu_compute fresh;
+    PN_TRY(create_pipeline(dev, f, tile_w, tile_h, &fresh));
+    pn_gpu_compute_destroy(dev, &f->compute);
+    f->compute = fresh;
+    f->tile_w = tile_w, f->tile_h = tile_h;
+    return PN_OK;
+}
+
+void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, float yfov_deg)
 {
     pn_filter_push push = {
         .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
-        .tile_w = tile_w,
-        .tile_h = tile_h,
         .samples = samples,
     };
     uint32_t gx = (f->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (f->height + PN_WORKGROUP - 1) / PN_WORKGROUP;

@@ -8,17 +8,23 @@
 #include "interface.h"
 
 typedef struct pn_filter_pass {
-    pn_gpu_compute compute;
+    pn_gpu_compute compute; // specialised for the window (PN_SPEC_TILE_W, PN_SPEC_TILE_H)
     uint32_t width, height;
+    uint32_t tile_w, tile_h; // the window: the tile of light_sample's interleaving
+    VkImageView images[PN_FILTER_BINDING_COUNT]; // the set's, kept for a new window's pipeline
 } pn_filter_pass;
 
-pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v_raw, const pn_gpu_image *counts,
-                                const pn_gpu_image *v, pn_filter_pass *out);
+// tile_w, tile_h: 1..PN_FILTER_MAX_TILE.
+pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
+                                uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
+                                const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *v,
+                                pn_filter_pass *out);
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
+// Another window: a pipeline specialised for it, made only when it changes. The device must be
+// idle with respect to f (the old pipeline is destroyed); f is unchanged on failure.
+pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h);
 
-// tile_w x tile_h: the window (the tile of light_sample's interleaving); yfov_deg: the camera's
-// vertical field of view, which with the height gives a pixel's footprint per unit of depth;
-// samples: the shadow pass's light samples per pixel, which set the noise one pixel's V carries.
-void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h,
-                           uint32_t samples, float yfov_deg);
+// yfov_deg: the camera's vertical field of view, which with the height gives a pixel's footprint
+// per unit of depth; samples: the shadow pass's light samples per pixel, which set the noise one
+// pixel's V carries.
+void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, float yfov_deg);

@@ -158,8 +158,9 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r == PN_OK)
         r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene), &out->shadow);
     if (r == PN_OK)
-        r = pn_filter_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->v_raw,
-                                  &out->shadow.counts, &out->v, &out->filter);
+        r = pn_filter_pass_create(dev, desc->width, desc->height, pn_filter_tile(desc->tile_w),
+                                  pn_filter_tile(desc->tile_h), &out->p, &out->n, &out->v_raw, &out->shadow.counts,
+                                  &out->v, &out->filter);
     if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
@@ -359,8 +360,7 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_cmd_barrier(cmd, NULL, 2, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
-            pn_filter_pass_record(cmd, &r->filter, pn_filter_tile(r->desc.tile_w), pn_filter_tile(r->desc.tile_h),
-                                  noise_samples[i], yfov_deg); // P, N, V raw -> V
+            pn_filter_pass_record(cmd, &r->filter, noise_samples[i], yfov_deg); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
         }
@@ -489,9 +489,11 @@ pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile
     pn_renderer_desc d = r->desc;
     d.filter = filter;
     PN_TRY(pn_renderer_check_split(&d));
+    // The queue is idle between frames (pn_renderer_render waits), so the filter's pipeline may be
+    // replaced and the shading pass's set rewritten; the readback buffer always has room for V_raw
+    // (create_targets).
+    PN_TRY(pn_filter_pass_set_tile(r->dev, &r->filter, pn_filter_tile(tile_w), pn_filter_tile(tile_h)));
     r->desc.filter = filter, r->desc.tile_w = tile_w, r->desc.tile_h = tile_h;
-    // The queue is idle between frames (pn_renderer_render waits), so the shading pass's set may be
-    // rewritten; the readback buffer always has room for V_raw (create_targets).
     pn_gpu_compute_write_image(r->dev, &r->shade.compute, PN_SHADE_BINDING_V,
                                filter != PN_FILTER_NONE ? r->v.view : r->v_raw.view);
     return PN_OK;

@@ -35,7 +35,7 @@ pn_result pn_shade_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t heig
     images[PN_SHADE_BINDING_V] = v->view;
     images[PN_SHADE_BINDING_OUT] = radiance->view;
     return pn_gpu_compute_create_images(dev, pn_spv_shade_comp, sizeof pn_spv_shade_comp, images,
-                                        PN_SHADE_BINDING_COUNT, sizeof(pn_shade_push), &out->compute);
+                                        PN_SHADE_BINDING_COUNT, sizeof(pn_shade_push), NULL, &out->compute);
 }
 
 void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)

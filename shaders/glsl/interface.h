@@ -38,6 +38,8 @@
 #define PN_VARIANT_PLANE 4     // the same walk, from the origin; a filled leaf's plane slab decides
 #define PN_SPEC_COUNT_WORK 2   // shadow shaders: count work per pixel (a 32-bit bool)
 #define PN_SPEC_TEXTURE_COUNT 0 // gbuffer.frag: size of the texture array
+#define PN_SPEC_TILE_W 0 // filter.comp: the window (the interleaving tile), 1..PN_FILTER_MAX_TILE
+#define PN_SPEC_TILE_H 1
 
 // ShadowParams.sampler_kind. Zero is each enum's default on the command line.
 #define PN_SAMPLER_STRATIFIED_ID 0 // jittered strata, per-pixel rotated R2 jitters (the default)
@@ -250,11 +252,10 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
-// The filter pass's push constants (filter.comp). 16 bytes.
+// The filter pass's push constants (filter.comp). 8 bytes. Its window is specialised
+// (PN_SPEC_TILE_W, PN_SPEC_TILE_H).
 PN_STRUCT(FilterPush, pn_filter_push) {
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
-    PN_UINT(tile_w)       // the window: the interleaved sampling's tile, centred on the pixel
-    PN_UINT(tile_h)
     PN_UINT(samples)      // light samples per pixel (the shadow pass's): the noise of one pixel's V;
                           // 0 for a point light, whose V has none
 } PN_END(FilterPush, pn_filter_push)
