@@ -8,16 +8,20 @@
 #    machinery for real;
 #  - the reference is cached: a second run reads the file instead of rendering and measures the
 #    same errors; another size gets another file; a damaged file is rendered again, with a warning.
+# The cache is $PN_TEST_TMP/reference_cache (--reference-cache), which this test leaves holding the
+# default scene's references at 96x96 and 64x48: the ctest fixture `reference` that bench_smoke
+# requires reads them instead of rendering its own.
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/bench_reference
-rm -rf "$T" && mkdir -p "$T"
+RC=${PN_TEST_TMP:-/tmp}/reference_cache
+rm -rf "$T" "$RC" && mkdir -p "$T"
 args=(bench --scenes builtin:default --modes exact,exact-ls --trees 5,2 --spp 4,16,64,1024 --size 96x96 --filter none --repeat 1 --warmup 0 --no-embree
-      --out "$T/out")
+      --out "$T/out" --reference-cache "$RC")
 fail=0
 "$BIN" "${args[@]}" > "$T/run1.txt" 2> "$T/run1.err" || { echo "FAIL: bench exited $?"; cat "$T/run1.err"; exit 1; }
 grep -q "rendering the converged reference" "$T/run1.err" || { echo "FAIL: no reference rendered"; fail=1; }
-files=("$T"/out/reference/*.exr)
+files=("$RC"/*.exr)
 [ ${#files[@]} = 1 ] && [ -s "${files[0]}" ] || { echo "FAIL: expected one cached reference: ${files[*]}"; exit 1; }
 exrheader "${files[0]}" | grep -q "shadow.V" || { echo "FAIL: the cache lacks shadow.V"; fail=1; }
 cp "$T/out/bench.json" "$T/run1.json"
@@ -71,10 +75,10 @@ PY
 done
 n=$(ls "$T"/named/reference/*.exr | wc -l)
 [ "$n" = 2 ] || { echo "FAIL: two scenes under one name share a cache file ($n files)"; fail=1; }
-# Another size: another key, another file.
-"$BIN" bench --scenes builtin:default --modes exact --spp 4 --size 64x64 --filter none --repeat 1 --warmup 0 --no-embree \
-  --out "$T/out" > /dev/null 2> "$T/run3.err" || { echo "FAIL: 64x64 bench"; fail=1; }
-n=$(ls "$T"/out/reference/*.exr | wc -l)
+# Another size: another key, another file (bench_smoke's size, which it reads from here).
+"$BIN" bench --scenes builtin:default --modes exact --spp 4 --size 64x48 --filter none --repeat 1 --warmup 0 --no-embree \
+  --out "$T/out" --reference-cache "$RC" > /dev/null 2> "$T/run3.err" || { echo "FAIL: 64x48 bench"; fail=1; }
+n=$(ls "$RC"/*.exr | wc -l)
 [ "$n" = 2 ] || { echo "FAIL: expected 2 cached references, have $n"; fail=1; }
 # A damaged cache file: a warning naming it, a new render, the same figures.
 printf 'not an exr' > "${files[0]}"

@@ -66,6 +66,7 @@ typedef struct bench_opts {
     uint32_t tile_w, tile_h; // --tile: the interleaving tile and filter window of the filtered cells
     uint32_t reference_spp; // of the converged reference (PN_REFERENCE_SPP)
     const char *out_dir;
+    const char *reference_dir; // --reference-cache: where converged references are cached (NULL: out_dir/reference)
     bool embree;
     double max_errors[MAX_BUDGETS]; // --max-error: check --quality auto against the matrix at each
     int max_error_count;
@@ -210,7 +211,7 @@ int pn_bench_view_prepare(const bench_view *v, pn_prepared_scene *out);
 // The converged reference (bench_reference.c)
 
 // Exact at o->reference_spp stratified samples with PN_REFERENCE_SEED, from the cache under
-// o->out_dir/reference or rendered (and cached): its V and coverage mask (w*h each).
+// o->reference_dir (default o->out_dir/reference) or rendered (and cached): its V and coverage mask (w*h each).
 pn_result pn_bench_reference(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const char *view,
                              const pn_camera *cam, const pn_light *light, uint32_t w, uint32_t h, float *v,
                              uint8_t *mask);

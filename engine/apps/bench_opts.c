@@ -271,6 +271,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             o->gbuffer = v;
         } else if (pn_args_value(&a, "--out", &v, &err)) {
             o->out_dir = v;
+        } else if (pn_args_value(&a, "--reference-cache", &v, &err)) {
+            o->reference_dir = v;
         } else {
             pn_error("bench: unknown option '%s' (see penumbra bench --help)", arg);
             return PN_EXIT_USAGE;

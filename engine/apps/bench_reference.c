@@ -88,7 +88,10 @@ pn_result pn_bench_reference(const bench_opts *o, pn_gpu_device *dev, const pn_s
                              uint8_t *mask)
 {
     char dir[2048], path[4096];
-    snprintf(dir, sizeof dir, "%s/reference", o->out_dir);
+    if (o->reference_dir)
+        snprintf(dir, sizeof dir, "%s", o->reference_dir);
+    else
+        snprintf(dir, sizeof dir, "%s/reference", o->out_dir);
     if (mkdir(dir, 0755) != 0 && errno != EEXIST) {
         pn_error("%s: cannot create the reference cache folder: %s", dir, strerror(errno));
         return PN_ERR_IO;

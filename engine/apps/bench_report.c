@@ -343,21 +343,13 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         fprintf(f, ", \"width\": %u, \"height\": %u, \"budget\": %g, \"pick\": {\"mode\": \"%s\", \"tree\": ", q->width,
                 q->height, q->budget, MODE_NAME(q->mode));
         json_tree(f, q->n, q->d);
-        fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.6g, \"shadow_ms\": %.4f, ", q->spp, q->pilot_mae, q->shadow_ms);
+        fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.17g, \"shadow_ms\": %.4f, ", q->spp, q->pilot_mae, q->shadow_ms);
         json_metrics(f, "reference", &q->ref);
-        fprintf(f, "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], \"tried\": [",
+        fprintf(f, "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], \"tried\": ",
                 q->choose_ms, q->choice.runoff,
                 q->choice.pilot_width, q->choice.pilot_height, q->choice.confirm_width, q->choice.confirm_height);
-        for (int t = 0; t < q->choice.candidates && t < PN_QUALITY_MAX_TRIED; t++) {
-            const pn_quality_tried *c = &q->choice.tried[t];
-            fprintf(f, "%s{\"mode\": \"%s\", \"tree\": ", t ? ", " : "", MODE_NAME(c->mode));
-            json_tree(f, c->tree_n, c->tree_d);
-            fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"confirm_mae\": %.6g, \"within\": %s, "
-                       "\"pilot_shadow_ms\": %.4f, \"final_shadow_ms\": %.4f}",
-                    c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms,
-                    c->final_ms);
-        }
-        fprintf(f, "], \"front\": ");
+        pn_quality_write_tried(f, &q->choice);
+        fprintf(f, ", \"front\": ");
         if (q->has_best && q->best_ms > 0) {
             fprintf(f, "{\"mode\": \"%s\", \"tree\": ", MODE_NAME(q->best_mode));
             json_tree(f, q->best_n, q->best_d);

@@ -60,6 +60,8 @@ void pn_print_bench_help(void)
            "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"
            "  --traversal ray|packet  --sampler grid|stratified   (default ray, stratified)\n"
            "  --out DIR            where the CSV, JSON, tables, plots and reference cache go (default bench-out)\n"
+           "  --reference-cache DIR   cache the converged references here instead of OUT/reference (runs\n"
+           "                       with other outputs share them; a file's name holds a hash of what it depends on)\n"
            "  --no-embree          skip the CPU peer\n"
            "  --shader shadow --gbuffer FILE.exr\n"
            "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"

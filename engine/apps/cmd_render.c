@@ -252,24 +252,13 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf("\"exact_pool_bytes\": %llu, ", (unsigned long long)st->exact_bytes);
         if (st->quality_auto) {
             const pn_quality_choice *q = &st->quality;
-            printf("\"quality\": {\"max_error\": %.6g, \"within\": %s, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"pilot_shadow_ms\": %.4f, "
-                   "\"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, \"runoff\": %d, \"pilot\": [%u, %u], "
-                   "\"tried\": [",
+            printf("\"quality\": {\"max_error\": %.6g, \"within\": %s, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, "
+                   "\"pilot_shadow_ms\": %.17g, \"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, "
+                   "\"runoff\": %d, \"pilot\": [%u, %u], \"tried\": ",
                    o->max_error, q->within ? "true" : "false", q->pilot_mae, q->pilot_se, q->pilot_ms, q->reference_ms,
                    PN_REFERENCE_SPP, q->candidates, q->runoff, q->pilot_width, q->pilot_height);
-            for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++) {
-                const pn_quality_tried *c = &q->tried[i];
-                printf("%s{\"mode\": \"%s\", \"tree\": ", i ? ", " : "", pn_shadow_mode_get(c->mode)->name);
-                if (c->tree_n)
-                    printf("[%d, %d]", c->tree_n, c->tree_d);
-                else
-                    printf("null");
-                printf(", \"spp\": %u, \"pilot_mae\": %.6g, \"pilot_se\": %.6g, \"confirm_mae\": %.6g, \"within\": %s, "
-                       "\"pilot_shadow_ms\": %.4f, \"final_shadow_ms\": %.4f}",
-                       c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms,
-                       c->final_ms);
-            }
-            printf("]}, ");
+            pn_quality_write_tried(stdout, q);
+            printf("}, ");
         }
         printf("\"load_ms\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, \"shadow\": %.4f, \"filter\": %.4f, "
                "\"shade\": %.4f}, \"covered_pixels\": %llu, \"shadow_rays_per_s\": %.6g, \"validation_messages\": %u}\n",

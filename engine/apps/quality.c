@@ -183,6 +183,15 @@ pn_result pn_quality_time_side_by_side(pn_renderer *const *r, int count, int war
     return PN_OK;
 }
 
+// Is pilot a slower than pilot b? Equal times rank by the order they were tried, so that every
+// choice below is a function of the reported times alone, ties included (tests/quality_rule.py
+// replays it from the JSON).
+static bool pilot_slower(const pn_quality_choice *q, int a, int b)
+{
+    double ta = q->tried[a].pilot_ms, tb = q->tried[b].pilot_ms;
+    return ta > tb || (ta == tb && a > b);
+}
+
 static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                         const pn_renderer_desc *frame, uint64_t max_bytes, pn_quality_choice *out)
 {
@@ -198,11 +207,18 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
         }
         int slowest = 0; // keep the RUNOFF_MAX fastest pilots
         for (int k = 1; k < count; k++)
-            if (out->tried[finalists[k]].pilot_ms > out->tried[finalists[slowest]].pilot_ms)
+            if (pilot_slower(out, finalists[k], finalists[slowest]))
                 slowest = k;
-        if (t->pilot_ms < out->tried[finalists[slowest]].pilot_ms)
+        if (pilot_slower(out, finalists[slowest], i))
             finalists[slowest] = i;
     }
+    // In the order tried, so that equal run-off times go to the one tried first.
+    for (int k = 1; k < count; k++)
+        for (int j = k; j > 0 && finalists[j - 1] > finalists[j]; j--) {
+            int swap = finalists[j];
+            finalists[j] = finalists[j - 1];
+            finalists[j - 1] = swap;
+        }
     out->runoff = count;
     if (count < 2)
         return PN_OK;
@@ -243,6 +259,23 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     out->pilot_mae = b->pilot_mae, out->pilot_se = b->pilot_se, out->confirm_mae = b->confirm_mae;
     out->pilot_ms = b->pilot_ms;
     return PN_OK;
+}
+
+void pn_quality_write_tried(FILE *f, const pn_quality_choice *q)
+{
+    fputc('[', f);
+    for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++) {
+        const pn_quality_tried *c = &q->tried[i];
+        fprintf(f, "%s{\"mode\": \"%s\", \"tree\": ", i ? ", " : "", pn_shadow_mode_get(c->mode)->name);
+        if (c->tree_n)
+            fprintf(f, "[%d, %d]", c->tree_n, c->tree_d);
+        else
+            fprintf(f, "null");
+        fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, \"confirm_mae\": %.17g, \"within\": %s, "
+                   "\"pilot_shadow_ms\": %.17g, \"final_shadow_ms\": %.17g}",
+                c->spp, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms, c->final_ms);
+    }
+    fputc(']', f);
 }
 
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,

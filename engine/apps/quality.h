@@ -1,6 +1,8 @@
 // --quality auto: choose the shadow mode, N-tree and samples per pixel for a scene, a light and an
 // error budget from pilot renders, instead of by hand.
 #pragma once
+#include <stdio.h>
+
 #include "gpu/renderer.h"
 #include "scene/view.h"
 
@@ -54,6 +56,11 @@ typedef struct pn_quality_choice {
 // one it touched least. The run-off and bench --max-error compare configurations this way.
 pn_result pn_quality_time_side_by_side(pn_renderer *const *r, int count, int warmup, int rounds,
                                        const pn_camera *cam, const pn_light *light, double *least_ms);
+
+// Writes the pilots tried as a JSON array (mode, tree, spp, errors, within, times), every number
+// with 17 significant digits: a reader gets the very doubles the choice compared, so it can replay
+// the choice from the report, ties and margins included (tests/quality_rule.py).
+void pn_quality_write_tried(FILE *f, const pn_quality_choice *q);
 
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
