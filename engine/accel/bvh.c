@@ -196,6 +196,43 @@ static void build_subtree(builder *b, task t, task *spill, uint32_t *spill_count
     }
 }
 
+// Renumbers the nodes depth-first, left child first, each interior node's two children placed
+// together when it is visited. The build allocates node pairs from a shared counter in whatever
+// order the threads reach them, and how many levels the top phase splits before the parallel one
+// depends on the thread count: the node array would differ from run to run and with PN_THREADS
+// (issue 30), though the tree is the same. This pass fixes the order by the tree alone.
+static pn_result renumber(pn_bvh *out)
+{
+    if (out->node_count < 3) // the root alone (a leaf; count 0 with no triangles at all)
+        return PN_OK;
+    pn_bvh_node *dst = malloc((size_t)(out->node_count ? out->node_count : 1) * sizeof *dst);
+    if (!dst)
+        return PN_ERR_MEMORY;
+    // (source, destination) of nodes placed but whose children are not: at most one pending right
+    // sibling per level, and leaves are never deeper than MAX_DEPTH.
+    uint32_t stack[MAX_DEPTH + 8][2];
+    int sp = 0;
+    uint32_t next = 1;
+    dst[0] = out->nodes[0];
+    stack[sp][0] = 0, stack[sp][1] = 0, sp++;
+    while (sp > 0) {
+        sp--;
+        uint32_t s = stack[sp][0], d = stack[sp][1];
+        if (out->nodes[s].count > 0)
+            continue;
+        uint32_t c = next, sc = out->nodes[s].first;
+        next += 2;
+        dst[c] = out->nodes[sc];
+        dst[c + 1] = out->nodes[sc + 1];
+        dst[d].first = c;
+        stack[sp][0] = sc + 1, stack[sp][1] = c + 1, sp++; // right below left: left is visited first
+        stack[sp][0] = sc, stack[sp][1] = c, sp++;
+    }
+    free(out->nodes);
+    out->nodes = dst;
+    return PN_OK;
+}
+
 typedef struct par_ctx {
     builder *b;
     const task *tasks;
@@ -267,6 +304,10 @@ static pn_result build(aabb *tri_box, float (*centroid)[3], uint32_t n, pn_bvh *
     out->node_count = atomic_load(&b.node_count);
     out->triangles = n;
     out->depth = atomic_load(&b.depth);
+    if (renumber(out) != PN_OK) {
+        pn_bvh_destroy(out);
+        return PN_ERR_MEMORY;
+    }
     out->build_ms += pn_ms_since(t0);
     return PN_OK;
 }

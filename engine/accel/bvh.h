@@ -21,7 +21,8 @@ typedef struct pn_bvh {
 } pn_bvh;
 
 // Builds over all of the scene's triangles, multi-threaded. Degenerate triangles are kept (a
-// segment or a point can still be grazed) and never break the build.
+// segment or a point can still be grazed) and never break the build. The nodes and the triangle
+// order are the same bytes on any number of threads (tests/test_determinism_pools.c).
 pn_result pn_bvh_build(const pn_scene *scene, pn_bvh *out);
 // The same over n boxes (lo xyz, hi xyz) instead of triangles: tri_index holds box indices (the
 // per-object trees' top level, accel/objects.h).
