@@ -11,6 +11,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "apps/embree_peer.h"
 #include "apps/metrics.h"
 #include "apps/quality.h"
 #include "apps/render_opts.h"
@@ -183,13 +184,12 @@ pn_result pn_bench_load_gbuffer(bench_opts *o);
 // ---------------------------------------------------------------------------------------------
 // The matrix (bench_matrix.c)
 
-typedef struct pn_bench_embree pn_bench_embree; // an Embree device (bench_peer.c)
 
 // Median of v[0..n) (sorts v).
 double pn_bench_median(double *v, int n);
 
 // One view's matrix: appends (and prints) a row per cell; rtc may be NULL (no CPU peer). An exit code.
-int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const bench_view *view,
+int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const bench_view *view,
                   bench_rows *rows);
 
 // ---------------------------------------------------------------------------------------------
@@ -219,23 +219,9 @@ pn_result pn_bench_reference(const bench_opts *o, pn_gpu_device *dev, const pn_s
 // ---------------------------------------------------------------------------------------------
 // The CPU peer: Embree 3 (bench_peer.c)
 
-typedef struct pn_bench_embree_scene pn_bench_embree_scene; // Embree's BVH of one pn_scene
-
-// An Embree device, or NULL when Embree could not start.
-pn_bench_embree *pn_bench_embree_create(void);
-
-// Releases the device made by pn_bench_embree_create.
-void pn_bench_embree_destroy(pn_bench_embree *e);
-
-// Builds Embree's BVH over the scene's triangles, sharing its buffers (scene must outlive it); NULL on failure.
-pn_bench_embree_scene *pn_bench_embree_scene_create(pn_bench_embree *e, pn_scene *scene);
-
-// Releases a scene made by pn_bench_embree_scene_create.
-void pn_bench_embree_scene_destroy(pn_bench_embree_scene *s);
-
 // Traces the rays of an exact frame's ray dump (pixels x spp) on all cores, o->warmup + o->repeat
 // times; prints the figures on stderr and returns the median time of the timed runs in ms.
-double pn_bench_embree_time(const bench_opts *o, const pn_bench_embree_scene *s, const float *dump, uint64_t px,
+double pn_bench_embree_time(const bench_opts *o, const pn_embree_scene *s, const float *dump, uint64_t px,
                             uint32_t spp);
 
 // ---------------------------------------------------------------------------------------------

@@ -303,7 +303,7 @@ typedef struct group {
     uint64_t covered;
     float *v_exact;
     double exact_ms[2 * MAX_LIST], embree_ms[MAX_LIST];
-    pn_bench_embree_scene *rtc; // traces exact's rays
+    pn_embree_scene *rtc; // traces exact's rays
     double move_ms;             // the configuration's (bench_row.move_ms)
 } group;
 
@@ -627,7 +627,7 @@ static int run_lights(const group *g, const float centre[3], pn_shadow_mode mode
 
 // One view: per size its converged reference, exact at every spp (the bias reference, and Embree's
 // rays), then every other mode and tree at every spp.
-int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc, const bench_view *view,
+int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const bench_view *view,
                   bench_rows *rows)
 {
     pn_prepared_scene prep;
@@ -637,7 +637,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
     pn_scene scene = prep.scene;
     pn_camera cam = prep.camera;
     pn_light light = prep.lights[0];
-    pn_bench_embree_scene *rs = rtc ? pn_bench_embree_scene_create(rtc, &scene) : NULL;
+    pn_embree_scene *rs = rtc ? pn_embree_scene_create(rtc, &scene) : NULL;
     int rc = PN_EXIT_OK;
     bool want_exact = false;
     for (int m = 0; m < o->mode_count; m++)
@@ -727,7 +727,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_bench_embree *rtc,
         free(g.v_exact);
     }
     if (rs)
-        pn_bench_embree_scene_destroy(rs);
+        pn_embree_scene_destroy(rs);
     pn_scene_destroy(&scene);
     return rc;
 }

@@ -104,7 +104,7 @@ int pn_cmd_bench(int argc, char **argv)
         free_opts(&o);
         return PN_EXIT_FAILURE;
     }
-    pn_bench_embree *rtc = o.embree ? pn_bench_embree_create() : NULL;
+    pn_embree *rtc = o.embree ? pn_embree_create() : NULL;
     if (o.embree && !rtc)
         pn_warn("Embree could not start: the CPU peer is skipped");
     fprintf(stderr, "bench: %s, driver %s %s, Vulkan %u.%u\n", dev.props.deviceName, dev.driver.driverName,
@@ -123,7 +123,7 @@ int pn_cmd_bench(int argc, char **argv)
     free(rows.quality);
     free(rows.lights);
     if (rtc)
-        pn_bench_embree_destroy(rtc);
+        pn_embree_destroy(rtc);
     pn_gpu_device_destroy(&dev);
     free_opts(&o);
     if (dev.validation_messages) {
