@@ -137,7 +137,8 @@ void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf)
         vkDestroyBuffer(dev->device, buf->buffer, NULL);
     if (buf->memory)
         vkFreeMemory(dev->device, buf->memory, NULL); // unmaps implicitly
-    dev->allocated -= buf->allocated;
+    if (buf->allocated) // a zeroed buffer may come with no device
+        dev->allocated -= buf->allocated;
     memset(buf, 0, sizeof *buf);
 }
 
@@ -253,7 +254,8 @@ void pn_gpu_image_destroy(pn_gpu_device *dev, pn_gpu_image *img)
         vkDestroyImage(dev->device, img->image, NULL);
     if (img->memory)
         vkFreeMemory(dev->device, img->memory, NULL);
-    dev->allocated -= img->allocated;
+    if (img->allocated)
+        dev->allocated -= img->allocated;
     memset(img, 0, sizeof *img);
 }
 
