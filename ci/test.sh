@@ -18,9 +18,9 @@ echo "== tests: $((SECONDS - t0)) s"
 [ "${PN_SANITIZERS:-1}" = 0 ] && exit 0
 
 t0=$SECONDS
-step "sanitizer build (build-asan/, clang, -fsanitize=address,undefined, libFuzzer targets)"
+step "sanitizer build (build-asan/, clang, -fsanitize=address,undefined, libFuzzer targets, fault injection)"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  -DPN_SANITIZE=ON -DPN_FUZZ=ON >/dev/null
+  -DPN_SANITIZE=ON -DPN_FUZZ=ON -DPN_FAULT_INJECTION=ON >/dev/null
 cmake --build build-asan --parallel "$(nproc)"
 echo "== sanitizer build: $((SECONDS - t0)) s"
 

@@ -172,15 +172,15 @@ int main(void)
                                                        .push_size = sizeof pc},
                                 &c) == PN_OK);
     pn_gpu_buffer in[INPUTS + 1], out;
-    CHECK(pn_gpu_buffer_create_with_data(&dev, &params, sizeof params, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &in[0]) ==
+    CHECK(pn_gpu_buffer_create_with_data(&dev, "probe parameters", &params, sizeof params, VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &in[0]) ==
           PN_OK);
     pn_gpu_compute_write_uniform(&dev, &c, 0, in[0].buffer);
     for (uint32_t i = 0; i < INPUTS; i++) {
-        CHECK(pn_gpu_buffer_create_with_data(&dev, inputs[i].data, inputs[i].size * inputs[i].count,
+        CHECK(pn_gpu_buffer_create_with_data(&dev, "probe input", inputs[i].data, inputs[i].size * inputs[i].count,
                                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &in[i + 1]) == PN_OK);
         pn_gpu_compute_write_buffer(&dev, &c, i + 1, in[i + 1].buffer);
     }
-    CHECK(pn_gpu_buffer_create(&dev, (words + 2) * 4ull, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
+    CHECK(pn_gpu_buffer_create(&dev, "probe output", (words + 2) * 4ull, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
                                &out) == PN_OK);
     memset(out.mapped, 0xee, (words + 2) * 4ull);
     pn_gpu_compute_write_buffer(&dev, &c, INPUTS + 1, out.buffer);

@@ -32,7 +32,7 @@ static void probe(pn_gpu_device *dev, const pn_ntree *tree, const char *what)
     }
     uint32_t count = HEADER + tree->node_count * PER_NODE;
     pn_gpu_buffer out;
-    CHECK(pn_gpu_buffer_create(dev, count * 4ull, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK, &out) == PN_OK);
+    CHECK(pn_gpu_buffer_create(dev, "probe output", count * 4ull, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK, &out) == PN_OK);
     memset(out.mapped, 0xee, count * 4ull);
     pn_gpu_compute c;
     const VkDescriptorSetLayoutBinding b = {.binding = 0, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER};

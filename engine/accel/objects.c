@@ -20,8 +20,8 @@
 static pn_result build_tree(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree *tree, pn_pools *pools)
 {
     pn_result r = pn_ntree_build(s, desc, tree);
-    if (r == PN_OK)
-        r = pn_pools_pack(tree, pools);
+    if (r == PN_OK && (r = pn_pools_pack(tree, pools)) != PN_OK)
+        pn_error("%s: out of memory packing the pools of its per-object tree", s->name);
     return r;
 }
 
@@ -87,6 +87,7 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
     uint64_t t0 = pn_time_ns();
     pn_scene rest;
     pn_result r = rest_scene(scene, &rest);
+    bool tree_failed = false; // a tree's build logs why it failed (a limit it would exceed, with sizes)
     if (r != PN_OK) {
         pn_error("%s: out of memory building per-object trees", scene->name);
         return r;
@@ -114,6 +115,7 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
         td.cull_light = is_rest ? desc->cull_light : NULL;
         td.cull_light_corners = desc->cull_light_corners;
         r = build_tree(is_rest ? &rest : &mesh, &td, &out->trees[i], &out->pools[i]);
+        tree_failed = r != PN_OK;
         if (r == PN_OK && is_rest && out->trees[i].triangles == 0) {
             // Every one of them was left out (a ground plane alone): no tree and no instance.
             out->culled = out->trees[i].culled;
@@ -142,7 +144,7 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
     if (r == PN_OK)
         r = pn_objects_update(scene, out);
     if (r != PN_OK) {
-        if (r == PN_ERR_MEMORY)
+        if (r == PN_ERR_MEMORY && !tree_failed)
             pn_error("%s: out of memory building per-object trees", scene->name);
         pn_objects_destroy(out);
         return r;

@@ -114,11 +114,17 @@ int pn_cmd_bench(int argc, char **argv)
     uint64_t t0 = pn_time_ns();
     for (int i = 0; i < o.view_count && rc == PN_EXIT_OK; i++)
         rc = pn_bench_view(&o, &dev, rtc, &o.views[i], &rows);
-    if (rows.count && !(pn_bench_write_csv(o.out_dir, &rows) && pn_bench_write_json(o.out_dir, &o, &dev, &rows) &&
-                          pn_bench_write_time_to_error(o.out_dir, &rows) && pn_bench_write_plots(o.out_dir, &rows)))
+    // A failed run writes no results: its rows are a matrix with holes nobody asked for (a cell that
+    // cannot be set up is skipped with a warning instead, and the run goes on).
+    if (rc == PN_EXIT_OK && rows.count &&
+        !(pn_bench_write_csv(o.out_dir, &rows) && pn_bench_write_json(o.out_dir, &o, &dev, &rows) &&
+          pn_bench_write_time_to_error(o.out_dir, &rows) && pn_bench_write_plots(o.out_dir, &rows)))
         rc = PN_EXIT_FAILURE;
-    fprintf(stderr, "bench: %d cells in %.1f s; results in %s/bench.csv, bench.json, time_to_error.md and *.png\n",
-            rows.count, pn_ms_since(t0) * 1e-3, o.out_dir);
+    if (rc == PN_EXIT_OK && rows.count)
+        fprintf(stderr, "bench: %d cells in %.1f s; results in %s/bench.csv, bench.json, time_to_error.md and *.png\n",
+                rows.count, pn_ms_since(t0) * 1e-3, o.out_dir);
+    else
+        fprintf(stderr, "bench: %d cells in %.1f s; no results written\n", rows.count, pn_ms_since(t0) * 1e-3);
     free(rows.rows);
     free(rows.quality);
     free(rows.lights);

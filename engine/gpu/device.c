@@ -34,14 +34,62 @@ static VKAPI_ATTR VkBool32 VKAPI_CALL on_debug_message(VkDebugUtilsMessageSeveri
     return VK_FALSE;
 }
 
+#ifdef PN_FAULT_INJECTION
+// A byte count with an optional K/M/G suffix from the environment; 0 when unset or malformed.
+static uint64_t env_bytes(const char *name)
+{
+    const char *v = getenv(name);
+    char *end;
+    if (!v || !*v)
+        return 0;
+    unsigned long long n = strtoull(v, &end, 10);
+    int shift = *end == 'K' || *end == 'k' ? 10 : *end == 'M' || *end == 'm' ? 20 : *end == 'G' || *end == 'g' ? 30 : 0;
+    if (end == v || (shift && end[1]) || (!shift && *end)) {
+        pn_error("%s: expected a byte count with an optional K/M/G suffix, got '%s' (ignored)", name, v);
+        return 0;
+    }
+    return (uint64_t)n << shift;
+}
+#endif
+
 pn_gpu_device_desc pn_gpu_device_desc_from_env(void)
 {
     const char *v = getenv("PN_VALIDATION");
     const char *d = getenv("PN_DEVICE");
-    return (pn_gpu_device_desc){
+    pn_gpu_device_desc desc = {
         .validation = v && *v && strcmp(v, "0") != 0,
         .selector = d && *d ? d : NULL,
     };
+#ifdef PN_FAULT_INJECTION
+    const char *k = getenv("PN_FAULT_ALLOC");
+    if (k && *k) {
+        desc.fault.count = true;
+        desc.fault.fail_at = strtoull(k, NULL, 10);
+    }
+    desc.fault.max_alloc = env_bytes("PN_FAULT_MAX_ALLOC");
+    desc.fault.heap = env_bytes("PN_FAULT_HEAP");
+#endif
+    return desc;
+}
+
+bool pn_gpu_fault(pn_gpu_device *dev, const char *call, const char *what, uint64_t bytes)
+{
+#ifdef PN_FAULT_INJECTION
+    if (dev->fault.heap && dev->allocated + bytes > dev->fault.heap && !strcmp(call, "vkAllocateMemory")) {
+        pn_info("fault injection: %s of the %s fails: %.1f MiB more than the %.1f MiB heap holds", call, what,
+                bytes / 1048576.0, dev->fault.heap / 1048576.0);
+        return true;
+    }
+    if (!dev->fault.count)
+        return false;
+    if (++dev->fault_count != dev->fault.fail_at)
+        return false;
+    pn_info("fault injection: allocation %llu (%s of the %s) fails", (unsigned long long)dev->fault_count, call, what);
+    return true;
+#else
+    (void)dev, (void)call, (void)what, (void)bytes;
+    return false;
+#endif
 }
 
 static int type_rank(VkPhysicalDeviceType t)
@@ -241,6 +289,15 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
     vkGetPhysicalDeviceProperties2(dev->physical, &props2);
     dev->props = props2.properties;
     vkGetPhysicalDeviceMemoryProperties(dev->physical, &dev->memory);
+#ifdef PN_FAULT_INJECTION
+    // A smaller device than this one, for the tests of what does not fit (pn_gpu_fault_desc).
+    VkDeviceSize *limits[2] = {&dev->maintenance3.maxMemoryAllocationSize, &dev->maintenance4.maxBufferSize};
+    for (int i = 0; desc->fault.max_alloc && i < 2; i++)
+        *limits[i] = *limits[i] && *limits[i] < desc->fault.max_alloc ? *limits[i] : desc->fault.max_alloc;
+    for (uint32_t i = 0; desc->fault.heap && i < dev->memory.memoryHeapCount; i++)
+        if (dev->memory.memoryHeaps[i].size > desc->fault.heap)
+            dev->memory.memoryHeaps[i].size = desc->fault.heap;
+#endif
 
     uint32_t qn = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(dev->physical, &qn, NULL);
@@ -364,6 +421,9 @@ pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *de
     memset(dev, 0, sizeof *dev);
     dev->validation = desc->validation;
     dev->present = desc->present;
+#ifdef PN_FAULT_INJECTION
+    dev->fault = desc->fault;
+#endif
     pn_result r = create_instance(desc, dev);
     if (r == PN_OK)
         r = create_device(desc, dev);
@@ -388,6 +448,9 @@ void pn_gpu_device_destroy(pn_gpu_device *dev)
     }
     if (dev->instance)
         vkDestroyInstance(dev->instance, NULL);
+    // The count a sweep of PN_FAULT_ALLOC needs: how many allocations the whole run made.
+    if (dev->fault.count)
+        pn_info("fault injection: %llu device allocations", (unsigned long long)dev->fault_count);
     unsigned messages = dev->validation_messages;
     bool validation = dev->validation;
     memset(dev, 0, sizeof *dev);

@@ -9,6 +9,17 @@
 // glfwGetPhysicalDevicePresentationSupport, so that GLFW's function can be passed as is.
 typedef int (*pn_gpu_present_query)(VkInstance instance, VkPhysicalDevice physical, uint32_t queue_family);
 
+// Fault injection, for tests only: honoured in PN_FAULT_INJECTION builds (a CMake option, off by
+// default; ci/test.sh's sanitizer build has it on), ignored in every other. tests/sanitizers.md.
+typedef struct pn_gpu_fault_desc {
+    bool count;          // count the device's allocations, and log the count when it is destroyed
+    uint64_t fail_at;    // with count: the fail_at-th allocation (1-based) fails with
+                         // VK_ERROR_OUT_OF_DEVICE_MEMORY; 0 fails none
+    uint64_t max_alloc;  // non-zero: maxMemoryAllocationSize and maxBufferSize reported as at most this
+    uint64_t heap;       // non-zero: device-local heaps reported as at most this, and allocations that
+                         // would hold more in all fail as on a device that small
+} pn_gpu_fault_desc;
+
 typedef struct pn_gpu_device_desc {
     bool validation;      // Khronos validation layer + synchronization validation
     const char *selector; // NULL: best device; else an index ("1") or a name substring
@@ -20,6 +31,7 @@ typedef struct pn_gpu_device_desc {
     const char *const *instance_extensions;
     uint32_t instance_extension_count;
     pn_gpu_present_query can_present;
+    pn_gpu_fault_desc fault;
 } pn_gpu_device_desc;
 
 typedef struct pn_gpu_device {
@@ -50,9 +62,14 @@ typedef struct pn_gpu_device {
         PFN_vkGetAccelerationStructureDeviceAddressKHR address;
     } as;
     unsigned validation_messages; // warnings and errors reported by the layer so far
+    VkDeviceSize allocated;       // device memory held through gpu/resources.h now, in bytes
+    pn_gpu_fault_desc fault;      // as given, in PN_FAULT_INJECTION builds; zero in others
+    uint64_t fault_count;         // allocations so far, with fault.count
 } pn_gpu_device;
 
 // Desc from the environment: PN_VALIDATION=1 turns validation on, PN_DEVICE selects the device.
+// PN_FAULT_INJECTION builds also read PN_FAULT_ALLOC=K (fault.count, fault.fail_at = K),
+// PN_FAULT_MAX_ALLOC=SIZE and PN_FAULT_HEAP=SIZE (bytes, or with a K/M/G suffix).
 pn_gpu_device_desc pn_gpu_device_desc_from_env(void);
 
 // Creates everything or nothing; logs the reason on failure. `out` must not move afterwards
@@ -81,6 +98,12 @@ VkDeviceSize pn_gpu_device_pool_budget(const pn_gpu_device *dev);
 
 // Size of the largest device-local heap.
 VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev);
+
+// A fault point, called by gpu/resources.c and gpu/tlas.c before each call that allocates (memory,
+// a buffer, an image, an acceleration structure): counts it and returns true when it is the one to
+// fail (fault.fail_at), or when `bytes` more would overflow fault.heap. Always false in builds without
+// PN_FAULT_INJECTION.
+bool pn_gpu_fault(pn_gpu_device *dev, const char *call, const char *what, uint64_t bytes);
 
 // One-shot command buffers for uploads and single frames: begin, then submit and wait.
 pn_result pn_gpu_begin_once(pn_gpu_device *dev, VkCommandBuffer *cmd);

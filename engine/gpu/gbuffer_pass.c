@@ -14,10 +14,10 @@ static const VkFormat FMT_DEPTH = VK_FORMAT_D32_SFLOAT;
 
 static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_scene *s)
 {
-    PN_TRY(pn_gpu_buffer_create_with_data(dev, s->vertices, (VkDeviceSize)s->vertex_count * sizeof(pn_vertex),
+    PN_TRY(pn_gpu_buffer_create_with_data(dev, "vertex buffer", s->vertices, (VkDeviceSize)s->vertex_count * sizeof(pn_vertex),
                                           VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                           &r->vertices));
-    PN_TRY(pn_gpu_buffer_create_with_data(dev, s->indices, (VkDeviceSize)s->index_count * sizeof(uint32_t),
+    PN_TRY(pn_gpu_buffer_create_with_data(dev, "index buffer", s->indices, (VkDeviceSize)s->index_count * sizeof(uint32_t),
                                           VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                           &r->indices));
     pn_material_gpu *m = calloc(s->material_count, sizeof *m);
@@ -27,7 +27,7 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
         memcpy(m[i].base_color, s->materials[i].base_color, sizeof m[i].base_color);
         m[i].texture = s->materials[i].texture;
     }
-    pn_result res = pn_gpu_buffer_create_with_data(dev, m, s->material_count * sizeof *m,
+    pn_result res = pn_gpu_buffer_create_with_data(dev, "material buffer", m, s->material_count * sizeof *m,
                                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->materials);
     free(m);
     PN_TRY(res);
@@ -38,10 +38,10 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
         return PN_ERR_MEMORY;
     if (s->texture_count == 0) {
         static const uint8_t white[4] = {255, 255, 255, 255};
-        PN_TRY(pn_gpu_texture_create(dev, 1, 1, white, &r->textures[0]));
+        PN_TRY(pn_gpu_texture_create(dev, "white texture", 1, 1, white, &r->textures[0]));
     }
     for (uint32_t i = 0; i < s->texture_count; i++)
-        PN_TRY(pn_gpu_texture_create(dev, s->textures[i].width, s->textures[i].height, s->textures[i].rgba,
+        PN_TRY(pn_gpu_texture_create(dev, "texture", s->textures[i].width, s->textures[i].height, s->textures[i].rgba,
                                      &r->textures[i]));
     VkSamplerCreateInfo si = {
         .sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
@@ -273,7 +273,7 @@ pn_result pn_gbuffer_pass_update_vertices(pn_gpu_device *dev, pn_gbuffer_pass *g
                  first + count, (unsigned long long)(g->vertices.size / sizeof(pn_vertex)), scene->vertex_count);
         return PN_ERR_INVALID;
     }
-    PN_TRY(pn_gpu_buffer_write(dev, &g->vertices, (VkDeviceSize)first * sizeof(pn_vertex), scene->vertices + first,
+    PN_TRY(pn_gpu_buffer_write(dev, "vertex buffer", &g->vertices, (VkDeviceSize)first * sizeof(pn_vertex), scene->vertices + first,
                                (VkDeviceSize)count * sizeof(pn_vertex)));
     memcpy(g->scene_min, scene->bounds_min, sizeof g->scene_min);
     memcpy(g->scene_max, scene->bounds_max, sizeof g->scene_max);

@@ -7,7 +7,7 @@ pn_result pn_gbuffer_upload_create(pn_gpu_device *dev, uint32_t width, uint32_t 
 {
     memset(out, 0, sizeof *out);
     VkDeviceSize bytes = (VkDeviceSize)width * height * 16;
-    PN_TRY(pn_gpu_buffer_create(dev, 2 * bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &out->buffer));
+    PN_TRY(pn_gpu_buffer_create(dev, "G-buffer upload", 2 * bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &out->buffer));
     memcpy(out->buffer.mapped, p, bytes);
     memcpy((char *)out->buffer.mapped + bytes, n, bytes);
     return PN_OK;

@@ -1,5 +1,6 @@
 #include "gpu/pools.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -29,7 +30,9 @@ pn_result pn_gpu_pools_create(pn_gpu_device *dev, const pn_pools *pools, pn_gpu_
     for (int i = 0; i < 4; i++) {
         // Vulkan buffers cannot be empty: a zero-sized pool gets a few zero bytes.
         static const uint32_t zero[4] = {0};
-        pn_result r = pn_gpu_buffer_create_with_data(dev, p[i].size ? p[i].data : zero, p[i].size ? p[i].size : sizeof zero,
+        char what[32];
+        snprintf(what, sizeof what, "%s pool", p[i].name);
+        pn_result r = pn_gpu_buffer_create_with_data(dev, what, p[i].size ? p[i].data : zero, p[i].size ? p[i].size : sizeof zero,
                                                      usage, p[i].buf);
         if (r != PN_OK) {
             pn_gpu_pools_destroy(dev, out);
@@ -76,13 +79,13 @@ pn_result pn_gpu_objects_update(pn_gpu_device *dev, const pn_objects *o, pn_gpu_
     }
     const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     static const uint32_t zero[8] = {0}; // Vulkan buffers cannot be empty
-    pn_result r = pn_gpu_buffer_create_with_data(dev, table, (n ? n : 1) * sizeof *table, usage, &g->table);
+    pn_result r = pn_gpu_buffer_create_with_data(dev, "object table", table, (n ? n : 1) * sizeof *table, usage, &g->table);
     if (r == PN_OK)
-        r = pn_gpu_buffer_create_with_data(dev, o->top.node_count ? (const void *)o->top.nodes : zero,
+        r = pn_gpu_buffer_create_with_data(dev, "top-level node pool", o->top.node_count ? (const void *)o->top.nodes : zero,
                                            o->top.node_count ? o->top.node_count * sizeof *o->top.nodes : sizeof zero,
                                            usage, &g->top);
     if (r == PN_OK)
-        r = pn_gpu_buffer_create_with_data(dev, n ? (const void *)o->top.tri_index : zero,
+        r = pn_gpu_buffer_create_with_data(dev, "top-level object index pool", n ? (const void *)o->top.tri_index : zero,
                                            n ? n * sizeof *o->top.tri_index : sizeof zero, usage, &g->top_ids);
     free(table);
     g->count = r == PN_OK ? n : 0;

@@ -32,18 +32,21 @@ static pn_result create_targets(pn_renderer *r)
         VkFormat format;
         VkImageUsageFlags usage;
         VkImageAspectFlags aspect;
+        const char *name;
     } t[] = {
-        {&r->p, RGBA32F, gbuf, 0},
-        {&r->n, RGBA32F, gbuf, 0},
-        {&r->albedo, RGBA32F, gbuf, 0},
-        {&r->depth, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT},
-        {&r->v_raw, VK_FORMAT_R32_SFLOAT, comp, 0},
-        {&r->v, VK_FORMAT_R32_SFLOAT, comp, 0},
-        {&r->radiance, RGBA32F, comp, 0},
+        {&r->p, RGBA32F, gbuf, 0, "G-buffer's position image"},
+        {&r->n, RGBA32F, gbuf, 0, "G-buffer's normal image"},
+        {&r->albedo, RGBA32F, gbuf, 0, "G-buffer's albedo image"},
+        {&r->depth, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT,
+         "depth image"},
+        {&r->v_raw, VK_FORMAT_R32_SFLOAT, comp, 0, "raw visibility image"},
+        {&r->v, VK_FORMAT_R32_SFLOAT, comp, 0, "visibility image"},
+        {&r->radiance, RGBA32F, comp, 0, "radiance image"},
     };
     for (size_t i = 0; i < sizeof t / sizeof t[0]; i++)
         PN_TRY(pn_gpu_image_create(dev,
-                                   &(pn_gpu_image_desc){.format = t[i].format,
+                                   &(pn_gpu_image_desc){.name = t[i].name,
+                                                        .format = t[i].format,
                                                         .width = r->width,
                                                         .height = r->height,
                                                         .usage = t[i].usage,
@@ -382,7 +385,8 @@ static pn_result reserve_readback(pn_renderer *r, uint32_t light_count)
     if (r->readback.size >= bytes)
         return PN_OK;
     pn_gpu_buffer_destroy(r->dev, &r->readback);
-    return pn_gpu_buffer_create(r->dev, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_HOST_READBACK, &r->readback);
+    return pn_gpu_buffer_create(r->dev, "frame's readback buffer", bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                PN_GPU_HOST_READBACK, &r->readback);
 }
 
 pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,

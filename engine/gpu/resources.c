@@ -1,16 +1,42 @@
 #include "gpu/resources.h"
 
+#include <stdio.h>
 #include <string.h>
 
-static pn_result allocate(pn_gpu_device *dev, VkMemoryRequirements req, VkMemoryPropertyFlags want,
+static double mib(VkDeviceSize bytes) { return (double)bytes / 1048576.0; }
+
+// A size for the messages: small buffers in KiB or bytes, so that none reads "0.0 MiB".
+static const char *size_str(VkDeviceSize bytes, char buf[32])
+{
+    if (bytes >= 1048576)
+        snprintf(buf, 32, "%.1f MiB", mib(bytes));
+    else if (bytes >= 1024)
+        snprintf(buf, 32, "%.1f KiB", (double)bytes / 1024.0);
+    else
+        snprintf(buf, 32, "%llu bytes", (unsigned long long)bytes);
+    return buf;
+}
+
+// The one place penumbra allocates device memory. `what` names the resource for the messages
+// ("node pool"): a failure says what did not fit, how big it was and against which limit.
+static pn_result allocate(pn_gpu_device *dev, const char *what, VkMemoryRequirements req, VkMemoryPropertyFlags want,
                           VkMemoryPropertyFlags fallback, bool device_address, VkDeviceMemory *out)
 {
     uint32_t type = pn_gpu_memory_type(dev, req.memoryTypeBits, want);
     if (type == UINT32_MAX)
         type = pn_gpu_memory_type(dev, req.memoryTypeBits, fallback);
     if (type == UINT32_MAX) {
-        pn_error("no Vulkan memory type for an allocation of %llu bytes", (unsigned long long)req.size);
+        pn_error("no Vulkan memory type for the %s (%llu bytes)", what, (unsigned long long)req.size);
         return PN_ERR_VULKAN;
+    }
+    // Refused before asking: past maxMemoryAllocationSize a driver may fail, or may not and
+    // misbehave later.
+    VkDeviceSize max_alloc = dev->maintenance3.maxMemoryAllocationSize;
+    if (max_alloc && req.size > max_alloc) {
+        pn_error("the %s needs %.1f MiB, more than one allocation of this device can hold (maxMemoryAllocationSize "
+                 "%.1f MiB)",
+                 what, mib(req.size), mib(max_alloc));
+        return PN_ERR_MEMORY;
     }
     VkMemoryAllocateFlagsInfo flags = {
         .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO,
@@ -22,19 +48,42 @@ static pn_result allocate(pn_gpu_device *dev, VkMemoryRequirements req, VkMemory
         .allocationSize = req.size,
         .memoryTypeIndex = type,
     };
-    VkResult r = vkAllocateMemory(dev->device, &ai, NULL, out);
+    VkResult r = pn_gpu_fault(dev, "vkAllocateMemory", what, req.size) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
+                                                                      : vkAllocateMemory(dev->device, &ai, NULL, out);
     if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY) {
-        pn_error("out of GPU memory allocating %.1f MiB", (double)req.size / (1 << 20));
+        *out = VK_NULL_HANDLE;
+        char size[32];
+        pn_error("out of %s memory allocating the %s (%s; %.1f MiB already held, device-local heap %.1f MiB)",
+                 r == VK_ERROR_OUT_OF_HOST_MEMORY ? "host" : "device", what, size_str(req.size, size),
+                 mib(dev->allocated), mib(pn_gpu_device_heap(dev)));
         return PN_ERR_MEMORY;
     }
     VK_CHECK(r);
+    dev->allocated += req.size;
     return PN_OK;
 }
 
-pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUsageFlags usage,
+// Creates a buffer or image handle: its own fault point, as a driver may refuse the handle alone.
+static pn_result check_create(pn_gpu_device *dev, VkResult r, const char *call, const char *what, VkDeviceSize size)
+{
+    if (r == VK_SUCCESS)
+        return PN_OK;
+    char bytes[32];
+    pn_error("%s failed for the %s (%s): %s", call, what, size_str(size, bytes), pn_vk_result_str(r));
+    return r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY ? PN_ERR_MEMORY : PN_ERR_VULKAN;
+}
+
+pn_result pn_gpu_buffer_create(pn_gpu_device *dev, const char *name, VkDeviceSize size, VkBufferUsageFlags usage,
                                pn_gpu_memory memory, pn_gpu_buffer *out)
 {
     memset(out, 0, sizeof *out);
+    // Past maxBufferSize vkCreateBuffer is invalid usage, not a failure: refused here.
+    VkDeviceSize max_buffer = dev->maintenance4.maxBufferSize;
+    if (max_buffer && size > max_buffer) {
+        pn_error("the %s needs %.1f MiB, more than one buffer of this device can hold (maxBufferSize %.1f MiB)", name,
+                 mib(size), mib(max_buffer));
+        return PN_ERR_MEMORY;
+    }
     out->size = size;
     VkBufferCreateInfo bi = {
         .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
@@ -42,7 +91,11 @@ pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUs
         .usage = usage,
         .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
     };
-    VK_CHECK(vkCreateBuffer(dev->device, &bi, NULL, &out->buffer));
+    VkResult vr = pn_gpu_fault(dev, "vkCreateBuffer", name, size) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
+                                                                  : vkCreateBuffer(dev->device, &bi, NULL, &out->buffer);
+    if (vr != VK_SUCCESS)
+        out->buffer = VK_NULL_HANDLE;
+    PN_TRY(check_create(dev, vr, "vkCreateBuffer", name, size));
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(dev->device, out->buffer, &req);
     VkMemoryPropertyFlags want, fallback;
@@ -59,18 +112,22 @@ pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUs
         break;
     }
     bool address = (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) != 0;
-    pn_result r = allocate(dev, req, want, fallback, address, &out->memory);
+    pn_result r = allocate(dev, name, req, want, fallback, address, &out->memory);
+    if (r == PN_OK)
+        out->allocated = req.size;
+    if (r == PN_OK && (vr = vkBindBufferMemory(dev->device, out->buffer, out->memory, 0)) != VK_SUCCESS)
+        r = check_create(dev, vr, "vkBindBufferMemory", name, size);
+    if (r == PN_OK && memory != PN_GPU_DEVICE_LOCAL &&
+        (vr = vkMapMemory(dev->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped)) != VK_SUCCESS)
+        r = check_create(dev, vr, "vkMapMemory", name, size);
     if (r != PN_OK) {
         pn_gpu_buffer_destroy(dev, out);
         return r;
     }
-    VK_CHECK(vkBindBufferMemory(dev->device, out->buffer, out->memory, 0));
     if (address) {
         VkBufferDeviceAddressInfo ai = {.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = out->buffer};
         out->address = vkGetBufferDeviceAddress(dev->device, &ai);
     }
-    if (memory != PN_GPU_DEVICE_LOCAL)
-        VK_CHECK(vkMapMemory(dev->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
     return PN_OK;
 }
 
@@ -80,15 +137,19 @@ void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf)
         vkDestroyBuffer(dev->device, buf->buffer, NULL);
     if (buf->memory)
         vkFreeMemory(dev->device, buf->memory, NULL); // unmaps implicitly
+    if (buf->allocated) // a zeroed buffer may come with no device
+        dev->allocated -= buf->allocated;
     memset(buf, 0, sizeof *buf);
 }
 
 // Copies `size` bytes of `data` to `dst` at `offset` through a staging buffer, and waits.
-static pn_result copy_through_staging(pn_gpu_device *dev, const pn_gpu_buffer *dst, VkDeviceSize offset,
-                                      const void *data, VkDeviceSize size)
+static pn_result copy_through_staging(pn_gpu_device *dev, const char *name, const pn_gpu_buffer *dst,
+                                      VkDeviceSize offset, const void *data, VkDeviceSize size)
 {
     pn_gpu_buffer staging;
-    PN_TRY(pn_gpu_buffer_create(dev, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
+    char what[160];
+    snprintf(what, sizeof what, "staging buffer of the %s", name);
+    PN_TRY(pn_gpu_buffer_create(dev, what, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
     memcpy(staging.mapped, data, size);
     VkCommandBuffer cmd;
     pn_result r = pn_gpu_begin_once(dev, &cmd);
@@ -110,26 +171,26 @@ static pn_result copy_through_staging(pn_gpu_device *dev, const pn_gpu_buffer *d
     return r;
 }
 
-pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const void *data, VkDeviceSize size,
+pn_result pn_gpu_buffer_create_with_data(pn_gpu_device *dev, const char *name, const void *data, VkDeviceSize size,
                                          VkBufferUsageFlags usage, pn_gpu_buffer *out)
 {
-    pn_result r = pn_gpu_buffer_create(dev, size, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_DEVICE_LOCAL, out);
+    pn_result r = pn_gpu_buffer_create(dev, name, size, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, PN_GPU_DEVICE_LOCAL, out);
     if (r == PN_OK)
-        r = copy_through_staging(dev, out, 0, data, size);
+        r = copy_through_staging(dev, name, out, 0, data, size);
     if (r != PN_OK)
         pn_gpu_buffer_destroy(dev, out);
     return r;
 }
 
-pn_result pn_gpu_buffer_write(pn_gpu_device *dev, pn_gpu_buffer *buf, VkDeviceSize offset, const void *data,
-                              VkDeviceSize size)
+pn_result pn_gpu_buffer_write(pn_gpu_device *dev, const char *name, pn_gpu_buffer *buf, VkDeviceSize offset,
+                              const void *data, VkDeviceSize size)
 {
     if (offset > buf->size || size > buf->size - offset) {
         pn_error("buffer write of %llu bytes at %llu past the buffer's %llu", (unsigned long long)size,
                  (unsigned long long)offset, (unsigned long long)buf->size);
         return PN_ERR_INVALID;
     }
-    return size ? copy_through_staging(dev, buf, offset, data, size) : PN_OK;
+    return size ? copy_through_staging(dev, name, buf, offset, data, size) : PN_OK;
 }
 
 pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc, pn_gpu_image *out)
@@ -151,15 +212,25 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
         .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
         .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
     };
-    VK_CHECK(vkCreateImage(dev->device, &ii, NULL, &out->image));
+    const char *name = desc->name ? desc->name : "image";
+    // Its size is only known once created: the texels' for the messages until then.
+    VkDeviceSize texels = (VkDeviceSize)desc->width * desc->height * 16;
+    VkResult vr = pn_gpu_fault(dev, "vkCreateImage", name, texels) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
+                                                                   : vkCreateImage(dev->device, &ii, NULL, &out->image);
+    if (vr != VK_SUCCESS)
+        out->image = VK_NULL_HANDLE;
+    PN_TRY(check_create(dev, vr, "vkCreateImage", name, texels));
     VkMemoryRequirements req;
     vkGetImageMemoryRequirements(dev->device, out->image, &req);
-    pn_result r = allocate(dev, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, false, &out->memory);
+    pn_result r = allocate(dev, name, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, false, &out->memory);
+    if (r == PN_OK)
+        out->allocated = req.size;
+    if (r == PN_OK && (vr = vkBindImageMemory(dev->device, out->image, out->memory, 0)) != VK_SUCCESS)
+        r = check_create(dev, vr, "vkBindImageMemory", name, req.size);
     if (r != PN_OK) {
         pn_gpu_image_destroy(dev, out);
         return r;
     }
-    VK_CHECK(vkBindImageMemory(dev->device, out->image, out->memory, 0));
     VkImageViewCreateInfo vi = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
         .image = out->image,
@@ -167,8 +238,12 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
         .format = desc->format,
         .subresourceRange = {desc->aspect ? desc->aspect : VK_IMAGE_ASPECT_COLOR_BIT, 0, out->mip_levels, 0, 1},
     };
-    VK_CHECK(vkCreateImageView(dev->device, &vi, NULL, &out->view));
-    return PN_OK;
+    if ((vr = vkCreateImageView(dev->device, &vi, NULL, &out->view)) != VK_SUCCESS) {
+        out->view = VK_NULL_HANDLE;
+        r = check_create(dev, vr, "vkCreateImageView", name, req.size);
+        pn_gpu_image_destroy(dev, out);
+    }
+    return r;
 }
 
 void pn_gpu_image_destroy(pn_gpu_device *dev, pn_gpu_image *img)
@@ -179,6 +254,8 @@ void pn_gpu_image_destroy(pn_gpu_device *dev, pn_gpu_image *img)
         vkDestroyImage(dev->device, img->image, NULL);
     if (img->memory)
         vkFreeMemory(dev->device, img->memory, NULL);
+    if (img->allocated)
+        dev->allocated -= img->allocated;
     memset(img, 0, sizeof *img);
 }
 
@@ -228,16 +305,20 @@ static uint32_t mip_count(uint32_t w, uint32_t h)
     return n;
 }
 
-pn_result pn_gpu_texture_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const uint8_t *rgba,
-                                pn_gpu_image *out)
+pn_result pn_gpu_texture_create(pn_gpu_device *dev, const char *name, uint32_t width, uint32_t height,
+                                const uint8_t *rgba, pn_gpu_image *out)
 {
+    memset(out, 0, sizeof *out);
     VkDeviceSize size = (VkDeviceSize)width * height * 4;
     uint32_t mips = mip_count(width, height);
     pn_gpu_buffer staging;
-    PN_TRY(pn_gpu_buffer_create(dev, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
+    char what[160];
+    snprintf(what, sizeof what, "staging buffer of the %s", name);
+    PN_TRY(pn_gpu_buffer_create(dev, what, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, PN_GPU_HOST_UPLOAD, &staging));
     memcpy(staging.mapped, rgba, size);
     pn_result r = pn_gpu_image_create(dev,
                                       &(pn_gpu_image_desc){
+                                          .name = name,
                                           .format = VK_FORMAT_R8G8B8A8_SRGB,
                                           .width = width,
                                           .height = height,

@@ -72,21 +72,22 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                                                .spec = &spec},
                                         &out->compute);
     if (r == PN_OK)
-        r = pn_gpu_buffer_create(dev, sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
+        r = pn_gpu_buffer_create(dev, "shadow pass's parameters", sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                  &out->params);
     if (r == PN_OK)
-        r = pn_gpu_buffer_create(dev, sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
+        r = pn_gpu_buffer_create(dev, "shadow pass's status", sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
                                  &out->status);
     if (r == PN_OK && desc->count_work)
-        r = pn_gpu_buffer_create(dev, px * 16, ADDRESSED, PN_GPU_HOST_READBACK, &out->work);
+        r = pn_gpu_buffer_create(dev, "shadow pass's work counts", px * 16, ADDRESSED, PN_GPU_HOST_READBACK, &out->work);
     if (r == PN_OK && desc->dump_rays) {
-        r = pn_gpu_buffer_create(dev, px * (1 + desc->spp) * 16, ADDRESSED, PN_GPU_HOST_READBACK, &out->ray_dump);
+        r = pn_gpu_buffer_create(dev, "ray dump", px * (1 + desc->spp) * 16, ADDRESSED, PN_GPU_HOST_READBACK, &out->ray_dump);
         if (r == PN_OK)
             memset(out->ray_dump.mapped, 0, px * (1 + desc->spp) * 16);
     }
     if (r == PN_OK)
         r = pn_gpu_image_create(dev,
-                                &(pn_gpu_image_desc){.format = VK_FORMAT_R32G32B32A32_UINT,
+                                &(pn_gpu_image_desc){.name = "shadow pass's count image",
+                                                     .format = VK_FORMAT_R32G32B32A32_UINT,
                                                      .width = desc->width,
                                                      .height = desc->height,
                                                      // read back with the frame (pn_frame_images.counts)

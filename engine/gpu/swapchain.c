@@ -130,7 +130,7 @@ pn_result pn_swapchain_recreate(pn_swapchain *sc, uint32_t width, uint32_t heigh
     VkSemaphoreCreateInfo si = {.sType = VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
     for (uint32_t i = 0; i < n; i++)
         VK_CHECK(vkCreateSemaphore(d, &si, NULL, &sc->copied[i]));
-    PN_TRY(pn_gpu_buffer_create(dev, (VkDeviceSize)extent.width * extent.height * 4, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+    PN_TRY(pn_gpu_buffer_create(dev, "swapchain's staging buffer", (VkDeviceSize)extent.width * extent.height * 4, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                 PN_GPU_HOST_UPLOAD, &sc->staging));
     return PN_OK;
 }

@@ -1,5 +1,6 @@
 #include "gpu/tlas.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -13,7 +14,7 @@ static const VkBufferUsageFlags STORAGE =
     VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
 
 // Sizes one level, creates its structure and scratch, and records its build.
-static pn_result build_level(pn_gpu_device *dev, VkCommandBuffer cmd, VkAccelerationStructureTypeKHR type,
+static pn_result build_level(pn_gpu_device *dev, VkCommandBuffer cmd, const char *level, VkAccelerationStructureTypeKHR type,
                              const VkAccelerationStructureGeometryKHR *geom, uint32_t primitives, pn_gpu_buffer *storage,
                              VkAccelerationStructureKHR *out, pn_gpu_buffer *scratch)
 {
@@ -29,24 +30,33 @@ static pn_result build_level(pn_gpu_device *dev, VkCommandBuffer cmd, VkAccelera
     dev->as.build_sizes(dev->device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &bi, &primitives, &size);
     VkDeviceSize max_buffer = pn_gpu_device_max_buffer(dev);
     if (size.accelerationStructureSize > max_buffer || size.buildScratchSize > max_buffer) {
-        pn_error("an acceleration structure of %u primitives needs %.1f MiB (scratch %.1f MiB), more than one buffer "
-                 "of this device can hold (%.1f MiB)",
-                 primitives, size.accelerationStructureSize / 1048576.0, size.buildScratchSize / 1048576.0,
+        pn_error("the %s acceleration structure of %u primitives needs %.1f MiB (build scratch %.1f MiB), more than "
+                 "one buffer of this device can hold (%.1f MiB)",
+                 level, primitives, size.accelerationStructureSize / 1048576.0, size.buildScratchSize / 1048576.0,
                  max_buffer / 1048576.0);
         return PN_ERR_MEMORY;
     }
-    PN_TRY(pn_gpu_buffer_create(dev, size.accelerationStructureSize, STORAGE, PN_GPU_DEVICE_LOCAL, storage));
+    char what[96];
+    snprintf(what, sizeof what, "%s acceleration structure", level);
+    PN_TRY(pn_gpu_buffer_create(dev, what, size.accelerationStructureSize, STORAGE, PN_GPU_DEVICE_LOCAL, storage));
     VkAccelerationStructureCreateInfoKHR ci = {
         .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR,
         .buffer = storage->buffer,
         .size = size.accelerationStructureSize,
         .type = type,
     };
-    VK_CHECK(dev->as.create(dev->device, &ci, NULL, out));
+    VkResult vr = pn_gpu_fault(dev, "vkCreateAccelerationStructureKHR", what, 0) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
+                                                                                 : dev->as.create(dev->device, &ci, NULL, out);
+    if (vr != VK_SUCCESS) {
+        *out = VK_NULL_HANDLE;
+        pn_error("vkCreateAccelerationStructureKHR failed for the %s: %s", what, pn_vk_result_str(vr));
+        return vr == VK_ERROR_OUT_OF_DEVICE_MEMORY || vr == VK_ERROR_OUT_OF_HOST_MEMORY ? PN_ERR_MEMORY : PN_ERR_VULKAN;
+    }
     // Scratch addresses must be aligned; the buffer is grown by the alignment to leave room.
     VkDeviceSize align = dev->as_props.minAccelerationStructureScratchOffsetAlignment;
     align = align ? align : 1;
-    PN_TRY(pn_gpu_buffer_create(dev, size.buildScratchSize + align,
+    snprintf(what, sizeof what, "build scratch of the %s acceleration structure", level);
+    PN_TRY(pn_gpu_buffer_create(dev, what, size.buildScratchSize + align,
                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT,
                                 PN_GPU_DEVICE_LOCAL, scratch));
     bi.dstAccelerationStructure = *out;
@@ -73,7 +83,8 @@ static pn_result build(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *t
     uint32_t count;
     PN_TRY(pn_triangles_morton(scene, &xyz, NULL, &count));
     t->sort_ms = pn_ms_since(t0);
-    pn_result r = count ? pn_gpu_buffer_create_with_data(dev, xyz, (VkDeviceSize)count * 36, BUILD_INPUT, &t->vertices)
+    pn_result r = count ? pn_gpu_buffer_create_with_data(dev, "acceleration structure's triangles", xyz,
+                                                                 (VkDeviceSize)count * 36, BUILD_INPUT, &t->vertices)
                         : PN_ERR_INVALID;
     free(xyz);
     if (count == 0)
@@ -108,7 +119,7 @@ static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t,
                                .maxVertex = 3 * count - 1,
                                .indexType = VK_INDEX_TYPE_NONE_KHR},
     };
-    PN_TRY(build_level(dev, cmd, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, &tris, count, &t->blas_buffer, &t->blas,
+    PN_TRY(build_level(dev, cmd, "bottom-level", VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, &tris, count, &t->blas_buffer, &t->blas,
                        &scratch[0]));
     VkAccelerationStructureInstanceKHR inst = {
         .transform = {.matrix = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}},
@@ -116,7 +127,8 @@ static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t,
         .flags = VK_GEOMETRY_INSTANCE_TRIANGLE_FACING_CULL_DISABLE_BIT_KHR,
         .accelerationStructureReference = as_address(dev, t->blas),
     };
-    PN_TRY(pn_gpu_buffer_create_with_data(dev, &inst, sizeof inst, BUILD_INPUT, &t->instances));
+    PN_TRY(pn_gpu_buffer_create_with_data(dev, "acceleration structure's instance", &inst, sizeof inst, BUILD_INPUT,
+                                          &t->instances));
     // The bottom level is written before the top level's build reads it.
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
@@ -132,7 +144,7 @@ static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t,
         .geometry.instances = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR,
                                .data.deviceAddress = t->instances.address},
     };
-    PN_TRY(build_level(dev, cmd, VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, &insts, 1, &t->tlas_buffer, &t->tlas,
+    PN_TRY(build_level(dev, cmd, "top-level", VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, &insts, 1, &t->tlas_buffer, &t->tlas,
                        &scratch[1]));
     // Ready for the shadow pass's ray queries.
     pn_gpu_cmd_barrier(cmd,
