@@ -245,6 +245,13 @@ ls -a "$TMP" | grep -q '\.tmp-' && { echo "FAIL: temporary file left behind"; ls
 expect 2 "adir.*(cannot|Is a directory)" -- diff "$TMP/good.exr" "$TMP/good.exr" -o "$TMP/adir"
 "$BIN" diff "$TMP/good.exr" "$TMP/good.exr" --fail max=0 >/dev/null || { echo "FAIL: good.exr differs from itself"; fail=1; }
 ls -a "$TMP" "$TMP/adir" | grep -q '\.tmp-' && { echo "FAIL: temporary file left behind"; ls -a "$TMP"; fail=1; }
+# Broken EXRs given to diff (either side): exit 2, the file named with its problem, no error image.
+printf 'not an EXR at all' > "$TMP/garbage.exr"
+head -c "$(($(stat -c %s "$TMP/good.exr") * 3 / 4))" "$TMP/good.exr" > "$TMP/truncated.exr"
+"$BIN" diff "$TMP/good.exr" "$TMP/good.exr" -o "$TMP/error.exr" >/dev/null || { echo "FAIL: diff -o error.exr"; fail=1; }
+expect 2 "garbage.exr: not a readable EXR" -- diff "$TMP/garbage.exr" "$TMP/good.exr" -o "$TMP/out.exr"
+expect 2 "truncated.exr: .*(damaged|EXR)" -- diff "$TMP/good.exr" "$TMP/truncated.exr" -o "$TMP/out.exr"
+expect 2 "error.exr: no channel 'shadow.V'" -- diff "$TMP/error.exr" "$TMP/good.exr" -o "$TMP/out.exr"
 
 chmod 644 "$TMP/unreadable.glb"
 exit $fail
