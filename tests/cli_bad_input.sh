@@ -252,6 +252,12 @@ head -c "$(($(stat -c %s "$TMP/good.exr") * 3 / 4))" "$TMP/good.exr" > "$TMP/tru
 expect 2 "garbage.exr: not a readable EXR" -- diff "$TMP/garbage.exr" "$TMP/good.exr" -o "$TMP/out.exr"
 expect 2 "truncated.exr: .*(damaged|EXR)" -- diff "$TMP/good.exr" "$TMP/truncated.exr" -o "$TMP/out.exr"
 expect 2 "error.exr: no channel 'shadow.V'" -- diff "$TMP/error.exr" "$TMP/good.exr" -o "$TMP/out.exr"
+# The same broken file as bench's G-buffer: refused before any work, nothing written.
+expect 1 "garbage.exr: not a readable EXR" -- bench --shader shadow --gbuffer "$TMP/garbage.exr" \
+  --scenes builtin:default --out "$TMP/bench-out"
+expect 1 "error.exr: no P.X channel" -- bench --shader shadow --gbuffer "$TMP/error.exr" \
+  --scenes builtin:default --out "$TMP/bench-out"
+[ -e "$TMP/bench-out" ] && { echo "FAIL: bench created its output folder for a G-buffer it refused"; fail=1; }
 
 chmod 644 "$TMP/unreadable.glb"
 exit $fail
