@@ -5,7 +5,8 @@
 # (clang, build-asan/), which must report nothing, and each libFuzzer target for a bounded time.
 # Arguments go to both ctest runs (e.g. -R hostile). Environment:
 #   PN_SANITIZERS=0     skip the sanitizer build, its tests and the fuzzing
-#   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing)
+#   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing); four targets,
+#                       two at a time: the step takes about 2 x N seconds
 # How the sanitizer run is set up, and why: tests/sanitizers.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,31 +34,39 @@ seconds=${PN_FUZZ_SECONDS:-60}
 [ "$seconds" -gt 0 ] || exit 0
 t0=$SECONDS
 step "fuzzing, ${seconds} s per target"
-# Both targets at once, one core each. New inputs go to build-asan/fuzz/<target>/new, never into
-# the corpus in tests/fuzz; a crash leaves its input in build-asan/fuzz/<target>/ as crash-*.
-pids=()
-for target in scene cli; do
-  dir=build-asan/fuzz/$target
-  mkdir -p "$dir/new"
-  dict=tests/fuzz/gltf.dict
-  [ "$target" = cli ] && dict=tests/fuzz/cli.dict
-  build-asan/tests/fuzz/fuzz_$target -max_total_time="$seconds" -timeout=20 -rss_limit_mb=3072 \
-    -dict="$dict" -artifact_prefix="$dir/" -print_final_stats=1 "$dir/new" "tests/fuzz/corpus_$target" \
-    >"$dir/log.txt" 2>&1 &
-  pids+=($!)
-done
+# Four targets on two cores: two at a time, one core each, so the step takes about 2 x seconds.
+# New inputs go to build-asan/fuzz/<target>/new, never into the corpus in tests/fuzz; a crash
+# leaves its input in build-asan/fuzz/<target>/ as crash-*.
+dict_of() {
+  case $1 in
+    scene) echo tests/fuzz/gltf.dict ;;
+    *) echo "tests/fuzz/$1.dict" ;;
+  esac
+}
 status=0
-for i in 0 1; do
-  target=$([ "$i" = 0 ] && echo scene || echo cli)
-  if wait "${pids[$i]}"; then
-    echo "fuzz_$target: $(grep -E '^Done [0-9]+ runs' "build-asan/fuzz/$target/log.txt"), no crash"
-  else
-    status=1
-    echo "FAIL: fuzz_$target found a crash: build-asan/fuzz/$target/log.txt ends with"
-    tail -n 40 "build-asan/fuzz/$target/log.txt"
-    echo "Reproduce with build-asan/tests/fuzz/fuzz_$target <crash file>; once fixed, add the file to"
-    echo "tests/fuzz/corpus_$target/ as regress_<what>, so that ctest replays it (tests/sanitizers.md)."
-  fi
+for pair in "scene cli" "exr script"; do
+  read -r -a targets <<<"$pair"
+  pids=()
+  for target in "${targets[@]}"; do
+    dir=build-asan/fuzz/$target
+    mkdir -p "$dir/new"
+    build-asan/tests/fuzz/fuzz_$target -max_total_time="$seconds" -timeout=20 -rss_limit_mb=3072 \
+      -dict="$(dict_of "$target")" -artifact_prefix="$dir/" -print_final_stats=1 "$dir/new" \
+      "tests/fuzz/corpus_$target" >"$dir/log.txt" 2>&1 &
+    pids+=($!)
+  done
+  for i in "${!targets[@]}"; do
+    target=${targets[$i]}
+    if wait "${pids[$i]}"; then
+      echo "fuzz_$target: $(grep -E '^Done [0-9]+ runs' "build-asan/fuzz/$target/log.txt"), no crash"
+    else
+      status=1
+      echo "FAIL: fuzz_$target found a crash: build-asan/fuzz/$target/log.txt ends with"
+      tail -n 40 "build-asan/fuzz/$target/log.txt"
+      echo "Reproduce with build-asan/tests/fuzz/fuzz_$target <crash file>; once fixed, add the file to"
+      echo "tests/fuzz/corpus_$target/ as regress_<what>, so that ctest replays it (tests/sanitizers.md)."
+    fi
+  done
 done
 echo "== fuzzing: $((SECONDS - t0)) s"
 exit $status

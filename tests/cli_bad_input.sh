@@ -245,6 +245,19 @@ ls -a "$TMP" | grep -q '\.tmp-' && { echo "FAIL: temporary file left behind"; ls
 expect 2 "adir.*(cannot|Is a directory)" -- diff "$TMP/good.exr" "$TMP/good.exr" -o "$TMP/adir"
 "$BIN" diff "$TMP/good.exr" "$TMP/good.exr" --fail max=0 >/dev/null || { echo "FAIL: good.exr differs from itself"; fail=1; }
 ls -a "$TMP" "$TMP/adir" | grep -q '\.tmp-' && { echo "FAIL: temporary file left behind"; ls -a "$TMP"; fail=1; }
+# Broken EXRs given to diff (either side): exit 2, the file named with its problem, no error image.
+printf 'not an EXR at all' > "$TMP/garbage.exr"
+head -c "$(($(stat -c %s "$TMP/good.exr") * 3 / 4))" "$TMP/good.exr" > "$TMP/truncated.exr"
+"$BIN" diff "$TMP/good.exr" "$TMP/good.exr" -o "$TMP/error.exr" >/dev/null || { echo "FAIL: diff -o error.exr"; fail=1; }
+expect 2 "garbage.exr: not a readable EXR" -- diff "$TMP/garbage.exr" "$TMP/good.exr" -o "$TMP/out.exr"
+expect 2 "truncated.exr: .*(damaged|EXR)" -- diff "$TMP/good.exr" "$TMP/truncated.exr" -o "$TMP/out.exr"
+expect 2 "error.exr: no channel 'shadow.V'" -- diff "$TMP/error.exr" "$TMP/good.exr" -o "$TMP/out.exr"
+# The same broken file as bench's G-buffer: refused before any work, nothing written.
+expect 1 "garbage.exr: not a readable EXR" -- bench --shader shadow --gbuffer "$TMP/garbage.exr" \
+  --scenes builtin:default --out "$TMP/bench-out"
+expect 1 "error.exr: no P.X channel" -- bench --shader shadow --gbuffer "$TMP/error.exr" \
+  --scenes builtin:default --out "$TMP/bench-out"
+[ -e "$TMP/bench-out" ] && { echo "FAIL: bench created its output folder for a G-buffer it refused"; fail=1; }
 
 chmod 644 "$TMP/unreadable.glb"
 exit $fail

@@ -2,6 +2,7 @@
 // --shader shadow --gbuffer.
 #include <dirent.h>
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -352,9 +353,22 @@ pn_result pn_bench_load_gbuffer(bench_opts *o)
             return PN_ERR_FORMAT;
         }
     size_t px = (size_t)img.width * img.height;
+    // The shadow rays start at P and leave along N: a non-finite one has no path through the tree.
+    // A render's AOVs are finite everywhere (0 off geometry), so anything else is a damaged file.
+    for (int c = 0; c < 7; c++)
+        for (size_t i = 0; i < px; i++)
+            if (!isfinite(ch[c][i])) {
+                pn_error("%s: %s is not finite at pixel (%zu, %zu)", o->gbuffer, names[c], i % (size_t)img.width,
+                         i / (size_t)img.width);
+                pn_exr_image_free(&img);
+                return PN_ERR_FORMAT;
+            }
     o->gb_p = calloc(px * 4, sizeof(float));
     o->gb_n = calloc(px * 4, sizeof(float));
     if (!o->gb_p || !o->gb_n) {
+        pn_error("%s: out of memory for a %dx%d G-buffer", o->gbuffer, img.width, img.height);
+        free(o->gb_p), free(o->gb_n);
+        o->gb_p = o->gb_n = NULL;
         pn_exr_image_free(&img);
         return PN_ERR_MEMORY;
     }

@@ -14,10 +14,34 @@
 // kept as pn_camera (no yaw/pitch state): untouched, it stays bit-identical to render's, so
 // screenshots of a fixed view compare.
 
+// Takes a camera move when the camera stays one render would take: position and target within
+// PN_MAX_COORD of the origin (render refuses beyond; a script can zoom or pan by up to 1e30 and
+// repeat it, which overflows to infinity) and apart (far from the origin, float rounding can merge
+// them: no view direction). Otherwise logs why and leaves the camera as it was.
+static void move_camera(pn_demo *d, const char *what, const vec3 pos, const vec3 target)
+{
+    bool apart = false;
+    for (int k = 0; k < 3; k++) {
+        if (!(fabsf(pos[k]) <= PN_MAX_COORD && fabsf(target[k]) <= PN_MAX_COORD)) {
+            pn_warn("demo: %s would take the camera beyond %g from the origin: not moved", what,
+                    (double)PN_MAX_COORD);
+            return;
+        }
+        apart = apart || pos[k] != target[k];
+    }
+    if (!apart) {
+        pn_warn("demo: %s would put the camera on its target (float precision): not moved", what);
+        return;
+    }
+    glm_vec3_copy((float *)pos, d->camera.pos);
+    glm_vec3_copy((float *)target, d->camera.target);
+    d->restart = true;
+}
+
 void pn_demo_orbit(pn_demo *d, float yaw_deg, float pitch_deg)
 {
     pn_camera *c = &d->camera;
-    vec3 up, offset, right;
+    vec3 up, offset, right, pos;
     glm_vec3_normalize_to(c->up, up);
     glm_vec3_sub(c->pos, c->target, offset);
     glm_vec3_rotate(offset, glm_rad(yaw_deg), up);
@@ -31,14 +55,14 @@ void pn_demo_orbit(pn_demo *d, float yaw_deg, float pitch_deg)
         if (fabsf(cosine) < 0.996f)
             glm_vec3_copy(pitched, offset);
     }
-    glm_vec3_add(c->target, offset, c->pos);
-    d->restart = true;
+    glm_vec3_add(c->target, offset, pos);
+    move_camera(d, "orbit", pos, c->target);
 }
 
 void pn_demo_pan(pn_demo *d, float x, float y)
 {
     pn_camera *c = &d->camera;
-    vec3 fwd, right, up, move;
+    vec3 fwd, right, up, move, pos, target;
     glm_vec3_sub(c->target, c->pos, fwd);
     float dist = glm_vec3_norm(fwd);
     glm_vec3_normalize(fwd);
@@ -48,23 +72,23 @@ void pn_demo_pan(pn_demo *d, float x, float y)
     float h = 2.0f * dist * tanf(glm_rad(c->yfov_deg) * 0.5f);
     glm_vec3_scale(right, -x * h, move);
     glm_vec3_muladds(up, y * h, move);
-    glm_vec3_add(c->pos, move, c->pos);
-    glm_vec3_add(c->target, move, c->target);
-    d->restart = true;
+    glm_vec3_add(c->pos, move, pos);
+    glm_vec3_add(c->target, move, target);
+    move_camera(d, "pan", pos, target);
 }
 
 void pn_demo_zoom(pn_demo *d, float factor)
 {
     pn_camera *c = &d->camera;
-    vec3 offset;
+    vec3 offset, pos;
     glm_vec3_sub(c->pos, c->target, offset);
     float dist = glm_vec3_norm(offset);
     float min_dist = 1e-3f * d->radius;
     if (dist * factor < min_dist)
         factor = min_dist / dist;
     glm_vec3_scale(offset, factor, offset);
-    glm_vec3_add(c->target, offset, c->pos);
-    d->restart = true;
+    glm_vec3_add(c->target, offset, pos);
+    move_camera(d, "zoom", pos, c->target);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -3,6 +3,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/types.h>
 
 #include "apps/demo.h"
 
@@ -97,15 +98,32 @@ pn_result pn_demo_script_load(const char *path, pn_demo_script *out)
         return PN_ERR_IO;
     }
     uint32_t cap = 0;
-    char line[4096];
+    // getline, not fgets into a fixed buffer: a longer line would come back in pieces, each parsed
+    // as a line of its own under the next line's number.
+    char *line = NULL;
+    size_t line_cap = 0;
+    ssize_t len;
     pn_result r = PN_OK;
-    for (uint32_t number = 1; r == PN_OK && fgets(line, sizeof line, f); number++) {
+    for (uint32_t number = 1; r == PN_OK && (len = getline(&line, &line_cap, f)) >= 0; number++) {
+        // A NUL would cut the line short unseen (strtok and the rest stop at it): not a text file.
+        if (memchr(line, '\0', (size_t)len)) {
+            pn_error("%s:%u: a NUL byte: not a text file", path, number);
+            r = PN_ERR_FORMAT;
+            break;
+        }
         char *hash = strchr(line, '#');
         if (hash)
             *hash = '\0';
         if (strspn(line, " \t\r\n") == strlen(line))
             continue;
         if (out->count == cap) {
+            // Each event is over 1 KiB (the screenshot path): a count that would overflow the
+            // size is refused rather than wrapped.
+            if (cap > UINT32_MAX / 2 || (size_t)cap * 2 > SIZE_MAX / sizeof *out->events) {
+                r = PN_ERR_MEMORY;
+                pn_error("%s:%u: too many events", path, number);
+                break;
+            }
             cap = cap ? 2 * cap : 64;
             pn_demo_event *grown = realloc(out->events, cap * sizeof *grown);
             if (!grown) {
@@ -126,6 +144,7 @@ pn_result pn_demo_script_load(const char *path, pn_demo_script *out)
             out->count++;
         }
     }
+    free(line);
     if (r == PN_OK && ferror(f)) {
         pn_error("%s: read error", path);
         r = PN_ERR_IO;
@@ -135,7 +154,10 @@ pn_result pn_demo_script_load(const char *path, pn_demo_script *out)
         pn_demo_script_destroy(out);
         return r;
     }
-    qsort(out->events, out->count, sizeof *out->events, by_frame);
+    // A script of comments alone has no events and no array: qsort's pointer must not be NULL even
+    // for 0 elements.
+    if (out->count > 1)
+        qsort(out->events, out->count, sizeof *out->events, by_frame);
     return PN_OK;
 }
 

@@ -389,6 +389,7 @@ static char *copy_str(const char *s, size_t n)
 typedef struct exr_reader {
     const char *path;
     exr_context_t ctx;
+    exr_compression_t comp;
     exr_attr_box2i_t dw;
     int width, height;
     pn_exr_image *img;
@@ -468,6 +469,27 @@ static pn_result decode_chunk(exr_reader *rd, exr_decode_pipeline_t *dec, int *i
     return PN_OK;
 }
 
+// Bytes a chunk of packed_size bytes can decode to, at most. Every codec but DWA has a bounded
+// ratio: none 1, RLE 64 (2 bytes make a run of 128), ZIP and ZIPS 1032 (deflate's limit), PXR24
+// 1376 (deflate of 3 bytes a float), B44 11, PIZ about 450 (a run of 255 16-bit values in 9 bits
+// of Huffman code). One generous bound covers them all, with room for the small chunks whose
+// headers dominate. Without it a file of a few hundred bytes could claim a 4 GiB image in one
+// chunk, which the reader would allocate before the decoder finds the data missing.
+#define PN_EXR_MAX_RATIO 2048
+#define PN_EXR_RATIO_SLACK 65536
+
+static pn_result check_chunk_size(exr_reader *rd, const exr_chunk_info_t *cinfo)
+{
+    if (rd->comp == EXR_COMPRESSION_DWAA || rd->comp == EXR_COMPRESSION_DWAB)
+        return PN_OK; // RLE and deflate in series: no useful bound
+    if (cinfo->packed_size > UINT64_MAX / PN_EXR_MAX_RATIO - PN_EXR_RATIO_SLACK ||
+        cinfo->unpacked_size <= cinfo->packed_size * PN_EXR_MAX_RATIO + PN_EXR_RATIO_SLACK)
+        return PN_OK;
+    pn_error("%s: damaged EXR: chunk %d claims %llu bytes of pixels from %llu bytes of data", rd->path,
+             cinfo->idx, (unsigned long long)cinfo->unpacked_size, (unsigned long long)cinfo->packed_size);
+    return PN_ERR_FORMAT;
+}
+
 static pn_result chunk_info_error(exr_reader *rd, exr_result_t rv)
 {
     pn_error("%s: damaged EXR: %s", rd->path, exr_msg(rv));
@@ -494,8 +516,10 @@ static pn_result read_scanlines(exr_reader *rd, int pass)
             r = chunk_info_error(rd, rv);
             break;
         }
-        if (pass == 0)
-            continue; // first pass only checks that every chunk is in the file
+        if (pass == 0) { // the first pass only checks that every chunk is in the file, and plausible
+            r = check_chunk_size(rd, &cinfo);
+            continue;
+        }
         r = decode_chunk(rd, &dec, &initialized, &cinfo, (int64_t)cinfo.start_x - rd->dw.min.x,
                          (int64_t)cinfo.start_y - rd->dw.min.y);
     }
@@ -529,8 +553,10 @@ static pn_result read_tiles(exr_reader *rd, int pass)
                 r = chunk_info_error(rd, rv);
                 break;
             }
-            if (pass == 0)
+            if (pass == 0) {
+                r = check_chunk_size(rd, &cinfo);
                 continue;
+            }
             r = decode_chunk(rd, &dec, &initialized, &cinfo, x0, y0);
         }
     }
@@ -569,6 +595,7 @@ static pn_result read_part(exr_reader *rd)
         pn_error("%s: damaged EXR: %s", rd->path, exr_msg(rv));
         return PN_ERR_FORMAT;
     }
+    rd->comp = comp;
     if ((comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB) && !core_has_dwa()) {
         int maj = 0, min = 0, patch = 0;
         exr_get_library_version(&maj, &min, &patch, NULL);
