@@ -19,6 +19,7 @@
 #include "gpu/renderer.h"
 #include "scene/scene.h"
 #include "scene/view.h"
+#include "fuzz_util.h"
 
 enum { MAX_ARGS = 64 };
 
@@ -37,13 +38,6 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     return 0;
 }
 
-#define REQUIRE(cond)                                                                              \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            fprintf(stderr, "fuzz_cli: invariant violated: %s (line %d)\n", #cond, __LINE__);      \
-            abort();                                                                               \
-        }                                                                                          \
-    } while (0)
 
 static bool finite3(const float v[3]) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 

@@ -29,6 +29,7 @@
 #include "apps/commands.h"
 #include "core/log.h"
 #include "io/exr.h"
+#include "fuzz_util.h"
 
 static char g_dir[256], g_path[512];
 
@@ -47,24 +48,12 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     // diff prints its table to stdout: keep the fuzzer's output readable.
     if (quiet && !freopen("/dev/null", "w", stdout))
         abort();
-    const char *tmp = getenv("TMPDIR");
-    snprintf(g_dir, sizeof g_dir, "%s/pn_fuzz_exr.XXXXXX", tmp && *tmp ? tmp : "/tmp");
-    if (!mkdtemp(g_dir)) {
-        perror("fuzz_exr: mkdtemp");
-        exit(1);
-    }
+    pn_fuzz_make_dir(g_dir, sizeof g_dir, "fuzz_exr");
     snprintf(g_path, sizeof g_path, "%s/input.exr", g_dir);
     atexit(remove_files);
     return 0;
 }
 
-#define REQUIRE(cond)                                                                              \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            fprintf(stderr, "fuzz_exr: invariant violated: %s (line %d)\n", #cond, __LINE__);      \
-            abort();                                                                               \
-        }                                                                                          \
-    } while (0)
 
 static const char *const GBUFFER[7] = {"P.X", "P.Y", "P.Z", "A", "N.X", "N.Y", "N.Z"};
 

@@ -15,6 +15,7 @@
 
 #include "core/log.h"
 #include "scene/scene.h"
+#include "fuzz_util.h"
 
 static char g_dir[256], g_glb[512], g_gltf[512];
 
@@ -30,25 +31,13 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argc, (void)argv;
     const char *verbose = getenv("PN_FUZZ_VERBOSE");
     pn_log_set_level(verbose && *verbose == '1' ? PN_LOG_DEBUG : PN_LOG_QUIET);
-    const char *tmp = getenv("TMPDIR");
-    snprintf(g_dir, sizeof g_dir, "%s/pn_fuzz_scene.XXXXXX", tmp && *tmp ? tmp : "/tmp");
-    if (!mkdtemp(g_dir)) {
-        perror("fuzz_scene: mkdtemp");
-        exit(1);
-    }
+    pn_fuzz_make_dir(g_dir, sizeof g_dir, "fuzz_scene");
     snprintf(g_glb, sizeof g_glb, "%s/input.glb", g_dir);
     snprintf(g_gltf, sizeof g_gltf, "%s/input.gltf", g_dir);
     atexit(remove_files);
     return 0;
 }
 
-#define REQUIRE(cond)                                                                              \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            fprintf(stderr, "fuzz_scene: invariant violated: %s (line %d)\n", #cond, __LINE__);    \
-            abort();                                                                               \
-        }                                                                                          \
-    } while (0)
 
 // What every stage after the loader relies on (see scene/scene.h).
 static void check_scene(const pn_scene *s)

@@ -28,6 +28,7 @@
 #include "apps/demo.h"
 #include "core/log.h"
 #include "scene/scene.h"
+#include "fuzz_util.h"
 
 static char g_dir[256], g_path[512];
 static pn_scene g_scene; // fuzz_scene's seed_nodes.gltf (two objects to move), loaded once
@@ -45,24 +46,12 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     pn_log_set_level(verbose && *verbose == '1' ? PN_LOG_DEBUG : PN_LOG_QUIET);
     if (pn_scene_load(PN_FUZZ_SCRIPT_SCENE, &g_scene) != PN_OK || g_scene.object_count < 2)
         abort();
-    const char *tmp = getenv("TMPDIR");
-    snprintf(g_dir, sizeof g_dir, "%s/pn_fuzz_script.XXXXXX", tmp && *tmp ? tmp : "/tmp");
-    if (!mkdtemp(g_dir)) {
-        perror("fuzz_script: mkdtemp");
-        exit(1);
-    }
+    pn_fuzz_make_dir(g_dir, sizeof g_dir, "fuzz_script");
     snprintf(g_path, sizeof g_path, "%s/input.script", g_dir);
     atexit(remove_files);
     return 0;
 }
 
-#define REQUIRE(cond)                                                                              \
-    do {                                                                                           \
-        if (!(cond)) {                                                                             \
-            fprintf(stderr, "fuzz_script: invariant violated: %s (line %d)\n", #cond, __LINE__);   \
-            abort();                                                                               \
-        }                                                                                          \
-    } while (0)
 
 static bool whole(float v, float lo, float hi) { return v >= lo && v <= hi && v == floorf(v); }
 
