@@ -50,6 +50,12 @@ typedef struct pn_gpu_device {
         PFN_vkGetAccelerationStructureDeviceAddressKHR address;
     } as;
     unsigned validation_messages; // warnings and errors reported by the layer so far
+    // penumbra's live VkDeviceMemory (every allocation goes through gpu/resources.c): bytes and
+    // count. Plain counters: like the queue and the command pool, the device is used from one
+    // thread (the demo's worker builds trees on the CPU only).
+    VkDeviceSize memory_bytes;
+    uint32_t memory_allocations;
+    bool memory_budget; // VK_EXT_memory_budget enabled: pn_gpu_device_heap_usage answers
 } pn_gpu_device;
 
 // Desc from the environment: PN_VALIDATION=1 turns validation on, PN_DEVICE selects the device.
@@ -81,6 +87,10 @@ VkDeviceSize pn_gpu_device_pool_budget(const pn_gpu_device *dev);
 
 // Size of the largest device-local heap.
 VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev);
+
+// With VK_EXT_memory_budget (dev->memory_budget): the driver's figure of the bytes in use, summed
+// over the heaps (this process's, as the extension defines it), into *bytes; false without it.
+bool pn_gpu_device_heap_usage(const pn_gpu_device *dev, VkDeviceSize *bytes);
 
 // One-shot command buffers for uploads and single frames: begin, then submit and wait.
 pn_result pn_gpu_begin_once(pn_gpu_device *dev, VkCommandBuffer *cmd);

@@ -28,7 +28,17 @@ static pn_result allocate(pn_gpu_device *dev, VkMemoryRequirements req, VkMemory
         return PN_ERR_MEMORY;
     }
     VK_CHECK(r);
+    dev->memory_bytes += req.size;
+    dev->memory_allocations++;
     return PN_OK;
+}
+
+// Every vkFreeMemory of penumbra goes through here, so that the tally matches the live allocations.
+static void release(pn_gpu_device *dev, VkDeviceMemory memory, VkDeviceSize bytes)
+{
+    vkFreeMemory(dev->device, memory, NULL); // unmaps implicitly
+    dev->memory_bytes -= bytes;
+    dev->memory_allocations--;
 }
 
 pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUsageFlags usage,
@@ -64,6 +74,7 @@ pn_result pn_gpu_buffer_create(pn_gpu_device *dev, VkDeviceSize size, VkBufferUs
         pn_gpu_buffer_destroy(dev, out);
         return r;
     }
+    out->memory_bytes = req.size;
     VK_CHECK(vkBindBufferMemory(dev->device, out->buffer, out->memory, 0));
     if (address) {
         VkBufferDeviceAddressInfo ai = {.sType = VK_STRUCTURE_TYPE_BUFFER_DEVICE_ADDRESS_INFO, .buffer = out->buffer};
@@ -79,7 +90,7 @@ void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf)
     if (buf->buffer)
         vkDestroyBuffer(dev->device, buf->buffer, NULL);
     if (buf->memory)
-        vkFreeMemory(dev->device, buf->memory, NULL); // unmaps implicitly
+        release(dev, buf->memory, buf->memory_bytes);
     memset(buf, 0, sizeof *buf);
 }
 
@@ -159,6 +170,7 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
         pn_gpu_image_destroy(dev, out);
         return r;
     }
+    out->memory_bytes = req.size;
     VK_CHECK(vkBindImageMemory(dev->device, out->image, out->memory, 0));
     VkImageViewCreateInfo vi = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
@@ -178,7 +190,7 @@ void pn_gpu_image_destroy(pn_gpu_device *dev, pn_gpu_image *img)
     if (img->image)
         vkDestroyImage(dev->device, img->image, NULL);
     if (img->memory)
-        vkFreeMemory(dev->device, img->memory, NULL);
+        release(dev, img->memory, img->memory_bytes);
     memset(img, 0, sizeof *img);
 }
 

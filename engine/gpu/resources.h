@@ -7,6 +7,7 @@ typedef struct pn_gpu_buffer {
     VkBuffer buffer;
     VkDeviceMemory memory;
     VkDeviceSize size;
+    VkDeviceSize memory_bytes; // of `memory` (the driver's requirement, >= size): the device's tally
     void *mapped;           // non-NULL for host-visible buffers (persistently mapped)
     VkDeviceAddress address; // with VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT in the usage
 } pn_gpu_buffer;
@@ -32,6 +33,7 @@ pn_result pn_gpu_buffer_write(pn_gpu_device *dev, pn_gpu_buffer *buf, VkDeviceSi
 typedef struct pn_gpu_image {
     VkImage image;
     VkDeviceMemory memory;
+    VkDeviceSize memory_bytes; // of `memory`: the device's tally
     VkImageView view;
     VkFormat format;
     VkExtent2D extent;
