@@ -322,14 +322,12 @@ static void fill_staging(pn_demo *d)
 
 static void record_stats(pn_demo *d)
 {
-    if (d->history_count == d->history_cap) {
-        size_t cap = d->history_cap ? 2 * d->history_cap : 256;
-        pn_demo_stats *grown = realloc(d->history, cap * sizeof *grown);
-        if (!grown)
-            return; // the medians then leave out later frames; not worth failing the demo for
-        d->history = grown, d->history_cap = cap;
-    }
-    d->history[d->history_count++] = d->stats;
+    // Whole at the first frame: the ring never grows after (tests/demo_soak.sh watches the memory).
+    if (!d->history && !(d->history = malloc(PN_DEMO_HISTORY * sizeof *d->history)))
+        return; // no medians at exit; not worth failing the demo for
+    d->history[d->history_total++ % PN_DEMO_HISTORY] = d->stats;
+    if (d->history_count < PN_DEMO_HISTORY)
+        d->history_count++;
 }
 
 static int by_value(const void *a, const void *b)
@@ -386,6 +384,8 @@ static void print_summary(const pn_demo *d, const pn_demo_opts *o, uint32_t widt
     if (d->history_count == 0)
         return;
 #define MED(f) median(d, offsetof(pn_demo_stats, f), ALL_FRAMES, NULL)
+    if (d->history_total > d->history_count)
+        printf("  of %llu rendered frames, the last %zu:\n", (unsigned long long)d->history_total, d->history_count);
     printf("  medians of %zu rendered frames: frame %.1f ms (render %.1f, compose %.1f, present %.1f); "
            "gpu ms gbuffer %.2f, shadow %.2f, shade %.2f; %.3g shadow rays/s\n",
            d->history_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),

@@ -169,12 +169,16 @@ typedef struct pn_demo_move {
 typedef struct pn_demo_memory {
     uint64_t rss_bytes;           // resident now (/proc/self/statm; 0 where it cannot be read)
     uint64_t peak_rss_bytes;      // the most resident so far (getrusage)
+    uint64_t heap_bytes;          // malloc'd and not freed, every library's (glibc: mallinfo2)
+    bool heap;                    // ... where the C library tells
     uint64_t device_bytes;        // penumbra's live VkDeviceMemory (pn_gpu_device.memory_bytes)
     uint32_t device_allocations;
     uint64_t heap_usage_bytes;    // the driver's VK_EXT_memory_budget heapUsage, summed over heaps
                                   // (lavapipe: the machine's memory in use, other processes' too)
     bool heap_usage;              // ... when the device has the extension
 } pn_demo_memory;
+
+enum { PN_DEMO_HISTORY = 4096 }; // frames (120 bytes each)
 
 typedef struct pn_demo {
     // What is shown: the render options (size, mode, traversal, sampler, spp, seed, tree, exposure)
@@ -223,8 +227,11 @@ typedef struct pn_demo {
 
     uint64_t frame;           // frames presented
     pn_demo_stats stats;
-    pn_demo_stats *history;   // of every frame that rendered, for the medians printed at exit
-    size_t history_count, history_cap;
+    // The last PN_DEMO_HISTORY rendered frames' figures, for the medians printed at exit: a ring,
+    // so that a demo left running for hours holds the same memory as after a minute.
+    pn_demo_stats *history;
+    size_t history_count;     // held, at most PN_DEMO_HISTORY
+    uint64_t history_total;   // rendered frames recorded in all; the next goes to [total % PN_DEMO_HISTORY]
     const char *save_prefix;  // P writes <prefix>-NNNN.exr/.png
     FILE *stats_file;         // --stats: a sample every stats_every frames (NULL: none)
     uint32_t stats_every;

@@ -2,6 +2,9 @@
 // the configuration they belong to, so that a long run shows whether either grows (tests/demo_soak.sh).
 #include <errno.h>
 #include <string.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -32,6 +35,13 @@ pn_demo_memory pn_demo_memory_now(const pn_demo *d)
         m.peak_rss_bytes = (uint64_t)ru.ru_maxrss * 1024;
     if (m.peak_rss_bytes < m.rss_bytes)
         m.peak_rss_bytes = m.rss_bytes;
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || __GLIBC_MINOR__ >= 33)
+    // What malloc has handed out and not had back, over all its arenas: unlike the resident figure,
+    // free memory glibc keeps (per-thread arenas, fragmentation) does not count.
+    struct mallinfo2 mi = mallinfo2();
+    m.heap_bytes = mi.uordblks + mi.hblkhd;
+    m.heap = true;
+#endif
     VkDeviceSize usage;
     if (d->dev.device && pn_gpu_device_heap_usage(&d->dev, &usage))
         m.heap_usage_bytes = usage, m.heap_usage = true;
@@ -62,10 +72,11 @@ pn_result pn_demo_stats_open(pn_demo *d, const char *path, uint32_t every)
     d->stats_every = every;
     fprintf(d->stats_file,
             "# penumbra demo --stats: one sample every %u frames, after the frame was presented.\n"
-            "# rss, peak_rss: the process's resident memory (/proc/self/statm, getrusage); device, allocations:\n"
-            "# penumbra's live VkDeviceMemory; heap_usage: the driver's VK_EXT_memory_budget figure (-1: none);\n"
-            "# pools: the drawn tree's; building: a tree build running on the worker. Bytes.\n"
-            "frame\trss\tpeak_rss\tdevice\tallocations\theap_usage\tpools\tbuilding\tconfig\n",
+            "# rss, peak_rss: the process's resident memory (/proc/self/statm, getrusage); malloc: bytes allocated\n"
+            "# with malloc and not freed, by every library in the process (glibc's mallinfo2; -1: none);\n"
+            "# device, allocations: penumbra's live VkDeviceMemory; heap_usage: the driver's VK_EXT_memory_budget\n"
+            "# figure (-1: none); pools: the drawn tree's; building: a tree build running on the worker. Bytes.\n"
+            "frame\trss\tpeak_rss\tmalloc\tdevice\tallocations\theap_usage\tpools\tbuilding\tconfig\n",
             every);
     fflush(d->stats_file);
     return PN_OK;
@@ -78,8 +89,9 @@ void pn_demo_stats_sample(pn_demo *d)
     pn_demo_memory m = pn_demo_memory_now(d);
     char config[256];
     config_word(d, config, sizeof config);
-    fprintf(d->stats_file, "%llu\t%llu\t%llu\t%llu\t%u\t%lld\t%llu\t%d\t%s\n", (unsigned long long)d->frame,
-            (unsigned long long)m.rss_bytes, (unsigned long long)m.peak_rss_bytes, (unsigned long long)m.device_bytes,
+    fprintf(d->stats_file, "%llu\t%llu\t%llu\t%lld\t%llu\t%u\t%lld\t%llu\t%d\t%s\n", (unsigned long long)d->frame,
+            (unsigned long long)m.rss_bytes, (unsigned long long)m.peak_rss_bytes, m.heap ? (long long)m.heap_bytes : -1LL,
+            (unsigned long long)m.device_bytes,
             m.device_allocations, m.heap_usage ? (long long)m.heap_usage_bytes : -1LL,
             (unsigned long long)pn_shadow_accel_gpu_bytes(&d->accel),
             atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE, config);
