@@ -2,9 +2,12 @@
 # Set-up and the whole test suite: installs what is missing, builds, runs ctest. Every GPU test
 # runs on lavapipe with the Khronos validation layer and synchronization validation on.
 # Then the same suite again in a second build with AddressSanitizer and UndefinedBehaviorSanitizer
-# (clang, build-asan/), which must report nothing, and each libFuzzer target for a bounded time.
-# Arguments go to both ctest runs (e.g. -R hostile). Environment:
-#   PN_SANITIZERS=0     skip the sanitizer build, its tests and the fuzzing
+# (clang, build-asan/, with device-allocation faults injected), which must report nothing; a third
+# build with ThreadSanitizer (clang, build-tsan/, the penumbra executable alone) runs its one test,
+# a scripted demo session with tree builds on the worker thread (tests/demo_tsan.sh), which must
+# report nothing; then each libFuzzer target for a bounded time.
+# Arguments go to the first two ctest runs (e.g. -R hostile). Environment:
+#   PN_SANITIZERS=0     skip the sanitizer builds, their tests and the fuzzing
 #   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing); four targets,
 #                       two at a time: the step takes about 2 x N seconds
 # How the sanitizer run is set up, and why: tests/sanitizers.md.
@@ -29,6 +32,19 @@ t0=$SECONDS
 step "tests under the sanitizers"
 (cd build-asan && ctest --output-on-failure --timeout 1800 -j"$(nproc)" "$@")
 echo "== tests under the sanitizers: $((SECONDS - t0)) s"
+
+t0=$SECONDS
+step "ThreadSanitizer build (build-tsan/, clang, -fsanitize=thread, penumbra alone)"
+cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+  -DPN_TSAN=ON >/dev/null
+cmake --build build-tsan --parallel "$(nproc)"
+echo "== ThreadSanitizer build: $((SECONDS - t0)) s"
+
+t0=$SECONDS
+step "the demo under ThreadSanitizer"
+# Every other test is registered there but disabled (its program is not built): ctest runs demo_tsan.
+(cd build-tsan && ctest --output-on-failure --timeout 1800)
+echo "== the demo under ThreadSanitizer: $((SECONDS - t0)) s"
 
 seconds=${PN_FUZZ_SECONDS:-60}
 [ "$seconds" -gt 0 ] || exit 0

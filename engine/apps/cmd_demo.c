@@ -322,14 +322,12 @@ static void fill_staging(pn_demo *d)
 
 static void record_stats(pn_demo *d)
 {
-    if (d->history_count == d->history_cap) {
-        size_t cap = d->history_cap ? 2 * d->history_cap : 256;
-        pn_demo_stats *grown = realloc(d->history, cap * sizeof *grown);
-        if (!grown)
-            return; // the medians then leave out later frames; not worth failing the demo for
-        d->history = grown, d->history_cap = cap;
-    }
-    d->history[d->history_count++] = d->stats;
+    // Whole at the first frame: the ring never grows after (tests/demo_soak.sh watches the memory).
+    if (!d->history && !(d->history = malloc(PN_DEMO_HISTORY * sizeof *d->history)))
+        return; // no medians at exit; not worth failing the demo for
+    d->history[d->history_total++ % PN_DEMO_HISTORY] = d->stats;
+    if (d->history_count < PN_DEMO_HISTORY)
+        d->history_count++;
 }
 
 static int by_value(const void *a, const void *b)
@@ -377,9 +375,17 @@ static void print_summary(const pn_demo *d, const pn_demo_opts *o, uint32_t widt
 {
     printf("demo: %llu frames, the last %ux%u%s%s\n", (unsigned long long)d->frame, width, height,
            o->screenshot ? " -> " : "", o->screenshot ? o->screenshot : "");
+    const pn_demo_memory *m = &d->end_memory;
+    printf("  memory after the last frame: resident %.1f MiB (peak %.1f MiB); device %.2f MiB in %u allocations",
+           m->rss_bytes / 1048576.0, m->peak_rss_bytes / 1048576.0, m->device_bytes / 1048576.0, m->device_allocations);
+    if (m->heap_usage)
+        printf(" (the driver's heap usage %.2f MiB)", m->heap_usage_bytes / 1048576.0);
+    printf("\n");
     if (d->history_count == 0)
         return;
 #define MED(f) median(d, offsetof(pn_demo_stats, f), ALL_FRAMES, NULL)
+    if (d->history_total > d->history_count)
+        printf("  of %llu rendered frames, the last %zu:\n", (unsigned long long)d->history_total, d->history_count);
     printf("  medians of %zu rendered frames: frame %.1f ms (render %.1f, compose %.1f, present %.1f); "
            "gpu ms gbuffer %.2f, shadow %.2f, shade %.2f; %.3g shadow rays/s\n",
            d->history_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
@@ -550,9 +556,14 @@ static int run(pn_demo *d, const pn_demo_opts *o, pn_demo_script *script)
         pn_demo_title(d, title, sizeof title);
         glfwSetWindowTitle(d->window, title);
         d->frame++;
+        if (d->stats_every && d->frame % d->stats_every == 0)
+            pn_demo_stats_sample(d);
         if (o->frames && d->frame >= (uint64_t)o->frames)
             break;
     }
+    if (d->stats_every && d->frame % d->stats_every != 0)
+        pn_demo_stats_sample(d); // the last frame's
+    d->end_memory = pn_demo_memory_now(d);
     if (o->screenshot && d->image.frames > 0 && write_png(d, o->screenshot) != PN_OK)
         return PN_EXIT_FAILURE;
     return PN_EXIT_OK;
@@ -564,7 +575,7 @@ int pn_cmd_demo(int argc, char **argv)
     int rc = pn_demo_parse(argc, argv, &o);
     if (rc != PN_EXIT_OK)
         return rc < 0 ? PN_EXIT_OK : rc;
-    if (o.screenshot && !pn_render_output_writable(o.screenshot))
+    if ((o.screenshot && !pn_render_output_writable(o.screenshot)) || (o.stats && !pn_render_output_writable(o.stats)))
         return PN_EXIT_FAILURE;
     pn_demo_script script = {0};
     if (o.script && pn_demo_script_load(o.script, &script) != PN_OK)
@@ -596,6 +607,11 @@ int pn_cmd_demo(int argc, char **argv)
         r2 += e * e;
     }
     d.radius = 0.5f * sqrtf(r2) > 0 ? 0.5f * sqrtf(r2) : 1.0f;
+    if (o.stats && pn_demo_stats_open(&d, o.stats, (uint32_t)o.stats_every) != PN_OK) {
+        pn_scene_destroy(&d.scene);
+        pn_demo_script_destroy(&script);
+        return PN_EXIT_FAILURE;
+    }
 
     glfwSetErrorCallback(on_glfw_error);
     int exit_code = PN_EXIT_FAILURE;
@@ -628,6 +644,7 @@ int pn_cmd_demo(int argc, char **argv)
     glfwTerminate();
     pn_scene_destroy(&d.scene);
     pn_demo_script_destroy(&script);
+    pn_demo_stats_close(&d);
     if (exit_code == PN_EXIT_OK)
         print_summary(&d, &o, last_width, last_height);
     free(d.history);

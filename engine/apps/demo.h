@@ -7,6 +7,7 @@
 //   demo_image.c     accumulation, views (shaded, visibility, error, N-tree cells), overlay text
 //   demo_builder.c   N-tree rebuilds on a worker thread
 //   demo_script.c    --script files
+//   demo_stats.c     --stats files: resident and device memory every N frames
 #pragma once
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
@@ -22,6 +23,8 @@
 typedef struct pn_demo_opts {
     pn_render_opts r;
     const char *scene, *screenshot, *script, *save_prefix;
+    const char *stats;      // --stats FILE: memory samples (demo_stats.c), NULL: none
+    long long stats_every;  // frames between them
     long long frames; // 0: until the window closes
     long long accumulate_max;
     bool accumulate, hud, vsync;
@@ -162,6 +165,21 @@ typedef struct pn_demo_move {
                           // device acceleration structure; or per-object trees whose rest's culling no longer holds)
 } pn_demo_move;
 
+// Memory (demo_stats.c): the process's and the device's, as --stats samples them.
+typedef struct pn_demo_memory {
+    uint64_t rss_bytes;           // resident now (/proc/self/statm; 0 where it cannot be read)
+    uint64_t peak_rss_bytes;      // the most resident so far (getrusage)
+    uint64_t heap_bytes;          // malloc'd and not freed, every library's (glibc: mallinfo2)
+    bool heap;                    // ... where the C library tells
+    uint64_t device_bytes;        // penumbra's live VkDeviceMemory (pn_gpu_device.memory_bytes)
+    uint32_t device_allocations;
+    uint64_t heap_usage_bytes;    // the driver's VK_EXT_memory_budget heapUsage, summed over heaps
+                                  // (lavapipe: the machine's memory in use, other processes' too)
+    bool heap_usage;              // ... when the device has the extension
+} pn_demo_memory;
+
+enum { PN_DEMO_HISTORY = 4096 }; // frames (120 bytes each)
+
 typedef struct pn_demo {
     // What is shown: the render options (size, mode, traversal, sampler, spp, seed, tree, exposure)
     // change live; camera and light are the moving parts.
@@ -209,9 +227,15 @@ typedef struct pn_demo {
 
     uint64_t frame;           // frames presented
     pn_demo_stats stats;
-    pn_demo_stats *history;   // of every frame that rendered, for the medians printed at exit
-    size_t history_count, history_cap;
+    // The last PN_DEMO_HISTORY rendered frames' figures, for the medians printed at exit: a ring,
+    // so that a demo left running for hours holds the same memory as after a minute.
+    pn_demo_stats *history;
+    size_t history_count;     // held, at most PN_DEMO_HISTORY
+    uint64_t history_total;   // rendered frames recorded in all; the next goes to [total % PN_DEMO_HISTORY]
     const char *save_prefix;  // P writes <prefix>-NNNN.exr/.png
+    FILE *stats_file;         // --stats: a sample every stats_every frames (NULL: none)
+    uint32_t stats_every;
+    pn_demo_memory end_memory; // after the last frame, for the summary (the device is gone by then)
 } pn_demo;
 
 // Controls (demo_controls.c)
@@ -237,3 +261,12 @@ void pn_demo_compose(pn_demo *d);
 void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra);
 // The one-line summary used as the window title.
 void pn_demo_title(const pn_demo *d, char *out, size_t n);
+
+// Memory (demo_stats.c): as --stats samples it.
+pn_demo_memory pn_demo_memory_now(const pn_demo *d);
+// Opens FILE for --stats and writes its header; logs and fails when it cannot.
+pn_result pn_demo_stats_open(pn_demo *d, const char *path, uint32_t every);
+// One line: after frame d->frame was presented. The file is flushed, so that a demo killed midway
+// leaves every sample before.
+void pn_demo_stats_sample(pn_demo *d);
+void pn_demo_stats_close(pn_demo *d);

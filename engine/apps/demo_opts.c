@@ -23,6 +23,15 @@ void pn_print_demo_help(void)
            "  --no-vsync            present without waiting for the display when the surface allows\n"
            "  --save-prefix P       P saves P-NNNN.exr (every parameter in the header) and P-NNNN.png\n"
            "                        (default penumbra-demo)\n"
+           "  --stats FILE          write memory samples to FILE (tab-separated, a header first): every\n"
+           "                        --stats-every frames and after the last, the frame, the process's\n"
+           "                        resident and peak resident bytes, the bytes malloc'd and not freed\n"
+           "                        (glibc), penumbra's live device memory\n"
+           "                        (bytes, allocations), the driver's heap usage (VK_EXT_memory_budget;\n"
+           "                        -1 without it), the tree's pools, whether a tree build runs, and the\n"
+           "                        configuration (mode, tree, traversal, sampler, spp, filter, view,\n"
+           "                        size). The summary at exit gives the same figures\n"
+           "  --stats-every N       frames between samples (default 100)\n"
            "  --exposure E          tone-mapping exposure multiplier (default 1)\n"
            "  --spp S               as below, but 9 by default: accumulation adds samples over frames\n");
     pn_render_opts_print_help();
@@ -52,7 +61,7 @@ void pn_print_demo_help(void)
 int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
 {
     *o = (pn_demo_opts){.r = pn_render_opts_default(), .accumulate = true, .accumulate_max = 256, .hud = true,
-                     .vsync = true, .save_prefix = "penumbra-demo"};
+                     .vsync = true, .save_prefix = "penumbra-demo", .stats_every = 100};
     // Render's defaults but a smaller window and fewer rays per frame: accumulation adds samples.
     o->r.width = 800, o->r.height = 450, o->r.spp = 9;
     pn_args a = {argc, argv, 0};
@@ -70,6 +79,10 @@ int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
             o->script = v;
         } else if (pn_args_value(&a, "--save-prefix", &v, &err)) {
             o->save_prefix = v;
+        } else if (pn_args_value(&a, "--stats", &v, &err)) {
+            o->stats = v;
+        } else if (pn_args_value(&a, "--stats-every", &v, &err)) {
+            ok = v && pn_parse_int_range("--stats-every", v, 1, 1 << 30, &o->stats_every);
         } else if (pn_args_value(&a, "--accumulate-max", &v, &err)) {
             ok = v && pn_parse_int_range("--accumulate-max", v, 1, 1 << 20, &o->accumulate_max);
         } else if (pn_args_flag(&a, "--no-accumulate")) {

@@ -75,7 +75,7 @@ pn_gpu_device_desc pn_gpu_device_desc_from_env(void)
 bool pn_gpu_fault(pn_gpu_device *dev, const char *call, const char *what, uint64_t bytes)
 {
 #ifdef PN_FAULT_INJECTION
-    if (dev->fault.heap && dev->allocated + bytes > dev->fault.heap && !strcmp(call, "vkAllocateMemory")) {
+    if (dev->fault.heap && dev->memory_bytes + bytes > dev->fault.heap && !strcmp(call, "vkAllocateMemory")) {
         pn_info("fault injection: %s of the %s fails: %.1f MiB more than the %.1f MiB heap holds", call, what,
                 bytes / 1048576.0, dev->fault.heap / 1048576.0);
         return true;
@@ -319,7 +319,7 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
             pn_error("%s has no queue with graphics, compute and timestamps", dev->props.deviceName);
         return PN_ERR_VULKAN;
     }
-    const char *device_exts[4] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    const char *device_exts[5] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
     uint32_t ext_count = desc->present ? 1 : 0;
     if (desc->present) {
         bool swapchain = false;
@@ -358,6 +358,11 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         VkPhysicalDeviceProperties2 p2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->as_props};
         vkGetPhysicalDeviceProperties2(dev->physical, &p2);
     }
+    // The driver's own count of the memory in use, where it keeps one (Mesa 25 lavapipe does):
+    // the demo's --stats report it beside penumbra's tally.
+    PN_TRY(device_extension_available(dev->physical, VK_EXT_MEMORY_BUDGET_EXTENSION_NAME, &dev->memory_budget));
+    if (dev->memory_budget)
+        device_exts[ext_count++] = VK_EXT_MEMORY_BUDGET_EXTENSION_NAME;
     VkPhysicalDeviceVulkan13Features f13 = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
         .pNext = rq ? &as_f : NULL,
@@ -519,4 +524,17 @@ VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev)
         if ((dev->memory.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) && dev->memory.memoryHeaps[i].size > heap)
             heap = dev->memory.memoryHeaps[i].size;
     return heap;
+}
+
+bool pn_gpu_device_heap_usage(const pn_gpu_device *dev, VkDeviceSize *bytes)
+{
+    *bytes = 0;
+    if (!dev->memory_budget)
+        return false;
+    VkPhysicalDeviceMemoryBudgetPropertiesEXT budget = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_BUDGET_PROPERTIES_EXT};
+    VkPhysicalDeviceMemoryProperties2 props = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MEMORY_PROPERTIES_2, .pNext = &budget};
+    vkGetPhysicalDeviceMemoryProperties2(dev->physical, &props);
+    for (uint32_t i = 0; i < props.memoryProperties.memoryHeapCount; i++)
+        *bytes += budget.heapUsage[i];
+    return true;
 }

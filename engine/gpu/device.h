@@ -62,9 +62,14 @@ typedef struct pn_gpu_device {
         PFN_vkGetAccelerationStructureDeviceAddressKHR address;
     } as;
     unsigned validation_messages; // warnings and errors reported by the layer so far
-    VkDeviceSize allocated;       // device memory held through gpu/resources.h now, in bytes
     pn_gpu_fault_desc fault;      // as given, in PN_FAULT_INJECTION builds; zero in others
     uint64_t fault_count;         // allocations so far, with fault.count
+    // penumbra's live VkDeviceMemory (every allocation goes through gpu/resources.c): bytes and
+    // count. Plain counters: like the queue and the command pool, the device is used from one
+    // thread (the demo's worker builds trees on the CPU only).
+    VkDeviceSize memory_bytes;
+    uint32_t memory_allocations;
+    bool memory_budget; // VK_EXT_memory_budget enabled: pn_gpu_device_heap_usage answers
 } pn_gpu_device;
 
 // Desc from the environment: PN_VALIDATION=1 turns validation on, PN_DEVICE selects the device.
@@ -104,6 +109,10 @@ VkDeviceSize pn_gpu_device_heap(const pn_gpu_device *dev);
 // fail (fault.fail_at), or when `bytes` more would overflow fault.heap. Always false in builds without
 // PN_FAULT_INJECTION.
 bool pn_gpu_fault(pn_gpu_device *dev, const char *call, const char *what, uint64_t bytes);
+
+// With VK_EXT_memory_budget (dev->memory_budget): the driver's figure of the bytes in use, summed
+// over the heaps (this process's, as the extension defines it), into *bytes; false without it.
+bool pn_gpu_device_heap_usage(const pn_gpu_device *dev, VkDeviceSize *bytes);
 
 // One-shot command buffers for uploads and single frames: begin, then submit and wait.
 pn_result pn_gpu_begin_once(pn_gpu_device *dev, VkCommandBuffer *cmd);

@@ -55,12 +55,21 @@ static pn_result allocate(pn_gpu_device *dev, const char *what, VkMemoryRequirem
         char size[32];
         pn_error("out of %s memory allocating the %s (%s; %.1f MiB already held, device-local heap %.1f MiB)",
                  r == VK_ERROR_OUT_OF_HOST_MEMORY ? "host" : "device", what, size_str(req.size, size),
-                 mib(dev->allocated), mib(pn_gpu_device_heap(dev)));
+                 mib(dev->memory_bytes), mib(pn_gpu_device_heap(dev)));
         return PN_ERR_MEMORY;
     }
     VK_CHECK(r);
-    dev->allocated += req.size;
+    dev->memory_bytes += req.size;
+    dev->memory_allocations++;
     return PN_OK;
+}
+
+// Every vkFreeMemory of penumbra goes through here, so that the tally matches the live allocations.
+static void release(pn_gpu_device *dev, VkDeviceMemory memory, VkDeviceSize bytes)
+{
+    vkFreeMemory(dev->device, memory, NULL); // unmaps implicitly
+    dev->memory_bytes -= bytes;
+    dev->memory_allocations--;
 }
 
 // Creates a buffer or image handle: its own fault point, as a driver may refuse the handle alone.
@@ -114,7 +123,7 @@ pn_result pn_gpu_buffer_create(pn_gpu_device *dev, const char *name, VkDeviceSiz
     bool address = (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) != 0;
     pn_result r = allocate(dev, name, req, want, fallback, address, &out->memory);
     if (r == PN_OK)
-        out->allocated = req.size;
+        out->memory_bytes = req.size;
     if (r == PN_OK && (vr = vkBindBufferMemory(dev->device, out->buffer, out->memory, 0)) != VK_SUCCESS)
         r = check_create(dev, vr, "vkBindBufferMemory", name, size);
     if (r == PN_OK && memory != PN_GPU_DEVICE_LOCAL &&
@@ -136,9 +145,7 @@ void pn_gpu_buffer_destroy(pn_gpu_device *dev, pn_gpu_buffer *buf)
     if (buf->buffer)
         vkDestroyBuffer(dev->device, buf->buffer, NULL);
     if (buf->memory)
-        vkFreeMemory(dev->device, buf->memory, NULL); // unmaps implicitly
-    if (buf->allocated) // a zeroed buffer may come with no device
-        dev->allocated -= buf->allocated;
+        release(dev, buf->memory, buf->memory_bytes);
     memset(buf, 0, sizeof *buf);
 }
 
@@ -224,7 +231,7 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
     vkGetImageMemoryRequirements(dev->device, out->image, &req);
     pn_result r = allocate(dev, name, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, 0, false, &out->memory);
     if (r == PN_OK)
-        out->allocated = req.size;
+        out->memory_bytes = req.size;
     if (r == PN_OK && (vr = vkBindImageMemory(dev->device, out->image, out->memory, 0)) != VK_SUCCESS)
         r = check_create(dev, vr, "vkBindImageMemory", name, req.size);
     if (r != PN_OK) {
@@ -253,9 +260,7 @@ void pn_gpu_image_destroy(pn_gpu_device *dev, pn_gpu_image *img)
     if (img->image)
         vkDestroyImage(dev->device, img->image, NULL);
     if (img->memory)
-        vkFreeMemory(dev->device, img->memory, NULL);
-    if (img->allocated)
-        dev->allocated -= img->allocated;
+        release(dev, img->memory, img->memory_bytes);
     memset(img, 0, sizeof *img);
 }
 

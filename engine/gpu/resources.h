@@ -7,9 +7,9 @@ typedef struct pn_gpu_buffer {
     VkBuffer buffer;
     VkDeviceMemory memory;
     VkDeviceSize size;
+    VkDeviceSize memory_bytes; // of `memory` (the driver's requirement, >= size): the device's tally
     void *mapped;           // non-NULL for host-visible buffers (persistently mapped)
     VkDeviceAddress address; // with VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT in the usage
-    VkDeviceSize allocated;  // bytes of device memory it holds (pn_gpu_device.allocated counts them)
 } pn_gpu_buffer;
 
 typedef enum pn_gpu_memory { PN_GPU_DEVICE_LOCAL, PN_GPU_HOST_UPLOAD, PN_GPU_HOST_READBACK } pn_gpu_memory;
@@ -36,11 +36,11 @@ pn_result pn_gpu_buffer_write(pn_gpu_device *dev, const char *name, pn_gpu_buffe
 typedef struct pn_gpu_image {
     VkImage image;
     VkDeviceMemory memory;
+    VkDeviceSize memory_bytes; // of `memory`: the device's tally
     VkImageView view;
     VkFormat format;
     VkExtent2D extent;
     uint32_t mip_levels;
-    VkDeviceSize allocated; // bytes of device memory it holds
 } pn_gpu_image;
 
 typedef struct pn_gpu_image_desc {
