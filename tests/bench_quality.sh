@@ -41,7 +41,7 @@ for e in q:
     assert e["pilot"] == [128, 128], e["pilot"]
     assert p["reference"]["mae"] <= e["budget"], e   # holds at full size
     assert e["front"] is not None, e                 # the matrix reaches the budget
-    quality_rule.check(e["tried"], p, e["runoff"], len(e["tried"]))
+    quality_rule.check(e["tried"], p, e["runoff"], e["candidates"])
     for t in e["tried"]:
         cell = [r for r in rows if (r["scene"], r["mode"], r["tree"], r["spp"]) == (e["scene"], t["mode"], t["tree"], t["spp"])]
         if t["within"] and cell:

@@ -36,15 +36,16 @@ check_run() { # LABEL K KEEP SKIP ARGS...
   err=$(cd "$dir" && PN_FAULT_ALLOC=$k "$BIN" "$@" 2>&1 >/dev/null); rc=$?
   runs=$((runs + 1))
   local why=""
-  if [ "$rc" -eq 134 ] || [ "$rc" -eq 139 ] || [ "$rc" -gt 128 ]; then why="crashed (exit $rc)"
-  elif [ "$rc" -eq 0 ] && [ -n "$skip" ] && grep -qE "$skip" <<<"$err"; then keep="$keep|$skip_keep"
-  elif [ "$rc" -ne 1 ]; then why="exited $rc, expected 1"
-  elif grep -qE 'Sanitizer|runtime error' <<<"$err"; then why="a sanitizer reported"
+  if [ "$rc" -gt 128 ]; then why="crashed (exit $rc)"
   elif ! grep -qE "fault injection: allocation $k \(" <<<"$err"; then why="the fault was not injected"
+  elif grep -qE 'Sanitizer|runtime error' <<<"$err"; then why="a sanitizer reported"
+  elif [ "$rc" -eq 0 ] && [ -n "$skip" ] && grep -qE "$skip" <<<"$err"; then keep="${keep:+$keep|}$skip_keep"
+  elif [ "$rc" -ne 1 ]; then why="exited $rc, expected 1"
   elif ! grep -qE 'error: (out of device memory allocating the |vk[A-Za-z]+ failed for the )[a-zA-Z]' <<<"$err"; then
     why="no message naming the allocation"
   fi
-  left=$(cd "$dir" && find . -mindepth 1 | grep -vE "^\./($keep)" | head -n 3)
+  # (with no KEEP every file is left behind: an empty alternative would match them all)
+  left=$(cd "$dir" && find . -mindepth 1 | { if [ -n "$keep" ]; then grep -vE "^\./($keep)"; else cat; fi; } | head -n 3)
   [ -z "$why" ] && [ -n "$left" ] && why="left files behind: $(tr '\n' ' ' <<<"$left")"
   if [ -n "$why" ]; then
     echo "FAIL: $label, PN_FAULT_ALLOC=$k: $why: penumbra $*"

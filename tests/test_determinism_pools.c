@@ -77,9 +77,16 @@ static void build_all(const pn_scene *scene, const float (*corners)[3], blobs *o
     // (hybrid, exact-ls) and leaf planes (ls-plane).
     pn_ntree t;
     pn_ntree_desc td = {.n = 7, .d = 3, .cull_light = corners, .keep_candidates = true, .leaf_planes = true};
-    CHECK_MSG(pn_ntree_build(scene, &td, &t) == PN_OK, "%s: N-tree build", scene->name);
+    if (pn_ntree_build(scene, &td, &t) != PN_OK) {
+        CHECK_MSG(0, "%s: N-tree build", scene->name);
+        return;
+    }
     pn_pools p;
-    CHECK_MSG(pn_pools_pack(&t, &p) == PN_OK, "%s: pools", scene->name);
+    if (pn_pools_pack(&t, &p) != PN_OK) {
+        CHECK_MSG(0, "%s: pools", scene->name);
+        pn_ntree_destroy(&t);
+        return;
+    }
     add(out, "tree.node pool", p.nodes, p.bytes.node);
     add(out, "tree.tree pool", p.tree, p.bytes.tree);
     add(out, "tree.line-space pool", p.linespace, p.bytes.linespace);
@@ -96,14 +103,20 @@ static void build_all(const pn_scene *scene, const float (*corners)[3], blobs *o
 
     // The exact modes' BVH and the triangle pool.
     pn_bvh bvh;
-    CHECK_MSG(pn_bvh_build(scene, &bvh) == PN_OK, "%s: BVH build", scene->name);
+    if (pn_bvh_build(scene, &bvh) != PN_OK) {
+        CHECK_MSG(0, "%s: BVH build", scene->name);
+        return;
+    }
     add(out, "bvh.nodes", bvh.nodes, (uint64_t)bvh.node_count * sizeof *bvh.nodes);
     add(out, "bvh.tri_index", bvh.tri_index, (uint64_t)bvh.triangles * 4);
     add_u64s(out, "bvh.counts", (const uint64_t[]){bvh.node_count, bvh.triangles, bvh.depth}, 3);
     pn_bvh_destroy(&bvh);
     float *tris = NULL;
     uint64_t tri_bytes = 0;
-    CHECK(pn_triangle_pool(scene, &tris, &tri_bytes) == PN_OK);
+    if (pn_triangle_pool(scene, &tris, &tri_bytes) != PN_OK) {
+        CHECK_MSG(0, "%s: triangle pool", scene->name);
+        return;
+    }
     add(out, "triangle pool", tris, tri_bytes);
     free(tris);
 
@@ -111,7 +124,10 @@ static void build_all(const pn_scene *scene, const float (*corners)[3], blobs *o
     // of, and the top level.
     pn_objects o;
     pn_ntree_desc od = {.n = 5, .d = 3, .cull_light = corners};
-    CHECK_MSG(pn_objects_build(scene, &od, &o) == PN_OK, "%s: per-object build", scene->name);
+    if (pn_objects_build(scene, &od, &o) != PN_OK) {
+        CHECK_MSG(0, "%s: per-object build", scene->name);
+        return;
+    }
     for (uint32_t i = 0; i < o.tree_count && i < 8; i++) {
         char name[64];
         snprintf(name, sizeof name, "objects.tree %u node pool", i);

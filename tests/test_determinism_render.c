@@ -199,11 +199,10 @@ static void check_config(const char *scene, const char *label, const char *args,
     static const char *const threads[3] = {"8", "8", "1"};
     char out[3][1100];
     for (int i = 0; i < 3; i++) {
-        snprintf(out[i], sizeof out[i], "%s", pn_test_tmp("determinism.exr"));
-        snprintf(out[i] + strlen(out[i]) - 4, 64, "-%s-%d.exr", label, i);
+        snprintf(out[i], sizeof out[i], "%s-%s-%d.exr", pn_test_tmp("determinism"), label, i);
         remove(out[i]);
         setenv("PN_THREADS", threads[i], 1);
-        char cmd[3000];
+        char cmd[4608]; // the scene, the arguments and the output path (1100) fit whole
         snprintf(cmd, sizeof cmd,
                  "render \"%s\" --size 96x72 --spp 16 --aovs --filter interleaved --tile 3x3 --seed 7 %s -o \"%s\" "
                  ">/dev/null",

@@ -1829,7 +1829,14 @@ int main(int argc, char **argv)
     CHECK(filtered);
     if (!filtered)
         exit(1);
-    // Arguments: run only the cases whose name contains one of them (the fast tier's subset).
+    // Arguments: run only the cases whose name contains one of them (the fast tier's subset); an
+    // argument that matches no case (a renamed one) fails rather than test nothing.
+    for (int k = 1; k < argc; k++) {
+        bool matched = false;
+        for (int i = 0; i < n && !matched; i++)
+            matched = strstr(cases[i].name, argv[k]) != NULL;
+        CHECK_MSG(matched, "no case is named like '%s'", argv[k]);
+    }
     for (int i = 0; i < n; i++) {
         bool run = argc < 2;
         for (int k = 1; k < argc && !run; k++)

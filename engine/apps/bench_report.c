@@ -345,9 +345,11 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         json_tree(f, q->n, q->d);
         fprintf(f, ", \"spp\": %u, \"pilot_mae\": %.17g, \"shadow_ms\": %.4f, ", q->spp, q->pilot_mae, q->shadow_ms);
         json_metrics(f, "reference", &q->ref);
-        fprintf(f, "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], \"tried\": ",
-                q->choose_ms, q->choice.runoff,
-                q->choice.pilot_width, q->choice.pilot_height, q->choice.confirm_width, q->choice.confirm_height);
+        fprintf(f,
+                "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], "
+                "\"candidates\": %d, \"tried\": ",
+                q->choose_ms, q->choice.runoff, q->choice.pilot_width, q->choice.pilot_height, q->choice.confirm_width,
+                q->choice.confirm_height, q->choice.candidates);
         pn_quality_write_tried(f, &q->choice);
         fprintf(f, ", \"front\": ");
         if (q->has_best && q->best_ms > 0) {

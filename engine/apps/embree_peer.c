@@ -45,7 +45,13 @@ pn_embree_scene *pn_embree_scene_create(pn_embree *e, const pn_scene *scene)
         return NULL;
     uint64_t t0 = pn_time_ns();
     RTCScene rs = rtcNewScene(e->device);
-    RTCGeometry g = rtcNewGeometry(e->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    RTCGeometry g = rs ? rtcNewGeometry(e->device, RTC_GEOMETRY_TYPE_TRIANGLE) : NULL;
+    if (!g) {
+        if (rs)
+            rtcReleaseScene(rs);
+        free(s);
+        return NULL;
+    }
     // pn_vertex is 32 bytes with the position first: a strided view of the scene's own vertices
     // (Embree's 16-byte loads of a position stay inside its vertex).
     rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, scene->vertices, 0, sizeof(pn_vertex),
@@ -57,6 +63,11 @@ pn_embree_scene *pn_embree_scene_create(pn_embree *e, const pn_scene *scene)
     rtcReleaseGeometry(g);
     rtcSetSceneBuildQuality(rs, RTC_BUILD_QUALITY_HIGH);
     rtcCommitScene(rs);
+    if (rtcGetDeviceError(e->device) != RTC_ERROR_NONE) { // e.g. out of memory while building
+        rtcReleaseScene(rs);
+        free(s);
+        return NULL;
+    }
     s->build_ms = pn_ms_since(t0);
     s->scene = rs;
     return s;

@@ -12,6 +12,8 @@
 // them, modes in table order (cheapest first). A tree that does not fit max_bytes (or float
 // precision) is skipped.
 static const int TREES[][2] = {{6, 3}, {7, 3}, {8, 3}, {5, 4}};
+_Static_assert(sizeof TREES / sizeof TREES[0] <= PN_QUALITY_MAX_TREES, "quality.h's PN_QUALITY_MAX_TRIED counts the trees");
+_Static_assert(1 << 8 == PN_QUALITY_MAX_SPP, "quality.h's PN_QUALITY_MAX_TRIED counts 9 spp steps");
 
 // The pilot's pixels: at most about 128x128. Errors are per pixel, so a smaller image of the same
 // framing estimates the full image's MAE (bench --max-error checks it at full size); the reference

@@ -6,7 +6,11 @@
 #include "gpu/renderer.h"
 #include "scene/view.h"
 
-enum { PN_QUALITY_MAX_TRIED = 96, PN_QUALITY_MAX_SPP = 256 };
+// Every configuration auto can try: each mode with up to PN_QUALITY_MAX_TREES trees (quality.c)
+// at 1, 2, 4, ... PN_QUALITY_MAX_SPP samples per pixel (9 steps), so that none is left out of the
+// record or the run-off.
+enum { PN_QUALITY_MAX_SPP = 256, PN_QUALITY_MAX_TREES = 4 };
+enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES * 9 };
 
 // One configuration a pilot rendered.
 typedef struct pn_quality_tried {

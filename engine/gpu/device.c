@@ -439,6 +439,15 @@ pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *de
 
 void pn_gpu_device_destroy(pn_gpu_device *dev)
 {
+    // Every allocation of gpu/resources.c is released by its resource's destroy: memory still held
+    // here is a resource never destroyed. Counted as the layer's messages are, so that every test
+    // (which requires none) fails on it, with or without the layer.
+    if (dev->memory_allocations || dev->memory_bytes) {
+        pn_error("%u device memory allocations (%.1f MiB) still held when the device is destroyed: a resource "
+                 "was not destroyed",
+                 dev->memory_allocations, (double)dev->memory_bytes / 1048576.0);
+        dev->validation_messages++;
+    }
     if (dev->device) {
         vkDeviceWaitIdle(dev->device);
         if (dev->cmd_pool)

@@ -50,8 +50,9 @@ static pn_result allocate(pn_gpu_device *dev, const char *what, VkMemoryRequirem
     };
     VkResult r = pn_gpu_fault(dev, "vkAllocateMemory", what, req.size) ? VK_ERROR_OUT_OF_DEVICE_MEMORY
                                                                       : vkAllocateMemory(dev->device, &ai, NULL, out);
+    if (r != VK_SUCCESS)
+        *out = VK_NULL_HANDLE; // the spec leaves it undefined: the caller's destroy must not free it
     if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY) {
-        *out = VK_NULL_HANDLE;
         char size[32];
         pn_error("out of %s memory allocating the %s (%s; %.1f MiB already held, device-local heap %.1f MiB)",
                  r == VK_ERROR_OUT_OF_HOST_MEMORY ? "host" : "device", what, size_str(req.size, size),
