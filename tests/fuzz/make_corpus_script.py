@@ -11,27 +11,12 @@ import os
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "corpus_script")
 
-# tests/demo_window.sh's script, as it runs (SHOT replaced).
-DEMO_WINDOW = """\
-# orbit around the scene, 12 degrees a frame, rising a little
-frame 1 orbit 12 0
-frame 2 orbit 12 2
-frame 3 orbit 12 2
-frame 4 orbit 12 0
-frame 5 orbit 12 -2
-frame 6 zoom 0.9
-frame 7 pan 0.05 -0.02
-frame 8 key M            # linespace -> ls-leaf
-frame 10 key N           # tree LS(7,3) -> LS(8,3), built on a worker thread
-frame 12 resize 400 300
-frame 14 key 6           # exact
-frame 16 key E           # error against exact (a second renderer)
-frame 18 key C           # N-tree cells overlay
-frame 20 key V           # visibility
-frame 22 key 1           # back to linespace
-frame 24 orbit -30 5
-frame 29 screenshot /tmp/demo_window/frame29.png
-"""
+# tests/demo_window.sh's script, as it runs (SHOT replaced), read from the test itself so that the
+# seed follows it.
+with open(os.path.join(HERE, "..", "demo_window.sh")) as f:
+    _test = f.read()
+DEMO_WINDOW = _test.split("<<'SCRIPT'\n", 1)[1].split("\nSCRIPT\n", 1)[0] + "\n"
+DEMO_WINDOW = DEMO_WINDOW.replace("SHOT", "/tmp/demo_window/frame29.png")
 
 SEEDS = {
     "seed_demo_window": DEMO_WINDOW,
