@@ -1,4 +1,5 @@
-// The exact modes against an independent tracer: exact (our BVH and watertight test) and, where the
+// The exact modes against an independent tracer: exact (our BVH, walked per pixel as a packet and
+// per ray, and its watertight tests) and, where the
 // device has ray queries, rayquery (the driver's acceleration structure and triangle test). Embree 3 traces the very rays the GPU traced (same
 // G-buffer origins and light samples, read back with --ray-dump) with rtcOccluded1 over the same
 // triangles, and the two must agree on at least 99.99% of the rays. Every disagreement must be a
@@ -60,11 +61,12 @@ static double nearest_edge(const pn_scene *s, const double o[3], const double q[
     return sqrt(best);
 }
 
-static void check_scene(const char *path, const char *name, const char *mode)
+static void check_scene(const char *path, const char *name, const char *mode, const char *traversal)
 {
     const char *dump = pn_test_tmp("oracle_rays.bin"), *exr = pn_test_tmp("oracle.exr");
     char args[2048];
-    snprintf(args, sizeof args, "render %s --mode %s --size 128x128 --spp 16 --ray-dump %s -o %s", path, mode, dump, exr);
+    snprintf(args, sizeof args, "render %s --mode %s --traversal %s --size 128x128 --spp 16 --ray-dump %s -o %s", path, mode,
+             traversal, dump, exr);
     int rc = pn_test_run(args);
     CHECK_MSG(rc == 0, "render exited %d", rc);
     FILE *f = fopen(dump, "rb");
@@ -117,9 +119,9 @@ static void check_scene(const char *path, const char *name, const char *mode)
             far_from_edge += dist > 1e-5;
         }
     }
-    fprintf(stderr, "%s %s: %llu rays (%llu blocked), Embree agrees on %llu (%.5f%%); blocked only on the GPU %llu, only "
+    fprintf(stderr, "%s (%s) %s: %llu rays (%llu blocked), Embree agrees on %llu (%.5f%%); blocked only on the GPU %llu, only "
                     "in Embree %llu; the farthest of those from an edge: %.2e of the scene size\n",
-            mode, name, (unsigned long long)rays, (unsigned long long)blocked, (unsigned long long)agree,
+            mode, traversal, name, (unsigned long long)rays, (unsigned long long)blocked, (unsigned long long)agree,
             rays ? 100.0 * agree / rays : 0, (unsigned long long)gpu_only, (unsigned long long)embree_only, worst);
     CHECK(rays > 100000 && blocked > rays / 50);
     CHECK_MSG(agree * 10000 >= rays * 9999, "%s: agreement below 99.99%%", name);
@@ -142,16 +144,19 @@ int main(void)
     if (!f)
         TEST_SKIP("%s missing (../shared/assets not beside the project)", bunny);
     fclose(f);
-    check_scene(bunny, "bunny", "exact");
-    check_scene(sponza, "sponza", "exact");
+    // exact both ways: the per-pixel packet walk (the default) and each ray alone.
+    check_scene(bunny, "bunny", "exact", "packet");
+    check_scene(sponza, "sponza", "exact", "packet");
+    check_scene(bunny, "bunny", "exact", "ray");
+    check_scene(sponza, "sponza", "exact", "ray");
     // rayquery where the device has ray queries (Mesa 25's lavapipe does, 22.3's does not).
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
     bool rq = pn_gpu_device_create(&desc, &dev) == PN_OK && dev.ray_query;
     pn_gpu_device_destroy(&dev);
     if (rq) {
-        check_scene(bunny, "bunny", "rayquery");
-        check_scene(sponza, "sponza", "rayquery");
+        check_scene(bunny, "bunny", "rayquery", "auto");
+        check_scene(sponza, "sponza", "rayquery", "auto");
     } else {
         fprintf(stderr, "rayquery: skipped, the device has no VK_KHR_ray_query (PN_MESA=stock, Mesa 22.3)\n");
     }

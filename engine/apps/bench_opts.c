@@ -121,7 +121,7 @@ static int cmp_u32(const void *a, const void *b)
 
 int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {
-    *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
+    *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_AUTO, .sampler = PN_SAMPLER_STRATIFIED,
                       .reference_spp = PN_REFERENCE_SPP, .out_dir = "bench-out", .embree = true,
                       .tile_w = 3, .tile_h = 3, .kinds = {[PN_TREE_KIND_SCENE] = true}};
     bool quick = false;

@@ -58,7 +58,7 @@ void pn_print_bench_help(void)
            "  --reference-spp S    samples of the converged reference (default %d)\n"
            "  --size WxH,...       image sizes (default 512x512)\n"
            "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"
-           "  --traversal ray|packet  --sampler grid|stratified   (default ray, stratified)\n"
+           "  --traversal auto|ray|packet  --sampler grid|stratified   (default auto, stratified)\n"
            "  --out DIR            where the CSV, JSON, tables, plots and reference cache go (default bench-out)\n"
            "  --reference-cache DIR   cache the converged references here instead of OUT/reference (runs\n"
            "                       with other outputs share them; a file's name holds a hash of what it depends on)\n"

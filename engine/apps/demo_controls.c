@@ -315,7 +315,7 @@ static void next_mode(pn_demo *d, float step)
 
 static void toggle_traversal(pn_demo *d, float unused)
 {
-    d->opts.traversal = d->opts.traversal == PN_TRAVERSAL_RAY ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY;
+    d->opts.traversal = (pn_traversal)((d->opts.traversal + 1) % 3); // ray, packet, auto
     d->renderer_dirty = d->restart = true;
 }
 
@@ -435,7 +435,7 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_6, 0, false, set_mode, 6},
     {GLFW_KEY_7, 0, false, set_mode, 7},
     {GLFW_KEY_8, 0, false, set_mode, 8},
-    {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal packet / ray"},
+    {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal ray / packet / auto"},
     {GLFW_KEY_G, 0, false, toggle_sampler, 0, "G", "sampler grid / stratified"},
     {GLFW_KEY_F, 0, false, toggle_filter, 0, "F", "filter none / interleaved (tile --tile)"},
     {GLFW_KEY_MINUS, 0, true, step_spp, -1, "- =", "fewer, more shadow rays per pixel"},

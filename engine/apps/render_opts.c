@@ -14,7 +14,7 @@ pn_render_opts pn_render_opts_default(void)
 {
     return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 25, .tree_n = 7,
                             .tree_d = 3, .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE,
-                            .traversal = PN_TRAVERSAL_RAY, .sampler = PN_SAMPLER_STRATIFIED,
+                            .traversal = PN_TRAVERSAL_AUTO, .sampler = PN_SAMPLER_STRATIFIED,
                             .filter = PN_FILTER_INTERLEAVED, .tile_w = 3, .tile_h = 3};
 }
 
@@ -208,8 +208,9 @@ void pn_render_opts_print_help(void)
            "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
            "                        default: half the device's largest memory heap)\n"
            "  --spp S               shadow rays per pixel 1..4096 (default 25), a grid of U x V = S\n"
-           "  --traversal ray|packet   each ray walks the tree alone (3D-DDA per level, default:\n"
-           "                        faster on lavapipe) or the pixel's rays walk it together\n"
+           "  --traversal auto|ray|packet   each ray walks the tree alone, or the pixel's rays walk\n"
+           "                        it together (default auto: packet for exact, ray for the\n"
+           "                        line-space modes, the faster of the two for each on lavapipe)\n"
            "  --sampler grid|stratified   the paper's uniform grid, or jittered strata with a\n"
            "                        per-pixel rotated low-discrepancy set (default stratified)\n"
            "  --filter none|interleaved   interleaved: the pixels of each tile share the light's\n"

@@ -70,7 +70,15 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                             .auto_trees = 1},
 };
 
-const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet", NULL};
+const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet",
+                                          [PN_TRAVERSAL_AUTO] = "auto", NULL};
+
+pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t)
+{
+    if (t != PN_TRAVERSAL_AUTO)
+        return t;
+    return mode == PN_SHADOW_EXACT ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY;
+}
 const char *const pn_filter_names[] = {[PN_FILTER_NONE] = "none", [PN_FILTER_INTERLEAVED] = "interleaved", NULL};
 const char *const pn_split_names[] = {[PN_SPLIT_EVEN] = "even", [PN_SPLIT_BUDGET] = "budget", NULL};
 const char *const pn_sampler_names[] = {[PN_SAMPLER_STRATIFIED] = "stratified", [PN_SAMPLER_GRID] = "grid", NULL};

@@ -26,12 +26,21 @@ typedef enum pn_shadow_mode {
 // The mode every error is measured against (bench, --quality auto, the demo's error view).
 #define PN_SHADOW_REFERENCE PN_SHADOW_EXACT
 
-typedef enum pn_traversal { PN_TRAVERSAL_RAY = PN_TRAVERSAL_RAY_ID, PN_TRAVERSAL_PACKET = PN_TRAVERSAL_PACKET_ID } pn_traversal;
+typedef enum pn_traversal {
+    PN_TRAVERSAL_RAY = PN_TRAVERSAL_RAY_ID,
+    PN_TRAVERSAL_PACKET = PN_TRAVERSAL_PACKET_ID,
+    PN_TRAVERSAL_AUTO = PN_TRAVERSAL_AUTO_ID,
+} pn_traversal;
 typedef enum pn_sampler { PN_SAMPLER_GRID = PN_SAMPLER_GRID_ID, PN_SAMPLER_STRATIFIED = PN_SAMPLER_STRATIFIED_ID } pn_sampler;
 
 // Command-line names indexed by the enum value, NULL-terminated (for pn_parse_choice).
 extern const char *const pn_traversal_names[];
 extern const char *const pn_sampler_names[];
+
+// The traversal a mode's shader runs: auto is packet for exact (one BVH walk per pixel: 1.8x the
+// per-ray walk's speed on the dragon, engine/gpu/llvmpipe.md) and ray for the line-space modes
+// (their packet walk is the slower one on lavapipe); ray and packet are taken as given.
+pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t);
 
 // What a mode needs built before it can render (apps/setup.c builds it).
 typedef struct pn_shadow_needs {

@@ -135,3 +135,182 @@ bool leaf_blocked(uint node, uint cell, uint n3, WRay r, float t_min, float t_ma
         hit = hit || tri_hit(r, params.cand_tris.ids[i], t_min, t_max);
     return hit;
 }
+
+// ---------------------------------------------------------------------------------------------
+// Packet walk (--traversal packet, exact's default): the chunk's rays share their origin o and
+// end on the light, so they walk the BVH once together, each node carrying the bit mask of the
+// rays that entered it. A node is loaded once for all of them, and only the rays of its mask are
+// tested against its children's boxes; a leaf's triangle is set up once and tested against the
+// rays of the leaf's mask. The rays of one pixel share most of their walk: on the dragon view
+// (16 spp) a pixel's walk loads a quarter of the nodes its rays' separate walks do (llvmpipe.md).
+
+// The triangle test of the packet, in o's frame (A = a - o, ...): ray o + t d hits the triangle at
+// t = det / S with det = A.(B x C) and S = s_ab + s_bc + s_ca, s_xy = d.(X x Y), and inside it iff
+// the three s_xy have det's sign (they are det / t times the hit's barycentric coordinates). It is
+// two-sided and watertight as Woop's: a shared edge's s is the same products of the same floats
+// with the sign flipped (`precise` keeps the compiler from fusing the two triangles' crosses
+// differently), so a ray on the edge is inside at least one of them. It may differ from wt_hit's
+// answer for a ray that grazes an edge (within rounding of it): exact either way.
+struct PacketTri {
+    vec3 nab, nbc, nca; // A x B, B x C, C x A
+    float det;          // A.(B x C)
+};
+
+PacketTri packet_tri(vec3 o, vec3 a, vec3 b, vec3 c)
+{
+    precise vec3 A = a - o, B = b - o, C = c - o;
+    precise vec3 nab = cross(A, B), nbc = cross(B, C), nca = cross(C, A);
+    PacketTri t;
+    t.nab = nab, t.nbc = nbc, t.nca = nca;
+    t.det = dot(A, nbc);
+    return t;
+}
+
+// The edge values of direction d and their sum S, times det's sign (all >= 0 inside).
+vec4 packet_edges(PacketTri t, vec3 d)
+{
+    vec3 s = vec3(dot(d, t.nab), dot(d, t.nbc), dot(d, t.nca));
+    float sum = s.x + s.y + s.z;
+    return t.det < 0.0 ? -vec4(s, sum) : vec4(s, sum);
+}
+
+// A hit at t in (0, 1): inside, and sigma S > |det| > 0.
+bool packet_hit(PacketTri t, vec4 e) { return all(greaterThanEqual(e.xyz, vec3(0.0))) && e.w > abs(t.det) && t.det != 0.0; }
+
+// The chunk's frustum: apex o, corner directions D[c] to the parallelogram its samples lie in.
+// Every ray's end o + d lies within `delta` of that parallelogram: the sample point is a bilinear
+// mix of the light's corners (a few ulps of their magnitude off, plus how far the stored corners
+// are from a parallelogram) and d = point - o rounds once more (an ulp of |o| or the corners'):
+// 16 ulps of the larger magnitude, as a Euclidean distance, bound the rounding with room.
+struct Frustum {
+    vec3 D[4];         // corner directions
+    float delta, dmax; // dmax: bound of |d| over the rays
+};
+
+Frustum frustum_make(vec3 o, vec2 st_lo, vec2 st_hi)
+{
+    Frustum f;
+    vec3 q[4];
+    q[0] = light_point(st_lo);
+    q[1] = light_point(vec2(st_hi.x, st_lo.y));
+    q[2] = light_point(st_hi);
+    q[3] = light_point(vec2(st_lo.x, st_hi.y));
+    float mag = max(max(abs(o.x), abs(o.y)), abs(o.z));
+    f.dmax = 0.0;
+    for (int c = 0; c < 4; c++) {
+        mag = max(mag, max(max(abs(q[c].x), abs(q[c].y)), abs(q[c].z)));
+        f.D[c] = q[c] - o;
+        f.dmax = max(f.dmax, length(f.D[c]));
+    }
+    vec3 twist = LIGHT.corners[2].xyz - LIGHT.corners[1].xyz - LIGHT.corners[3].xyz + LIGHT.corners[0].xyz;
+    f.delta = 16.0 * ulp_bound(mag) + length(twist);
+    f.dmax += f.delta;
+    return f;
+}
+
+// A leaf triangle against the rays `live`: returns those it blocks. The frustum's four corner
+// directions first: an edge that all four see outside misses every ray, and a triangle that all
+// four see inside (and between o and the light) blocks every ray (each ray's direction is a convex
+// combination of the corners', and the edge values and S are linear in d). Both only beyond a
+// margin, |n_e| times delta plus the dots' rounding over |d| <= dmax, so that no ray's own test
+// would disagree. Otherwise each ray is tested.
+uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
+{
+    PacketTri t = packet_tri(o, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz,
+                             params.tris.v[3u * tri + 2u].xyz);
+    if (COUNT_WORK)
+        work.z++;
+    float slack = f.delta + 8.0 * ulp_bound(f.dmax);
+    vec3 tol = vec3(length(t.nab), length(t.nbc), length(t.nca)) * slack;
+    float tol_s = tol.x + tol.y + tol.z;
+    vec4 lo = vec4(1e38), hi = vec4(-1e38);
+    for (int c = 0; c < 4; c++) {
+        vec4 e = packet_edges(t, f.D[c]);
+        lo = min(lo, e);
+        hi = max(hi, e);
+    }
+    float adet = abs(t.det);
+    bool misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
+    bool covers = !misses && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
+    uint hits = covers ? live : 0u;
+    for (uint m = hits; m != 0u; m &= m - 1u)
+        blocker_at(findLSB(m), adet / lo.w);
+    for (uint m = misses || covers ? 0u : live; m != 0u; m &= m - 1u) {
+        uint j = findLSB(m);
+        if (COUNT_WORK)
+            work.z++;
+        vec4 e = packet_edges(t, dir[j]);
+        bool hit = packet_hit(t, e);
+        hits |= hit ? (1u << j) : 0u;
+        if (hit)
+            blocker_at(j, adet / e.w);
+    }
+    return hits;
+}
+
+uint mask_stack[BVH_STACK], first_stack[BVH_STACK], count_stack[BVH_STACK];
+vec3 inv_dir[MAX_CHUNK];
+
+// The chunk's rays `live` through the BVH together; returns those blocked. Each step tests both
+// children of a node against the rays that entered it (one slab test per ray and child), goes on
+// into the nearer one along the light's direction and leaves the other on the stack with its rays.
+uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)
+{
+    Frustum f = frustum_make(o, box_lo, box_hi);
+    vec3 towards = f.D[0] + f.D[1] + f.D[2] + f.D[3];
+    for (uint m = live; m != 0u; m &= m - 1u)
+        inv_dir[findLSB(m)] = safe_inverse(dir[findLSB(m)]);
+    uint blocked = 0u;
+    int sp = 0;
+    BvhNode root = params.bvh.nodes[0];
+    uint first = root.first, count = root.count, mask = 0u;
+    for (uint m = live; m != 0u; m &= m - 1u)
+        mask |= box_hit(root.min, root.max, o, inv_dir[findLSB(m)], 0.0, 1.0) ? 1u << findLSB(m) : 0u;
+    bool done = mask == 0u;
+    while (!done) {
+        mask &= live;
+        bool pop = true;
+        if (count == 0u && mask != 0u) {
+            BvhNode a = params.bvh.nodes[first], b = params.bvh.nodes[first + 1u];
+            if (COUNT_WORK)
+                work = uvec4(work.x + 2u, work.yz, max(work.w, uint(sp)));
+            uint ma = 0u, mb = 0u;
+            for (uint m = mask; m != 0u; m &= m - 1u) {
+                uint j = findLSB(m);
+                ma |= box_hit(a.min, a.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+                mb |= box_hit(b.min, b.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+            }
+            bool b_first = dot((b.min + b.max) - (a.min + a.max), towards) < 0.0;
+            BvhNode near = b_first ? b : a, far = b_first ? a : b;
+            uint m_near = b_first ? mb : ma, m_far = b_first ? ma : mb;
+            if (m_near != 0u && m_far != 0u) {
+                first_stack[sp] = far.first; // depth <= BVH_STACK (bvh.c)
+                count_stack[sp] = far.count;
+                mask_stack[sp] = m_far;
+                sp++;
+            }
+            bool go_near = m_near != 0u;
+            first = go_near ? near.first : far.first;
+            count = go_near ? near.count : far.count;
+            mask = go_near ? m_near : m_far;
+            pop = mask == 0u;
+        } else if (mask != 0u) {
+            for (uint i = first; i < first + count && (mask & live) != 0u; i++) {
+                uint hits = packet_leaf_tri(f, o, params.bvh_tris.ids[i], mask & live);
+                blocked |= hits;
+                live &= ~hits;
+            }
+        }
+        if (pop) {
+            done = sp == 0 || live == 0u;
+            if (!done) {
+                sp--;
+                first = first_stack[sp];
+                count = count_stack[sp];
+                mask = mask_stack[sp];
+            }
+        }
+    }
+    truncated = truncated || !done;
+    return blocked;
+}

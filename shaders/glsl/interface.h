@@ -29,7 +29,8 @@
 // Specialisation constant ids and their values.
 #define PN_SPEC_TRAVERSAL 0 // shadow shaders: how a pixel's rays walk the N-tree
 #define PN_TRAVERSAL_RAY_ID 0    // each ray alone (3D-DDA per level)
-#define PN_TRAVERSAL_PACKET_ID 1 // the pixel's rays together, slice by slice
+#define PN_TRAVERSAL_PACKET_ID 1 // the pixel's rays together (line space: slice by slice; exact: one BVH walk)
+#define PN_TRAVERSAL_AUTO_ID 2   // host only: the faster of the two for the mode (pn_traversal_resolve)
 #define PN_SPEC_VARIANT 1 // shadow_linespace.comp: which line-space mode
 #define PN_VARIANT_LINESPACE 0 // the paper's method
 #define PN_VARIANT_HYBRID 1    // exact triangles where the ray starts and ends

@@ -5,6 +5,7 @@
 // paper compared against (Aila and Laine style GPU traversal).
 #include "shadow_common.glsl"
 #include "shadow_frame.glsl"
+layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_ID;
 #include "exact.glsl"
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
@@ -21,6 +22,15 @@ void main()
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
+    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.split != PN_SPLIT_BUDGET_ID) {
+        // The samples lie in the part of the light above the horizon (chunk_rays): the frustum's
+        // parallelogram.
+        vec2 box_lo, box_hi;
+        horizon_box(o, nrm, box_lo, box_hi);
+        blocked = any(greaterThan(box_lo, box_hi)) ? 0u : bvh_packet_blocked(o, valid_rays, box_lo, box_hi);
+        shadow_finish(px, o, count, valid_rays, blocked, i < count);
+        return;
+    }
     for (uint j = 0u; j < count; j++) {
         bool hit = (valid_rays & (1u << j)) != 0u && bvh_blocked(o, dir[j], 0.0, 1.0);
         blocked |= hit ? (1u << j) : 0u;
