@@ -51,7 +51,7 @@ typedef struct pn_render_opts {
     float exposure;     // of the tone-mapped PNG
 } pn_render_opts;
 
-// The defaults render documents: 1280x720, linespace, per-ray traversal, stratified, 25 spp,
+// The defaults render documents: 1280x720, linespace, auto traversal, stratified, 25 spp,
 // LS(7,3), seed 1, the interleaved filter over 3x3 tiles (README: it lowers the error against the
 // converged reference at 4-64 spp on the bench's views), ground on, exposure 1, 45 degree field of
 // view.
