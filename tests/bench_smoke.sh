@@ -7,7 +7,9 @@
 # axis: every configuration appears unfiltered and filtered (3x3), a filtered cell's time is its
 # shadow and filter passes, and it reports its edge leak (metrics.h) over a non-empty band. rayquery is a row wherever the device has ray queries (penumbra info
 # says), with an error near zero: it traces exact's rays with the driver's own triangle test, which
-# may decide a ray grazing an edge the other way (test_exact_oracle checks it ray for ray).
+# may decide a ray grazing an edge the other way (test_exact_oracle checks it ray for ray). The
+# time-to-error table names, per level, the unfiltered exact cell with the least spp within it
+# (Embree run plain) and the fastest cell of all, and none of Embree's figures with --no-embree.
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 OUT=${PN_TEST_TMP:-/tmp}/bench_smoke
@@ -23,6 +25,8 @@ grep -q "converged reference (exact, 1024 spp) from the cache $RC/" "$OUT/bench.
 for f in bench.csv bench.json time_to_error.md builtin_default_64x48.dat builtin_default_64x48.png; do
   [ -s "$OUT/$f" ] || { echo "FAIL: $f missing"; fail=1; }
 done
+grep -q "| Embree 3, exact's rays | Embree 3 plain | fastest / Embree plain |$" "$OUT/time_to_error.md" \
+  || { echo "FAIL: time_to_error.md lacks the Embree columns"; fail=1; }
 # --edge-images: per filtered cell the filter's outputs, the reference, the edge classes and the
 # filter's inputs, with the G-buffer's positions where geometry is.
 edge="$OUT/edge_builtin_default_64x48_9spp_exact_filter.exr"
@@ -78,6 +82,27 @@ for t in tte:
         assert (m["tree"], m["spp"], m["cell_ms"]) == (best["tree"], best["spp"], best["cell_ms"]), (m, best)
     listed = {(m["mode"], m["filter"]) for m in t["modes"]}
     assert listed == {(r["mode"], r["filter"]) for r in rows if r["reference"]["mae"] <= t["level"]}, (t, listed)
+    # Embree run plain: on the rays of unfiltered exact at the least spp within the level (its
+    # figure copied from that row); the fastest cell of any mode, spp and filter within the level,
+    # and its time over Embree's (how the two compare is the report's, not a check).
+    plain = [r for r in rows if (r["mode"], r["filter"]) == ("exact", "none") and r["reference"]["mae"] <= t["level"]]
+    fits = [r for r in rows if r["reference"]["mae"] <= t["level"]]
+    if plain:
+        least = min(plain, key=lambda r: r["spp"])
+        assert t["embree_plain_spp"] == least["spp"] and t["embree_plain_ms"] == least["embree_ms"], (t, least)
+    else:
+        assert t["embree_plain_spp"] is None and t["embree_plain_ms"] is None, t
+    if fits:
+        f = t["fastest"]
+        assert f["cell_ms"] == min(r["cell_ms"] for r in fits), (t, fits)
+        assert any((r["mode"], r["filter"], r["tree"], r["spp"], r["cell_ms"], r["reference"]["mae"]) ==
+                   (f["mode"], f["filter"], f["tree"], f["spp"], f["cell_ms"], f["mae"]) for r in fits), t
+    else:
+        assert t["fastest"] is None, t
+    if plain and fits:
+        assert abs(t["fastest_vs_embree_plain"] * t["embree_plain_ms"] - t["fastest"]["cell_ms"]) < 1e-2, t
+    else:
+        assert t["fastest_vs_embree_plain"] is None, t
 print("bench rows ok:", len(rows))
 PY
 # Shader level: the shadow pass alone over a G-buffer from render --aovs; the V it computes for the
@@ -95,6 +120,10 @@ import json, sys
 rows = json.load(open(sys.argv[1]))["results"]
 assert [r["mode"] for r in rows] == ["exact", "exact-ls"], rows
 assert all(r["width"] == 64 and r["height"] == 48 and r["bias"]["max"] == 0 for r in rows), rows
+# --no-embree: no Embree figure at any level, the fastest cell still named.
+for t in json.load(open(sys.argv[1]))["time_to_error"]:
+    assert t["embree_ms"] is None and t["embree_plain_ms"] is None and t["embree_plain_spp"] is None, t
+    assert t["fastest_vs_embree_plain"] is None and (t["fastest"] is None) == (not t["modes"]), t
 # --lights 1,2: per configuration a frame of one and of two lights over a tree built for them, with
 # the ratios to the view's light alone and to each light's frame alone.
 lights = json.load(open(sys.argv[1]))["lights"]

@@ -253,5 +253,6 @@ enum { PN_BENCH_ERROR_LEVELS = 4 };
 
 // Prints and writes dir/time_to_error.md: per view and size, for each mode the fastest cell whose
 // reference MAE reaches each level, its time relative to exact's, and Embree's on the same rays as
-// exact's. False (logged) on failure.
+// exact's; then Embree run plain (the rays of unfiltered exact at the least spp reaching the level)
+// and the fastest cell of any mode, spp and filter over that time. False (logged) on failure.
 bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows);

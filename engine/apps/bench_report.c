@@ -212,6 +212,46 @@ static int group_modes(const bench_rows *rows, int first, int end, mode_filter *
 
 static const mode_filter EXACT = {PN_SHADOW_REFERENCE, PN_FILTER_NONE, false};
 
+// Embree as a user comparing with it would run it: the rays of unfiltered exact (a filter is not
+// Embree's to run) at the least spp whose reference MAE is at most `level`, not at the spp whose
+// exact cell timed fastest, which the machine's noise may make a larger one. That cell of rows
+// [first, end), or NULL when none reaches the level or Embree did not trace its rays (--no-embree).
+static const bench_row *embree_plain(const bench_rows *rows, int first, int end, double level)
+{
+    const bench_row *least = NULL;
+    for (int j = first; j < end; j++) {
+        const bench_row *r = &rows->rows[j];
+        if (r->mode == EXACT.mode && r->filter == EXACT.filter && r->per_object == EXACT.per_object &&
+            r->ref.mae <= level && (!least || r->spp < least->spp))
+            least = r;
+    }
+    return least && least->embree_ms > 0 ? least : NULL;
+}
+
+// The fastest cell of rows [first, end) of any mode, tree, spp and filter whose reference MAE is at
+// most `level` (its time as the table's: with the filter pass when filtered); NULL when none.
+static const bench_row *fastest_any(const bench_rows *rows, int first, int end, double level)
+{
+    const bench_row *best = NULL;
+    for (int j = first; j < end; j++) {
+        const bench_row *r = &rows->rows[j];
+        if (r->ref.mae <= level && (!best || pn_bench_row_ms(r) < pn_bench_row_ms(best)))
+            best = r;
+    }
+    return best;
+}
+
+// A time-to-error entry's cell in bench.json, its object left open for the caller's fields.
+static void json_tte_cell(FILE *f, const bench_row *r)
+{
+    fprintf(f, "{\"mode\": \"%s\", \"filter\": \"%s\", \"tree\": ", MODE_NAME(r->mode), pn_filter_names[r->filter]);
+    json_tree(f, r->n, r->d);
+    fprintf(f, ", \"tree_kind\": ");
+    json_kind(f, r->n, r->per_object);
+    fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g", r->spp, r->shadow_ms,
+            pn_bench_row_ms(r), r->ref.mae);
+}
+
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows)
 {
     char path[4096], tmp[4096], cpu[256];
@@ -298,13 +338,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
                 const bench_row *r = fastest_within(rows, first, end, modes[m], level);
                 if (!r)
                     continue;
-                fprintf(f, "%s{\"mode\": \"%s\", \"filter\": \"%s\", \"tree\": ", k++ ? ", " : "", MODE_NAME(r->mode),
-                        pn_filter_names[r->filter]);
-                json_tree(f, r->n, r->d);
-                fprintf(f, ", \"tree_kind\": ");
-                json_kind(f, r->n, r->per_object);
-                fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g, \"vs_exact\": ", r->spp,
-                        r->shadow_ms, pn_bench_row_ms(r), r->ref.mae);
+                fprintf(f, "%s", k++ ? ", " : "");
+                json_tte_cell(f, r);
+                fprintf(f, ", \"vs_exact\": ");
                 if (ex && ex->shadow_ms > 0)
                     fprintf(f, "%.4f}", pn_bench_row_ms(r) / ex->shadow_ms);
                 else
@@ -312,9 +348,27 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             }
             fprintf(f, "], \"embree_ms\": ");
             if (ex && ex->embree_ms > 0)
-                fprintf(f, "%.4f}", ex->embree_ms);
+                fprintf(f, "%.4f", ex->embree_ms);
             else
-                fprintf(f, "null}");
+                fprintf(f, "null");
+            // Embree run plain (embree_plain) and the fastest cell of all against it.
+            const bench_row *plain = embree_plain(rows, first, end, level);
+            const bench_row *best = fastest_any(rows, first, end, level);
+            if (plain)
+                fprintf(f, ", \"embree_plain_ms\": %.4f, \"embree_plain_spp\": %u", plain->embree_ms, plain->spp);
+            else
+                fprintf(f, ", \"embree_plain_ms\": null, \"embree_plain_spp\": null");
+            fprintf(f, ", \"fastest\": ");
+            if (best) {
+                json_tte_cell(f, best);
+                fprintf(f, "}");
+            } else {
+                fprintf(f, "null");
+            }
+            if (plain && best)
+                fprintf(f, ", \"fastest_vs_embree_plain\": %.4f}", pn_bench_row_ms(best) / plain->embree_ms);
+            else
+                fprintf(f, ", \"fastest_vs_embree_plain\": null}");
         }
     }
     fprintf(f, "], \"lights\": [");
@@ -376,6 +430,16 @@ static void config_label(char *out, size_t n, const bench_row *r)
         snprintf(out, n, "%s%s", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter));
 }
 
+// A cell in words, for the time-to-error table's fastest cell: "exact 8 spp filtered",
+// "linespace LS(8,3) per object 4 spp".
+static void cell_words(char *out, size_t n, const bench_row *r)
+{
+    char tree[48] = "";
+    if (r->n)
+        snprintf(tree, sizeof tree, " LS(%d,%d)%s", r->n, r->d, r->per_object ? " per object" : "");
+    snprintf(out, n, "%s%s %u spp%s", MODE_NAME(r->mode), tree, r->spp, r->filter != PN_FILTER_NONE ? " filtered" : "");
+}
+
 bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
 {
     char path[4096], tmp[4096];
@@ -390,13 +454,15 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
         for (int pass = 0; pass < 2; pass++) { // the file, then the console
             FILE *out = pass ? stdout : f;
             fprintf(out, "\n%s %ux%u (%u triangles): the fastest cell reaching each reference MAE, shadow pass ms "
-                         "(+filter: shadow and filter passes) (configuration, x exact's time)\n\n| MAE <= |",
+                         "(+filter: shadow and filter passes) (configuration, x exact's time); Embree 3 plain: Embree on "
+                         "the rays of unfiltered exact at the least spp reaching it, and the fastest cell over that time\n\n"
+                         "| MAE <= |",
                     g0->scene, g0->width, g0->height, g0->triangles);
             for (int m = 0; m < nm; m++)
                 fprintf(out, " %s%s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter),
                         pn_bench_kind_suffix(modes[m].per_object));
-            fprintf(out, " Embree 3, exact's rays |\n|---|");
-            for (int m = 0; m <= nm; m++)
+            fprintf(out, " Embree 3, exact's rays | Embree 3 plain | fastest / Embree plain |\n|---|");
+            for (int m = 0; m < nm + 3; m++)
                 fprintf(out, "---|");
             fprintf(out, "\n");
             for (int l = 0; l < PN_BENCH_ERROR_LEVELS; l++) {
@@ -418,9 +484,21 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                     fprintf(out, ") |");
                 }
                 if (ex && ex->embree_ms > 0 && ex->shadow_ms > 0)
-                    fprintf(out, " %.1f (%u spp, %.2fx) |\n", ex->embree_ms, ex->spp, ex->embree_ms / ex->shadow_ms);
+                    fprintf(out, " %.1f (%u spp, %.2fx) |", ex->embree_ms, ex->spp, ex->embree_ms / ex->shadow_ms);
                 else
-                    fprintf(out, " - |\n");
+                    fprintf(out, " - |");
+                // Embree run plain, and the fastest cell of any mode, spp and filter against it
+                // (below 1: penumbra is faster).
+                const bench_row *plain = embree_plain(rows, first, end, level);
+                const bench_row *best = fastest_any(rows, first, end, level);
+                if (plain && best) {
+                    char words[128];
+                    cell_words(words, sizeof words, best);
+                    fprintf(out, " %.1f (%u spp) | %.2fx (%s) |\n", plain->embree_ms, plain->spp,
+                            pn_bench_row_ms(best) / plain->embree_ms, words);
+                } else {
+                    fprintf(out, " - | - |\n");
+                }
             }
         }
     }
