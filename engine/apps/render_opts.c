@@ -12,8 +12,8 @@
 
 pn_render_opts pn_render_opts_default(void)
 {
-    return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 25, .tree_n = 7,
-                            .tree_d = 3, .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_LINESPACE,
+    return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 4, .tree_n = 7,
+                            .tree_d = 3, .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_EXACT,
                             .traversal = PN_TRAVERSAL_AUTO, .sampler = PN_SAMPLER_STRATIFIED,
                             .filter = PN_FILTER_INTERLEAVED, .tile_w = 3, .tile_h = 3};
 }
@@ -128,11 +128,13 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         ok = v && pn_parse_int_range("--spp", v, 1, 4096, &o->spp);
     } else if (pn_args_value(a, "--tree", &v, err)) {
         ok = v && pn_parse_tree("--tree", v, &o->tree_n, &o->tree_d);
+        o->mode = ok && !o->has_mode ? PN_SHADOW_LINESPACE : o->mode; // a tree is for line space
     } else if (pn_args_value(a, "--trees", &v, err)) {
         static const char *const trees[] = {"scene", "object", NULL};
         int t = v ? pn_parse_choice("--trees", v, trees) : -1;
         ok = t >= 0;
         o->per_object = t == 1;
+        o->mode = o->per_object && !o->has_mode ? PN_SHADOW_LINESPACE : o->mode; // their only mode
     } else if (pn_args_value(a, "--move-object", &v, err)) {
         ok = v && parse_move(v, o);
     } else if (pn_args_value(a, "--max-memory", &v, err)) {
@@ -141,6 +143,7 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         int m = v ? pn_shadow_mode_parse("--mode", v) : -1;
         ok = m >= 0;
         o->mode = ok ? (pn_shadow_mode)m : o->mode;
+        o->has_mode = ok;
     } else if (pn_args_value(a, "--traversal", &v, err)) {
         int t = v ? pn_parse_choice("--traversal", v, pn_traversal_names) : -1;
         ok = t >= 0;
@@ -201,13 +204,15 @@ void pn_render_opts_print_help(void)
             if (info->traces == (pass == 0))
                 printf("  %-21s %s: %s\n", m == PN_SHADOW_LINESPACE ? "--mode M" : "", info->name, info->help);
         }
-    printf("  --tree N,d            N-tree branching factor 2..16 and depth 1..6 (default 7,3)\n"
+    printf("  --tree N,d            N-tree branching factor 2..16 and depth 1..6 (default 7,3); without\n"
+           "                        --mode it selects --mode linespace, the default being exact\n"
            "  --trees scene|object  one N-tree over the whole scene (default), or one per mesh in its\n"
            "                        own frame, shared by its instances, under a top-level BVH over the\n"
-           "                        objects (linespace mode; a moving object rebuilds only the top level)\n"
+           "                        objects (linespace mode, selected by it without --mode; a moving\n"
+           "                        object rebuilds only the top level)\n"
            "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
            "                        default: half the device's largest memory heap)\n"
-           "  --spp S               shadow rays per pixel 1..4096 (default 25), a grid of U x V = S\n"
+           "  --spp S               shadow rays per pixel 1..4096 (default 4), a grid of U x V = S\n"
            "  --traversal auto|ray|packet   each ray walks the tree alone, or the pixel's rays walk\n"
            "                        it together (default auto: packet for exact, ray for the\n"
            "                        line-space modes, the faster of the two for each on lavapipe)\n"

@@ -18,7 +18,7 @@
 static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
     [PN_SHADOW_NONE] = {.name = "none", .help = "unshadowed (V = 1)", SHADER(shadow_none_comp)},
     [PN_SHADOW_LINESPACE] = {.name = "linespace",
-                             .help = "line-space visibility, the paper's method (default)",
+                             .help = "line-space visibility, the paper's method",
                              SHADER(shadow_linespace_comp),
                              .variant = PN_VARIANT_LINESPACE,
                              .needs = {.tree = true},
@@ -55,7 +55,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                             .exact = true,
                             .auto_trees = 1},
     [PN_SHADOW_EXACT] = {.name = "exact",
-                         .help = "BVH and watertight triangle tests (the ground truth)",
+                         .help = "BVH and watertight triangle tests (the ground truth; default)",
                          SHADER(shadow_exact_comp),
                          .needs = {.bvh = true, .exact_pools = true},
                          .traces = true,
