@@ -231,7 +231,7 @@ static void params_text(const pn_demo *d, char *out, size_t n)
     int at = snprintf(out, n, "%s", mode->name);
     if (mode->needs.tree && at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " LS(%d,%d)%s %s", d->accel.desc.tree_n, d->accel.desc.tree_d,
-                       d->accel.desc.per_object ? " per object" : "", pn_traversal_names[o->traversal]);
+                       d->accel.desc.per_object ? " per object" : "", pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal)]);
     if (at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
                        o->filter != PN_FILTER_NONE ? " filtered" : "");

@@ -128,7 +128,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         F1("penumbra.gpu_ms.shadow", t->shadow_ms),
         F1("penumbra.gpu_ms.filter", t->filter_ms),
         F1("penumbra.gpu_ms.shade", t->shade_ms),
-        {.name = "penumbra.traversal", .type = PN_EXR_ATTR_STRING, .s = pn_traversal_names[o->traversal]},
+        {.name = "penumbra.traversal", .type = PN_EXR_ATTR_STRING, .s = pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal)]},
         {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = pn_sampler_names[o->sampler]},
         {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
         {.name = "penumbra.filter", .type = PN_EXR_ATTR_STRING, .s = pn_filter_names[o->filter]},
