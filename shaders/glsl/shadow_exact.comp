@@ -12,7 +12,10 @@ layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
 void main()
 {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    // llvmpipe: 8 consecutive invocations run as one SIMD group; map them to a 4x2 block of
+    // pixels (not a row of 8), whose walks are more alike.
+    uint idx = gl_LocalInvocationIndex, block = idx / 8u, within = idx % 8u;
+    ivec2 px = ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + ivec2((block % 2u) * 4u + within % 4u, (block / 2u) * 2u + within / 4u);
     vec3 p, nrm;
     if (!shadow_pixel(px, p, nrm))
         return;
