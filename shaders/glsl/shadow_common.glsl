@@ -60,13 +60,31 @@ vec2 sobol_sample(uint k, uint shift)
 // the R2 low-discrepancy sequence (additive recurrence with the plastic constant) rotated per pixel
 // (Cranley-Patterson), so neighbouring pixels use different jitters and banding becomes fine noise.
 // Interleaved (a tile_w x tile_h tile of more than one pixel, --filter interleaved): the tile's T
-// pixels share one set of spp * T samples. Each grid cell splits into tile_w x tile_h sub-cells, and
-// the pixel takes one sub-cell per cell, each cell's sub-cells going to the T pixels by a cyclic
-// shift that a hash varies per cell (so no pixel keeps one corner of every cell) and that is the
-// same in every tile. The rotation is
-// per tile, not per pixel: the union over the tile is one jittered point per sub-cell, a stratified
-// set of spp * T samples, and every pixel's own spp are still one per cell. Any tile_w x tile_h
-// window holds one pixel of each of the tile's classes, so the filter's window sees all T subsets.
+// pixels share one set of spp * T samples. Each grid cell (i, j) splits into tile_w x tile_h
+// sub-cells, and the pixel of the tile at (cx, cy) takes sub-cell
+//     ((cx + j + a) mod tile_w, (cy + i + b) mod tile_h),   a = hash(tile, i), b = hash(tile, j)
+// of it: in every cell a translation of the tile's pixels onto its sub-cells, so the union over
+// the tile is one point per sub-cell, a stratified set of spp * T samples, and every pixel's own
+// spp are still one per cell. Along a row of cells (i runs, j fixed) the pixel's sub-cell row steps
+// by one, and along a column its sub-cell column, so its own samples also spread over the sub-cell
+// rows of each cell row and the sub-cell columns of each cell column, as the per-pixel rotation of
+// the R2 jitters spreads a 1 x 1 tile's. The jitters are the R2 sequence rotated per
+// tile, the union's index k * T + sub-cell.
+// a and b are drawn per tile, so the pixels at one position in the tile do not sample the same
+// sub-cells in every tile. Before (issue 33), one shift per cell served every tile: where the filter
+// averages nothing (its weights decline, e.g. on Sponza's grazing-lit wall), each position's fixed
+// subset of sub-cells showed as a regular pattern with the tile's period (tests/tile_pattern.sh).
+// The cost: a filter window that straddles tiles (8 of the 9 window positions) may see a sub-cell
+// of a cell twice and another not at all; it keeps the sub-cell rows where it straddles a vertical
+// boundary and the columns where it straddles a horizontal one. No map avoids both: a window
+// across a tile boundary sees every sub-cell only if the map repeats with the tile's period along
+// that boundary. Measured (bench, exact, 256x256, bunny and dragon, seeds 1-3; filtered reference
+// MAE, mean over the seeds, one shift per cell -> per tile): 4 spp 0.0113 -> 0.0119 (bunny, the
+// straddles' cost) and 0.0096 -> 0.0096, 16 spp 0.0045 -> 0.0043 and 0.0041 -> 0.0037 (the
+// spread of each pixel's own samples); on the Sponza wall, where the filter declines, V_raw's RMS
+// error fell from 0.060 to 0.035 (unfiltered, per-pixel samples: 0.032).
+// Any tile_w x tile_h window holds one pixel of each position in the tile, so the filter's window
+// sees spp * T samples spread over the sub-cells of every cell.
 // A 1 x 1 tile gives the per-pixel sampler exactly. chunk_rays maps (s, t) into the pixel's
 // horizon_box, which keeps the strata: they become the box's.
 vec2 light_sample(uint k, uvec2 pixel)
@@ -74,11 +92,14 @@ vec2 light_sample(uint k, uvec2 pixel)
     uint i = k % params.grid_u, j = k / params.grid_u;
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uint tiles = tile_size.x * tile_size.y;
-    uvec2 tile = pixel / tile_size, member2 = pixel % tile_size;
+    uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     uint h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    // The shift may vary per cell but not per tile: a window that straddles tiles must still hold
-    // each sub-cell of a cell once, so the pixel's class alone decides its sub-cell.
-    uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(pcg(params.seed) + k) : 0u)) % tiles;
+    // The tile's translation of its pixels onto cell (i, j)'s sub-cells (above); reduced before the
+    // sum, which then cannot wrap. 0 for a 1 x 1 tile.
+    uint a = pcg(h ^ pcg(i + 0x68e31da4u)), b = pcg(h ^ pcg(j + 0xb5297a4du));
+    uvec2 shift = uvec2(j + a % tile_size.x, i + b % tile_size.y);
+    uvec2 sub2 = (member + shift) % tile_size;
+    uint sub = sub2.x + tile_size.x * sub2.y;
     // Budgeted split: each pixel draws its own number of samples per light (chunk_count), so there
     // is no grid to stratify.
     if (params.split == PN_SPLIT_BUDGET_ID)
@@ -89,7 +110,7 @@ vec2 light_sample(uint k, uvec2 pixel)
         const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
     }
-    vec2 cell = vec2(i * tile_size.x + sub % tile_size.x, j * tile_size.y + sub / tile_size.x);
+    vec2 cell = vec2(i * tile_size.x + sub2.x, j * tile_size.y + sub2.y);
     return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
 }
 
