@@ -21,8 +21,8 @@
 # 0.5-1.5 over seeds 1-4 against a 1024-spp reference). Checked on the frame's V_raw (what the
 # sampler gives) and V (what the user sees), and as a control on an unfiltered 16-spp frame, whose
 # samples are i.i.d. per pixel. Measured here (chi2 / 8): one shift per cell for every tile (before
-# issue 33): V_raw 1644, V 1516; a translation drawn per tile and cell (now): V_raw 0.51, V 0.50;
-# the control 1.73. `ctest -R tile_pattern -V` prints them; PN_KEEP=1 keeps the renders in $T.
+# issue 33): V_raw 1644, V 1516; a shear and a translation drawn per tile and cell (now): V_raw
+# 0.55, V 0.37; the control 1.73. `ctest -R tile_pattern -V` prints them; PN_KEEP=1 keeps the renders in $T.
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/tile_pattern

@@ -61,28 +61,41 @@ vec2 sobol_sample(uint k, uint shift)
 // (Cranley-Patterson), so neighbouring pixels use different jitters and banding becomes fine noise.
 // Interleaved (a tile_w x tile_h tile of more than one pixel, --filter interleaved): the tile's T
 // pixels share one set of spp * T samples. Each grid cell (i, j) splits into tile_w x tile_h
-// sub-cells, and the pixel of the tile at (cx, cy) takes sub-cell
-//     ((cx + j + a) mod tile_w, (cy + i + b) mod tile_h),   a = hash(tile, i), b = hash(tile, j)
-// of it: in every cell a translation of the tile's pixels onto its sub-cells, so the union over
-// the tile is one point per sub-cell, a stratified set of spp * T samples, and every pixel's own
-// spp are still one per cell. Along a row of cells (i runs, j fixed) the pixel's sub-cell row steps
-// by one, and along a column its sub-cell column, so its own samples also spread over the sub-cell
-// rows of each cell row and the sub-cell columns of each cell column, as the per-pixel rotation of
-// the R2 jitters spreads a 1 x 1 tile's. The jitters are the R2 sequence rotated per
-// tile, the union's index k * T + sub-cell.
-// a and b are drawn per tile, so the pixels at one position in the tile do not sample the same
-// sub-cells in every tile. Before (issue 33), one shift per cell served every tile: where the filter
-// averages nothing (its weights decline, e.g. on Sponza's grazing-lit wall), each position's fixed
-// subset of sub-cells showed as a regular pattern with the tile's period (tests/tile_pattern.sh).
-// The cost: a filter window that straddles tiles (8 of the 9 window positions) may see a sub-cell
-// of a cell twice and another not at all; it keeps the sub-cell rows where it straddles a vertical
-// boundary and the columns where it straddles a horizontal one. No map avoids both: a window
-// across a tile boundary sees every sub-cell only if the map repeats with the tile's period along
-// that boundary. Measured (bench, exact, 256x256, bunny and dragon, seeds 1-3; filtered reference
-// MAE, mean over the seeds, one shift per cell -> per tile): 4 spp 0.0113 -> 0.0119 (bunny, the
-// straddles' cost) and 0.0096 -> 0.0096, 16 spp 0.0045 -> 0.0043 and 0.0041 -> 0.0037 (the
-// spread of each pixel's own samples); on the Sponza wall, where the filter declines, V_raw's RMS
-// error fell from 0.060 to 0.035 (unfiltered, per-pixel samples: 0.032).
+// sub-cells; the pixel at (cx, cy) in its tile takes, in cell (i, j), the sub-cell
+//     (u0 + j + a, v0 + i + b) mod (tile_w, tile_h),   a = hash(tile, i), b = hash(tile, j),
+// with u0 = (cx + cy) mod tile_w, v0 = (cy + u0) mod tile_h in half the tiles (a hash of the tile
+// chooses) and the mirror image v0 = (cy + cx) mod tile_h, u0 = (cx + v0) mod tile_w in the others.
+// (u0, v0) is a bijection of the tile (two shears; for 3x3, (cx + cy, cx + 2 cy) or (2 cx + cy,
+// cx + cy) mod 3) and the rest a translation, so:
+//  - the union over the tile is one point per sub-cell of every cell, a stratified set of
+//    spp * T samples, and every pixel's own spp are one per cell;
+//  - along a row of cells (i runs) the pixel's sub-cell row steps by one, and along a column of
+//    cells its sub-cell column: its own samples spread over the sub-cell rows of each cell row and
+//    the columns of each cell column, as the per-pixel rotation of the R2 jitters spreads a 1 x 1
+//    tile's;
+//  - the shear gives the pixels of one row of the tile, and of one column, different sub-cell rows
+//    and columns (for odd square tiles; others get part of it): each column of the tile meets every
+//    sub-cell row and column. So a window that straddles two tiles side by side or one above the
+//    other still holds each sub-cell row and column of a cell equally often; only a sub-cell itself
+//    may be taken twice and another not at all (a window over four tiles keeps no such count). No
+//    map avoids that: a window across a tile boundary sees every sub-cell only if the map repeats
+//    with the tile's period along the boundary. With the translation alone the 3 pixels of a tile
+//    row shared their sub-cell row in every cell, and where V follows the light's height (a
+//    grazing-lit wall) they showed as dashes 3 pixels wide. With the shear, the pixels that share a
+//    sub-cell row lie along a diagonal of the tile, so the mirror image in half the tiles: the
+//    noise has no direction (adjacent pixels' errors on the Sponza wall correlate by -0.18 and -0.17
+//    horizontally and vertically, +0.02 along either diagonal; one shear everywhere: +0.17 along
+//    one; the translation alone: +0.25 horizontally);
+//  - a and b are drawn per tile, so the pixels at one position in the tile do not take the same
+//    sub-cells in every tile. Before (issue 33) one shift per cell served every tile: where the
+//    filter averages nothing (its weights decline, e.g. on Sponza's grazing-lit wall), each
+//    position's fixed subset of sub-cells showed as a regular grid with the tile's period
+//    (tests/tile_pattern.sh).
+// The jitters are the R2 sequence rotated per tile, the union's point k * T + sub-cell. Measured
+// (bench --seed 1, 2, 3, exact, 256x256; filtered reference MAE, mean of the seeds, one shift per
+// cell -> now): bunny 4 spp 0.0113 -> 0.0109, 16 spp 0.0045 -> 0.0040; dragon 4 spp 0.0095 ->
+// 0.0087, 16 spp 0.0041 -> 0.0034. On Sponza's wall V_raw's RMS error fell from 0.060 to 0.035
+// (unfiltered, per-pixel samples: 0.032; README, the filter).
 // Any tile_w x tile_h window holds one pixel of each position in the tile, so the filter's window
 // sees spp * T samples spread over the sub-cells of every cell.
 // A 1 x 1 tile gives the per-pixel sampler exactly. chunk_rays maps (s, t) into the pixel's
@@ -94,11 +107,19 @@ vec2 light_sample(uint k, uvec2 pixel)
     uint tiles = tile_size.x * tile_size.y;
     uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     uint h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    // The tile's translation of its pixels onto cell (i, j)'s sub-cells (above); reduced before the
-    // sum, which then cannot wrap. 0 for a 1 x 1 tile.
+    // The pixel's sub-cell of cell (i, j) (above): the tile's shear, then its translation for the
+    // cell, reduced before the sum, which then cannot wrap. 0 for a 1 x 1 tile.
     uint a = pcg(h ^ pcg(i + 0x68e31da4u)), b = pcg(h ^ pcg(j + 0xb5297a4du));
     uvec2 shift = uvec2(j + a % tile_size.x, i + b % tile_size.y);
-    uvec2 sub2 = (member + shift) % tile_size;
+    uvec2 sheared; // (u0, v0)
+    if ((pcg(h ^ 0x2545f491u) & 1u) == 0u) {
+        sheared.x = (member.x + member.y) % tile_size.x;
+        sheared.y = (member.y + sheared.x) % tile_size.y;
+    } else {
+        sheared.y = (member.y + member.x) % tile_size.y;
+        sheared.x = (member.x + sheared.y) % tile_size.x;
+    }
+    uvec2 sub2 = (sheared + shift) % tile_size;
     uint sub = sub2.x + tile_size.x * sub2.y;
     // Budgeted split: each pixel draws its own number of samples per light (chunk_count), so there
     // is no grid to stratify.
