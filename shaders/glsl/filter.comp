@@ -4,11 +4,11 @@
 // window of tile_w x tile_h pixels holds one pixel of each position in the tile (light_sample in
 // shadow_common.glsl), so the window centred on a pixel sees spp * tile_w * tile_h light samples
 // spread over the sub-cells of every cell: stratified where it covers one tile, and where it
-// straddles two, each cell's sub-cell rows and columns equally often. Neighbours count only where
-// they continue the pixel's own surface, so a shadow does not leak across an edge of geometry, and
-// only where their V could be the pixel's own up to the samples' noise, so a sharp shadow edge on
-// one surface stays sharp. Background stays 0; V stays in [0, 1] (a weighted mean of values in
-// [0, 1] with weights >= 0 and the pixel's own weight 1).
+// straddles two, each cell's sub-cell rows and columns equally often (odd square tiles, 3x3 the
+// default). Neighbours count only where they continue the pixel's own surface, so a shadow does not
+// leak across an edge of geometry, and only where their V could be the pixel's own up to the
+// samples' noise, so a sharp shadow edge on one surface stays sharp. Background stays 0; V stays in
+// [0, 1] (a weighted mean of values in [0, 1] with weights >= 0 and the pixel's own weight 1).
 //
 // And neighbours count only as far as V cannot change between them by more than a fraction of a
 // penumbra (penumbra_weight), so that a penumbra narrower than the window keeps its shape.
