@@ -66,6 +66,7 @@ typedef struct bench_opts {
     int filter_count;
     uint32_t tile_w, tile_h; // --tile: the interleaving tile and filter window of the filtered cells
     uint32_t reference_spp; // of the converged reference (PN_REFERENCE_SPP)
+    uint32_t seed;          // --seed: the measured frames' (default 1; the reference has its own)
     const char *out_dir;
     const char *reference_dir; // --reference-cache: where converged references are cached (NULL: out_dir/reference)
     bool embree;

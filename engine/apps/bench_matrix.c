@@ -646,7 +646,8 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
         uint32_t w = o->sizes[si][0], h = o->sizes[si][1];
         size_t px = (size_t)w * h;
         group g = {.o = o, .dev = dev, .scene = &scene, .cam = &cam, .light = &light, .rtc = rs,
-                   .frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler, .seed = 1}};
+                   .frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler,
+                             .seed = o->seed}};
         g.base = (bench_row){.width = w, .height = h, .triangles = pn_scene_triangle_count(&scene)};
         snprintf(g.base.scene, sizeof g.base.scene, "%s", view->name);
         float *v_conv = malloc(px * sizeof *v_conv);

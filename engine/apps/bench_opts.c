@@ -122,7 +122,7 @@ static int cmp_u32(const void *a, const void *b)
 int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {
     *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_AUTO, .sampler = PN_SAMPLER_STRATIFIED,
-                      .reference_spp = PN_REFERENCE_SPP, .out_dir = "bench-out", .embree = true,
+                      .reference_spp = PN_REFERENCE_SPP, .seed = 1, .out_dir = "bench-out", .embree = true,
                       .tile_w = 3, .tile_h = 3, .kinds = {[PN_TREE_KIND_SCENE] = true}};
     bool quick = false;
     char scenes_buf[4096] = "", views_buf[512] = "";
@@ -203,6 +203,13 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             long long x = 0;
             ok = v && pn_parse_int_range("--reference-spp", v, 16, 4096, &x);
             o->reference_spp = (uint32_t)x;
+        } else if (pn_args_value(&a, "--seed", &v, &err)) {
+            long long x = 0;
+            ok = v && pn_parse_int_range("--seed", v, 0, 0xffffffffll, &x);
+            if (ok && x == PN_REFERENCE_SEED)
+                pn_error("--seed %lld is the converged reference's: its errors would not be independent", x);
+            ok = ok && x != PN_REFERENCE_SEED;
+            o->seed = (uint32_t)x;
         } else if (pn_args_value(&a, "--size", &v, &err)) {
             char buf[512];
             snprintf(buf, sizeof buf, "%s", v ? v : "");

@@ -272,9 +272,10 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
             VK_API_VERSION_PATCH(dev->props.apiVersion));
     pn_json_string(f, cpu);
     fprintf(f, ", \"threads\": %u, \"repeat\": %d, \"warmup\": %d, \"traversal\": \"%s\", \"sampler\": \"%s\", "
-               "\"seed\": 1, \"reference\": {\"mode\": \"%s\", \"spp\": %u, \"sampler\": \"stratified\", \"seed\": %u}, ",
+               "\"seed\": %u, \"reference\": {\"mode\": \"%s\", \"spp\": %u, \"sampler\": \"stratified\", "
+               "\"seed\": %u}, ",
             pn_parallel_threads(), o->repeat, o->warmup, pn_traversal_names[o->traversal],
-            pn_sampler_names[o->sampler], MODE_NAME(PN_SHADOW_REFERENCE), o->reference_spp, PN_REFERENCE_SEED);
+            pn_sampler_names[o->sampler], o->seed, MODE_NAME(PN_SHADOW_REFERENCE), o->reference_spp, PN_REFERENCE_SEED);
     fprintf(f, "\"filters\": [");
     for (int i = 0; i < o->filter_count; i++)
         fprintf(f, "%s\"%s\"", i ? ", " : "", pn_filter_names[o->filters[i]]);

@@ -56,6 +56,8 @@ void pn_print_bench_help(void)
            "                       edge (0 away from edges, 1 edge, 2 within 2 px, 3 there with the error grown)\n"
            "                       and the filter's inputs: P, N, Z, shadow.valid and shadow.penumbra\n"
            "  --reference-spp S    samples of the converged reference (default %d)\n"
+           "  --seed S             the measured frames' random choices (default 1): another seed, another\n"
+           "                       draw of the samples, e.g. to see the errors' spread\n"
            "  --size WxH,...       image sizes (default 512x512)\n"
            "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"
            "  --traversal auto|ray|packet  --sampler grid|stratified   (default auto, stratified)\n"

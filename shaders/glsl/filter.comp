@@ -1,13 +1,14 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Geometry-aware filter of V over the interleaved-sampling tile (--filter interleaved). Every window
-// of tile_w x tile_h pixels holds one pixel of each of the tile's sample sets (light_sample in
-// shadow_common.glsl), so the window centred on a pixel sees the tile's spp * tile_w * tile_h
-// stratified light samples. Neighbours count only where they continue the pixel's own surface, so
-// a shadow does not leak across an edge of geometry, and only where their V could be the pixel's
-// own up to the samples' noise, so a sharp shadow edge on one surface stays sharp. Background stays
-// 0; V stays in [0, 1] (a weighted mean of values in [0, 1] with weights >= 0 and the pixel's own
-// weight 1).
+// Geometry-aware filter of V over the interleaved-sampling tile (--filter interleaved). Every
+// window of tile_w x tile_h pixels holds one pixel of each position in the tile (light_sample in
+// shadow_common.glsl), so the window centred on a pixel sees spp * tile_w * tile_h light samples
+// spread over the sub-cells of every cell: stratified where it covers one tile, and where it
+// straddles two, each cell's sub-cell rows and columns equally often (odd square tiles, 3x3 the
+// default). Neighbours count only where they continue the pixel's own surface, so a shadow does not
+// leak across an edge of geometry, and only where their V could be the pixel's own up to the
+// samples' noise, so a sharp shadow edge on one surface stays sharp. Background stays 0; V stays in
+// [0, 1] (a weighted mean of values in [0, 1] with weights >= 0 and the pixel's own weight 1).
 //
 // And neighbours count only as far as V cannot change between them by more than a fraction of a
 // penumbra (penumbra_weight), so that a penumbra narrower than the window keeps its shape.

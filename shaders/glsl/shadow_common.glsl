@@ -60,13 +60,44 @@ vec2 sobol_sample(uint k, uint shift)
 // the R2 low-discrepancy sequence (additive recurrence with the plastic constant) rotated per pixel
 // (Cranley-Patterson), so neighbouring pixels use different jitters and banding becomes fine noise.
 // Interleaved (a tile_w x tile_h tile of more than one pixel, --filter interleaved): the tile's T
-// pixels share one set of spp * T samples. Each grid cell splits into tile_w x tile_h sub-cells, and
-// the pixel takes one sub-cell per cell, each cell's sub-cells going to the T pixels by a cyclic
-// shift that a hash varies per cell (so no pixel keeps one corner of every cell) and that is the
-// same in every tile. The rotation is
-// per tile, not per pixel: the union over the tile is one jittered point per sub-cell, a stratified
-// set of spp * T samples, and every pixel's own spp are still one per cell. Any tile_w x tile_h
-// window holds one pixel of each of the tile's classes, so the filter's window sees all T subsets.
+// pixels share one set of spp * T samples. Each grid cell (i, j) splits into tile_w x tile_h
+// sub-cells; the pixel at (cx, cy) in its tile takes, in cell (i, j), the sub-cell
+//     (u0 + j + a, v0 + i + b) mod (tile_w, tile_h),   a = hash(tile, i), b = hash(tile, j),
+// with u0 = (cx + cy) mod tile_w, v0 = (cy + u0) mod tile_h in half the tiles (a hash of the tile
+// chooses) and the mirror image v0 = (cy + cx) mod tile_h, u0 = (cx + v0) mod tile_w in the others.
+// (u0, v0) is a bijection of the tile (two shears; for 3x3, (cx + cy, cx + 2 cy) or (2 cx + cy,
+// cx + cy) mod 3) and the rest a translation, so:
+//  - the union over the tile is one point per sub-cell of every cell, a stratified set of
+//    spp * T samples, and every pixel's own spp are one per cell;
+//  - along a row of cells (i runs) the pixel's sub-cell row steps by one, and along a column of
+//    cells its sub-cell column: its own samples spread over the sub-cell rows of each cell row and
+//    the columns of each cell column, as the per-pixel rotation of the R2 jitters spreads a 1 x 1
+//    tile's;
+//  - the shear gives the pixels of one row of the tile, and of one column, different sub-cell rows
+//    and columns (for odd square tiles; others get part of it): each column of the tile meets every
+//    sub-cell row and column. So a window that straddles two tiles side by side or one above the
+//    other still holds each sub-cell row and column of a cell equally often; only a sub-cell itself
+//    may be taken twice and another not at all (a window over four tiles keeps no such count). No
+//    map avoids that: a window across a tile boundary sees every sub-cell only if the map repeats
+//    with the tile's period along the boundary. With the translation alone the 3 pixels of a tile
+//    row shared their sub-cell row in every cell, and where V follows the light's height (a
+//    grazing-lit wall) they showed as dashes 3 pixels wide. With the shear, the pixels that share a
+//    sub-cell row lie along a diagonal of the tile, so the mirror image in half the tiles: the
+//    noise has no direction (adjacent pixels' errors on the Sponza wall correlate by -0.18 and -0.17
+//    horizontally and vertically, +0.02 along either diagonal; one shear everywhere: +0.17 along
+//    one; the translation alone: +0.25 horizontally);
+//  - a and b are drawn per tile, so the pixels at one position in the tile do not take the same
+//    sub-cells in every tile. Before (issue 33) one shift per cell served every tile: where the
+//    filter averages nothing (its weights decline, e.g. on Sponza's grazing-lit wall), each
+//    position's fixed subset of sub-cells showed as a regular grid with the tile's period
+//    (tests/tile_pattern.sh).
+// The jitters are the R2 sequence rotated per tile, the union's point k * T + sub-cell. Measured
+// (bench --seed 1, 2, 3, exact, 256x256; filtered reference MAE, mean of the seeds, one shift per
+// cell -> now): bunny 4 spp 0.0113 -> 0.0109, 16 spp 0.0045 -> 0.0040; dragon 4 spp 0.0095 ->
+// 0.0087, 16 spp 0.0041 -> 0.0034. On Sponza's wall V_raw's RMS error fell from 0.060 to 0.035
+// (unfiltered, per-pixel samples: 0.032; README, the filter).
+// Any tile_w x tile_h window holds one pixel of each position in the tile, so the filter's window
+// sees spp * T samples spread over the sub-cells of every cell.
 // A 1 x 1 tile gives the per-pixel sampler exactly. chunk_rays maps (s, t) into the pixel's
 // horizon_box, which keeps the strata: they become the box's.
 vec2 light_sample(uint k, uvec2 pixel)
@@ -74,11 +105,22 @@ vec2 light_sample(uint k, uvec2 pixel)
     uint i = k % params.grid_u, j = k / params.grid_u;
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uint tiles = tile_size.x * tile_size.y;
-    uvec2 tile = pixel / tile_size, member2 = pixel % tile_size;
+    uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     uint h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    // The shift may vary per cell but not per tile: a window that straddles tiles must still hold
-    // each sub-cell of a cell once, so the pixel's class alone decides its sub-cell.
-    uint sub = (member2.x + tile_size.x * member2.y + (tiles > 1u ? pcg(pcg(params.seed) + k) : 0u)) % tiles;
+    // The pixel's sub-cell of cell (i, j) (above): the tile's shear, then its translation for the
+    // cell, reduced before the sum, which then cannot wrap. 0 for a 1 x 1 tile.
+    uint a = pcg(h ^ pcg(i + 0x68e31da4u)), b = pcg(h ^ pcg(j + 0xb5297a4du));
+    uvec2 shift = uvec2(j + a % tile_size.x, i + b % tile_size.y);
+    uvec2 sheared; // (u0, v0)
+    if ((pcg(h ^ 0x2545f491u) & 1u) == 0u) {
+        sheared.x = (member.x + member.y) % tile_size.x;
+        sheared.y = (member.y + sheared.x) % tile_size.y;
+    } else {
+        sheared.y = (member.y + member.x) % tile_size.y;
+        sheared.x = (member.x + sheared.y) % tile_size.x;
+    }
+    uvec2 sub2 = (sheared + shift) % tile_size;
+    uint sub = sub2.x + tile_size.x * sub2.y;
     // Budgeted split: each pixel draws its own number of samples per light (chunk_count), so there
     // is no grid to stratify.
     if (params.split == PN_SPLIT_BUDGET_ID)
@@ -89,7 +131,7 @@ vec2 light_sample(uint k, uvec2 pixel)
         const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
     }
-    vec2 cell = vec2(i * tile_size.x + sub % tile_size.x, j * tile_size.y + sub / tile_size.x);
+    vec2 cell = vec2(i * tile_size.x + sub2.x, j * tile_size.y + sub2.y);
     return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
 }
 
