@@ -140,12 +140,28 @@ static double check_tree(const pn_scene *s, const pn_bvh *b)
             depth[j] = depth[i] + 1;
         }
     }
+    // A hash of the nodes (-0 read as +0) and the triangle order: two builders that make the same
+    // tree print the same hash.
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (uint32_t i = 0; i < b->node_count; i++) {
+        const pn_bvh_node *nd = &b->nodes[i];
+        uint32_t w[8] = {[3] = nd->first, [7] = nd->count};
+        for (int k = 0; k < 3; k++) {
+            float lo = nd->min[k] + 0.0f, hi = nd->max[k] + 0.0f;
+            memcpy(&w[k], &lo, 4);
+            memcpy(&w[4 + k], &hi, 4);
+        }
+        for (int k = 0; k < 8; k++)
+            h = (h ^ w[k]) * 0x100000001b3ull;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        h = (h ^ b->tri_index[i]) * 0x100000001b3ull;
     CHECK_MSG(leaf_tris == n, "%s: leaves hold %llu triangles of %u", s->name, (unsigned long long)leaf_tris, n);
     CHECK_MSG(max_depth == b->depth, "%s: depth %u, reported %u", s->name, max_depth, b->depth);
     fprintf(stderr, "test_bvh: %s: %u triangles, %u nodes, %u leaves (%.2f triangles each, %u above %d), depth %u, "
-                    "SAH cost %.2f\n",
+                    "SAH cost %.4f, hash %016llx\n",
             s->name, n, b->node_count, leaves, leaves ? (double)leaf_tris / leaves : 0.0, big_leaves, LEAF_MAX,
-            b->depth, cost);
+            b->depth, cost, (unsigned long long)h);
     free(seen_tri), free(seen_node), free(depth);
     return cost;
 }
