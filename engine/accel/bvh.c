@@ -21,17 +21,30 @@ typedef struct aabb {
     float lo[3], hi[3];
 } aabb;
 
+// Plain comparisons rather than fminf/fmaxf, which are library calls here: a NaN coordinate is
+// still never taken (the comparison is false), as with fminf.
+static inline float min1(float a, float b) { return a < b ? a : b; }
+static inline float max1(float a, float b) { return a > b ? a : b; }
+
 static void aabb_empty(aabb *b)
 {
     for (int k = 0; k < 3; k++)
         b->lo[k] = FLT_MAX, b->hi[k] = -FLT_MAX;
 }
 
-static void aabb_grow(aabb *b, const aabb *o)
+static inline void aabb_grow(aabb *b, const aabb *o)
 {
     for (int k = 0; k < 3; k++) {
-        b->lo[k] = fminf(b->lo[k], o->lo[k]);
-        b->hi[k] = fmaxf(b->hi[k], o->hi[k]);
+        b->lo[k] = min1(o->lo[k], b->lo[k]);
+        b->hi[k] = max1(o->hi[k], b->hi[k]);
+    }
+}
+
+static inline void aabb_grow_point(aabb *b, const float p[3])
+{
+    for (int k = 0; k < 3; k++) {
+        b->lo[k] = min1(p[k], b->lo[k]);
+        b->hi[k] = max1(p[k], b->hi[k]);
     }
 }
 
@@ -39,64 +52,102 @@ static float aabb_area(const aabb *b)
 {
     float e[3];
     for (int k = 0; k < 3; k++)
-        e[k] = fmaxf(b->hi[k] - b->lo[k], 0.0f);
+        e[k] = max1(b->hi[k] - b->lo[k], 0.0f);
     return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+}
+
+// A primitive as the build sees it: its box with its id, moved together by the partitions, so that
+// binning and partitioning read one array front to back instead of boxes through an index.
+typedef struct prim {
+    aabb box;
+    uint32_t id, pad; // 32 bytes
+} prim;
+
+static inline void prim_centroid(const prim *p, float c[3])
+{
+    for (int k = 0; k < 3; k++)
+        c[k] = 0.5f * (p->box.lo[k] + p->box.hi[k]);
 }
 
 // Build state. Nodes are allocated from a shared counter; subtrees may be built by other threads.
 typedef struct builder {
-    const aabb *tri_box;
-    const float (*centroid)[3];
-    uint32_t *ids; // permuted in place
+    prim *prims; // permuted in place
     pn_bvh_node *nodes;
     atomic_uint node_count;
     uint32_t capacity;
     atomic_uint depth;
 } builder;
 
+// A node to build over prims [begin, end), with the bounds of their boxes and of their centroids
+// (the parent's partition computes both, so no node reads its primitives just for its bounds).
 typedef struct task {
     uint32_t node, begin, end, depth;
+    aabb box, cbox;
 } task;
 
 static uint32_t alloc_nodes(builder *b, uint32_t n) { return atomic_fetch_add(&b->node_count, n); }
 
-static void node_bounds(const builder *b, uint32_t begin, uint32_t end, aabb *box, aabb *cbox)
+static void range_bounds(const prim *p, uint32_t begin, uint32_t end, aabb *box, aabb *cbox)
 {
     aabb_empty(box);
     aabb_empty(cbox);
     for (uint32_t i = begin; i < end; i++) {
-        uint32_t t = b->ids[i];
-        aabb_grow(box, &b->tri_box[t]);
+        float c[3];
+        prim_centroid(&p[i], c);
+        aabb_grow(box, &p[i].box);
+        aabb_grow_point(cbox, c);
+    }
+}
+
+// Where a centroid coordinate falls among BINS bins from lo, scale = BINS / extent.
+static inline int bin_of(float c, float lo, float scale)
+{
+    int bin = (int)((c - lo) * scale);
+    return bin < 0 ? 0 : bin >= BINS ? BINS - 1 : bin;
+}
+
+// Bins over all three axes, filled in one pass over the primitives.
+typedef struct bins {
+    aabb box[3][BINS];
+    uint32_t count[3][BINS];
+} bins;
+
+static void bins_fill(const prim *p, uint32_t begin, uint32_t end, const aabb *cbox, bins *out)
+{
+    float lo[3], scale[3];
+    for (int k = 0; k < 3; k++) {
+        float ext = cbox->hi[k] - cbox->lo[k];
+        lo[k] = cbox->lo[k];
+        scale[k] = ext > 0 ? BINS / ext : 0.0f; // a flat axis fills bin 0 and is not swept
+        for (int i = 0; i < BINS; i++) {
+            aabb_empty(&out->box[k][i]);
+            out->count[k][i] = 0;
+        }
+    }
+    for (uint32_t i = begin; i < end; i++) {
+        float c[3];
+        prim_centroid(&p[i], c);
         for (int k = 0; k < 3; k++) {
-            cbox->lo[k] = fminf(cbox->lo[k], b->centroid[t][k]);
-            cbox->hi[k] = fmaxf(cbox->hi[k], b->centroid[t][k]);
+            int bin = bin_of(c[k], lo[k], scale[k]);
+            out->count[k][bin]++;
+            aabb_grow(&out->box[k][bin], &p[i].box);
         }
     }
 }
 
-// Splits [begin, end) by binned SAH over centroids; returns the split index, or `begin` when a leaf
-// is cheaper (or nothing separates the centroids).
-static uint32_t sah_split(builder *b, uint32_t begin, uint32_t end, const aabb *box, const aabb *cbox)
+// Splits task t by binned SAH over centroids; returns the split index, or t->begin when a leaf is
+// cheaper (or nothing separates the centroids). On a split, the two sides' bounds are set.
+static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aabb *rbox, aabb *rcbox)
 {
-    uint32_t n = end - begin;
+    uint32_t begin = t->begin, end = t->end, n = end - begin;
+    const aabb *box = &t->box, *cbox = &t->cbox;
     float best_cost = (float)n * aabb_area(box); // the leaf's cost
     int best_axis = -1, best_bin = 0;
+    bins bn;
+    bins_fill(b->prims, begin, end, cbox, &bn);
     for (int k = 0; k < 3; k++) {
-        float lo = cbox->lo[k], ext = cbox->hi[k] - lo;
-        if (!(ext > 0))
+        if (!(cbox->hi[k] - cbox->lo[k] > 0))
             continue;
-        aabb bins[BINS];
-        uint32_t count[BINS] = {0};
-        for (int i = 0; i < BINS; i++)
-            aabb_empty(&bins[i]);
-        float scale = BINS / ext;
-        for (uint32_t i = begin; i < end; i++) {
-            uint32_t t = b->ids[i];
-            int bin = (int)((b->centroid[t][k] - lo) * scale);
-            bin = bin < 0 ? 0 : bin >= BINS ? BINS - 1 : bin;
-            count[bin]++;
-            aabb_grow(&bins[bin], &b->tri_box[t]);
-        }
         // Sweep: cost of splitting after bin i = N_left * A_left + N_right * A_right.
         float right_area[BINS];
         uint32_t right_count[BINS];
@@ -104,16 +155,16 @@ static uint32_t sah_split(builder *b, uint32_t begin, uint32_t end, const aabb *
         aabb_empty(&acc);
         uint32_t c = 0;
         for (int i = BINS - 1; i > 0; i--) {
-            aabb_grow(&acc, &bins[i]);
-            c += count[i];
+            aabb_grow(&acc, &bn.box[k][i]);
+            c += bn.count[k][i];
             right_area[i] = aabb_area(&acc);
             right_count[i] = c;
         }
         aabb_empty(&acc);
         c = 0;
         for (int i = 0; i < BINS - 1; i++) {
-            aabb_grow(&acc, &bins[i]);
-            c += count[i];
+            aabb_grow(&acc, &bn.box[k][i]);
+            c += bn.count[k][i];
             if (c == 0 || right_count[i + 1] == 0)
                 continue;
             // The traversal step costs about one triangle test: both are a few dozen flops.
@@ -133,26 +184,43 @@ static uint32_t sah_split(builder *b, uint32_t begin, uint32_t end, const aabb *
         for (int a = 1; a < 3; a++)
             if (cbox->hi[a] - cbox->lo[a] > cbox->hi[k] - cbox->lo[k])
                 k = a;
-        if (!(cbox->hi[k] > cbox->lo[k]))
-            return begin + n / 2; // identical centroids: any split
+        if (!(cbox->hi[k] > cbox->lo[k])) { // identical centroids: any split
+            uint32_t mid = begin + n / 2;
+            range_bounds(b->prims, begin, mid, lbox, lcbox);
+            range_bounds(b->prims, mid, end, rbox, rcbox);
+            return mid;
+        }
         best_axis = k;
         best_bin = BINS / 2 - 1;
     }
+    // Partition, growing each side's bounds with what goes to it.
     float lo = cbox->lo[best_axis], scale = BINS / (cbox->hi[best_axis] - lo);
+    aabb_empty(lbox), aabb_empty(lcbox), aabb_empty(rbox), aabb_empty(rcbox);
+    prim *p = b->prims;
     uint32_t i = begin, j = end;
     while (i < j) {
-        uint32_t t = b->ids[i];
-        int bin = (int)((b->centroid[t][best_axis] - lo) * scale);
-        bin = bin < 0 ? 0 : bin >= BINS ? BINS - 1 : bin;
-        if (bin <= best_bin) {
+        prim q = p[i];
+        float c[3];
+        prim_centroid(&q, c);
+        if (bin_of(c[best_axis], lo, scale) <= best_bin) {
+            aabb_grow(lbox, &q.box);
+            aabb_grow_point(lcbox, c);
             i++;
         } else {
-            b->ids[i] = b->ids[--j];
-            b->ids[j] = t;
+            aabb_grow(rbox, &q.box);
+            aabb_grow_point(rcbox, c);
+            p[i] = p[--j];
+            p[j] = q;
         }
     }
-    if (i == begin || i == end) // all on one side: a leaf, or halves when it is too big
-        return n <= LEAF_MAX ? begin : begin + n / 2;
+    if (i == begin || i == end) { // all on one side: a leaf, or halves when it is too big
+        if (n <= LEAF_MAX)
+            return begin;
+        uint32_t mid = begin + n / 2;
+        range_bounds(p, begin, mid, lbox, lcbox);
+        range_bounds(p, mid, end, rbox, rcbox);
+        return mid;
+    }
     return i;
 }
 
@@ -164,13 +232,14 @@ static void build_subtree(builder *b, task t, task *spill, uint32_t *spill_count
     stack[sp++] = t;
     while (sp > 0) {
         task cur = stack[--sp];
-        aabb box, cbox;
-        node_bounds(b, cur.begin, cur.end, &box, &cbox);
         pn_bvh_node *node = &b->nodes[cur.node];
-        memcpy(node->min, box.lo, sizeof node->min);
-        memcpy(node->max, box.hi, sizeof node->max);
+        memcpy(node->min, cur.box.lo, sizeof node->min);
+        memcpy(node->max, cur.box.hi, sizeof node->max);
         uint32_t n = cur.end - cur.begin;
-        uint32_t split = cur.depth + 1 >= MAX_DEPTH ? cur.begin : sah_split(b, cur.begin, cur.end, &box, &cbox);
+        task kids[2];
+        uint32_t split = cur.depth + 1 >= MAX_DEPTH
+                             ? cur.begin
+                             : sah_split(b, &cur, &kids[0].box, &kids[0].cbox, &kids[1].box, &kids[1].cbox);
         if (split == cur.begin) { // leaf (also when the depth limit is reached)
             node->first = cur.begin;
             node->count = n;
@@ -182,8 +251,8 @@ static void build_subtree(builder *b, task t, task *spill, uint32_t *spill_count
         uint32_t child = alloc_nodes(b, 2);
         node->first = child;
         node->count = 0;
-        task l = {child, cur.begin, split, cur.depth + 1}, r = {child + 1, split, cur.end, cur.depth + 1};
-        task kids[2] = {l, r};
+        kids[0].node = child, kids[0].begin = cur.begin, kids[0].end = split, kids[0].depth = cur.depth + 1;
+        kids[1].node = child + 1, kids[1].begin = split, kids[1].end = cur.end, kids[1].depth = cur.depth + 1;
         // Top phase (spill given): the children become tasks for the parallel phase.
         for (int i = 0; i < 2; i++) {
             if (spill && *spill_count < spill_cap)
@@ -245,37 +314,30 @@ static void build_tasks(void *ctx, uint64_t begin, uint64_t end, unsigned thread
         build_subtree(p->b, p->tasks[i], NULL, NULL, 0);
 }
 
-// Builds over n primitives given by their boxes; takes ownership of box and centroid (freed here).
-static pn_result build(aabb *tri_box, float (*centroid)[3], uint32_t n, pn_bvh *out)
+// Builds over n primitives; takes ownership of prims (freed here), whose ids are 0 .. n-1.
+static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
 {
     uint64_t t0 = pn_time_ns();
     out->tri_index = malloc((size_t)(n ? n : 1) * sizeof *out->tri_index);
     // A binary tree with leaves of at least one triangle has fewer than 2n nodes.
     uint32_t capacity = 2 * (n ? n : 1);
     out->nodes = malloc((size_t)capacity * sizeof *out->nodes);
-    if (!tri_box || !centroid || !out->tri_index || !out->nodes) {
-        free(tri_box), free(centroid);
-        pn_bvh_destroy(out);
-        return PN_ERR_MEMORY;
-    }
-    for (uint32_t i = 0; i < n; i++)
-        out->tri_index[i] = i;
-    builder b = {.tri_box = tri_box, .centroid = (const float(*)[3])centroid, .ids = out->tri_index,
-                 .nodes = out->nodes, .capacity = capacity};
-    atomic_init(&b.node_count, 1);
-    atomic_init(&b.depth, 0);
     // Top levels one at a time on this thread until there are enough independent subtrees, then
     // the subtrees on all threads.
     enum { TASKS = 4096 };
     task *tasks = malloc(2 * TASKS * sizeof *tasks);
-    if (!tasks) {
-        free(tri_box), free(centroid);
+    if (!prims || !out->tri_index || !out->nodes || !tasks) {
+        free(prims), free(tasks);
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
+    builder b = {.prims = prims, .nodes = out->nodes, .capacity = capacity};
+    atomic_init(&b.node_count, 1);
+    atomic_init(&b.depth, 0);
     task *cur = tasks, *next = tasks + TASKS;
     uint32_t ncur = 1, nnext;
     cur[0] = (task){0, 0, n, 0};
+    range_bounds(prims, 0, n, &cur[0].box, &cur[0].cbox);
     unsigned threads = pn_parallel_threads();
     while (ncur < 8 * threads && ncur < TASKS / 2) {
         nnext = 0;
@@ -301,8 +363,9 @@ static pn_result build(aabb *tri_box, float (*centroid)[3], uint32_t n, pn_bvh *
     pn_parallel_for(ncur, 1, build_tasks, &p);
     uint64_t t2 = pn_time_ns();
     free(tasks);
-    free(tri_box);
-    free(centroid);
+    for (uint32_t i = 0; i < n; i++)
+        out->tri_index[i] = prims[i].id;
+    free(prims);
     out->node_count = atomic_load(&b.node_count);
     out->triangles = n;
     out->depth = atomic_load(&b.depth);
@@ -321,36 +384,29 @@ pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
     memset(out, 0, sizeof *out);
     uint64_t t0 = pn_time_ns();
     uint32_t n = pn_scene_triangle_count(s);
-    aabb *tri_box = malloc((size_t)(n ? n : 1) * sizeof *tri_box);
-    float(*centroid)[3] = malloc((size_t)(n ? n : 1) * sizeof *centroid);
-    for (uint32_t i = 0; tri_box && centroid && i < n; i++) {
-        aabb_empty(&tri_box[i]);
-        for (int j = 0; j < 3; j++) {
-            const float *p = s->vertices[s->indices[3 * i + j]].pos;
-            for (int k = 0; k < 3; k++) {
-                tri_box[i].lo[k] = fminf(tri_box[i].lo[k], p[k]);
-                tri_box[i].hi[k] = fmaxf(tri_box[i].hi[k], p[k]);
-            }
-        }
-        for (int k = 0; k < 3; k++)
-            centroid[i][k] = 0.5f * (tri_box[i].lo[k] + tri_box[i].hi[k]);
+    prim *prims = malloc((size_t)(n ? n : 1) * sizeof *prims);
+    for (uint32_t i = 0; prims && i < n; i++) {
+        aabb_empty(&prims[i].box);
+        for (int j = 0; j < 3; j++)
+            aabb_grow_point(&prims[i].box, s->vertices[s->indices[3 * i + j]].pos);
+        prims[i].id = i, prims[i].pad = 0;
     }
     out->build_ms = pn_ms_since(t0);
-    return build(tri_box, centroid, n, out);
+    return build(prims, n, out);
 }
 
 pn_result pn_bvh_build_boxes(const float (*box)[6], uint32_t n, pn_bvh *out)
 {
     memset(out, 0, sizeof *out);
-    aabb *b = malloc((size_t)(n ? n : 1) * sizeof *b);
-    float(*centroid)[3] = malloc((size_t)(n ? n : 1) * sizeof *centroid);
-    for (uint32_t i = 0; b && centroid && i < n; i++)
+    prim *prims = malloc((size_t)(n ? n : 1) * sizeof *prims);
+    for (uint32_t i = 0; prims && i < n; i++) {
         for (int k = 0; k < 3; k++) {
-            b[i].lo[k] = box[i][k];
-            b[i].hi[k] = box[i][3 + k];
-            centroid[i][k] = 0.5f * (box[i][k] + box[i][3 + k]);
+            prims[i].box.lo[k] = box[i][k];
+            prims[i].box.hi[k] = box[i][3 + k];
         }
-    return build(b, centroid, n, out);
+        prims[i].id = i, prims[i].pad = 0;
+    }
+    return build(prims, n, out);
 }
 
 void pn_bvh_destroy(pn_bvh *bvh)
