@@ -48,7 +48,7 @@ static inline void aabb_grow_point(aabb *b, const float p[3])
     }
 }
 
-static float aabb_area(const aabb *b)
+static inline float aabb_area(const aabb *b)
 {
     float e[3];
     for (int k = 0; k < 3; k++)
@@ -141,7 +141,7 @@ static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aa
 {
     uint32_t begin = t->begin, end = t->end, n = end - begin;
     const aabb *box = &t->box, *cbox = &t->cbox;
-    float best_cost = (float)n * aabb_area(box); // the leaf's cost
+    float area = aabb_area(box), best_cost = (float)n * area; // the leaf's cost
     int best_axis = -1, best_bin = 0;
     bins bn;
     bins_fill(b->prims, begin, end, cbox, &bn);
@@ -168,7 +168,7 @@ static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aa
             if (c == 0 || right_count[i + 1] == 0)
                 continue;
             // The traversal step costs about one triangle test: both are a few dozen flops.
-            float cost = aabb_area(box) + (float)c * aabb_area(&acc) + (float)right_count[i + 1] * right_area[i + 1];
+            float cost = area + (float)c * aabb_area(&acc) + (float)right_count[i + 1] * right_area[i + 1];
             if (cost < best_cost) {
                 best_cost = cost;
                 best_axis = k;
