@@ -148,31 +148,35 @@ static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aa
     for (int k = 0; k < 3; k++) {
         if (!(cbox->hi[k] - cbox->lo[k] > 0))
             continue;
-        // Sweep: cost of splitting after bin i = N_left * A_left + N_right * A_right.
+        // Sweep: cost of splitting after bin i = N_left * A_left + N_right * A_right. Only splits
+        // after non-empty bins are weighed: one after an empty bin has the same sides as one after
+        // the non-empty bin before it, and small nodes, the most of them, fill few of the bins.
+        int used[BINS], m = 0;
+        for (int i = 0; i < BINS; i++)
+            if (bn.count[k][i])
+                used[m++] = i;
         float right_area[BINS];
         uint32_t right_count[BINS];
         aabb acc;
         aabb_empty(&acc);
         uint32_t c = 0;
-        for (int i = BINS - 1; i > 0; i--) {
-            aabb_grow(&acc, &bn.box[k][i]);
-            c += bn.count[k][i];
-            right_area[i] = aabb_area(&acc);
-            right_count[i] = c;
+        for (int j = m - 1; j > 0; j--) {
+            aabb_grow(&acc, &bn.box[k][used[j]]);
+            c += bn.count[k][used[j]];
+            right_area[j] = aabb_area(&acc);
+            right_count[j] = c;
         }
         aabb_empty(&acc);
         c = 0;
-        for (int i = 0; i < BINS - 1; i++) {
-            aabb_grow(&acc, &bn.box[k][i]);
-            c += bn.count[k][i];
-            if (c == 0 || right_count[i + 1] == 0)
-                continue;
+        for (int j = 0; j < m - 1; j++) {
+            aabb_grow(&acc, &bn.box[k][used[j]]);
+            c += bn.count[k][used[j]];
             // The traversal step costs about one triangle test: both are a few dozen flops.
-            float cost = area + (float)c * aabb_area(&acc) + (float)right_count[i + 1] * right_area[i + 1];
+            float cost = area + (float)c * aabb_area(&acc) + (float)right_count[j + 1] * right_area[j + 1];
             if (cost < best_cost) {
                 best_cost = cost;
                 best_axis = k;
-                best_bin = i;
+                best_bin = used[j];
             }
         }
     }
