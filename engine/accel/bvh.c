@@ -1,7 +1,6 @@
 #include "accel/bvh.h"
 
 #include <float.h>
-#include <math.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,7 +13,12 @@ enum {
     BINS = 16,       // SAH bins per axis
     LEAF_MAX = 4,    // triangles per leaf at most, unless they cannot be split
     MAX_DEPTH = PN_BVH_STACK - 4, // the GPU walk's stack holds PN_BVH_STACK entries
-    PARALLEL_MIN = 16384, // subtrees larger than this are built as separate tasks
+    // The top of the tree is split by all threads together, each pass over a node's primitives cut
+    // into blocks of BLOCK, for nodes of more than WIDE_MIN primitives; below that, each subtree
+    // is one thread's task. Both are fixed numbers, not functions of the thread count: which nodes
+    // are split which way, and so the order the primitives end in, must not depend on it.
+    BLOCK = 8192,
+    WIDE_MIN = 4 * BLOCK,
 };
 
 typedef struct aabb {
@@ -71,7 +75,8 @@ static inline void prim_centroid(const prim *p, float c[3])
 
 // Build state. Nodes are allocated from a shared counter; subtrees may be built by other threads.
 typedef struct builder {
-    prim *prims; // permuted in place
+    prim *prims[2]; // the primitives, permuted; a task's are in prims[task.in_other]
+    uint32_t *ids;  // the output triangle order, written as each subtree is done
     pn_bvh_node *nodes;
     atomic_uint node_count;
     uint32_t capacity;
@@ -82,12 +87,13 @@ typedef struct builder {
 // (the parent's partition computes both, so no node reads its primitives just for its bounds).
 typedef struct task {
     uint32_t node, begin, end, depth;
+    bool in_other; // the top phase's wide splits leave primitives in either of two arrays
     aabb box, cbox;
 } task;
 
 static uint32_t alloc_nodes(builder *b, uint32_t n) { return atomic_fetch_add(&b->node_count, n); }
 
-static void range_bounds(const prim *p, uint32_t begin, uint32_t end, aabb *box, aabb *cbox)
+static inline void range_bounds(const prim *p, uint32_t begin, uint32_t end, aabb *box, aabb *cbox)
 {
     aabb_empty(box);
     aabb_empty(cbox);
@@ -112,18 +118,27 @@ typedef struct bins {
     uint32_t count[3][BINS];
 } bins;
 
-static void bins_fill(const prim *p, uint32_t begin, uint32_t end, const aabb *cbox, bins *out)
+// Where the bins of each axis start and how wide they are, from the centroids' bounds.
+static void bins_frame(const aabb *cbox, float lo[3], float scale[3])
 {
-    float lo[3], scale[3];
     for (int k = 0; k < 3; k++) {
         float ext = cbox->hi[k] - cbox->lo[k];
         lo[k] = cbox->lo[k];
         scale[k] = ext > 0 ? BINS / ext : 0.0f; // a flat axis fills bin 0 and is not swept
+    }
+}
+
+static void bins_fill(const prim *p, uint32_t begin, uint32_t end, const float frame_lo[3],
+                      const float frame_scale[3], bins *out)
+{
+    // Local copies: the stores to out could alias the caller's arrays, and would reload them.
+    float lo[3] = {frame_lo[0], frame_lo[1], frame_lo[2]};
+    float scale[3] = {frame_scale[0], frame_scale[1], frame_scale[2]};
+    for (int k = 0; k < 3; k++)
         for (int i = 0; i < BINS; i++) {
             aabb_empty(&out->box[k][i]);
             out->count[k][i] = 0;
         }
-    }
     for (uint32_t i = begin; i < end; i++) {
         float c[3];
         prim_centroid(&p[i], c);
@@ -135,16 +150,31 @@ static void bins_fill(const prim *p, uint32_t begin, uint32_t end, const aabb *c
     }
 }
 
-// Splits task t by binned SAH over centroids; returns the split index, or t->begin when a leaf is
-// cheaper (or nothing separates the centroids). On a split, the two sides' bounds are set.
-static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aabb *rbox, aabb *rcbox)
+// Adds o's contents to b. The SAH sweep alone reads bins, and only their areas and counts: the
+// order bins are merged in changes nothing it sees.
+static void bins_merge(bins *b, const bins *o)
 {
-    uint32_t begin = t->begin, end = t->end, n = end - begin;
+    for (int k = 0; k < 3; k++)
+        for (int i = 0; i < BINS; i++) {
+            aabb_grow(&b->box[k][i], &o->box[k][i]);
+            b->count[k][i] += o->count[k][i];
+        }
+}
+
+// How a node is split: what falls in bins 0 .. bin of axis goes left; or in two halves of its
+// primitives as they lie (SPLIT_HALVES: nothing separates their centroids); or not (SPLIT_LEAF).
+typedef struct split {
+    int axis, bin;
+} split;
+enum { SPLIT_LEAF = -1, SPLIT_HALVES = -2 };
+
+// Chooses the split of task t by binned SAH over centroids from its bins.
+static split sah_choose(const task *t, const bins *bn)
+{
+    uint32_t n = t->end - t->begin;
     const aabb *box = &t->box, *cbox = &t->cbox;
     float area = aabb_area(box), best_cost = (float)n * area; // the leaf's cost
     int best_axis = -1, best_bin = 0;
-    bins bn;
-    bins_fill(b->prims, begin, end, cbox, &bn);
     for (int k = 0; k < 3; k++) {
         if (!(cbox->hi[k] - cbox->lo[k] > 0))
             continue;
@@ -153,7 +183,7 @@ static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aa
         // the non-empty bin before it, and small nodes, the most of them, fill few of the bins.
         int used[BINS], m = 0;
         for (int i = 0; i < BINS; i++)
-            if (bn.count[k][i])
+            if (bn->count[k][i])
                 used[m++] = i;
         float right_area[BINS];
         uint32_t right_count[BINS];
@@ -161,16 +191,16 @@ static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aa
         aabb_empty(&acc);
         uint32_t c = 0;
         for (int j = m - 1; j > 0; j--) {
-            aabb_grow(&acc, &bn.box[k][used[j]]);
-            c += bn.count[k][used[j]];
+            aabb_grow(&acc, &bn->box[k][used[j]]);
+            c += bn->count[k][used[j]];
             right_area[j] = aabb_area(&acc);
             right_count[j] = c;
         }
         aabb_empty(&acc);
         c = 0;
         for (int j = 0; j < m - 1; j++) {
-            aabb_grow(&acc, &bn.box[k][used[j]]);
-            c += bn.count[k][used[j]];
+            aabb_grow(&acc, &bn->box[k][used[j]]);
+            c += bn->count[k][used[j]];
             // The traversal step costs about one triangle test: both are a few dozen flops.
             float cost = area + (float)c * aabb_area(&acc) + (float)right_count[j + 1] * right_area[j + 1];
             if (cost < best_cost) {
@@ -180,93 +210,233 @@ static uint32_t sah_split(builder *b, const task *t, aabb *lbox, aabb *lcbox, aa
             }
         }
     }
-    if (best_axis < 0) {
-        if (n <= LEAF_MAX)
-            return begin;
-        // No good SAH split of a big set: split at the median of the widest centroid axis.
-        int k = 0;
-        for (int a = 1; a < 3; a++)
-            if (cbox->hi[a] - cbox->lo[a] > cbox->hi[k] - cbox->lo[k])
-                k = a;
-        if (!(cbox->hi[k] > cbox->lo[k])) { // identical centroids: any split
-            uint32_t mid = begin + n / 2;
-            range_bounds(b->prims, begin, mid, lbox, lcbox);
-            range_bounds(b->prims, mid, end, rbox, rcbox);
-            return mid;
-        }
-        best_axis = k;
-        best_bin = BINS / 2 - 1;
-    }
+    if (best_axis >= 0)
+        return (split){best_axis, best_bin};
+    if (n <= LEAF_MAX)
+        return (split){SPLIT_LEAF, 0};
+    // No good SAH split of a big set: split at the median of the widest centroid axis.
+    int k = 0;
+    for (int a = 1; a < 3; a++)
+        if (cbox->hi[a] - cbox->lo[a] > cbox->hi[k] - cbox->lo[k])
+            k = a;
+    if (!(cbox->hi[k] > cbox->lo[k])) // identical centroids: any split
+        return (split){SPLIT_HALVES, 0};
+    return (split){k, BINS / 2 - 1};
+}
+
+// The two halves of [begin, end) as they lie, with their bounds; returns the middle.
+static uint32_t split_halves(const prim *p, uint32_t begin, uint32_t end, aabb side[4])
+{
+    uint32_t mid = begin + (end - begin) / 2;
+    range_bounds(p, begin, mid, &side[0], &side[1]);
+    range_bounds(p, mid, end, &side[2], &side[3]);
+    return mid;
+}
+
+// Splits task t on this thread, in place; returns the split index, or t->begin for a leaf. On a
+// split, side[] is set to the bounds of the left boxes and centroids, then the right ones.
+static uint32_t split_node(prim *p, const task *t, aabb side[4])
+{
+    uint32_t begin = t->begin, end = t->end, n = end - begin;
+    float lo[3], scale[3];
+    bins bn;
+    bins_frame(&t->cbox, lo, scale);
+    bins_fill(p, begin, end, lo, scale, &bn);
+    split s = sah_choose(t, &bn);
+    if (s.axis == SPLIT_LEAF)
+        return begin;
+    if (s.axis == SPLIT_HALVES)
+        return split_halves(p, begin, end, side);
     // Partition, growing each side's bounds with what goes to it.
-    float lo = cbox->lo[best_axis], scale = BINS / (cbox->hi[best_axis] - lo);
-    aabb_empty(lbox), aabb_empty(lcbox), aabb_empty(rbox), aabb_empty(rcbox);
-    prim *p = b->prims;
+    int k = s.axis;
+    for (int i = 0; i < 4; i++)
+        aabb_empty(&side[i]);
     uint32_t i = begin, j = end;
     while (i < j) {
         prim q = p[i];
         float c[3];
         prim_centroid(&q, c);
-        if (bin_of(c[best_axis], lo, scale) <= best_bin) {
-            aabb_grow(lbox, &q.box);
-            aabb_grow_point(lcbox, c);
+        if (bin_of(c[k], lo[k], scale[k]) <= s.bin) {
+            aabb_grow(&side[0], &q.box);
+            aabb_grow_point(&side[1], c);
             i++;
         } else {
-            aabb_grow(rbox, &q.box);
-            aabb_grow_point(rcbox, c);
+            aabb_grow(&side[2], &q.box);
+            aabb_grow_point(&side[3], c);
             p[i] = p[--j];
             p[j] = q;
         }
     }
-    if (i == begin || i == end) { // all on one side: a leaf, or halves when it is too big
-        if (n <= LEAF_MAX)
-            return begin;
-        uint32_t mid = begin + n / 2;
-        range_bounds(p, begin, mid, lbox, lcbox);
-        range_bounds(p, mid, end, rbox, rcbox);
-        return mid;
-    }
+    if (i == begin || i == end) // all on one side: a leaf, or halves when it is too big
+        return n <= LEAF_MAX ? begin : split_halves(p, begin, end, side);
     return i;
 }
 
-// Builds the subtree of task t; pushes subtrees bigger than PARALLEL_MIN to `spill` when given.
-static void build_subtree(builder *b, task t, task *spill, uint32_t *spill_count, uint32_t spill_cap)
+// A leaf over the task's primitives; records its depth.
+static void make_leaf(builder *b, const task *t)
 {
+    pn_bvh_node *node = &b->nodes[t->node];
+    node->first = t->begin;
+    node->count = t->end - t->begin;
+    uint32_t d = t->depth + 1, old = atomic_load(&b->depth);
+    while (d > old && !atomic_compare_exchange_weak(&b->depth, &old, d))
+        ;
+}
+
+// Makes the task's node interior with children over [begin, split) and [split, end), whose
+// bounds are side[]; sets their tasks.
+static void make_interior(builder *b, const task *t, uint32_t split_at, const aabb side[4], task kids[2])
+{
+    uint32_t child = alloc_nodes(b, 2);
+    pn_bvh_node *node = &b->nodes[t->node];
+    node->first = child;
+    node->count = 0;
+    for (int i = 0; i < 2; i++) {
+        task *k = &kids[i];
+        k->node = child + i;
+        k->begin = i == 0 ? t->begin : split_at;
+        k->end = i == 0 ? split_at : t->end;
+        k->depth = t->depth + 1;
+        k->box = side[2 * i];
+        k->cbox = side[2 * i + 1];
+        pn_bvh_node *c = &b->nodes[k->node];
+        memcpy(c->min, k->box.lo, sizeof c->min);
+        memcpy(c->max, k->box.hi, sizeof c->max);
+    }
+}
+
+// Builds the subtree of task t on this thread, then writes its primitives' order to ids.
+static void build_subtree(builder *b, task t)
+{
+    prim *p = b->prims[t.in_other];
     task stack[2 * MAX_DEPTH + 8];
     int sp = 0;
     stack[sp++] = t;
     while (sp > 0) {
         task cur = stack[--sp];
-        pn_bvh_node *node = &b->nodes[cur.node];
-        memcpy(node->min, cur.box.lo, sizeof node->min);
-        memcpy(node->max, cur.box.hi, sizeof node->max);
-        uint32_t n = cur.end - cur.begin;
-        task kids[2];
-        uint32_t split = cur.depth + 1 >= MAX_DEPTH
-                             ? cur.begin
-                             : sah_split(b, &cur, &kids[0].box, &kids[0].cbox, &kids[1].box, &kids[1].cbox);
-        if (split == cur.begin) { // leaf (also when the depth limit is reached)
-            node->first = cur.begin;
-            node->count = n;
-            uint32_t d = cur.depth + 1, old = atomic_load(&b->depth);
-            while (d > old && !atomic_compare_exchange_weak(&b->depth, &old, d))
-                ;
+        aabb side[4];
+        uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_node(p, &cur, side);
+        if (split_at == cur.begin) { // leaf (also when the depth limit is reached)
+            make_leaf(b, &cur);
             continue;
         }
-        uint32_t child = alloc_nodes(b, 2);
-        node->first = child;
-        node->count = 0;
-        kids[0].node = child, kids[0].begin = cur.begin, kids[0].end = split, kids[0].depth = cur.depth + 1;
-        kids[1].node = child + 1, kids[1].begin = split, kids[1].end = cur.end, kids[1].depth = cur.depth + 1;
-        // Top phase (spill given): the children become tasks for the parallel phase.
-        for (int i = 0; i < 2; i++) {
-            if (spill && *spill_count < spill_cap)
-                spill[(*spill_count)++] = kids[i];
-            else
-                stack[sp++] = kids[i];
-        }
-        if (spill && sp == 0)
-            return;
+        task kids[2];
+        make_interior(b, &cur, split_at, side, kids);
+        stack[sp++] = kids[1];
+        stack[sp++] = kids[0];
     }
+    for (uint32_t i = t.begin; i < t.end; i++)
+        b->ids[i] = p[i].id;
+}
+
+// One node's passes on all threads, over blocks of BLOCK primitives from `begin`. Each block has
+// its own bins and bounds, merged in block order: the same result on any number of threads.
+typedef struct wide {
+    const prim *src;
+    prim *dst; // the partition's output, a stable one: left side first, then right, each in order
+    uint32_t begin, end;
+    float lo[3], scale[3];
+    split s;
+    bins *bins;         // per block
+    uint32_t *left;     // per block: where its left ones go in dst
+    uint32_t *right;    // per block: where its right ones go in dst
+    aabb (*side)[4];    // per block: bounds of what goes left (boxes, centroids) and right
+} wide;
+
+static void block_range(const wide *w, uint64_t k, uint32_t *begin, uint32_t *end)
+{
+    *begin = w->begin + (uint32_t)k * BLOCK;
+    *end = w->end - *begin > BLOCK ? *begin + BLOCK : w->end;
+}
+
+static void wide_bins(void *ctx, uint64_t first, uint64_t last, unsigned thread)
+{
+    wide *w = ctx;
+    for (uint64_t k = first; k < last; k++) {
+        uint32_t begin, end;
+        block_range(w, k, &begin, &end);
+        bins_fill(w->src, begin, end, w->lo, w->scale, &w->bins[k]);
+    }
+}
+
+static void wide_scatter(void *ctx, uint64_t first, uint64_t last, unsigned thread)
+{
+    const wide *w = ctx;
+    int k = w->s.axis, bin = w->s.bin;
+    float lo = w->lo[k], scale = w->scale[k];
+    const prim *src = w->src;
+    prim *dst = w->dst;
+    for (uint64_t blk = first; blk < last; blk++) {
+        uint32_t begin, end, l = w->left[blk], r = w->right[blk];
+        block_range(w, blk, &begin, &end);
+        // Here, not in w->side, which the stores to dst could alias; and the four by name, so
+        // that they stay in registers.
+        aabb lbox, lcbox, rbox, rcbox;
+        aabb_empty(&lbox), aabb_empty(&lcbox), aabb_empty(&rbox), aabb_empty(&rcbox);
+        for (uint32_t i = begin; i < end; i++) {
+            const prim *q = &src[i];
+            float c[3];
+            prim_centroid(q, c);
+            if (bin_of(c[k], lo, scale) <= bin) {
+                dst[l++] = *q;
+                aabb_grow(&lbox, &q->box);
+                aabb_grow_point(&lcbox, c);
+            } else {
+                dst[r++] = *q;
+                aabb_grow(&rbox, &q->box);
+                aabb_grow_point(&rcbox, c);
+            }
+        }
+        w->side[blk][0] = lbox, w->side[blk][1] = lcbox, w->side[blk][2] = rbox, w->side[blk][3] = rcbox;
+    }
+}
+
+// Splits task t (its primitives in src) with all threads; the split's primitives end in dst (and
+// *moved is set) or stay in src. Returns the split index, or t->begin for a leaf. `scratch` holds
+// the per-block state for ceil(n / BLOCK) blocks.
+static uint32_t split_wide(const task *t, prim *src, prim *dst, wide *scratch, aabb side[4], bool *moved)
+{
+    wide w = *scratch;
+    w.src = src, w.dst = dst, w.begin = t->begin, w.end = t->end;
+    uint32_t n = t->end - t->begin, blocks = (n + BLOCK - 1) / BLOCK;
+    *moved = false;
+    bins_frame(&t->cbox, w.lo, w.scale);
+    pn_parallel_for(blocks, 1, wide_bins, &w);
+    bins all = w.bins[0];
+    for (uint32_t k = 1; k < blocks; k++)
+        bins_merge(&all, &w.bins[k]);
+    w.s = sah_choose(t, &all);
+    if (w.s.axis == SPLIT_LEAF)
+        return t->begin;
+    if (w.s.axis == SPLIT_HALVES)
+        return split_halves(src, t->begin, t->end, side);
+    // Each block's bins say how many of its primitives go left: where each block's left and
+    // right ones go in dst.
+    uint32_t left = 0;
+    for (uint32_t k = 0; k < blocks; k++) {
+        w.left[k] = 0;
+        for (int i = 0; i <= w.s.bin; i++)
+            w.left[k] += w.bins[k].count[w.s.axis][i];
+        left += w.left[k];
+    }
+    uint32_t l = t->begin, r = t->begin + left;
+    for (uint32_t k = 0; k < blocks; k++) {
+        uint32_t begin, end;
+        block_range(&w, k, &begin, &end);
+        uint32_t lk = w.left[k];
+        w.left[k] = l, w.right[k] = r;
+        l += lk, r += end - begin - lk;
+    }
+    pn_parallel_for(blocks, 1, wide_scatter, &w);
+    *moved = true;
+    if (left == 0 || left == n) // all on one side (dst is src's copy): halves
+        return n <= LEAF_MAX ? t->begin : split_halves(dst, t->begin, t->end, side);
+    for (int i = 0; i < 4; i++)
+        side[i] = w.side[0][i];
+    for (uint32_t k = 1; k < blocks; k++)
+        for (int i = 0; i < 4; i++)
+            aabb_grow(&side[i], &w.side[k][i]);
+    return t->begin + left;
 }
 
 // Renumbers the nodes depth-first, left child first, each interior node's two children placed
@@ -315,7 +485,32 @@ static void build_tasks(void *ctx, uint64_t begin, uint64_t end, unsigned thread
 {
     par_ctx *p = ctx;
     for (uint64_t i = begin; i < end; i++)
-        build_subtree(p->b, p->tasks[i], NULL, NULL, 0);
+        build_subtree(p->b, p->tasks[i]);
+}
+
+// Bigger subtrees first, so that the last ones to start are short; ties by position.
+static int by_size(const void *a, const void *b)
+{
+    const task *x = a, *y = b;
+    uint32_t nx = x->end - x->begin, ny = y->end - y->begin;
+    if (nx != ny)
+        return nx > ny ? -1 : 1;
+    return x->begin < y->begin ? -1 : x->begin > y->begin;
+}
+
+typedef struct bounds_ctx {
+    const prim *p;
+    uint32_t n;
+    aabb (*block)[4]; // per block: the boxes' bounds, the centroids'
+} bounds_ctx;
+
+static void block_bounds(void *ctx, uint64_t first, uint64_t last, unsigned thread)
+{
+    bounds_ctx *c = ctx;
+    for (uint64_t k = first; k < last; k++) {
+        uint32_t begin = (uint32_t)k * BLOCK, end = c->n - begin > BLOCK ? begin + BLOCK : c->n;
+        range_bounds(c->p, begin, end, &c->block[k][0], &c->block[k][1]);
+    }
 }
 
 // Builds over n primitives; takes ownership of prims (freed here), whose ids are 0 .. n-1.
@@ -326,49 +521,80 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
     // A binary tree with leaves of at least one triangle has fewer than 2n nodes.
     uint32_t capacity = 2 * (n ? n : 1);
     out->nodes = malloc((size_t)capacity * sizeof *out->nodes);
-    // Top levels one at a time on this thread until there are enough independent subtrees, then
-    // the subtrees on all threads.
-    enum { TASKS = 4096 };
-    task *tasks = malloc(2 * TASKS * sizeof *tasks);
-    if (!prims || !out->tri_index || !out->nodes || !tasks) {
-        free(prims), free(tasks);
+    // The wide nodes are split one at a time, depth first; the nodes they leave narrower become
+    // the subtree tasks. Wide nodes of one depth do not overlap, so there are at most
+    // n / WIDE_MIN of them per depth, and each leaves at most two tasks.
+    uint32_t blocks = (n + BLOCK - 1) / BLOCK, max_tasks = 2 * (MAX_DEPTH + 1) * (n / WIDE_MIN + 1);
+    task *tasks = malloc((size_t)max_tasks * sizeof *tasks);
+    // Wide splits partition from one array into the other and back (`in_other` says which holds
+    // a task's primitives); per-block state for the widest node, the root.
+    prim *other = n > WIDE_MIN ? malloc((size_t)n * sizeof *other) : NULL;
+    wide scratch = {
+        .bins = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.bins),
+        .left = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.left),
+        .right = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.right),
+        .side = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.side),
+    };
+    if (!prims || !out->tri_index || !out->nodes || !tasks || (n > WIDE_MIN && !other) || !scratch.bins ||
+        !scratch.left || !scratch.right || !scratch.side) {
+        free(prims), free(tasks), free(other);
+        free(scratch.bins), free(scratch.left), free(scratch.right), free(scratch.side);
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
-    builder b = {.prims = prims, .nodes = out->nodes, .capacity = capacity};
+    builder b = {.prims = {prims, other}, .ids = out->tri_index, .nodes = out->nodes, .capacity = capacity};
     atomic_init(&b.node_count, 1);
     atomic_init(&b.depth, 0);
-    task *cur = tasks, *next = tasks + TASKS;
-    uint32_t ncur = 1, nnext;
-    cur[0] = (task){0, 0, n, 0};
-    range_bounds(prims, 0, n, &cur[0].box, &cur[0].cbox);
-    unsigned threads = pn_parallel_threads();
-    while (ncur < 8 * threads && ncur < TASKS / 2) {
-        nnext = 0;
-        bool split_any = false;
-        for (uint32_t i = 0; i < ncur; i++) {
-            uint32_t before = nnext;
-            if (cur[i].end - cur[i].begin > PARALLEL_MIN) {
-                build_subtree(&b, cur[i], next, &nnext, TASKS);
-                split_any = split_any || nnext != before;
-            } else {
-                next[nnext++] = cur[i];
-            }
-        }
-        task *t = cur;
-        cur = next;
-        next = t;
-        ncur = nnext;
-        if (!split_any)
-            break;
+
+    // The root's bounds, block by block (into the first two bounds of scratch.side per block).
+    task root = {.node = 0, .begin = 0, .end = n};
+    bounds_ctx bc = {prims, n, scratch.side};
+    pn_parallel_for(blocks, 1, block_bounds, &bc);
+    aabb_empty(&root.box);
+    aabb_empty(&root.cbox);
+    for (uint32_t k = 0; k < blocks; k++) {
+        aabb_grow(&root.box, &scratch.side[k][0]);
+        aabb_grow(&root.cbox, &scratch.side[k][1]);
     }
+    memcpy(out->nodes[0].min, root.box.lo, sizeof root.box.lo);
+    memcpy(out->nodes[0].max, root.box.hi, sizeof root.box.hi);
+
+    uint32_t ntasks = 0, wide_nodes = 0;
+    task stack[2 * MAX_DEPTH + 8];
+    int sp = 0;
+    stack[sp++] = root;
+    while (sp > 0) {
+        task cur = stack[--sp];
+        if (cur.end - cur.begin <= WIDE_MIN) {
+            tasks[ntasks++] = cur;
+            continue;
+        }
+        wide_nodes++;
+        prim *src = b.prims[cur.in_other], *dst = b.prims[!cur.in_other];
+        aabb side[4];
+        bool moved = false;
+        uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_wide(&cur, src, dst, &scratch, side, &moved);
+        bool in_other = cur.in_other != moved;
+        if (split_at == cur.begin) { // a leaf: at the depth limit only, this wide
+            for (uint32_t i = cur.begin; i < cur.end; i++)
+                b.ids[i] = b.prims[in_other][i].id;
+            make_leaf(&b, &cur);
+            continue;
+        }
+        task kids[2];
+        make_interior(&b, &cur, split_at, side, kids);
+        kids[0].in_other = kids[1].in_other = in_other;
+        stack[sp++] = kids[1];
+        stack[sp++] = kids[0];
+    }
+    free(scratch.bins), free(scratch.left), free(scratch.right), free(scratch.side);
     uint64_t t1 = pn_time_ns();
-    par_ctx p = {&b, cur};
-    pn_parallel_for(ncur, 1, build_tasks, &p);
+    qsort(tasks, ntasks, sizeof *tasks, by_size);
+    par_ctx p = {&b, tasks};
+    pn_parallel_for(ntasks, 1, build_tasks, &p);
     uint64_t t2 = pn_time_ns();
     free(tasks);
-    for (uint32_t i = 0; i < n; i++)
-        out->tri_index[i] = prims[i].id;
+    free(other);
     free(prims);
     out->node_count = atomic_load(&b.node_count);
     out->triangles = n;
@@ -377,8 +603,10 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
-    pn_debug("bvh: %u primitives: boxes %.1f ms, top levels %.1f ms (%u tasks), subtrees %.1f ms, renumber %.1f ms",
-             n, out->build_ms, (double)(t1 - t0) * 1e-6, ncur, (double)(t2 - t1) * 1e-6, pn_ms_since(t2));
+    pn_debug("bvh: %u primitives: boxes %.1f ms, top levels %.1f ms (%u wide nodes, %u tasks), subtrees %.1f ms, "
+             "renumber %.1f ms",
+             n, out->build_ms, (double)(t1 - t0) * 1e-6, wide_nodes, ntasks, (double)(t2 - t1) * 1e-6,
+             pn_ms_since(t2));
     out->build_ms += pn_ms_since(t0);
     return PN_OK;
 }
