@@ -154,14 +154,15 @@ static double check_tree(const pn_scene *s, const pn_bvh *b)
         for (int k = 0; k < 8; k++)
             h = (h ^ w[k]) * 0x100000001b3ull;
     }
+    uint64_t h_nodes = h; // the nodes alone: the same tree with its leaves' triangles in another order
     for (uint32_t i = 0; i < n; i++)
         h = (h ^ b->tri_index[i]) * 0x100000001b3ull;
     CHECK_MSG(leaf_tris == n, "%s: leaves hold %llu triangles of %u", s->name, (unsigned long long)leaf_tris, n);
     CHECK_MSG(max_depth == b->depth, "%s: depth %u, reported %u", s->name, max_depth, b->depth);
     fprintf(stderr, "test_bvh: %s: %u triangles, %u nodes, %u leaves (%.2f triangles each, %u above %d), depth %u, "
-                    "SAH cost %.4f, hash %016llx\n",
+                    "SAH cost %.4f, hash %016llx (nodes %016llx)\n",
             s->name, n, b->node_count, leaves, leaves ? (double)leaf_tris / leaves : 0.0, big_leaves, LEAF_MAX,
-            b->depth, cost, (unsigned long long)h);
+            b->depth, cost, (unsigned long long)h, (unsigned long long)h_nodes);
     free(seen_tri), free(seen_node), free(depth);
     return cost;
 }
