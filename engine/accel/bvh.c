@@ -73,13 +73,15 @@ static inline void prim_centroid(const prim *p, float c[3])
         c[k] = 0.5f * (p->box.lo[k] + p->box.hi[k]);
 }
 
-// Build state. Nodes are allocated from a shared counter; subtrees may be built by other threads.
+// Build state. The top phase numbers its nodes (the wide ones and the tasks' roots) in `top` on
+// one thread; each task numbers its root's descendants from 0 in its own stretch of `sub`, two
+// nodes per primitive from its first primitive's (a subtree over m primitives has fewer than 2m
+// nodes). assemble() then puts them all in one array.
 typedef struct builder {
     prim *prims[2]; // the primitives, permuted; a task's are in prims[task.in_other]
     uint32_t *ids;  // the output triangle order, written as each subtree is done
-    pn_bvh_node *nodes;
-    atomic_uint node_count;
-    uint32_t capacity;
+    pn_bvh_node *top, *sub;
+    uint32_t top_count;
     atomic_uint depth;
 } builder;
 
@@ -90,8 +92,6 @@ typedef struct task {
     bool in_other; // the top phase's wide splits leave primitives in either of two arrays
     aabb box, cbox;
 } task;
-
-static uint32_t alloc_nodes(builder *b, uint32_t n) { return atomic_fetch_add(&b->node_count, n); }
 
 static inline void range_bounds(const prim *p, uint32_t begin, uint32_t end, aabb *box, aabb *cbox)
 {
@@ -272,10 +272,9 @@ static uint32_t split_node(prim *p, const task *t, aabb side[4])
     return i;
 }
 
-// A leaf over the task's primitives; records its depth.
-static void make_leaf(builder *b, const task *t)
+// Makes node a leaf over the task's primitives; records its depth.
+static void make_leaf(builder *b, pn_bvh_node *node, const task *t)
 {
-    pn_bvh_node *node = &b->nodes[t->node];
     node->first = t->begin;
     node->count = t->end - t->begin;
     uint32_t d = t->depth + 1, old = atomic_load(&b->depth);
@@ -283,12 +282,13 @@ static void make_leaf(builder *b, const task *t)
         ;
 }
 
-// Makes the task's node interior with children over [begin, split) and [split, end), whose
-// bounds are side[]; sets their tasks.
-static void make_interior(builder *b, const task *t, uint32_t split_at, const aabb side[4], task kids[2])
+// Makes node (the task's) interior with children over [begin, split) and [split, end), whose
+// bounds are side[]: nodes[*count] and the next, which *count then passes; sets their tasks.
+static void make_interior(pn_bvh_node *node, const task *t, uint32_t split_at, const aabb side[4], pn_bvh_node *nodes,
+                          uint32_t *count, task kids[2])
 {
-    uint32_t child = alloc_nodes(b, 2);
-    pn_bvh_node *node = &b->nodes[t->node];
+    uint32_t child = *count;
+    *count += 2;
     node->first = child;
     node->count = 0;
     for (int i = 0; i < 2; i++) {
@@ -299,34 +299,40 @@ static void make_interior(builder *b, const task *t, uint32_t split_at, const aa
         k->depth = t->depth + 1;
         k->box = side[2 * i];
         k->cbox = side[2 * i + 1];
-        pn_bvh_node *c = &b->nodes[k->node];
+        pn_bvh_node *c = &nodes[k->node];
         memcpy(c->min, k->box.lo, sizeof c->min);
         memcpy(c->max, k->box.hi, sizeof c->max);
     }
 }
 
-// Builds the subtree of task t on this thread, then writes its primitives' order to ids.
-static void build_subtree(builder *b, task t)
+// Builds the subtree of task t on this thread, then writes its primitives' order to ids. Its
+// root is top[t.node]; the descendants are numbered in the order of the final array (assemble()).
+// Returns their count.
+static uint32_t build_subtree(builder *b, task t)
 {
     prim *p = b->prims[t.in_other];
+    pn_bvh_node *local = b->sub + 2 * (size_t)t.begin;
+    uint32_t count = 0;
     task stack[2 * MAX_DEPTH + 8];
     int sp = 0;
     stack[sp++] = t;
-    while (sp > 0) {
+    for (bool root = true; sp > 0; root = false) {
         task cur = stack[--sp];
+        pn_bvh_node *node = root ? &b->top[cur.node] : &local[cur.node];
         aabb side[4];
         uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_node(p, &cur, side);
         if (split_at == cur.begin) { // leaf (also when the depth limit is reached)
-            make_leaf(b, &cur);
+            make_leaf(b, node, &cur);
             continue;
         }
         task kids[2];
-        make_interior(b, &cur, split_at, side, kids);
-        stack[sp++] = kids[1];
+        make_interior(node, &cur, split_at, side, local, &count, kids);
+        stack[sp++] = kids[1]; // the left child is taken first
         stack[sp++] = kids[0];
     }
     for (uint32_t i = t.begin; i < t.end; i++)
         b->ids[i] = p[i].id;
+    return count;
 }
 
 // One node's passes on all threads, over blocks of BLOCK primitives from `begin`. Each block has
@@ -439,53 +445,89 @@ static uint32_t split_wide(const task *t, prim *src, prim *dst, wide *scratch, a
     return t->begin + left;
 }
 
-// Renumbers the nodes depth-first, left child first, each interior node's two children placed
-// together when it is visited. The build allocates node pairs from a shared counter in whatever
-// order the threads reach them, and how many levels the top phase splits before the parallel one
-// depends on the thread count: the node array would differ from run to run and with PN_THREADS
-// (issue 30), though the tree is the same. This pass fixes the order by the tree alone.
-static pn_result renumber(pn_bvh *out)
-{
-    if (out->node_count < 3) // the root alone (a leaf; count 0 with no triangles at all)
-        return PN_OK;
-    pn_bvh_node *dst = malloc((size_t)(out->node_count ? out->node_count : 1) * sizeof *dst);
-    if (!dst)
-        return PN_ERR_MEMORY;
-    // (source, destination) of nodes placed but whose children are not: at most one pending right
-    // sibling per level, and leaves are never deeper than MAX_DEPTH.
-    uint32_t stack[MAX_DEPTH + 8][2];
-    int sp = 0;
-    uint32_t next = 1;
-    dst[0] = out->nodes[0];
-    stack[sp][0] = 0, stack[sp][1] = 0, sp++;
-    while (sp > 0) {
-        sp--;
-        uint32_t s = stack[sp][0], d = stack[sp][1];
-        if (out->nodes[s].count > 0)
-            continue;
-        uint32_t c = next, sc = out->nodes[s].first;
-        next += 2;
-        dst[c] = out->nodes[sc];
-        dst[c + 1] = out->nodes[sc + 1];
-        dst[d].first = c;
-        stack[sp][0] = sc + 1, stack[sp][1] = c + 1, sp++; // right below left: left is visited first
-        stack[sp][0] = sc, stack[sp][1] = c, sp++;
-    }
-    free(out->nodes);
-    out->nodes = dst;
-    return PN_OK;
-}
-
 typedef struct par_ctx {
     builder *b;
     const task *tasks;
+    uint32_t *count; // per task: its root's descendants
+    uint32_t *at;    // per task: where they start in the final array
+    pn_bvh_node *nodes; // the final array
 } par_ctx;
 
 static void build_tasks(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
 {
     par_ctx *p = ctx;
     for (uint64_t i = begin; i < end; i++)
-        build_subtree(p->b, p->tasks[i]);
+        p->count[i] = build_subtree(p->b, p->tasks[i]);
+}
+
+static void place_tasks(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    par_ctx *p = ctx;
+    for (uint64_t i = begin; i < end; i++) {
+        const pn_bvh_node *local = p->b->sub + 2 * (size_t)p->tasks[i].begin;
+        pn_bvh_node *dst = p->nodes + p->at[i];
+        for (uint32_t j = 0; j < p->count[i]; j++) {
+            dst[j] = local[j];
+            if (dst[j].count == 0)
+                dst[j].first += p->at[i];
+        }
+    }
+}
+
+// Puts the nodes in their final order: depth first, left child first, each interior node's two
+// children placed together when it is visited. That order follows from the tree alone: the same
+// on any number of threads (issue 30). Walks the top nodes; the descendants of a task's root are
+// one run of that order (all of a node's descendants come right after its children's pair is
+// placed, before anything outside it), which the task numbered in that order already: they are
+// copied over, by all threads. Returns the array, or NULL when out of memory.
+static pn_bvh_node *assemble(par_ctx *p, uint32_t ntasks, uint32_t *node_count)
+{
+    const builder *b = p->b;
+    uint32_t total = b->top_count;
+    for (uint32_t i = 0; i < ntasks; i++)
+        total += p->count[i];
+    uint32_t *task_of = malloc((size_t)b->top_count * sizeof *task_of);
+    pn_bvh_node *dst = malloc((size_t)total * sizeof *dst);
+    if (!task_of || !dst) {
+        free(task_of), free(dst);
+        return NULL;
+    }
+    for (uint32_t i = 0; i < b->top_count; i++)
+        task_of[i] = UINT32_MAX;
+    for (uint32_t i = 0; i < ntasks; i++)
+        task_of[p->tasks[i].node] = i;
+    // (top node, its place) of nodes placed but whose children are not: at most one pending right
+    // sibling per level, and leaves are never deeper than MAX_DEPTH.
+    uint32_t stack[MAX_DEPTH + 8][2];
+    int sp = 0;
+    uint32_t next = 1;
+    dst[0] = b->top[0];
+    stack[sp][0] = 0, stack[sp][1] = 0, sp++;
+    while (sp > 0) {
+        sp--;
+        uint32_t s = stack[sp][0], d = stack[sp][1], t = task_of[s];
+        if (b->top[s].count > 0) // a leaf (or the root of no primitives)
+            continue;
+        if (t != UINT32_MAX) { // a task's root: its descendants' run
+            if (p->count[t] > 0)
+                dst[d].first = next;
+            p->at[t] = next;
+            next += p->count[t];
+            continue;
+        }
+        uint32_t c = next, sc = b->top[s].first;
+        next += 2;
+        dst[c] = b->top[sc];
+        dst[c + 1] = b->top[sc + 1];
+        dst[d].first = c;
+        stack[sp][0] = sc + 1, stack[sp][1] = c + 1, sp++; // right below left: left is visited first
+        stack[sp][0] = sc, stack[sp][1] = c, sp++;
+    }
+    free(task_of);
+    p->nodes = dst;
+    pn_parallel_for(ntasks, 1, place_tasks, p);
+    *node_count = total;
+    return dst;
 }
 
 // Bigger subtrees first, so that the last ones to start are short; ties by position.
@@ -518,14 +560,16 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
 {
     uint64_t t0 = pn_time_ns();
     out->tri_index = malloc((size_t)(n ? n : 1) * sizeof *out->tri_index);
-    // A binary tree with leaves of at least one triangle has fewer than 2n nodes.
-    uint32_t capacity = 2 * (n ? n : 1);
-    out->nodes = malloc((size_t)capacity * sizeof *out->nodes);
     // The wide nodes are split one at a time, depth first; the nodes they leave narrower become
     // the subtree tasks. Wide nodes of one depth do not overlap, so there are at most
-    // n / WIDE_MIN of them per depth, and each leaves at most two tasks.
+    // n / WIDE_MIN of them per depth, and each leaves at most two tasks: the top nodes are the
+    // root and two per wide node.
     uint32_t blocks = (n + BLOCK - 1) / BLOCK, max_tasks = 2 * (MAX_DEPTH + 1) * (n / WIDE_MIN + 1);
     task *tasks = malloc((size_t)max_tasks * sizeof *tasks);
+    uint32_t *task_count = malloc((size_t)max_tasks * sizeof *task_count);
+    uint32_t *task_at = malloc((size_t)max_tasks * sizeof *task_at);
+    pn_bvh_node *top = malloc((size_t)(max_tasks + 1) * sizeof *top);
+    pn_bvh_node *sub = malloc((size_t)2 * (n ? n : 1) * sizeof *sub);
     // Wide splits partition from one array into the other and back (`in_other` says which holds
     // a task's primitives); per-block state for the widest node, the root.
     prim *other = n > WIDE_MIN ? malloc((size_t)n * sizeof *other) : NULL;
@@ -535,15 +579,14 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
         .right = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.right),
         .side = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.side),
     };
-    if (!prims || !out->tri_index || !out->nodes || !tasks || (n > WIDE_MIN && !other) || !scratch.bins ||
-        !scratch.left || !scratch.right || !scratch.side) {
-        free(prims), free(tasks), free(other);
+    if (!prims || !out->tri_index || !tasks || !task_count || !task_at || !top || !sub || (n > WIDE_MIN && !other) ||
+        !scratch.bins || !scratch.left || !scratch.right || !scratch.side) {
+        free(prims), free(other), free(tasks), free(task_count), free(task_at), free(top), free(sub);
         free(scratch.bins), free(scratch.left), free(scratch.right), free(scratch.side);
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
-    builder b = {.prims = {prims, other}, .ids = out->tri_index, .nodes = out->nodes, .capacity = capacity};
-    atomic_init(&b.node_count, 1);
+    builder b = {.prims = {prims, other}, .ids = out->tri_index, .top = top, .sub = sub, .top_count = 1};
     atomic_init(&b.depth, 0);
 
     // The root's bounds, block by block (into the first two bounds of scratch.side per block).
@@ -556,8 +599,8 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
         aabb_grow(&root.box, &scratch.side[k][0]);
         aabb_grow(&root.cbox, &scratch.side[k][1]);
     }
-    memcpy(out->nodes[0].min, root.box.lo, sizeof root.box.lo);
-    memcpy(out->nodes[0].max, root.box.hi, sizeof root.box.hi);
+    memcpy(top[0].min, root.box.lo, sizeof root.box.lo);
+    memcpy(top[0].max, root.box.hi, sizeof root.box.hi);
 
     uint32_t ntasks = 0, wide_nodes = 0;
     task stack[2 * MAX_DEPTH + 8];
@@ -578,11 +621,11 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
         if (split_at == cur.begin) { // a leaf: at the depth limit only, this wide
             for (uint32_t i = cur.begin; i < cur.end; i++)
                 b.ids[i] = b.prims[in_other][i].id;
-            make_leaf(&b, &cur);
+            make_leaf(&b, &top[cur.node], &cur);
             continue;
         }
         task kids[2];
-        make_interior(&b, &cur, split_at, side, kids);
+        make_interior(&top[cur.node], &cur, split_at, side, top, &b.top_count, kids);
         kids[0].in_other = kids[1].in_other = in_other;
         stack[sp++] = kids[1];
         stack[sp++] = kids[0];
@@ -590,21 +633,21 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
     free(scratch.bins), free(scratch.left), free(scratch.right), free(scratch.side);
     uint64_t t1 = pn_time_ns();
     qsort(tasks, ntasks, sizeof *tasks, by_size);
-    par_ctx p = {&b, tasks};
+    par_ctx p = {&b, tasks, task_count, task_at};
     pn_parallel_for(ntasks, 1, build_tasks, &p);
-    uint64_t t2 = pn_time_ns();
-    free(tasks);
     free(other);
     free(prims);
-    out->node_count = atomic_load(&b.node_count);
-    out->triangles = n;
-    out->depth = atomic_load(&b.depth);
-    if (renumber(out) != PN_OK) {
+    uint64_t t2 = pn_time_ns();
+    out->nodes = assemble(&p, ntasks, &out->node_count);
+    free(tasks), free(task_count), free(task_at), free(top), free(sub);
+    if (!out->nodes) {
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
+    out->triangles = n;
+    out->depth = atomic_load(&b.depth);
     pn_debug("bvh: %u primitives: boxes %.1f ms, top levels %.1f ms (%u wide nodes, %u tasks), subtrees %.1f ms, "
-             "renumber %.1f ms",
+             "assembly %.1f ms",
              n, out->build_ms, (double)(t1 - t0) * 1e-6, wide_nodes, ntasks, (double)(t2 - t1) * 1e-6,
              pn_ms_since(t2));
     out->build_ms += pn_ms_since(t0);
