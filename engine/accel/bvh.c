@@ -654,17 +654,36 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
     return PN_OK;
 }
 
+typedef struct boxes_ctx {
+    const pn_scene *s;
+    prim *prims;
+    uint32_t n;
+} boxes_ctx;
+
+static void triangle_boxes(void *ctx, uint64_t first, uint64_t last, unsigned thread)
+{
+    const boxes_ctx *c = ctx;
+    const pn_vertex *v = c->s->vertices;
+    const uint32_t *idx = c->s->indices;
+    uint32_t end = last * BLOCK < c->n ? (uint32_t)last * BLOCK : c->n;
+    for (uint32_t i = (uint32_t)first * BLOCK; i < end; i++) {
+        prim *p = &c->prims[i];
+        aabb_empty(&p->box);
+        for (int j = 0; j < 3; j++)
+            aabb_grow_point(&p->box, v[idx[3 * i + j]].pos);
+        p->id = i, p->pad = 0;
+    }
+}
+
 pn_result pn_bvh_build(const pn_scene *s, pn_bvh *out)
 {
     memset(out, 0, sizeof *out);
     uint64_t t0 = pn_time_ns();
     uint32_t n = pn_scene_triangle_count(s);
     prim *prims = malloc((size_t)(n ? n : 1) * sizeof *prims);
-    for (uint32_t i = 0; prims && i < n; i++) {
-        aabb_empty(&prims[i].box);
-        for (int j = 0; j < 3; j++)
-            aabb_grow_point(&prims[i].box, s->vertices[s->indices[3 * i + j]].pos);
-        prims[i].id = i, prims[i].pad = 0;
+    if (prims) {
+        boxes_ctx c = {s, prims, n};
+        pn_parallel_for((n + BLOCK - 1) / BLOCK, 1, triangle_boxes, &c);
     }
     out->build_ms = pn_ms_since(t0);
     return build(prims, n, out);
