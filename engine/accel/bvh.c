@@ -21,8 +21,11 @@ enum {
     WIDE_MIN = 4 * BLOCK,
 };
 
+// A box: x, y, z and a fourth lane, 0 in every primitive's box and read by nothing, there so that
+// a box is two rows of four floats: the compiler grows boxes four lanes at a time (one min and one
+// max instruction each), a third of the instructions and stores of six separate floats.
 typedef struct aabb {
-    float lo[3], hi[3];
+    float lo[4], hi[4];
 } aabb;
 
 // Plain comparisons rather than fminf/fmaxf, which are library calls here: a NaN coordinate is
@@ -32,21 +35,21 @@ static inline float max1(float a, float b) { return a > b ? a : b; }
 
 static void aabb_empty(aabb *b)
 {
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 4; k++)
         b->lo[k] = FLT_MAX, b->hi[k] = -FLT_MAX;
 }
 
 static inline void aabb_grow(aabb *b, const aabb *o)
 {
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 4; k++) {
         b->lo[k] = min1(o->lo[k], b->lo[k]);
         b->hi[k] = max1(o->hi[k], b->hi[k]);
     }
 }
 
-static inline void aabb_grow_point(aabb *b, const float p[3])
+static inline void aabb_grow_point(aabb *b, const float p[4])
 {
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 4; k++) {
         b->lo[k] = min1(p[k], b->lo[k]);
         b->hi[k] = max1(p[k], b->hi[k]);
     }
@@ -60,16 +63,16 @@ static inline float aabb_area(const aabb *b)
     return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
 }
 
-// A primitive as the build sees it: its box with its id, moved together by the partitions, so that
-// binning and partitioning read one array front to back instead of boxes through an index.
+// A primitive as the build sees it: its box (32 bytes), moved by the partitions together with its
+// id (in an array of their own, in the same order), so that binning and partitioning read one
+// array front to back instead of boxes through an index.
 typedef struct prim {
     aabb box;
-    uint32_t id, pad; // 32 bytes
 } prim;
 
-static inline void prim_centroid(const prim *p, float c[3])
+static inline void prim_centroid(const prim *p, float c[4])
 {
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 4; k++)
         c[k] = 0.5f * (p->box.lo[k] + p->box.hi[k]);
 }
 
@@ -78,8 +81,8 @@ static inline void prim_centroid(const prim *p, float c[3])
 // nodes per primitive from its first primitive's (a subtree over m primitives has fewer than 2m
 // nodes). assemble() then puts them all in one array.
 typedef struct builder {
-    prim *prims[2]; // the primitives, permuted; a task's are in prims[task.in_other]
-    uint32_t *ids;  // the output triangle order, written as each subtree is done
+    prim *prims[2];  // the primitives, permuted; a task's are in prims[task.in_other]
+    uint32_t *id[2]; // their ids, in the same order; id[0] is the output triangle order
     pn_bvh_node *top, *sub;
     uint32_t top_count;
     atomic_uint depth;
@@ -98,7 +101,7 @@ static inline void range_bounds(const prim *p, uint32_t begin, uint32_t end, aab
     aabb_empty(box);
     aabb_empty(cbox);
     for (uint32_t i = begin; i < end; i++) {
-        float c[3];
+        float c[4];
         prim_centroid(&p[i], c);
         aabb_grow(box, &p[i].box);
         aabb_grow_point(cbox, c);
@@ -140,7 +143,7 @@ static void bins_fill(const prim *p, uint32_t begin, uint32_t end, const float f
             out->count[k][i] = 0;
         }
     for (uint32_t i = begin; i < end; i++) {
-        float c[3];
+        float c[4];
         prim_centroid(&p[i], c);
         for (int k = 0; k < 3; k++) {
             int bin = bin_of(c[k], lo[k], scale[k]);
@@ -233,9 +236,10 @@ static uint32_t split_halves(const prim *p, uint32_t begin, uint32_t end, aabb s
     return mid;
 }
 
-// Splits task t on this thread, in place; returns the split index, or t->begin for a leaf. On a
-// split, side[] is set to the bounds of the left boxes and centroids, then the right ones.
-static uint32_t split_node(prim *p, const task *t, aabb side[4])
+// Splits task t on this thread, in place (the primitives p and their ids); returns the split index,
+// or t->begin for a leaf. On a split, side[] is set to the bounds of the left boxes and centroids,
+// then the right ones.
+static uint32_t split_node(prim *p, uint32_t *id, const task *t, aabb side[4])
 {
     uint32_t begin = t->begin, end = t->end, n = end - begin;
     float lo[3], scale[3];
@@ -254,7 +258,7 @@ static uint32_t split_node(prim *p, const task *t, aabb side[4])
     uint32_t i = begin, j = end;
     while (i < j) {
         prim q = p[i];
-        float c[3];
+        float c[4];
         prim_centroid(&q, c);
         if (bin_of(c[k], lo[k], scale[k]) <= s.bin) {
             aabb_grow(&side[0], &q.box);
@@ -263,8 +267,10 @@ static uint32_t split_node(prim *p, const task *t, aabb side[4])
         } else {
             aabb_grow(&side[2], &q.box);
             aabb_grow_point(&side[3], c);
-            p[i] = p[--j];
-            p[j] = q;
+            uint32_t qid = id[i];
+            j--;
+            p[i] = p[j], id[i] = id[j];
+            p[j] = q, id[j] = qid;
         }
     }
     if (i == begin || i == end) // all on one side: a leaf, or halves when it is too big
@@ -311,6 +317,7 @@ static void make_interior(pn_bvh_node *node, const task *t, uint32_t split_at, c
 static uint32_t build_subtree(builder *b, task t)
 {
     prim *p = b->prims[t.in_other];
+    uint32_t *id = b->id[t.in_other];
     pn_bvh_node *local = b->sub + 2 * (size_t)t.begin;
     uint32_t count = 0;
     task stack[2 * MAX_DEPTH + 8];
@@ -320,7 +327,7 @@ static uint32_t build_subtree(builder *b, task t)
         task cur = stack[--sp];
         pn_bvh_node *node = root ? &b->top[cur.node] : &local[cur.node];
         aabb side[4];
-        uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_node(p, &cur, side);
+        uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_node(p, id, &cur, side);
         if (split_at == cur.begin) { // leaf (also when the depth limit is reached)
             make_leaf(b, node, &cur);
             continue;
@@ -330,8 +337,8 @@ static uint32_t build_subtree(builder *b, task t)
         stack[sp++] = kids[1]; // the left child is taken first
         stack[sp++] = kids[0];
     }
-    for (uint32_t i = t.begin; i < t.end; i++)
-        b->ids[i] = p[i].id;
+    if (t.in_other)
+        memcpy(b->id[0] + t.begin, id + t.begin, (size_t)(t.end - t.begin) * sizeof *id);
     return count;
 }
 
@@ -340,6 +347,8 @@ static uint32_t build_subtree(builder *b, task t)
 typedef struct wide {
     const prim *src;
     prim *dst; // the partition's output, a stable one: left side first, then right, each in order
+    const uint32_t *src_id;
+    uint32_t *dst_id;
     uint32_t begin, end;
     float lo[3], scale[3];
     split s;
@@ -372,6 +381,8 @@ static void wide_scatter(void *ctx, uint64_t first, uint64_t last, unsigned thre
     float lo = w->lo[k], scale = w->scale[k];
     const prim *src = w->src;
     prim *dst = w->dst;
+    const uint32_t *src_id = w->src_id;
+    uint32_t *dst_id = w->dst_id;
     for (uint64_t blk = first; blk < last; blk++) {
         uint32_t begin, end, l = w->left[blk], r = w->right[blk];
         block_range(w, blk, &begin, &end);
@@ -381,14 +392,14 @@ static void wide_scatter(void *ctx, uint64_t first, uint64_t last, unsigned thre
         aabb_empty(&lbox), aabb_empty(&lcbox), aabb_empty(&rbox), aabb_empty(&rcbox);
         for (uint32_t i = begin; i < end; i++) {
             const prim *q = &src[i];
-            float c[3];
+            float c[4];
             prim_centroid(q, c);
             if (bin_of(c[k], lo, scale) <= bin) {
-                dst[l++] = *q;
+                dst[l] = *q, dst_id[l] = src_id[i], l++;
                 aabb_grow(&lbox, &q->box);
                 aabb_grow_point(&lcbox, c);
             } else {
-                dst[r++] = *q;
+                dst[r] = *q, dst_id[r] = src_id[i], r++;
                 aabb_grow(&rbox, &q->box);
                 aabb_grow_point(&rcbox, c);
             }
@@ -397,13 +408,16 @@ static void wide_scatter(void *ctx, uint64_t first, uint64_t last, unsigned thre
     }
 }
 
-// Splits task t (its primitives in src) with all threads; the split's primitives end in dst (and
-// *moved is set) or stay in src. Returns the split index, or t->begin for a leaf. `scratch` holds
-// the per-block state for ceil(n / BLOCK) blocks.
-static uint32_t split_wide(const task *t, prim *src, prim *dst, wide *scratch, aabb side[4], bool *moved)
+// Splits task t with all threads. Its primitives are in b->prims[t->in_other] (and their ids in
+// b->id[t->in_other]); the split's end in the other array (and *moved is set) or stay. Returns the
+// split index, or t->begin for a leaf. `scratch` holds the per-block state for ceil(n / BLOCK)
+// blocks.
+static uint32_t split_wide(const builder *b, const task *t, wide *scratch, aabb side[4], bool *moved)
 {
     wide w = *scratch;
+    prim *src = b->prims[t->in_other], *dst = b->prims[!t->in_other];
     w.src = src, w.dst = dst, w.begin = t->begin, w.end = t->end;
+    w.src_id = b->id[t->in_other], w.dst_id = b->id[!t->in_other];
     uint32_t n = t->end - t->begin, blocks = (n + BLOCK - 1) / BLOCK;
     *moved = false;
     bins_frame(&t->cbox, w.lo, w.scale);
@@ -542,20 +556,24 @@ static int by_size(const void *a, const void *b)
 
 typedef struct bounds_ctx {
     const prim *p;
+    uint32_t *id;
     uint32_t n;
     aabb (*block)[4]; // per block: the boxes' bounds, the centroids'
 } bounds_ctx;
 
+// The bounds of each block of the primitives, and their ids (0 .. n-1).
 static void block_bounds(void *ctx, uint64_t first, uint64_t last, unsigned thread)
 {
     bounds_ctx *c = ctx;
     for (uint64_t k = first; k < last; k++) {
         uint32_t begin = (uint32_t)k * BLOCK, end = c->n - begin > BLOCK ? begin + BLOCK : c->n;
         range_bounds(c->p, begin, end, &c->block[k][0], &c->block[k][1]);
+        for (uint32_t i = begin; i < end; i++)
+            c->id[i] = i;
     }
 }
 
-// Builds over n primitives; takes ownership of prims (freed here), whose ids are 0 .. n-1.
+// Builds over n primitives, whose ids are 0 .. n-1; takes ownership of prims (freed here).
 static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
 {
     uint64_t t0 = pn_time_ns();
@@ -573,25 +591,26 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
     // Wide splits partition from one array into the other and back (`in_other` says which holds
     // a task's primitives); per-block state for the widest node, the root.
     prim *other = n > WIDE_MIN ? malloc((size_t)n * sizeof *other) : NULL;
+    uint32_t *other_id = n > WIDE_MIN ? malloc((size_t)n * sizeof *other_id) : NULL;
     wide scratch = {
         .bins = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.bins),
         .left = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.left),
         .right = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.right),
         .side = malloc((size_t)(blocks ? blocks : 1) * sizeof *scratch.side),
     };
-    if (!prims || !out->tri_index || !tasks || !task_count || !task_at || !top || !sub || (n > WIDE_MIN && !other) ||
-        !scratch.bins || !scratch.left || !scratch.right || !scratch.side) {
-        free(prims), free(other), free(tasks), free(task_count), free(task_at), free(top), free(sub);
+    if (!prims || !out->tri_index || !tasks || !task_count || !task_at || !top || !sub ||
+        (n > WIDE_MIN && (!other || !other_id)) || !scratch.bins || !scratch.left || !scratch.right || !scratch.side) {
+        free(prims), free(other), free(other_id), free(tasks), free(task_count), free(task_at), free(top), free(sub);
         free(scratch.bins), free(scratch.left), free(scratch.right), free(scratch.side);
         pn_bvh_destroy(out);
         return PN_ERR_MEMORY;
     }
-    builder b = {.prims = {prims, other}, .ids = out->tri_index, .top = top, .sub = sub, .top_count = 1};
+    builder b = {.prims = {prims, other}, .id = {out->tri_index, other_id}, .top = top, .sub = sub, .top_count = 1};
     atomic_init(&b.depth, 0);
 
     // The root's bounds, block by block (into the first two bounds of scratch.side per block).
     task root = {.node = 0, .begin = 0, .end = n};
-    bounds_ctx bc = {prims, n, scratch.side};
+    bounds_ctx bc = {prims, out->tri_index, n, scratch.side};
     pn_parallel_for(blocks, 1, block_bounds, &bc);
     aabb_empty(&root.box);
     aabb_empty(&root.cbox);
@@ -599,8 +618,8 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
         aabb_grow(&root.box, &scratch.side[k][0]);
         aabb_grow(&root.cbox, &scratch.side[k][1]);
     }
-    memcpy(top[0].min, root.box.lo, sizeof root.box.lo);
-    memcpy(top[0].max, root.box.hi, sizeof root.box.hi);
+    memcpy(top[0].min, root.box.lo, sizeof top[0].min);
+    memcpy(top[0].max, root.box.hi, sizeof top[0].max);
 
     uint32_t ntasks = 0, wide_nodes = 0;
     task stack[2 * MAX_DEPTH + 8];
@@ -613,14 +632,13 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
             continue;
         }
         wide_nodes++;
-        prim *src = b.prims[cur.in_other], *dst = b.prims[!cur.in_other];
         aabb side[4];
         bool moved = false;
-        uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_wide(&cur, src, dst, &scratch, side, &moved);
+        uint32_t split_at = cur.depth + 1 >= MAX_DEPTH ? cur.begin : split_wide(&b, &cur, &scratch, side, &moved);
         bool in_other = cur.in_other != moved;
         if (split_at == cur.begin) { // a leaf: at the depth limit only, this wide
-            for (uint32_t i = cur.begin; i < cur.end; i++)
-                b.ids[i] = b.prims[in_other][i].id;
+            if (in_other)
+                memcpy(b.id[0] + cur.begin, b.id[1] + cur.begin, (size_t)(cur.end - cur.begin) * sizeof *b.id[1]);
             make_leaf(&b, &top[cur.node], &cur);
             continue;
         }
@@ -635,7 +653,7 @@ static pn_result build(prim *prims, uint32_t n, pn_bvh *out)
     qsort(tasks, ntasks, sizeof *tasks, by_size);
     par_ctx p = {&b, tasks, task_count, task_at};
     pn_parallel_for(ntasks, 1, build_tasks, &p);
-    free(other);
+    free(other), free(other_id);
     free(prims);
     uint64_t t2 = pn_time_ns();
     out->nodes = assemble(&p, ntasks, &out->node_count);
@@ -667,11 +685,18 @@ static void triangle_boxes(void *ctx, uint64_t first, uint64_t last, unsigned th
     const uint32_t *idx = c->s->indices;
     uint32_t end = last * BLOCK < c->n ? (uint32_t)last * BLOCK : c->n;
     for (uint32_t i = (uint32_t)first * BLOCK; i < end; i++) {
-        prim *p = &c->prims[i];
-        aabb_empty(&p->box);
-        for (int j = 0; j < 3; j++)
-            aabb_grow_point(&p->box, v[idx[3 * i + j]].pos);
-        p->id = i, p->pad = 0;
+        aabb *b = &c->prims[i].box;
+        for (int k = 0; k < 4; k++)
+            b->lo[k] = b->hi[k] = 0.0f;
+        for (int k = 0; k < 3; k++)
+            b->lo[k] = FLT_MAX, b->hi[k] = -FLT_MAX;
+        for (int j = 0; j < 3; j++) {
+            const float *q = v[idx[3 * i + j]].pos;
+            for (int k = 0; k < 3; k++) {
+                b->lo[k] = min1(q[k], b->lo[k]);
+                b->hi[k] = max1(q[k], b->hi[k]);
+            }
+        }
     }
 }
 
@@ -698,7 +723,7 @@ pn_result pn_bvh_build_boxes(const float (*box)[6], uint32_t n, pn_bvh *out)
             prims[i].box.lo[k] = box[i][k];
             prims[i].box.hi[k] = box[i][3 + k];
         }
-        prims[i].id = i, prims[i].pad = 0;
+        prims[i].box.lo[3] = prims[i].box.hi[3] = 0.0f;
     }
     return build(prims, n, out);
 }
