@@ -194,9 +194,10 @@ static split sah_choose(const task *t, const bins *bn)
         // after non-empty bins are weighed: one after an empty bin has the same sides as one after
         // the non-empty bin before it, and small nodes, the most of them, fill few of the bins.
         int used[BINS], m = 0;
-        for (int i = 0; i < BINS; i++)
-            if (bn->count[k][i])
-                used[m++] = i;
+        for (int i = 0; i < BINS; i++) {
+            used[m] = i; // kept when the bin is not empty (no branch: which ones are, is random)
+            m += bn->count[k][i] != 0;
+        }
         float right_area[BINS];
         uint32_t right_count[BINS];
         aabb acc;
