@@ -1,7 +1,20 @@
+// The exact mode's BVH: binned SAH (16 bins per axis, the split cost a traversal step plus the
+// sides' triangle tests weighted by area), leaves of at most LEAF_MAX triangles. The build, in
+// order of its phases:
+//   triangle boxes on all threads;
+//   the top: nodes of more than WIDE_MIN primitives, one at a time, each with all threads over
+//     fixed blocks of its primitives (per-block bins merged in block order; a stable partition
+//     into a second array);
+//   the rest: each subtree below the top is one thread's task, biggest first, built depth first
+//     with in-place partitions;
+//   assembly: the nodes in depth-first order, each interior node's children together.
+// Every step depends on the primitives alone, never on the thread count: the nodes and the
+// triangle order are the same bytes on any number of threads (issue 30).
 #include "accel/bvh.h"
 
 #include <float.h>
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
