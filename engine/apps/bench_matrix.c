@@ -262,8 +262,11 @@ static void report_work(const bench_opts *o, pn_gpu_device *dev, const pn_scene 
         for (int c = 0; c < 4 && vals && planes; c++) {
             n = 0;
             for (size_t i = 0; i < px; i++) {
-                planes[c * px + i] = (float)w[4 * i + c];
-                if (img.p[4 * i + 3] > 0)
+                // Background pixels trace nothing and their counters are never written (the
+                // buffer is not cleared): 0 there.
+                bool geometry = img.p[4 * i + 3] > 0;
+                planes[c * px + i] = geometry ? (float)w[4 * i + c] : 0.0f;
+                if (geometry)
                     vals[n++] = w[4 * i + c];
             }
             qsort(vals, n, sizeof *vals, cmp_u32);
