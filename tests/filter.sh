@@ -32,8 +32,11 @@ for f in f f1 f24; do
 done
 oiiotool "$T/ref.exr" --ch shadow.V -d float -o "$T/ref.fits" || exit 1
 exrheader "$T/f.exr" | grep "penumbra.light" > "$T/light.txt" || { echo "FAIL: no light in the header"; exit 1; }
-python3 - "$T" <<'PY'
+TESTS=$(dirname "$0") python3 - "$T" <<'PY'
 import math, re, struct, sys
+import os
+sys.path.insert(0, os.environ["TESTS"])
+import fits as fits_module  # tests/fits.py
 T = sys.argv[1]
 # The light's corners, from the EXR's header.
 L = {}
@@ -49,19 +52,7 @@ uu = [ln[1] * vv[2] - ln[2] * vv[1], ln[2] * vv[0] - ln[0] * vv[2], ln[0] * vv[1
 corners = [[L["pos"][k] + su * L["width"][0] / 2 * uu[k] + sv * L["height"][0] / 2 * vv[k] for k in range(3)]
            for su in (-1, 1) for sv in (-1, 1)]
 size = max(L["width"][0], L["height"][0])
-def fits(path):
-    b = open(path, "rb").read()
-    hdr, off = {}, 0
-    while True:
-        card = b[off:off + 80].decode("ascii"); off += 80
-        if card.startswith("END"):
-            break
-        if "=" in card[:10]:
-            hdr[card[:8].strip()] = card[10:].split("/")[0].strip()
-    off = (off + 2879) // 2880 * 2880
-    w, h = int(hdr["NAXIS1"]), int(hdr["NAXIS2"])
-    assert int(hdr["BITPIX"]) == -32, hdr
-    return w, h, list(struct.unpack(">%df" % (w * h), b[off:off + 4 * w * h]))
+fits = fits_module.read
 _, _, REF = fits(T + "/ref.fits")
 ulp = lambda x: max(abs(x), 1e-30) * 1.1920929e-7
 def offset(p, n, footprint, q):

@@ -37,22 +37,14 @@ view=("$SPONZA" --size 800x450 --mode exact)
 for c in f:shadow.V f:shadow.V_raw f:A n:shadow.V ref:shadow.V; do
   oiiotool "$T/${c%%:*}.exr" --ch "${c#*:}" -d float -o "$T/$c.fits" || { echo "FAIL: no channel $c"; exit 1; }
 done
-python3 - "$T" <<'PY'
+TESTS=$(dirname "$0") python3 - "$T" <<'PY'
 import math, struct, sys
+import os
+sys.path.insert(0, os.environ["TESTS"])
+import fits as fits_module  # tests/fits.py
 T = sys.argv[1]
 def fits(path):
-    b = open(path, "rb").read()
-    hdr, off = {}, 0
-    while True:
-        card = b[off:off + 80].decode("ascii"); off += 80
-        if card.startswith("END"):
-            break
-        if "=" in card[:10]:
-            hdr[card[:8].strip()] = card[10:].split("/")[0].strip()
-    off = (off + 2879) // 2880 * 2880
-    w, h = int(hdr["NAXIS1"]), int(hdr["NAXIS2"])
-    assert int(hdr["BITPIX"]) == -32, hdr
-    v = struct.unpack(">%df" % (w * h), b[off:off + 4 * w * h])
+    w, h, v = fits_module.read(path)
     # FITS stores the bottom row first: index by image (x, y), y down.
     return w, h, lambda x, y: v[(h - 1 - y) * w + x]
 w, h, A = fits(T + "/f:A.fits")
