@@ -233,7 +233,8 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"traversal\": \"%s\", "
                "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, \"filter\": \"%s\", \"split\": \"%s\", ",
                o->r.width, o->r.height, pn_scene_triangle_count(scene), mode->name,
-               pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)], pn_sampler_names[o->r.sampler], o->r.spp, o->r.seed,
+               pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)], pn_sampler_names[o->r.sampler],
+               o->r.spp, o->r.seed,
                pn_filter_names[o->r.filter], pn_split_names[o->r.split]);
         if (o->r.filter != PN_FILTER_NONE)
             printf("\"tile\": [%u, %u], ", o->r.tile_w, o->r.tile_h);

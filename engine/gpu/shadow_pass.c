@@ -56,7 +56,8 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
-    int32_t spec_data[3] = {(int32_t)pn_traversal_resolve(desc->mode, desc->traversal), out->mode->variant, desc->count_work ? 1 : 0};
+    int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal);
+    int32_t spec_data[3] = {traversal, out->mode->variant, desc->count_work ? 1 : 0};
     VkSpecializationMapEntry entries[3] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
                                            {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
                                            {.constantID = PN_SPEC_COUNT_WORK, .offset = 8, .size = 4}};

@@ -251,7 +251,8 @@ uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
 uint mask_stack[BVH_STACK], first_stack[BVH_STACK], count_stack[BVH_STACK];
 vec3 inv_dir[MAX_CHUNK];
 
-// The chunk's rays `live` through the BVH together; returns those blocked. Each step tests both
+// The chunk's rays `live` (their samples in [box_lo, box_hi] of the light's (s, t)) through the
+// BVH together; returns those blocked. Each step tests both
 // children of a node against the rays that entered it (one slab test per ray and child), goes on
 // into the nearer one along the light's direction and leaves the other on the stack with its rays.
 uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)

@@ -15,22 +15,22 @@ void main()
     // llvmpipe: 8 consecutive invocations run as one SIMD group; map them to a 4x2 block of
     // pixels (not a row of 8), whose walks are more alike.
     uint idx = gl_LocalInvocationIndex, block = idx / 8u, within = idx % 8u;
-    ivec2 px = ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + ivec2((block % 2u) * 4u + within % 4u, (block / 2u) * 2u + within / 4u);
+    ivec2 px = ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP
+             + ivec2((block % 2u) * 4u + within % 4u, (block / 2u) * 2u + within / 4u);
     vec3 p, nrm;
     if (!shadow_pixel(px, p, nrm))
         return;
+    // Every ray is tested from its origin: no rise (that is the line-space modes'), so chunk_rays'
+    // st_lo, st_hi bound all the valid samples.
     float rise;
-    vec3 o = shadow_origin(p, nrm, RISE_SHAFT_LEAVES, rise);
+    vec3 o = shadow_origin(p, nrm, 0.0, rise);
     uint count = chunk_count(p, nrm), i;
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
     if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.split != PN_SPLIT_BUDGET_ID) {
-        // The samples lie in the part of the light above the horizon (chunk_rays): the frustum's
-        // parallelogram.
-        vec2 box_lo, box_hi;
-        horizon_box(o, nrm, box_lo, box_hi);
-        blocked = any(greaterThan(box_lo, box_hi)) ? 0u : bvh_packet_blocked(o, valid_rays, box_lo, box_hi);
+        // The valid samples lie in [st_lo, st_hi] of the light's (s, t): the frustum's parallelogram.
+        blocked = bvh_packet_blocked(o, valid_rays, st_lo, st_hi);
         shadow_finish(px, o, count, valid_rays, blocked, i < count);
         return;
     }
