@@ -53,6 +53,7 @@ void main()
     put(params.dump_rays); put(params.cand_first); put(uvec2(params.work)); put(params.tile_w);
     put(params.tile_h); put(params.object_count); put(params.split);
     put(uvec2(params.objects)); put(uvec2(params.top)); put(uvec2(params.top_ids)); put(params.light_count); put(params.budget);
+    put(params.spp_min); put(params.pixel_error); put(params.tiles_across); put(params.tile_total);
     for (int i = 0; i < PN_MAX_LIGHTS; i++)
         put_light(params.lights[i]);
 
@@ -78,7 +79,8 @@ void main()
     put(pc.gb.eye); put(pc.gb.forward);
     put(pc.gb.material); put(pc.gb.pad0); put(pc.gb.pad1); put(pc.gb.pad2);
     put(pc.chunk.sample_begin); put(pc.chunk.sample_end); put(pc.chunk.first); put(pc.chunk.last);
-    put(pc.chunk.light);
+    put(pc.chunk.light); put(pc.chunk.half_end); put(pc.chunk.decide); put(pc.chunk.tiles_in);
+    put(pc.chunk.tiles_out);
 
     put(o + 1u); // the count of words written, this one included
 }

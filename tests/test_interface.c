@@ -41,7 +41,8 @@ static const field params_fields[] = {
     F(pn_shadow_params, cand_first),          F(pn_shadow_params, work),        F(pn_shadow_params, tile_w),
     F(pn_shadow_params, tile_h),              F(pn_shadow_params, object_count), F(pn_shadow_params, split),
     F(pn_shadow_params, objects),             F(pn_shadow_params, top),         F(pn_shadow_params, top_ids),
-    F(pn_shadow_params, light_count),         F(pn_shadow_params, budget),
+    F(pn_shadow_params, light_count),         F(pn_shadow_params, budget),      F(pn_shadow_params, spp_min),
+    F(pn_shadow_params, pixel_error),         F(pn_shadow_params, tiles_across), F(pn_shadow_params, tile_total),
     LIGHT(0), LIGHT(1), LIGHT(2), LIGHT(3), LIGHT(4), LIGHT(5), LIGHT(6), LIGHT(7),
     LIGHT(8), LIGHT(9), LIGHT(10), LIGHT(11), LIGHT(12), LIGHT(13), LIGHT(14), LIGHT(15),
     {0}};
@@ -60,7 +61,9 @@ static const field gbuffer_fields[] = {F(pn_gbuffer_push, view_proj), F(pn_gbuff
                                        F(pn_gbuffer_push, pad2),      {0}};
 static const field chunk_fields[] = {F(pn_shadow_chunk, sample_begin), F(pn_shadow_chunk, sample_end),
                                      F(pn_shadow_chunk, first), F(pn_shadow_chunk, last),
-                                     F(pn_shadow_chunk, light), {0}};
+                                     F(pn_shadow_chunk, light), F(pn_shadow_chunk, half_end),
+                                     F(pn_shadow_chunk, decide), F(pn_shadow_chunk, tiles_in),
+                                     F(pn_shadow_chunk, tiles_out), {0}};
 
 // The probe's push-constant block: both push-constant structs, one after the other.
 typedef struct push {

@@ -107,7 +107,7 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
     }
     pn_renderer_desc frame = pn_render_opts_setup(&o->r).frame;
     frame.dump_rays = o->ray_dump != NULL;
-    if (pn_renderer_check_split(&frame) != PN_OK)
+    if (pn_renderer_check_split(&frame) != PN_OK || pn_shadow_check_adaptive(&frame) != PN_OK)
         return PN_EXIT_USAGE;
     return PN_EXIT_OK;
 }
@@ -127,6 +127,7 @@ typedef struct render_stats {
     pn_frame_times times;
     uint64_t covered;    // pixels holding geometry
     double rays_per_s;   // shadow rays (covered pixels x pn_shadow_samples) per second of the shadow pass
+    double mean_rays;    // adaptive samples: the rays a covered pixel took, on average (0 otherwise)
     double build_ms;     // N-tree and line spaces
     pn_pool_bytes pools; // zero without a tree
     uint32_t subdivided;
@@ -201,11 +202,20 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     if (pn_renderer_render_lights(&s.renderer, cam, lights, light_count, &st->times) == PN_OK) {
         pn_renderer_images(&s.renderer, &img);
         size_t px = (size_t)p->width * p->height;
-        for (size_t i = 0; i < px; i++)
+        uint64_t rays = 0;
+        for (size_t i = 0; i < px; i++) {
             st->covered += img.radiance[4 * i + 3] > 0;
-        // Every light's rays over the whole shadow time.
-        for (uint32_t i = 0; i < light_count; i++)
-            st->rays_per_s += pn_shadow_rays_per_s(st->covered, (uint32_t)p->spp, &lights[i], st->times.shadow_ms);
+            rays += img.rays ? img.rays[4 * i] : 0;
+        }
+        // Every light's rays over the whole shadow time; adaptively, the rays the pixels took (one
+        // light: the rays image is the last light's).
+        if (img.rays && light_count == 1) {
+            st->mean_rays = st->covered ? (double)rays / (double)st->covered : 0;
+            st->rays_per_s = st->times.shadow_ms > 0 ? (double)rays / (st->times.shadow_ms * 1e-3) : 0;
+        } else {
+            for (uint32_t i = 0; i < light_count; i++)
+                st->rays_per_s += pn_shadow_rays_per_s(st->covered, (uint32_t)p->spp, &lights[i], st->times.shadow_ms);
+        }
         if (write_outputs(o, output, scene, cam, lights, light_count, st, &img) == PN_OK &&
             (!o->ray_dump || write_ray_dump(o, &s.renderer) == PN_OK))
             rc = PN_EXIT_OK;
@@ -236,6 +246,9 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
                pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)], pn_sampler_names[o->r.sampler],
                o->r.spp, o->r.seed,
                pn_filter_names[o->r.filter], pn_split_names[o->r.split]);
+        if (o->r.spp_min)
+            printf("\"spp_min\": %lld, \"pixel_error\": %.6g, \"mean_rays\": %.6g, ", o->r.spp_min,
+                   (double)o->r.pixel_error, st->mean_rays);
         if (o->r.filter != PN_FILTER_NONE)
             printf("\"tile\": [%u, %u], ", o->r.tile_w, o->r.tile_h);
         else
@@ -272,7 +285,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
     if (tree)
         printf(" LS(%d,%d)%s %s", o->r.tree_n, o->r.tree_d, o->r.per_object ? " per object" : "",
                pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)]);
-    if (mode->traces)
+    if (mode->traces && o->r.spp_min)
+        printf(" adaptive %lld:%lld spp to a pixel error of %g (%.1f rays per pixel)", o->r.spp_min, o->r.spp,
+               (double)o->r.pixel_error, st->mean_rays);
+    else if (mode->traces)
         printf(" %s %lld spp%s", pn_sampler_names[o->r.sampler], o->r.spp,
                o->r.split == PN_SPLIT_BUDGET ? " per light, budgeted split" : "");
     if (o->r.filter != PN_FILTER_NONE)

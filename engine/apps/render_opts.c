@@ -12,7 +12,7 @@
 
 pn_render_opts pn_render_opts_default(void)
 {
-    return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 4, .tree_n = 7,
+    return (pn_render_opts){.width = 1280, .height = 720, .ground = true, .seed = 1, .spp = 4, .pixel_error = PN_DEFAULT_PIXEL_ERROR, .tree_n = 7,
                             .tree_d = 3, .exposure = 1.0f, .fov = 45.0f, .mode = PN_SHADOW_EXACT,
                             .traversal = PN_TRAVERSAL_AUTO, .sampler = PN_SAMPLER_STRATIFIED,
                             .filter = PN_FILTER_INTERLEAVED, .tile_w = 3, .tile_h = 3};
@@ -83,6 +83,34 @@ static bool parse_light_group(const char *v, pn_render_opts *o)
     return ok;
 }
 
+// --spp S, or MIN:MAX for adaptive samples: MAX = MIN x 2^k (the rounds double), both 1..4096.
+static bool parse_spp(const char *v, pn_render_opts *o)
+{
+    const char *colon = strchr(v, ':');
+    if (!colon) {
+        o->spp_min = 0;
+        return pn_parse_int_range("--spp", v, 1, 4096, &o->spp);
+    }
+    char lo[32];
+    size_t n = (size_t)(colon - v);
+    if (n >= sizeof lo) {
+        pn_error("--spp %s: expected S or MIN:MAX", v);
+        return false;
+    }
+    memcpy(lo, v, n);
+    lo[n] = 0;
+    long long a, b;
+    if (!pn_parse_int_range("--spp", lo, 1, 4096, &a) || !pn_parse_int_range("--spp", colon + 1, 1, 4096, &b))
+        return false;
+    long long ratio = b % a == 0 ? b / a : 0;
+    if (ratio < 2 || (ratio & (ratio - 1)) != 0) {
+        pn_error("--spp %s: adaptive samples need MAX = MIN x 2, 4, 8, ... (each round doubles), e.g. 4:64", v);
+        return false;
+    }
+    o->spp_min = a, o->spp = b;
+    return true;
+}
+
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
 {
     const char *v = NULL;
@@ -125,7 +153,9 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
     } else if (pn_args_value(a, "--seed", &v, err)) {
         ok = v && pn_parse_int_range("--seed", v, 0, 0xffffffffll, &o->seed);
     } else if (pn_args_value(a, "--spp", &v, err)) {
-        ok = v && pn_parse_int_range("--spp", v, 1, 4096, &o->spp);
+        ok = v && parse_spp(v, o);
+    } else if (pn_args_value(a, "--pixel-error", &v, err)) {
+        ok = v && pn_parse_float_range("--pixel-error", v, 0.0f, 1.0f, &o->pixel_error);
     } else if (pn_args_value(a, "--tree", &v, err)) {
         ok = v && pn_parse_tree("--tree", v, &o->tree_n, &o->tree_d);
         o->mode = ok && !o->has_mode ? PN_SHADOW_LINESPACE : o->mode; // a tree is for line space
@@ -213,6 +243,11 @@ void pn_render_opts_print_help(void)
            "  --max-memory SIZE     refuse a tree whose pools exceed SIZE (MiB or K/M/G suffix;\n"
            "                        default: half the device's largest memory heap)\n"
            "  --spp S               shadow rays per pixel 1..4096 (default 4), a grid of U x V = S\n"
+           "  --spp MIN:MAX         adaptive: MIN rays per pixel, then rounds that double the rays of\n"
+           "                        the pixels whose V is still uncertain, up to MAX = MIN x 2^k; the\n"
+           "                        EXR gets shadow.rays and shadow.V_stderr\n"
+           "  --pixel-error E       adaptive: a pixel stops once the standard error of its V, from\n"
+           "                        its own and its neighbours' samples, is below E (default %.3g)\n"
            "  --traversal auto|ray|packet   each ray walks the tree alone, or the pixel's rays walk\n"
            "                        it together (default auto: packet for exact, ray for the\n"
            "                        line-space modes, the faster of the two for each on lavapipe)\n"
@@ -229,7 +264,8 @@ void pn_render_opts_print_help(void)
            "                        lights rays per pixel in all, shared by each light's unshadowed\n"
            "                        irradiance at the pixel, at least one per light that reaches it\n"
            "                        (budget: stratified sampler; the filter defaults to none, the\n"
-           "                        interleaved one shares one set of samples per tile)\n");
+           "                        interleaved one shares one set of samples per tile)\n",
+           (double)PN_DEFAULT_PIXEL_ERROR);
 }
 
 // Normalises v in double precision, so that neither huge (1e30) nor tiny (1e-30) components
@@ -395,6 +431,8 @@ pn_setup_desc pn_render_opts_setup(const pn_render_opts *o)
                   .tile_w = o->tile_w,
                   .tile_h = o->tile_h,
                   .spp = (uint32_t)o->spp,
+                  .spp_min = (uint32_t)o->spp_min,
+                  .pixel_error = o->pixel_error,
                   .seed = (uint32_t)o->seed},
         .tree_n = o->tree_n,
         .tree_d = o->tree_d,

@@ -9,6 +9,9 @@
 #include "gpu/shadow_modes.h"
 #include "scene/view.h"
 
+// --pixel-error's default: adaptive sampling's target standard error of a pixel's V.
+#define PN_DEFAULT_PIXEL_ERROR 0.02f
+
 // --move-object options at most.
 enum { PN_MAX_MOVES = 16 };
 
@@ -31,6 +34,8 @@ typedef struct pn_render_opts {
     pn_light lights[PN_MAX_LIGHTS];
     bool ground;
     long long seed, spp;
+    long long spp_min;  // --spp MIN:MAX: MIN (spp is MAX); 0: every pixel takes spp
+    float pixel_error;  // --pixel-error: adaptive sampling's target standard error of V per pixel
     pn_shadow_mode mode;
     pn_traversal traversal;
     pn_sampler sampler;
@@ -61,7 +66,7 @@ typedef struct pn_render_opts {
 pn_render_opts pn_render_opts_default(void);
 
 // If argv[a->i] is one of the shared options (--size, --camera-*, --fov, --light-*, --ground,
-// --no-ground, --exposure, --seed, --spp, --tree, --trees, --move-object, --max-memory, --mode, --traversal, --sampler, --filter, --tile, --split),
+// --no-ground, --exposure, --seed, --spp, --pixel-error, --tree, --trees, --move-object, --max-memory, --mode, --traversal, --sampler, --filter, --tile, --split),
 // consumes it and returns true; a bad value is logged and sets *err.
 bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
 

@@ -53,14 +53,14 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     const pn_light *light = &rec->lights[0];
     uint32_t lights = rec->light_count ? rec->light_count : 1;
     size_t px = (size_t)o->width * o->height;
-    enum { PLANES = 17 };
-    float *buf = malloc(px * PLANES * sizeof(float));
+    enum { PLANES = 17, ADAPTIVE = 2 };
+    float *buf = malloc(px * (PLANES + ADAPTIVE) * sizeof(float));
     if (!buf) {
         pn_error("%s: out of memory for the image", path);
         return PN_ERR_MEMORY;
     }
-    float *pl[PLANES];
-    for (int c = 0; c < PLANES; c++)
+    float *pl[PLANES + ADAPTIVE];
+    for (int c = 0; c < PLANES + ADAPTIVE; c++)
         pl[c] = buf + (size_t)c * px;
     // Planar channels from the interleaved RGBA readback.
     for (size_t i = 0; i < px; i++) {
@@ -75,13 +75,17 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         pl[14][i] = img->n[4 * i + 3];
         pl[15][i] = (float)img->counts[4 * i + 1];
         memcpy(&pl[16][i], &img->counts[4 * i + 3], sizeof(float));
+        if (img->rays) {
+            pl[17][i] = (float)img->rays[4 * i];
+            memcpy(&pl[18][i], &img->rays[4 * i + 1], sizeof(float));
+        }
     }
     static const char *const names[PLANES] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                               "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z",
                                               "shadow.valid", "shadow.penumbra"};
     // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs. With
     // several lights a V (and V_raw) per light, already planar.
-    pn_exr_channel ch[PLANES + 2 * PN_MAX_LIGHTS];
+    pn_exr_channel ch[PLANES + ADAPTIVE + 2 * PN_MAX_LIGHTS];
     char light_names[PN_MAX_LIGHTS][2][32];
     int count = 0;
     for (int c = 0; c < PLANES; c++) {
@@ -103,6 +107,13 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         // counts: one light only).
         if (c < 5 || (aovs && (c < 15 || lights == 1)))
             ch[count++] = (pn_exr_channel){names[c], pl[c]};
+    }
+    // Adaptive samples: the rays each pixel took and the standard error of its unfiltered V, from
+    // its own and its neighbours' samples (adaptive_decide in shadow_frame.glsl); the last light's,
+    // so one light only, as shadow.valid.
+    if (img->rays && lights == 1) {
+        ch[count++] = (pn_exr_channel){"shadow.rays", pl[17]};
+        ch[count++] = (pn_exr_channel){"shadow.V_stderr", pl[18]};
     }
     bool tree = pn_shadow_mode_get(o->mode)->needs.tree;
 #define V3(nm, v) {.name = nm, .type = PN_EXR_ATTR_V3F, .f = {(v)[0], (v)[1], (v)[2]}}
@@ -133,6 +144,8 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
          .s = pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal)]},
         {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = pn_sampler_names[o->sampler]},
         {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
+        {.name = "penumbra.spp_min", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp_min},
+        F1("penumbra.pixel_error", o->spp_min ? o->pixel_error : 0.0f),
         {.name = "penumbra.filter", .type = PN_EXR_ATTR_STRING, .s = pn_filter_names[o->filter]},
         {.name = "penumbra.split", .type = PN_EXR_ATTR_STRING, .s = pn_split_names[o->split]},
         {.name = "penumbra.tile.w", .type = PN_EXR_ATTR_INT, .i = o->filter ? (int32_t)o->tile_w : 0},

@@ -191,13 +191,25 @@ void pn_gpu_compute_write_tlas(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t b
     vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
 }
 
-void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
-                             uint32_t x, uint32_t y, uint32_t z)
+static void bind(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push)
 {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline);
     if (c->set)
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 1, &c->set, 0, NULL);
     if (push_size)
         vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size, push);
+}
+
+void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
+                             uint32_t x, uint32_t y, uint32_t z)
+{
+    bind(cmd, c, push_size, push);
     vkCmdDispatch(cmd, x, y, z);
+}
+
+void pn_gpu_compute_dispatch_indirect(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size,
+                                      const void *push, VkBuffer args, VkDeviceSize offset)
+{
+    bind(cmd, c, push_size, push);
+    vkCmdDispatchIndirect(cmd, args, offset);
 }

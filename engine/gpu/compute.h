@@ -48,3 +48,7 @@ void pn_gpu_compute_write_tlas(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t b
 // Binds pipeline and set, pushes `push` (push_size bytes, may be NULL) and dispatches.
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
                              uint32_t x, uint32_t y, uint32_t z);
+// The same with the group counts read from `args` at `offset` (a VkDispatchIndirectCommand) when
+// the dispatch runs: a count an earlier dispatch wrote.
+void pn_gpu_compute_dispatch_indirect(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size,
+                                      const void *push, VkBuffer args, VkDeviceSize offset);

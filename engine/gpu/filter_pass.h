@@ -27,4 +27,5 @@ pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_
 // yfov_deg: the camera's vertical field of view, which with the height gives a pixel's footprint
 // per unit of depth; samples: the shadow pass's light samples per pixel, which set the noise one
 // pixel's V carries.
-void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, float yfov_deg);
+void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, bool adaptive,
+                           float yfov_deg);

@@ -27,7 +27,13 @@ typedef struct pn_renderer_desc {
     pn_shadow_mode mode;
     pn_traversal traversal;
     pn_sampler sampler;
-    uint32_t spp;  // shadow rays per pixel
+    uint32_t spp;  // shadow rays per pixel (adaptive: at most)
+    // Adaptive sampling (--spp MIN:MAX, adaptive_decide in shadow_frame.glsl): 0, or the first
+    // round's samples MIN, with spp = MIN x 2^k; each further round doubles the samples of the
+    // pixels whose V's standard error is still pixel_error or more. Draws each pixel's samples from
+    // a Sobol' sequence (as the budgeted split does): even split, no interleaving, no ray dump.
+    uint32_t spp_min;
+    float pixel_error;
     uint32_t seed; // fixes the stratified jitter
     pn_filter filter;
     uint32_t tile_w, tile_h; // the interleaving tile and filter window (with filter; 0 means 3)
@@ -65,6 +71,10 @@ typedef struct pn_frame_images {
     // the penumbra width at the pixel's mean blocker (world units; FLT_MAX where no ray was
     // blocked, 0 for a point light's blocked rays and on the background).
     const uint32_t *counts;
+    // Adaptive sampling (desc.spp_min): per pixel (of the frame's last light) the samples it took
+    // and the float bits of the standard error of its V_raw (adaptive_decide), then two zeros;
+    // NULL without.
+    const uint32_t *rays;
     const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are
     // light 0's.

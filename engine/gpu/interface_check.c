@@ -56,19 +56,20 @@ AT(pn_shadow_params, object_count, 168);
 AT(pn_shadow_params, objects, 176);
 AT(pn_shadow_params, top_ids, 192);
 AT(pn_shadow_params, budget, 204);
-AT(pn_shadow_params, lights, 208); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
-SIZE(pn_shadow_params, 208 + 96 * PN_MAX_LIGHTS);
+AT(pn_shadow_params, spp_min, 208);
+AT(pn_shadow_params, lights, 224); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
+SIZE(pn_shadow_params, 224 + 96 * PN_MAX_LIGHTS);
 AT(pn_gpu_object, tree, 0);
 AT(pn_gpu_object, to_local, 64);
 AT(pn_gpu_object, rise_scale, 112);
 SIZE(pn_gpu_object, 128);
 
-SIZE(pn_shadow_chunk, 20);
+SIZE(pn_shadow_chunk, 36);
 
 AT(pn_shade_push, light, 0);
 AT(pn_shade_push, accumulate, 96);
 SIZE(pn_shade_push, 112);
 
 // FilterPush: std430 push constants.
-SIZE(pn_filter_push, 8);
+SIZE(pn_filter_push, 16);
 AT(pn_filter_push, samples, 4);

@@ -12,7 +12,8 @@ enum { TS_START, TS_GBUFFER, TS_LIGHT, TS_SHADOW = 0, TS_FILTER = 1, TS_SHADE = 
 // Floats per pixel of the frame's images in the readback buffer: P, N, albedo and radiance (rgba),
 // V and V_raw, the shadow pass's counts (rgba32ui); with several lights each light's V and V_raw
 // follow (pn_renderer_images).
-#define PN_READBACK_FLOATS_PER_PIXEL (4 * 4 + 2 + 4)
+// P, N, albedo, radiance; V, V_raw; the shadow pass's counts and its adaptive rays image.
+#define PN_READBACK_FLOATS_PER_PIXEL (4 * 4 + 2 + 4 + 4)
 
 static pn_result reserve_readback(pn_renderer *r, uint32_t light_count);
 
@@ -145,6 +146,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         return PN_ERR_INVALID;
     }
     PN_TRY(pn_renderer_check_split(desc));
+    PN_TRY(pn_shadow_check_adaptive(desc));
     if (desc->spp == 0 && mode->traces) {
         pn_error("spp must be at least 1");
         return PN_ERR_INVALID;
@@ -225,7 +227,7 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
     const pn_gpu_image *v = filtered(r) ? &r->v : &r->v_raw;
     const pn_gpu_image *src[6] = {&r->p, &r->n, &r->albedo, v, &r->radiance, &r->v_raw};
     int count = filtered(r) ? 6 : 5;
-    VkImageMemoryBarrier2 to_copy[7] = {
+    VkImageMemoryBarrier2 to_copy[8] = {
         pn_gpu_image_barrier(&r->p, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->n, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
         pn_gpu_image_barrier(&r->albedo, COLOR | COMPUTE, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, COPY, READ, GENERAL, SRC),
@@ -234,7 +236,8 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         pn_gpu_image_barrier(&r->v_raw, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC),
     };
     to_copy[count] = pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
-    pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count + 1, to_copy);
+    to_copy[count + 1] = pn_gpu_image_barrier(&r->shadow.rays, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
+    pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count + 2, to_copy);
     VkDeviceSize px = (VkDeviceSize)r->width * r->height, offset = 0;
     for (int i = 0; i < count; i++) {
         VkBufferImageCopy copy = {
@@ -245,13 +248,17 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         vkCmdCopyImageToBuffer(cmd, src[i]->image, SRC, r->readback.buffer, 1, &copy);
         offset += px * (src[i]->format == VK_FORMAT_R32_SFLOAT ? 4 : 16);
     }
-    // The shadow pass's counts (the last light's), at their place after V_raw's, filtered or not.
-    VkBufferImageCopy counts = {
-        .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL - 4) * 4 * px,
-        .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-        .imageExtent = {r->width, r->height, 1},
-    };
-    vkCmdCopyImageToBuffer(cmd, r->shadow.counts.image, SRC, r->readback.buffer, 1, &counts);
+    // The shadow pass's counts and rays (the last light's), at their place after V_raw's, filtered
+    // or not.
+    const pn_gpu_image *shadow[2] = {&r->shadow.counts, &r->shadow.rays};
+    for (int i = 0; i < 2; i++) {
+        VkBufferImageCopy copy = {
+            .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL - 8 + 4 * i) * 4 * px,
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageExtent = {r->width, r->height, 1},
+        };
+        vkCmdCopyImageToBuffer(cmd, shadow[i]->image, SRC, r->readback.buffer, 1, &copy);
+    }
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){
                            .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
@@ -363,7 +370,8 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_cmd_barrier(cmd, NULL, 2, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
-            pn_filter_pass_record(cmd, &r->filter, noise_samples[i], yfov_deg); // P, N, V raw -> V
+            pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
+                                  yfov_deg); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
         }
@@ -464,7 +472,8 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->v = out->albedo + 4 * px;
     out->radiance = out->v + px;
     out->v_raw = filtered(r) ? out->radiance + 4 * px : NULL;
-    out->counts = (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 4) * px);
+    out->counts = (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 8) * px);
+    out->rays = r->desc.spp_min ? (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 4) * px) : NULL;
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;
@@ -510,7 +519,15 @@ pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp)
                  r->shadow.dump_spp);
         return PN_ERR_INVALID;
     }
-    r->desc.spp = spp;
+    return pn_renderer_set_adaptive(r, r->desc.spp_min, spp, r->desc.pixel_error);
+}
+
+pn_result pn_renderer_set_adaptive(pn_renderer *r, uint32_t spp_min, uint32_t spp, float pixel_error)
+{
+    pn_renderer_desc d = r->desc;
+    d.spp_min = spp_min, d.spp = spp, d.pixel_error = pixel_error;
+    PN_TRY(pn_shadow_check_adaptive(&d));
+    r->desc = d;
     return PN_OK;
 }
 
@@ -523,6 +540,7 @@ pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on)
     pn_renderer_desc d = r->desc;
     d.dump_rays = on;
     PN_TRY(pn_renderer_check_split(&d));
+    PN_TRY(pn_shadow_check_adaptive(&d));
     r->desc.dump_rays = on;
     return PN_OK;
 }
@@ -532,6 +550,7 @@ pn_result pn_renderer_set_split(pn_renderer *r, pn_split split)
     pn_renderer_desc d = r->desc;
     d.split = split;
     PN_TRY(pn_renderer_check_split(&d));
+    PN_TRY(pn_shadow_check_adaptive(&d));
     r->desc.split = split;
     return PN_OK;
 }

@@ -78,6 +78,9 @@ pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile
 // --quality auto's pilots step through them without new pipelines). With desc.dump_rays, spp may not
 // exceed the desc's (the dump's buffer holds that many rays per pixel): PN_ERR_INVALID, logged.
 pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp);
+// Changes the samples per pixel to adaptive rounds from spp_min up to spp (desc.spp_min; spp_min 0:
+// spp for every pixel) from the next pn_renderer_render on.
+pn_result pn_renderer_set_adaptive(pn_renderer *r, uint32_t spp_min, uint32_t spp, float pixel_error);
 
 // PN_OK if desc's split goes with its filter, sampler and ray dump; else logs why (the command
 // lines check it before any set-up, as a usage error).

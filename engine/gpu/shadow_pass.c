@@ -15,6 +15,31 @@ double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_ligh
     return shadow_ms > 0 ? (double)covered_pixels * pn_shadow_samples(spp, light) / (shadow_ms * 1e-3) : 0;
 }
 
+bool pn_shadow_adaptive(const pn_shadow_pass *s, uint32_t samples) { return s->spp_min && samples > s->spp_min; }
+
+pn_result pn_shadow_check_adaptive(const pn_renderer_desc *d)
+{
+    if (!d->spp_min)
+        return PN_OK;
+    uint32_t ratio = d->spp_min <= d->spp && d->spp % d->spp_min == 0 ? d->spp / d->spp_min : 0;
+    if (ratio == 0 || (ratio & (ratio - 1)) != 0) {
+        pn_error("adaptive samples %u:%u: the most must be the least times a power of two (e.g. 4:64)", d->spp_min,
+                 d->spp);
+        return PN_ERR_INVALID;
+    }
+    if (d->split != PN_SPLIT_EVEN || d->dump_rays || d->sampler != PN_SAMPLER_STRATIFIED) {
+        pn_error("adaptive samples draw a number of rays per pixel of their own: they need the even split, the "
+                 "stratified sampler and no ray dump (got split %s, sampler %s%s)",
+                 pn_split_names[d->split], pn_sampler_names[d->sampler], d->dump_rays ? ", ray dump" : "");
+        return PN_ERR_INVALID;
+    }
+    if (!(d->pixel_error >= 0.0f)) {
+        pn_error("pixel error %g: must be at least 0", (double)d->pixel_error);
+        return PN_ERR_INVALID;
+    }
+    return PN_OK;
+}
+
 uint32_t pn_shadow_budget(uint32_t spp, uint32_t light_count) { return (spp ? spp : 1) * (light_count ? light_count : 1); }
 
 void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
@@ -53,6 +78,9 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         {.binding = PN_SHADOW_BINDING_PARAMS, .descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER},
         {.binding = PN_SHADOW_BINDING_COUNTS, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_STATUS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+        {.binding = PN_SHADOW_BINDING_ADAPT, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_RAYS, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_TILES, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
         {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
@@ -75,6 +103,13 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "shadow pass's parameters", sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                  &out->params);
+    out->tiles_across = (desc->width + PN_WORKGROUP - 1) / PN_WORKGROUP;
+    out->tile_total = out->tiles_across * ((desc->height + PN_WORKGROUP - 1) / PN_WORKGROUP);
+    if (r == PN_OK)
+        r = pn_gpu_buffer_create(dev, "shadow pass's tile lists", (2 * PN_TILE_LIST_WORDS(out->tile_total) + out->tile_total) * 4,
+                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                 PN_GPU_DEVICE_LOCAL, &out->tiles);
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "shadow pass's status", sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
                                  &out->status);
@@ -85,6 +120,16 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         if (r == PN_OK)
             memset(out->ray_dump.mapped, 0, px * (1 + desc->spp) * 16);
     }
+    const char *names[2] = {"shadow pass's adaptive image", "shadow pass's ray count image"};
+    pn_gpu_image *extra[2] = {&out->adapt, &out->rays};
+    for (int i = 0; i < 2 && r == PN_OK; i++)
+        r = pn_gpu_image_create(dev,
+                                &(pn_gpu_image_desc){.name = names[i],
+                                                     .format = VK_FORMAT_R32G32B32A32_UINT,
+                                                     .width = desc->width,
+                                                     .height = desc->height,
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
+                                extra[i]);
     if (r == PN_OK)
         r = pn_gpu_image_create(dev,
                                 &(pn_gpu_image_desc){.name = "shadow pass's count image",
@@ -106,6 +151,9 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     pn_gpu_compute_write_uniform(dev, c, PN_SHADOW_BINDING_PARAMS, out->params.buffer);
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_COUNTS, out->counts.view);
     pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_STATUS, out->status.buffer);
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_ADAPT, out->adapt.view);
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_RAYS, out->rays.view);
+    pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_TILES, out->tiles.buffer);
     if (tlas)
         pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas);
     return PN_OK;
@@ -115,8 +163,11 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
 {
     pn_gpu_compute_destroy(dev, &s->compute);
     pn_gpu_image_destroy(dev, &s->counts);
+    pn_gpu_image_destroy(dev, &s->adapt);
+    pn_gpu_image_destroy(dev, &s->rays);
     pn_gpu_buffer_destroy(dev, &s->params);
     pn_gpu_buffer_destroy(dev, &s->status);
+    pn_gpu_buffer_destroy(dev, &s->tiles);
     pn_gpu_buffer_destroy(dev, &s->work);
     pn_gpu_buffer_destroy(dev, &s->ray_dump);
     memset(s, 0, sizeof *s);
@@ -158,38 +209,122 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.cand_first = desc->cand_first_node;
     sp.dump_rays = desc->dump_rays;
     sp.work = s->work.address;
-    // Interleaved sampling only where a filter gathers the tile's samples again.
-    bool tiled = desc->filter != PN_FILTER_NONE;
+    sp.spp_min = s->spp_min = desc->spp_min;
+    sp.pixel_error = desc->pixel_error;
+    sp.tiles_across = s->tiles_across;
+    sp.tile_total = s->tile_total;
+    // Interleaved sampling only where a filter gathers the tile's samples again, and each pixel
+    // draws as many as the others (not adaptively).
+    bool tiled = desc->filter != PN_FILTER_NONE && !desc->spp_min;
     sp.tile_w = tiled ? pn_filter_tile(desc->tile_w) : 1;
     sp.tile_h = tiled ? pn_filter_tile(desc->tile_h) : 1;
     memcpy(s->params.mapped, &sp, sizeof sp);
 }
 
+// Each dispatch reads the counts the previous one wrote (see ShadowChunk in interface.h), and an
+// indirect one its group count.
+static void between_dispatches(VkCommandBuffer cmd)
+{
+    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = COMPUTE,
+                                           .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                           .dstStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                           .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                                                            VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
+                                                            VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT},
+                       0, NULL);
+}
+
+// A dispatch of the shadow shader: over every tile of the image (ch.tiles_in 0), or over the
+// tiles of list ch.tiles_in - 1, as many groups as the list holds.
+static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch)
+{
+    if (ch->tiles_in == 0) {
+        uint32_t gy = s->tile_total / s->tiles_across;
+        pn_gpu_compute_dispatch(cmd, &s->compute, sizeof *ch, ch, s->tiles_across, gy, 1);
+        return;
+    }
+    VkDeviceSize offset = (VkDeviceSize)(ch->tiles_in - 1) * PN_TILE_LIST_WORDS(s->tile_total) * 4;
+    pn_gpu_compute_dispatch_indirect(cmd, &s->compute, sizeof *ch, ch, s->tiles.buffer, offset);
+}
+
+// Samples [begin, end) of every pixel (of the tiles of list tiles_in - 1 that the last decision
+// sent on, adaptively), in chunks; `half` as ShadowChunk.half_end.
+static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t begin, uint32_t end, uint32_t half,
+                           uint32_t tiles_in, uint32_t light)
+{
+    for (uint32_t b = begin; b < end; b += s->chunk) {
+        uint32_t e = end - b > s->chunk ? b + s->chunk : end;
+        pn_shadow_chunk ch = {.sample_begin = b, .sample_end = e, .first = b == 0, .last = e == end, .light = light,
+                              .half_end = half, .tiles_in = tiles_in};
+        if (b > begin)
+            between_dispatches(cmd);
+        dispatch(cmd, s, &ch);
+    }
+}
+
+// Empties tile list k for a decision to fill (and with `marks` forgets which tiles the earlier
+// rounds listed), after every earlier use of the lists.
+static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k, bool marks)
+{
+    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                           .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                           .dstStageMask = COPY,
+                                           .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT},
+                       0, NULL);
+    const uint32_t empty[4] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1) and the pad
+    VkDeviceSize words = PN_TILE_LIST_WORDS(s->tile_total);
+    vkCmdUpdateBuffer(cmd, s->tiles.buffer, k * words * 4, sizeof empty, empty);
+    if (marks)
+        vkCmdFillBuffer(cmd, s->tiles.buffer, 2 * words * 4, (VkDeviceSize)s->tile_total * 4, 0);
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = COPY,
+                                           .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                           .dstStageMask = COMPUTE,
+                                           .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                                                            VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT},
+                       0, NULL);
+}
+
 void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    // The counts are rewritten from the first chunk on: discard what the previous frame left.
-    VkImageMemoryBarrier2 counts = pn_gpu_image_barrier(
-        &s->counts, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE,
-        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-        VK_IMAGE_LAYOUT_GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &counts);
-    uint32_t gx = (s->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (s->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
+    // The counts and the adaptive images are rewritten from the first chunk on: discard what the
+    // previous frame (or light) left.
+    VkImageMemoryBarrier2 fresh[3];
+    const pn_gpu_image *images[3] = {&s->counts, &s->adapt, &s->rays};
+    for (int i = 0; i < 3; i++)
+        fresh[i] = pn_gpu_image_barrier(images[i], VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                                        COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 3, fresh);
     uint32_t spp = s->mode->traces ? samples : 1;
-    // Each chunk reads the counts the previous one wrote (see ShadowChunk in interface.h).
-    for (uint32_t begin = 0; begin < spp; begin += s->chunk) {
-        pn_shadow_chunk ch = {begin, begin + s->chunk < spp ? begin + s->chunk : spp, begin == 0, begin + s->chunk >= spp,
-                              light};
-        if (begin > 0)
-            pn_gpu_cmd_barrier(cmd,
-                               &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
-                                                   .srcStageMask = COMPUTE,
-                                                   .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                                   .dstStageMask = COMPUTE,
-                                                   .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
-                                                                    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT},
-                               0, NULL);
-        pn_gpu_compute_dispatch(cmd, &s->compute, sizeof ch, &ch, gx, gy, 1);
+    if (!pn_shadow_adaptive(s, spp)) {
+        record_samples(cmd, s, 0, spp, 0, 0, light);
+        return;
+    }
+    // Adaptive: the first round over the image, then after each round a decision over its tiles,
+    // which lists the tiles with a pixel that goes on, and the next round over that list; the two
+    // lists alternate. The last decision gives the final estimates.
+    record_samples(cmd, s, 0, s->spp_min, s->spp_min / 2, 0, light);
+    uint32_t tiles_in = 0, out = 0;
+    for (uint32_t done = s->spp_min;; done *= 2) {
+        reset_list(cmd, s, out, done == s->spp_min);
+        between_dispatches(cmd);
+        dispatch(cmd, s, &(pn_shadow_chunk){.sample_end = done, .light = light, .decide = 1, .tiles_in = tiles_in,
+                                            .tiles_out = out});
+        if (done >= spp)
+            break;
+        between_dispatches(cmd);
+        record_samples(cmd, s, done, 2 * done, done, 1 + out, light);
+        tiles_in = 1 + out;
+        out ^= 1;
     }
 }
 

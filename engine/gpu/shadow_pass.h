@@ -19,7 +19,13 @@ typedef struct pn_shadow_pass {
     pn_gpu_image counts;    // (visible, valid) sample counts between chunks; after the last, with
                             // whether the light reaches above the horizon and the penumbra width
                             // (the filter reads them; pn_frame_images.counts)
+    pn_gpu_image adapt;     // per pixel: the counts over the first half of its samples, the blocked
+                            // rays' summed t, its samples so far (PN_SHADOW_BINDING_ADAPT)
+    pn_gpu_image rays;      // adaptive sampling: per pixel its samples and V's standard error
+    pn_gpu_buffer tiles;    // adaptive sampling: the tile lists of its rounds (PN_SHADOW_BINDING_TILES)
+    uint32_t tiles_across, tile_total; // PN_WORKGROUP-square tiles across the image, and in all
     uint32_t width, height;
+    uint32_t spp_min; // adaptive sampling's first round (desc.spp_min at the last update), 0: off
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.
     // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);
@@ -56,9 +62,18 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
 void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *lights,
                            uint32_t light_count);
 
+// Whether a light of `samples` samples per pixel (pn_shadow_samples) is sampled adaptively:
+// rounds from desc.spp_min up to `samples` (a point light's single sample never is).
+bool pn_shadow_adaptive(const pn_shadow_pass *s, uint32_t samples);
+
+// Checks desc's adaptive sampling: spp_min 0, or spp = spp_min x 2^k with the even split, no
+// ray dump, the stratified sampler, and pixel_error >= 0 (logs and returns PN_ERR_INVALID otherwise).
+pn_result pn_shadow_check_adaptive(const pn_renderer_desc *desc);
+
 // Records the dispatches of `samples` samples per pixel (pn_shadow_samples) of light `light` (an
 // index into the lights of pn_shadow_pass_update) after P and N are ready; V is written when the
-// last one ends. Every light's samples are the same function of the seed and the pixel, so a light
+// last one ends; adaptively, the rounds with a decision after each (the last one's gives the final
+// error estimate). Every light's samples are the same function of the seed and the pixel, so a light
 // sees the same samples alone as among others.
 void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light);
 

@@ -159,7 +159,9 @@ void main()
     const float RANGE_SIGMAS = 2.5;
     float mean = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
     // samples = 0: V has no noise (a point light), so only equal V averages and V stays as it is.
-    float spread = pc.samples == 0u ? 0.0 : RANGE_SIGMAS * sqrt(2.0 * mean * (1.0 - mean) / float(pc.samples));
+    // Adaptive sampling: each pixel's own valid rays (at least one: the pixel has an estimate).
+    float samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
+    float spread = pc.samples == 0u ? 0.0 : RANGE_SIGMAS * sqrt(2.0 * mean * (1.0 - mean) / samples);
     sum = 0.0;
     weight = 0.0;
     for (int j = 0; j < k; j++) {

@@ -59,8 +59,13 @@
 #define PN_SHADOW_BINDING_COUNTS 4  // rgba32ui: (visible, valid) samples so far, between chunks; after
                                     // the last, (visible, valid, reaches, 0) for the filter (shadow_finish)
 #define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe: loop budget spent)
-#define PN_SHADOW_BINDING_COUNT 6
-#define PN_SHADOW_BINDING_TLAS 6    // acceleration structure: only the modes whose needs.tlas is set
+#define PN_SHADOW_BINDING_ADAPT 6   // rgba32ui: (visible, valid) over the first half of the pixel's samples,
+                                    // the blocked rays' summed t (float bits), the samples so far (shadow_finish)
+#define PN_SHADOW_BINDING_RAYS 7    // rgba32ui: adaptive sampling's samples for the pixel, and the standard
+                                    // error of its V (float bits) (adaptive_decide, shadow_frame.glsl)
+#define PN_SHADOW_BINDING_TILES 8   // storage buffer: adaptive sampling's two lists of tiles (TileList)
+#define PN_SHADOW_BINDING_COUNT 9
+#define PN_SHADOW_BINDING_TLAS 9    // acceleration structure: only the modes whose needs.tlas is set
 #define PN_SHADE_BINDING_P 0
 #define PN_SHADE_BINDING_N 1
 #define PN_SHADE_BINDING_ALBEDO 2
@@ -221,7 +226,7 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
     PN_UINT(pad2)
 } PN_END(GBufferPush, pn_gbuffer_push)
 
-// The shadow pass's uniform block (std140). 208 + 96 PN_MAX_LIGHTS bytes.
+// The shadow pass's uniform block (std140). 224 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
     PN_UINT(spp)           // rays per pixel = grid_u * grid_v
@@ -250,24 +255,44 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_ADDR(IndexPool, top_ids)     // object indices in the top BVH's leaf order
     PN_UINT(light_count)            // lights in `lights`
     PN_UINT(budget)                 // PN_SPLIT_BUDGET_ID: rays per pixel over all the lights
+    PN_UINT(spp_min)                // adaptive sampling (--spp MIN:MAX): the first round's samples;
+                                    // 0: every pixel takes spp (adaptive_decide, shadow_frame.glsl)
+    PN_FLOAT(pixel_error)           // adaptive: a pixel stops once its V's standard error is below this
+    PN_UINT(tiles_across)           // work groups across the image (its PN_WORKGROUP-square tiles)
+    PN_UINT(tile_total)             // and in all: the room in each tile list
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
-// The filter pass's push constants (filter.comp). 8 bytes. Its window is specialised
+// The filter pass's push constants (filter.comp). 16 bytes. Its window is specialised
 // (PN_SPEC_TILE_W, PN_SPEC_TILE_H).
 PN_STRUCT(FilterPush, pn_filter_push) {
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
     PN_UINT(samples)      // light samples per pixel (the shadow pass's): the noise of one pixel's V;
                           // 0 for a point light, whose V has none
+    PN_UINT(adaptive)     // 1: pixels took samples of their own number (adaptive sampling): the
+                          // noise of each pixel's V is that of its own valid rays
+    PN_UINT(pad0)
 } PN_END(FilterPush, pn_filter_push)
 
-// The shadow pass's push constants: one chunk of one light's samples per dispatch. 20 bytes.
+// The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive
+// sampling's decision between two rounds. 36 bytes.
 PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
     PN_UINT(sample_begin) // light samples [sample_begin, sample_end) in this dispatch
     PN_UINT(sample_end)
     PN_UINT(first)        // 1: counts start at zero
     PN_UINT(last)         // 1: write V = visible / valid
     PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes
+    PN_UINT(half_end)     // adaptive: the pixel's first half_end samples are the first half of its
+                          // samples after this round (the error estimate's split, adaptive_decide)
+    PN_UINT(decide)       // adaptive: 1 = no rays; decide which pixels go on after the round whose
+                          // samples end at sample_end (adaptive_decide)
+    PN_UINT(tiles_in)     // 0: a work group per tile of the image; 1 + k: per tile of list k (indirect)
+    PN_UINT(tiles_out)    // decide: the list (0 or 1) that gets the tiles with a pixel that goes on
 } PN_END(ShadowChunk, pn_shadow_chunk)
+
+// The adaptive tile lists (PN_SHADOW_BINDING_TILES), as uint words: list k (0, 1) at
+// k * (4 + tile_total): a VkDispatchIndirectCommand (count, 1, 1) and a pad, then `count` tiles as
+// x | y << 16; after both lists, a word per tile of the image: the last round that listed it.
+#define PN_TILE_LIST_WORDS(tile_total) (4u + (tile_total))
 
 #endif

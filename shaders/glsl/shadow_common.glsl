@@ -121,9 +121,10 @@ vec2 light_sample(uint k, uvec2 pixel)
     }
     uvec2 sub2 = (sheared + shift) % tile_size;
     uint sub = sub2.x + tile_size.x * sub2.y;
-    // Budgeted split: each pixel draws its own number of samples per light (chunk_count), so there
-    // is no grid to stratify.
-    if (params.split == PN_SPLIT_BUDGET_ID)
+    // Budgeted split and adaptive sampling: each pixel draws its own number of samples per light
+    // (chunk_count, adaptive_decide), so there is no grid to stratify; the Sobol' sequence is
+    // stratified at every power of two, and each half of it too (adaptive_decide's estimate).
+    if (params.split == PN_SPLIT_BUDGET_ID || params.spp_min != 0u)
         return sobol_sample(k, pcg(h + chunk.light));
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
