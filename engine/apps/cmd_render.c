@@ -286,9 +286,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(" LS(%d,%d)%s %s", o->r.tree_n, o->r.tree_d, o->r.per_object ? " per object" : "",
                pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)]);
     if (mode->traces && o->r.spp_min)
-        printf(" adaptive %lld:%lld spp to a pixel error of %g (%.1f rays per pixel)", o->r.spp_min, o->r.spp,
-               (double)o->r.pixel_error, st->mean_rays);
-    else if (mode->traces)
+        printf(" adaptive %lld:%lld spp to a pixel error of %g", o->r.spp_min, o->r.spp, (double)o->r.pixel_error);
+    if (mode->traces && o->r.spp_min && st->mean_rays > 0) // one light: its rays image
+        printf(" (%.1f rays per pixel)", st->mean_rays);
+    if (mode->traces && !o->r.spp_min)
         printf(" %s %lld spp%s", pn_sampler_names[o->r.sampler], o->r.spp,
                o->r.split == PN_SPLIT_BUDGET ? " per light, budgeted split" : "");
     if (o->r.filter != PN_FILTER_NONE)
