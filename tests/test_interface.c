@@ -61,7 +61,7 @@ static const field gbuffer_fields[] = {F(pn_gbuffer_push, view_proj), F(pn_gbuff
                                        F(pn_gbuffer_push, pad2),      {0}};
 static const field chunk_fields[] = {F(pn_shadow_chunk, sample_begin), F(pn_shadow_chunk, sample_end),
                                      F(pn_shadow_chunk, first), F(pn_shadow_chunk, last),
-                                     F(pn_shadow_chunk, light), F(pn_shadow_chunk, half_end),
+                                     F(pn_shadow_chunk, light),
                                      F(pn_shadow_chunk, decide), F(pn_shadow_chunk, tiles_in),
                                      F(pn_shadow_chunk, tiles_out), {0}};
 

@@ -55,8 +55,10 @@ typedef struct bench_opts {
     // the view and lights) and per-object trees (one per mesh, shared by its instances, and a top
     // level; mode linespace only): kinds[PN_TREE_KIND_*] (default the scene-wide alone).
     bool kinds[2];
-    uint32_t spps[MAX_LIST]; // ascending
+    uint32_t spps[MAX_LIST]; // ascending (adaptive entries by their MAX, after the uniform one of it)
+    uint32_t spp_mins[MAX_LIST]; // per entry: adaptive samples' MIN (--spp MIN:MAX), 0 for uniform
     int spp_count;
+    float pixel_error; // --pixel-error of the adaptive cells
     uint32_t sizes[MAX_LIST][2];
     int size_count;
     int repeat, warmup;
@@ -85,6 +87,8 @@ typedef struct bench_opts {
 typedef struct bench_row {
     char scene[64]; // the view's name
     uint32_t width, height, spp;
+    uint32_t spp_min;  // adaptive samples (spp_min:spp), 0 for uniform
+    double mean_rays;  // the rays a covered pixel took on average (spp for uniform cells)
     pn_shadow_mode mode;
     int n, d;
     bool per_object;         // the tree as per-object trees (--tree-kinds object)
@@ -110,10 +114,11 @@ typedef struct bench_row {
 // trades against each other); the time-to-error table, the plots' front and --max-error use it.
 static inline double pn_bench_row_ms(const bench_row *r) { return r->shadow_ms + r->filter_ms; }
 
-// A configuration's name in tables and plots: the mode, "+filter" for a filtered cell and
-// "/objects" with per-object trees.
+// A configuration's name in tables and plots: the mode, "+filter" for a filtered cell,
+// "+adaptive" for adaptive samples and "/objects" with per-object trees.
 static inline const char *pn_bench_filter_suffix(pn_filter f) { return f == PN_FILTER_NONE ? "" : "+filter"; }
 static inline const char *pn_bench_kind_suffix(bool per_object) { return per_object ? "/objects" : ""; }
+static inline const char *pn_bench_adaptive_suffix(uint32_t spp_min) { return spp_min ? "+adaptive" : ""; }
 
 // --max-error: what --quality auto picked for one view, size and budget, next to the matrix's front.
 typedef struct bench_quality {

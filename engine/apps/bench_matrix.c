@@ -91,10 +91,16 @@ static void tree_label(char *out, size_t n, int tn, int td, bool per_object)
         out[0] = '\0';
 }
 
-// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter][_LSn_d][_objects].
+// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter][_LSn_d][_objects], with
+// MIN-MAXspp for adaptive samples.
 static void cell_label(char *out, size_t n, const bench_row *r)
 {
-    int len = snprintf(out, n, "%s_%ux%u_%uspp_%s%s", r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode),
+    char spp[32];
+    if (r->spp_min)
+        snprintf(spp, sizeof spp, "%u-%u", r->spp_min, r->spp);
+    else
+        snprintf(spp, sizeof spp, "%u", r->spp);
+    int len = snprintf(out, n, "%s_%ux%u_%sspp_%s%s", r->scene, r->width, r->height, spp, MODE_NAME(r->mode),
                        r->filter != PN_FILTER_NONE ? "_filter" : "");
     if (r->n && len > 0 && (size_t)len < n)
         snprintf(out + len, n - (size_t)len, "_LS%d_%d%s", r->n, r->d, r->per_object ? "_objects" : "");
@@ -358,26 +364,36 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     size_t px = (size_t)g->frame.width * g->frame.height;
     pn_shadow_mode mode = sd->frame.mode;
     bool exact = mode == PN_SHADOW_REFERENCE;
-    uint32_t spp = o->spps[pi];
+    uint32_t spp = o->spps[pi], spp_min = o->spp_mins[pi];
     int ci = fi * o->spp_count + pi; // the cell's place among the filters' spp
     sd->frame.spp = spp;
-    if (pn_renderer_set_spp(&s->renderer, spp) != PN_OK ||
+    sd->frame.spp_min = spp_min, sd->frame.pixel_error = o->pixel_error;
+    // Adaptive cells trace no ray dump (each pixel its own count): the dump goes off first.
+    if ((sd->frame.dump_rays && pn_renderer_set_dump_rays(&s->renderer, false) != PN_OK) ||
+        pn_renderer_set_adaptive(&s->renderer, spp_min, spp, o->pixel_error) != PN_OK ||
         (ci == 0 && o->gbuffer && pn_renderer_set_gbuffer(&s->renderer, o->gb_p, o->gb_n) != PN_OK))
         return PN_EXIT_FAILURE;
     bench_row row = g->base;
     row.spp = spp;
+    row.spp_min = spp_min;
     row.mode = mode;
     row.n = sd->tree_n, row.d = sd->tree_d;
     row.per_object = sd->per_object;
     row.filter = sd->frame.filter;
     if (row.filter != PN_FILTER_NONE)
         row.tile_w = pn_filter_tile(sd->frame.tile_w), row.tile_h = pn_filter_tile(sd->frame.tile_h);
-    // Timed without the ray dump, whose writes would slow the frames down.
-    if ((sd->frame.dump_rays && pn_renderer_set_dump_rays(&s->renderer, false) != PN_OK) ||
-        time_frames(o, &s->renderer, g->cam, g->light, &row) != PN_OK)
+    // Timed without the ray dump (off above), whose writes would slow the frames down.
+    if (time_frames(o, &s->renderer, g->cam, g->light, &row) != PN_OK)
         return PN_EXIT_FAILURE;
     pn_frame_images img;
     pn_renderer_images(&s->renderer, &img);
+    row.mean_rays = spp;
+    if (img.rays) {
+        double rays = 0;
+        for (size_t i = 0; i < px; i++)
+            rays += img.rays[4 * i];
+        row.mean_rays = g->covered ? rays / (double)g->covered : 0;
+    }
     float *same = g->v_exact + (size_t)ci * px; // exact with this filter and spp
     if (exact) {
         memcpy(same, img.v, px * sizeof *same);
@@ -385,7 +401,7 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     }
     // Embree traces the first filter's rays: their number, which is what its time depends on, is the
     // same with every filter.
-    if (exact && sd->frame.dump_rays && fi == 0) {
+    if (exact && sd->frame.dump_rays && fi == 0 && !spp_min) {
         // One more frame with the dump for Embree: the same rays (the frame is deterministic).
         pn_frame_times t;
         uint64_t floats;
@@ -398,7 +414,8 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     row.build_ms = s->build_ms;
     row.move_ms = g->move_ms;
     row.pool_mb = pn_shadow_accel_gpu_bytes(&s->accel) / 1048576.0; // with per-object trees' top level
-    row.rays_per_s = pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
+    row.rays_per_s = img.rays ? (row.shadow_ms > 0 ? row.mean_rays * (double)g->covered / (row.shadow_ms * 1e-3) : 0)
+                              : pn_shadow_rays_per_s(g->covered, spp, g->light, row.shadow_ms);
     row.vs_exact = g->exact_ms[ci] > 0 ? pn_bench_row_ms(&row) / g->exact_ms[ci] : 0;
     row.embree_ms = g->embree_ms[pi];
     row.vs_embree = row.embree_ms > 0 ? pn_bench_row_ms(&row) / row.embree_ms : 0;

@@ -11,30 +11,51 @@
 #include "apps/args.h"
 #include "apps/bench.h"
 #include "apps/commands.h"
+#include "apps/render_opts.h"
 #include "core/log.h"
 #include "io/exr.h"
 
-static bool parse_list_u32(const char *opt, const char *s, uint32_t *out, int *count, uint32_t lo, uint32_t hi)
+// --spp S,...: uniform counts S, or adaptive MIN:MAX (MAX = MIN x 2^k, render_opts.c), sorted by
+// the most rays, a uniform count before the adaptive entries that reach it.
+static bool parse_spp_list(const char *s, bench_opts *o)
 {
     char buf[1024];
     snprintf(buf, sizeof buf, "%s", s);
-    *count = 0;
+    o->spp_count = 0;
     for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
-        long long v;
-        if (*count == MAX_LIST) {
-            pn_error("%s: more than %d values", opt, MAX_LIST);
+        if (o->spp_count == MAX_LIST) {
+            pn_error("--spp: more than %d values", MAX_LIST);
             return false;
         }
-        if (!pn_parse_int_range(opt, tok, lo, hi, &v))
-            return false;
-        for (int i = 0; i < *count; i++)
-            if (out[i] == (uint32_t)v) {
-                pn_error("%s: %lld is listed twice", opt, v);
+        long long lo = 0, hi;
+        char *colon = strchr(tok, ':');
+        if (colon) {
+            *colon = 0;
+            if (!pn_parse_int_range("--spp", tok, 1, 4096, &lo) || !pn_parse_int_range("--spp", colon + 1, 1, 4096, &hi))
+                return false;
+            long long ratio = hi % lo == 0 ? hi / lo : 0;
+            if (ratio < 2 || (ratio & (ratio - 1)) != 0) {
+                pn_error("--spp %lld:%lld: adaptive samples need MAX = MIN x 2, 4, 8, ... (e.g. 4:64)", lo, hi);
                 return false;
             }
-        out[(*count)++] = (uint32_t)v;
+        } else if (!pn_parse_int_range("--spp", tok, 1, 4096, &hi)) {
+            return false;
+        }
+        int at = o->spp_count;
+        for (int i = 0; i < o->spp_count; i++) {
+            if (o->spps[i] == (uint32_t)hi && o->spp_mins[i] == (uint32_t)lo) {
+                pn_error("--spp: %s is listed twice", colon ? "an adaptive entry" : "a count");
+                return false;
+            }
+            if (at == o->spp_count && (o->spps[i] > hi || (o->spps[i] == hi && o->spp_mins[i] > lo)))
+                at = i;
+        }
+        memmove(&o->spps[at + 1], &o->spps[at], (size_t)(o->spp_count - at) * sizeof o->spps[0]);
+        memmove(&o->spp_mins[at + 1], &o->spp_mins[at], (size_t)(o->spp_count - at) * sizeof o->spp_mins[0]);
+        o->spps[at] = (uint32_t)hi, o->spp_mins[at] = (uint32_t)lo;
+        o->spp_count++;
     }
-    return *count > 0;
+    return o->spp_count > 0;
 }
 
 static bool add_view(bench_opts *o, const bench_view *v)
@@ -113,16 +134,10 @@ static bool add_view_arg(bench_opts *o, const char *name)
 
 const char *const pn_bench_tree_kind_names[] = {"scene", "object", NULL};
 
-static int cmp_u32(const void *a, const void *b)
-{
-    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
-}
-
 int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {
     *o = (bench_opts){.repeat = 3, .warmup = 1, .traversal = PN_TRAVERSAL_AUTO, .sampler = PN_SAMPLER_STRATIFIED,
-                      .reference_spp = PN_REFERENCE_SPP, .seed = 1, .out_dir = "bench-out", .embree = true,
+                      .reference_spp = PN_REFERENCE_SPP, .pixel_error = PN_DEFAULT_PIXEL_ERROR, .seed = 1, .out_dir = "bench-out", .embree = true,
                       .tile_w = 3, .tile_h = 3, .kinds = {[PN_TREE_KIND_SCENE] = true}};
     bool quick = false;
     char scenes_buf[4096] = "", views_buf[512] = "";
@@ -197,8 +212,9 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
                 pn_error("--tree-kinds: expected scene, object or both, got '%s'", v ? v : "");
             ok = ok && count > 0;
         } else if (pn_args_value(&a, "--spp", &v, &err)) {
-            ok = v && parse_list_u32("--spp", v, o->spps, &o->spp_count, 1, 4096);
-            qsort(o->spps, (size_t)o->spp_count, sizeof o->spps[0], cmp_u32);
+            ok = v && parse_spp_list(v, o);
+        } else if (pn_args_value(&a, "--pixel-error", &v, &err)) {
+            ok = v && pn_parse_float_range("--pixel-error", v, 0.0f, 1.0f, &o->pixel_error);
         } else if (pn_args_value(&a, "--reference-spp", &v, &err)) {
             long long x = 0;
             ok = v && pn_parse_int_range("--reference-spp", v, 16, 4096, &x);
@@ -328,7 +344,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         o->trees[0][0] = 6, o->trees[0][1] = 3, o->trees[1][0] = 7, o->trees[1][1] = 3, o->trees[2][0] = 8,
         o->trees[2][1] = 3, o->tree_count = 3;
     if (!o->spp_count)
-        o->spps[0] = 1, o->spps[1] = 4, o->spps[2] = 16, o->spps[3] = 64, o->spp_count = 4;
+        o->spps[0] = 1, o->spps[1] = 4, o->spps[2] = 16, o->spps[3] = 64, o->spps[4] = 64, o->spp_mins[4] = 4,
+        o->spp_count = 5;
     if (!o->size_count)
         o->sizes[0][0] = o->sizes[0][1] = 512, o->size_count = 1;
     if (!o->filter_count)

@@ -16,7 +16,7 @@
 // "ref" against the converged reference, "bias" against exact with the same samples.
 void pn_bench_print_header(void)
 {
-    printf("%-16s %-9s %4s %-9s %-9s %-6s %8s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s %6s\n", "view",
+    printf("%-16s %-9s %5s %-9s %-9s %-6s %8s %8s %7s %9s [%7s %7s] %8s %7s %8s %7s %8s %6s %6s %7s %6s %6s\n", "view",
            "size", "spp", "mode", "tree", "filter", "build ms", "move ms", "MB", "shadow ms", "min", "max", "filter ms", "Mray/s", "ref MAE",
            "ref p99", "bias MAE", "bias mx", "/exact", "/embree", "edge%", "away%");
 }
@@ -30,18 +30,28 @@ static void tree_cell(char *out, size_t n, int tn, int td, bool per_object)
         snprintf(out, n, "-");
 }
 
+// A row's samples per pixel: "16", or "4:64" for adaptive samples.
+static void spp_text(char *out, size_t n, const bench_row *r)
+{
+    if (r->spp_min)
+        snprintf(out, n, "%u:%u", r->spp_min, r->spp);
+    else
+        snprintf(out, n, "%u", r->spp);
+}
+
 void pn_bench_print_row(const bench_row *r)
 {
-    char tree[16], filter[16] = "-", edge[16] = "-", away[16] = "-";
+    char tree[16], filter[16] = "-", edge[16] = "-", away[16] = "-", spp[24];
+    spp_text(spp, sizeof spp, r);
     tree_cell(tree, sizeof tree, r->n, r->d, r->per_object);
     if (r->filter != PN_FILTER_NONE) {
         snprintf(filter, sizeof filter, "%ux%u", r->tile_w, r->tile_h);
         snprintf(edge, sizeof edge, "%.2f", 100.0 * r->edge.share);
         snprintf(away, sizeof away, "%.2f", 100.0 * r->edge.away_share);
     }
-    printf("%-16.16s %4ux%-4u %4u %-9s %-9s %-6s %8.1f %8.2f %7.1f %9.1f [%7.1f %7.1f] %8.2f %7.2f %8.4f %7.4f %8.4f %6.3f "
+    printf("%-16.16s %4ux%-4u %5s %-9s %-9s %-6s %8.1f %8.2f %7.1f %9.1f [%7.1f %7.1f] %8.2f %7.2f %8.4f %7.4f %8.4f %6.3f "
            "%6.2f %7.2f %6s %6s\n",
-           r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), tree, filter, r->build_ms, r->move_ms, r->pool_mb,
+           r->scene, r->width, r->height, spp, MODE_NAME(r->mode), tree, filter, r->build_ms, r->move_ms, r->pool_mb,
            r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->filter_ms, r->rays_per_s / 1e6, r->ref.mae, r->ref.p99,
            r->bias.mae, r->bias.max, r->vs_exact, r->vs_embree, edge, away);
     fflush(stdout);
@@ -112,17 +122,17 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
     fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
                "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share,"
-               "away_pixels,away_grown,away_share,tree_kind,move_ms\n");
+               "away_pixels,away_grown,away_share,tree_kind,move_ms,spp_min,mean_rays\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
                 r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
                 r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share,
-                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms);
+                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms, r->spp_min, r->mean_rays);
     }
     return close_out(f, path, tmp);
 }
@@ -169,12 +179,19 @@ static int group_end(const bench_rows *rows, int first)
 }
 
 // A column of the time-to-error table: a mode with or without the filter, over the scene-wide tree
-// or per-object trees.
+// or per-object trees, with uniform or adaptive samples.
 typedef struct mode_filter {
     pn_shadow_mode mode;
     pn_filter filter;
     bool per_object;
+    bool adaptive;
 } mode_filter;
+
+static bool in_column(const bench_row *r, mode_filter c)
+{
+    return r->mode == c.mode && r->filter == c.filter && r->per_object == c.per_object &&
+           (r->spp_min != 0) == c.adaptive;
+}
 
 // The fastest row of rows [first, end) of column c whose reference MAE is at most `level` (a
 // filtered cell's time includes its filter pass); NULL when none reaches it.
@@ -183,34 +200,35 @@ static const bench_row *fastest_within(const bench_rows *rows, int first, int en
     const bench_row *best = NULL;
     for (int j = first; j < end; j++) {
         const bench_row *r = &rows->rows[j];
-        if (r->mode == c.mode && r->filter == c.filter && r->per_object == c.per_object && r->ref.mae <= level &&
+        if (in_column(r, c) && r->ref.mae <= level &&
             (!best || pn_bench_row_ms(r) < pn_bench_row_ms(best)))
             best = r;
     }
     return best;
 }
 
-enum { MAX_COLUMNS = 4 * PN_SHADOW_MODE_COUNT };
+enum { MAX_COLUMNS = 8 * PN_SHADOW_MODE_COUNT };
 
 // The columns present in rows [first, end), in the order of the mode table, each mode over the
-// scene-wide tree first, unfiltered first.
+// scene-wide tree first, unfiltered first, uniform samples first.
 static int group_modes(const bench_rows *rows, int first, int end, mode_filter *out)
 {
     int n = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
         for (int k = 0; k < 2; k++)
             for (int f = PN_FILTER_NONE; f <= PN_FILTER_INTERLEAVED; f++)
-                for (int j = first; j < end; j++) {
-                    const bench_row *r = &rows->rows[j];
-                    if (r->mode == (pn_shadow_mode)m && r->filter == (pn_filter)f && r->per_object == (k == 1)) {
-                        out[n++] = (mode_filter){(pn_shadow_mode)m, (pn_filter)f, k == 1};
-                        break;
-                    }
+                for (int a = 0; a < 2; a++) {
+                    mode_filter c = {(pn_shadow_mode)m, (pn_filter)f, k == 1, a == 1};
+                    for (int j = first; j < end; j++)
+                        if (in_column(&rows->rows[j], c)) {
+                            out[n++] = c;
+                            break;
+                        }
                 }
     return n;
 }
 
-static const mode_filter EXACT = {PN_SHADOW_REFERENCE, PN_FILTER_NONE, false};
+static const mode_filter EXACT = {PN_SHADOW_REFERENCE, PN_FILTER_NONE, false, false};
 
 // Embree as a user comparing with it would run it: the rays of unfiltered exact (a filter is not
 // Embree's to run) at the least spp whose reference MAE is at most `level`, not at the spp whose
@@ -221,8 +239,7 @@ static const bench_row *embree_plain(const bench_rows *rows, int first, int end,
     const bench_row *least = NULL;
     for (int j = first; j < end; j++) {
         const bench_row *r = &rows->rows[j];
-        if (r->mode == EXACT.mode && r->filter == EXACT.filter && r->per_object == EXACT.per_object &&
-            r->ref.mae <= level && (!least || r->spp < least->spp))
+        if (in_column(r, EXACT) && r->ref.mae <= level && (!least || r->spp < least->spp))
             least = r;
     }
     return least && least->embree_ms > 0 ? least : NULL;
@@ -248,8 +265,8 @@ static void json_tte_cell(FILE *f, const bench_row *r)
     json_tree(f, r->n, r->d);
     fprintf(f, ", \"tree_kind\": ");
     json_kind(f, r->n, r->per_object);
-    fprintf(f, ", \"spp\": %u, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g", r->spp, r->shadow_ms,
-            pn_bench_row_ms(r), r->ref.mae);
+    fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"mean_rays\": %.4f, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g",
+            r->spp, r->spp_min, r->mean_rays, r->shadow_ms, pn_bench_row_ms(r), r->ref.mae);
 }
 
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows)
@@ -292,8 +309,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         const bench_row *r = &rows->rows[i];
         fprintf(f, "  {\"scene\": ");
         pn_json_string(f, r->scene);
-        fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"mode\": \"%s\", \"tree\": ", r->width, r->height,
-                r->spp, MODE_NAME(r->mode));
+        fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"spp_min\": %u, \"mean_rays\": %.4f, \"mode\": \"%s\", "
+                   "\"tree\": ",
+                r->width, r->height, r->spp, r->spp_min, r->mean_rays, MODE_NAME(r->mode));
         json_tree(f, r->n, r->d);
         fprintf(f, ", \"filter\": \"%s\", \"tile\": ", pn_filter_names[r->filter]);
         if (r->filter != PN_FILTER_NONE)
@@ -425,10 +443,11 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
 static void config_label(char *out, size_t n, const bench_row *r)
 {
     if (r->n)
-        snprintf(out, n, "%s%s%s LS(%d,%d)", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter),
-                 pn_bench_kind_suffix(r->per_object), r->n, r->d);
+        snprintf(out, n, "%s%s%s%s LS(%d,%d)", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter),
+                 pn_bench_adaptive_suffix(r->spp_min), pn_bench_kind_suffix(r->per_object), r->n, r->d);
     else
-        snprintf(out, n, "%s%s", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter));
+        snprintf(out, n, "%s%s%s", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter),
+                 pn_bench_adaptive_suffix(r->spp_min));
 }
 
 // A cell in words, for the time-to-error table's fastest cell: "exact 8 spp filtered",
@@ -438,7 +457,9 @@ static void cell_words(char *out, size_t n, const bench_row *r)
     char tree[48] = "";
     if (r->n)
         snprintf(tree, sizeof tree, " LS(%d,%d)%s", r->n, r->d, r->per_object ? " per object" : "");
-    snprintf(out, n, "%s%s %u spp%s", MODE_NAME(r->mode), tree, r->spp, r->filter != PN_FILTER_NONE ? " filtered" : "");
+    char spp[24];
+    spp_text(spp, sizeof spp, r);
+    snprintf(out, n, "%s%s %s spp%s", MODE_NAME(r->mode), tree, spp, r->filter != PN_FILTER_NONE ? " filtered" : "");
 }
 
 bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
@@ -460,8 +481,8 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                          "| MAE <= |",
                     g0->scene, g0->width, g0->height, g0->triangles);
             for (int m = 0; m < nm; m++)
-                fprintf(out, " %s%s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter),
-                        pn_bench_kind_suffix(modes[m].per_object));
+                fprintf(out, " %s%s%s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter),
+                        pn_bench_adaptive_suffix(modes[m].adaptive), pn_bench_kind_suffix(modes[m].per_object));
             fprintf(out, " Embree 3, exact's rays | Embree 3 plain | fastest / Embree plain |\n|---|");
             for (int m = 0; m < nm + 3; m++)
                 fprintf(out, "---|");
@@ -479,7 +500,11 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                     char tree[32] = "";
                     if (r->n)
                         snprintf(tree, sizeof tree, "LS(%d,%d) ", r->n, r->d);
-                    fprintf(out, " %.1f (%s%u spp", pn_bench_row_ms(r), tree, r->spp);
+                    char spp[24];
+                    spp_text(spp, sizeof spp, r);
+                    fprintf(out, " %.1f (%s%s spp", pn_bench_row_ms(r), tree, spp);
+                    if (r->spp_min)
+                        fprintf(out, ", %.1f rays", r->mean_rays);
                     if (ex && ex->shadow_ms > 0)
                         fprintf(out, ", %.2fx", pn_bench_row_ms(r) / ex->shadow_ms);
                     fprintf(out, ") |");
@@ -568,7 +593,8 @@ bool pn_bench_write_plots(const char *dir, const bench_rows *rows)
             }
             bool new_config = a == 0 || rows->rows[idx[a - 1]].mode != r->mode || rows->rows[idx[a - 1]].n != r->n ||
                               rows->rows[idx[a - 1]].d != r->d || rows->rows[idx[a - 1]].filter != r->filter ||
-                              rows->rows[idx[a - 1]].per_object != r->per_object;
+                              rows->rows[idx[a - 1]].per_object != r->per_object ||
+                              rows->rows[idx[a - 1]].spp_min != r->spp_min;
             if (new_config) {
                 if (configs)
                     fprintf(f, "\n\n");

@@ -14,6 +14,7 @@
 #include "apps/args.h"
 #include "apps/bench.h"
 #include "apps/commands.h"
+#include "apps/render_opts.h"
 #include "core/log.h"
 #include "core/timer.h"
 
@@ -40,7 +41,9 @@ void pn_print_bench_help(void)
            "                       linespace only; see render --trees). Rows report what moving one\n"
            "                       object costs each: a rebuild, or with per-object trees the top level's\n"
            "                       rebuild and upload, timed\n"
-           "  --spp S,...          samples per pixel, an axis of the matrix (default 1,4,16,64)\n"
+           "  --spp S,...          samples per pixel, an axis of the matrix (default 1,4,16,64,4:64);\n"
+           "                       MIN:MAX is an adaptive cell (render --spp MIN:MAX; no Embree peer)\n"
+           "  --pixel-error E      the adaptive cells' target standard error per pixel (default %.3g)\n"
            "  --filter F,...       none, interleaved: an axis of the matrix (default both); a filtered cell's\n"
            "                       time is its shadow pass plus its filter pass, and it reports the share of\n"
            "                       pixels near edges of geometry whose error the filter grows by > 0.05\n"
@@ -75,7 +78,7 @@ void pn_print_bench_help(void)
            "                       full size and compare it with the matrix's fastest cell within the budget\n"
            "  --quick              a small matrix (the bunny view or builtin:default, 256x256, 4 and 16 spp,\n"
            "                       LS(6,3) and LS(7,3), 3 repeats)\n",
-           PN_REFERENCE_SPP);
+           (double)PN_DEFAULT_PIXEL_ERROR, PN_REFERENCE_SPP);
 }
 
 // What --gbuffer allocated.

@@ -64,7 +64,7 @@ AT(pn_gpu_object, to_local, 64);
 AT(pn_gpu_object, rise_scale, 112);
 SIZE(pn_gpu_object, 128);
 
-SIZE(pn_shadow_chunk, 36);
+SIZE(pn_shadow_chunk, 32);
 
 AT(pn_shade_push, light, 0);
 AT(pn_shade_push, accumulate, 96);

@@ -250,15 +250,15 @@ static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shad
     pn_gpu_compute_dispatch_indirect(cmd, &s->compute, sizeof *ch, ch, s->tiles.buffer, offset);
 }
 
-// Samples [begin, end) of every pixel (of the tiles of list tiles_in - 1 that the last decision
-// sent on, adaptively), in chunks; `half` as ShadowChunk.half_end.
-static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t begin, uint32_t end, uint32_t half,
+// Samples [begin, end) of every pixel in chunks; adaptively, over the tiles of list tiles_in - 1,
+// each pixel the last decision sent on tracing the part of each chunk below its target.
+static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t begin, uint32_t end,
                            uint32_t tiles_in, uint32_t light)
 {
     for (uint32_t b = begin; b < end; b += s->chunk) {
         uint32_t e = end - b > s->chunk ? b + s->chunk : end;
         pn_shadow_chunk ch = {.sample_begin = b, .sample_end = e, .first = b == 0, .last = e == end, .light = light,
-                              .half_end = half, .tiles_in = tiles_in};
+                              .tiles_in = tiles_in};
         if (b > begin)
             between_dispatches(cmd);
         dispatch(cmd, s, &ch);
@@ -306,23 +306,28 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     pn_gpu_cmd_barrier(cmd, NULL, 3, fresh);
     uint32_t spp = s->mode->traces ? samples : 1;
     if (!pn_shadow_adaptive(s, spp)) {
-        record_samples(cmd, s, 0, spp, 0, 0, light);
+        record_samples(cmd, s, 0, spp, 0, light);
         return;
     }
     // Adaptive: the first round over the image, then after each round a decision over its tiles,
-    // which lists the tiles with a pixel that goes on, and the next round over that list; the two
-    // lists alternate. The last decision gives the final estimates.
-    record_samples(cmd, s, 0, s->spp_min, s->spp_min / 2, 0, light);
+    // which sets each pixel's target and lists the tiles with a pixel that goes on, and the next
+    // round over that list, from MIN up to MAX (each pixel traces its own part); the two lists
+    // alternate. A target at least doubles, so after log2(MAX / MIN) rounds every pixel is done;
+    // the last decision only gives the final estimates.
+    record_samples(cmd, s, 0, s->spp_min, 0, light);
+    uint32_t rounds = 0;
+    for (uint32_t n = s->spp_min; n < spp; n *= 2)
+        rounds++;
     uint32_t tiles_in = 0, out = 0;
-    for (uint32_t done = s->spp_min;; done *= 2) {
-        reset_list(cmd, s, out, done == s->spp_min);
+    for (uint32_t decision = 1;; decision++) {
+        reset_list(cmd, s, out, decision == 1);
         between_dispatches(cmd);
-        dispatch(cmd, s, &(pn_shadow_chunk){.sample_end = done, .light = light, .decide = 1, .tiles_in = tiles_in,
+        dispatch(cmd, s, &(pn_shadow_chunk){.sample_begin = decision, .light = light, .decide = 1, .tiles_in = tiles_in,
                                             .tiles_out = out});
-        if (done >= spp)
+        if (decision > rounds)
             break;
         between_dispatches(cmd);
-        record_samples(cmd, s, done, 2 * done, done, 1 + out, light);
+        record_samples(cmd, s, s->spp_min, spp, 1 + out, light);
         tiles_in = 1 + out;
         out ^= 1;
     }

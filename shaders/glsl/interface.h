@@ -275,17 +275,15 @@ PN_STRUCT(FilterPush, pn_filter_push) {
 } PN_END(FilterPush, pn_filter_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive
-// sampling's decision between two rounds. 36 bytes.
+// sampling's decision between two rounds. 32 bytes.
 PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
     PN_UINT(sample_begin) // light samples [sample_begin, sample_end) in this dispatch
     PN_UINT(sample_end)
     PN_UINT(first)        // 1: counts start at zero
     PN_UINT(last)         // 1: write V = visible / valid
     PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes
-    PN_UINT(half_end)     // adaptive: the pixel's first half_end samples are the first half of its
-                          // samples after this round (the error estimate's split, adaptive_decide)
-    PN_UINT(decide)       // adaptive: 1 = no rays; decide which pixels go on after the round whose
-                          // samples end at sample_end (adaptive_decide)
+    PN_UINT(decide)       // adaptive: 1 = no rays; decide which pixels go on after the round just
+                          // ended (adaptive_decide); sample_begin is then the decision's number, 1..
     PN_UINT(tiles_in)     // 0: a work group per tile of the image; 1 + k: per tile of list k (indirect)
     PN_UINT(tiles_out)    // decide: the list (0 or 1) that gets the tiles with a pixel that goes on
 } PN_END(ShadowChunk, pn_shadow_chunk)
