@@ -163,7 +163,7 @@ if [ -f "$MESH" ]; then
     --filter none --spp 4 --repeat 1 --warmup 0 --no-embree --out "$OUT/kinds" > "$OUT/kinds.txt" \
     || { echo "FAIL: bench --tree-kinds"; fail=1; }
   grep -q "linespace 4,3 obj" "$OUT/kinds.txt" || { echo "FAIL: no per-object row on the console"; fail=1; }
-  head -1 "$OUT/kinds/bench.csv" | grep -q ",tree_kind,move_ms,spp_min,mean_rays$" || { echo "FAIL: bench.csv lacks tree_kind, move_ms"; fail=1; }
+  head -1 "$OUT/kinds/bench.csv" | grep -q ",tree_kind,move_ms,spp_min,mean_rays,beyond_2se$" || { echo "FAIL: bench.csv lacks tree_kind, move_ms, spp_min, mean_rays, beyond_2se"; fail=1; }
   python3 - "$OUT/kinds/bench.json" <<'PY' || fail=1
 import json, sys
 j = json.load(open(sys.argv[1]))
@@ -191,7 +191,7 @@ fi
 # Adaptive cells (--spp MIN:MAX): a row of their own after the uniform count they reach, with the
 # rays they took (between MIN and MAX, fewer than MAX on a scene mostly lit or in umbra), no Embree
 # peer (no ray dump), and columns of their own in the time-to-error table.
-"$BIN" bench --scenes builtin:default --size 64x48 --modes exact --filter none --spp 4,16,4:16 --repeat 1 --warmup 0 \
+"$BIN" bench --scenes builtin:default --size 64x48 --modes exact --spp 4,16,4:16 --repeat 1 --warmup 0 \
   --out "$OUT/adaptive" --reference-cache "$RC" > "$OUT/adaptive.txt" 2> "$OUT/adaptive.err" \
   || { echo "FAIL: bench --spp 4,16,4:16"; cat "$OUT/adaptive.err"; fail=1; }
 grep -q "| exact | exact+adaptive |" "$OUT/adaptive/time_to_error.md" \
@@ -199,13 +199,15 @@ grep -q "| exact | exact+adaptive |" "$OUT/adaptive/time_to_error.md" \
 python3 - "$OUT/adaptive/bench.json" <<'PY' || fail=1
 import json, sys
 rows = json.load(open(sys.argv[1]))["results"]
-assert [(r["spp"], r["spp_min"]) for r in rows] == [(4, 0), (16, 0), (16, 4)], rows
-for r in rows[:2]:
-    assert r["mean_rays"] == r["spp"] and r["embree_ms"], r
-a = rows[2]
-assert 4 < a["mean_rays"] < 16, a
-assert not a["embree_ms"], a  # no peer: it traces no ray dump
-assert a["reference"]["mae"] > 0, a
+cells = [(r["filter"], r["spp"], r["spp_min"]) for r in rows]
+assert cells == [(f, s, m) for f in ("none", "interleaved") for s, m in ((4, 0), (16, 0), (16, 4))], cells
+for r in rows:
+    if not r["spp_min"]:
+        assert r["mean_rays"] == r["spp"] and r["embree_ms"] and r["beyond_2se"] is None, r
+        continue
+    assert 4 < r["mean_rays"] < 16, r
+    assert not r["embree_ms"], r  # no peer: it traces no ray dump
+    assert r["reference"]["mae"] > 0 and 0 <= r["beyond_2se"] < 1, r
 print("adaptive rows ok")
 PY
 exit $fail

@@ -79,8 +79,8 @@ void main()
     put(pc.gb.eye); put(pc.gb.forward);
     put(pc.gb.material); put(pc.gb.pad0); put(pc.gb.pad1); put(pc.gb.pad2);
     put(pc.chunk.sample_begin); put(pc.chunk.sample_end); put(pc.chunk.first); put(pc.chunk.last);
-    put(pc.chunk.light); put(pc.chunk.decide); put(pc.chunk.tiles_in);
-    put(pc.chunk.tiles_out);
+    put(pc.chunk.light); put(pc.chunk.decide); put(pc.chunk.list_in);
+    put(pc.chunk.list_out);
 
     put(o + 1u); // the count of words written, this one included
 }

@@ -62,8 +62,8 @@ static const field gbuffer_fields[] = {F(pn_gbuffer_push, view_proj), F(pn_gbuff
 static const field chunk_fields[] = {F(pn_shadow_chunk, sample_begin), F(pn_shadow_chunk, sample_end),
                                      F(pn_shadow_chunk, first), F(pn_shadow_chunk, last),
                                      F(pn_shadow_chunk, light),
-                                     F(pn_shadow_chunk, decide), F(pn_shadow_chunk, tiles_in),
-                                     F(pn_shadow_chunk, tiles_out), {0}};
+                                     F(pn_shadow_chunk, decide), F(pn_shadow_chunk, list_in),
+                                     F(pn_shadow_chunk, list_out), {0}};
 
 // The probe's push-constant block: both push-constant structs, one after the other.
 typedef struct push {

@@ -89,6 +89,10 @@ typedef struct bench_row {
     uint32_t width, height, spp;
     uint32_t spp_min;  // adaptive samples (spp_min:spp), 0 for uniform
     double mean_rays;  // the rays a covered pixel took on average (spp for uniform cells)
+    // Adaptive cells: the share of covered pixels whose unfiltered V is further from the converged
+    // reference than twice its estimated standard error (shadow.V_stderr): the estimate's honesty,
+    // about 5% for a normal error; -1 for uniform cells.
+    double beyond_2se;
     pn_shadow_mode mode;
     int n, d;
     bool per_object;         // the tree as per-object trees (--tree-kinds object)

@@ -388,11 +388,25 @@ static int run_cell(group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, do
     pn_frame_images img;
     pn_renderer_images(&s->renderer, &img);
     row.mean_rays = spp;
+    row.beyond_2se = -1;
     if (img.rays) {
         double rays = 0;
-        for (size_t i = 0; i < px; i++)
+        size_t beyond = 0, compared = 0;
+        const float *v_raw = img.v_raw ? img.v_raw : img.v;
+        for (size_t i = 0; i < px; i++) {
             rays += img.rays[4 * i];
+            if (!g->mask[i])
+                continue;
+            float se;
+            memcpy(&se, &img.rays[4 * i + 1], sizeof se);
+            compared++;
+            beyond += fabsf(v_raw[i] - g->v_conv[i]) > 2.0f * se;
+        }
         row.mean_rays = g->covered ? rays / (double)g->covered : 0;
+        row.beyond_2se = compared ? (double)beyond / (double)compared : 0;
+        fprintf(stderr, "bench: adaptive %u:%u: %.2f rays per pixel; %.2f%% of pixels off the reference by more than "
+                        "2 estimated standard errors\n",
+                spp_min, spp, row.mean_rays, 100.0 * row.beyond_2se);
     }
     float *same = g->v_exact + (size_t)ci * px; // exact with this filter and spp
     if (exact) {

@@ -122,17 +122,17 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
     fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
                "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share,"
-               "away_pixels,away_grown,away_share,tree_kind,move_ms,spp_min,mean_rays\n");
+               "away_pixels,away_grown,away_share,tree_kind,move_ms,spp_min,mean_rays,beyond_2se\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f,%.6g\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
                 r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
                 r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share,
-                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms, r->spp_min, r->mean_rays);
+                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms, r->spp_min, r->mean_rays, r->beyond_2se);
     }
     return close_out(f, path, tmp);
 }
@@ -309,9 +309,13 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_devi
         const bench_row *r = &rows->rows[i];
         fprintf(f, "  {\"scene\": ");
         pn_json_string(f, r->scene);
-        fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"spp_min\": %u, \"mean_rays\": %.4f, \"mode\": \"%s\", "
-                   "\"tree\": ",
-                r->width, r->height, r->spp, r->spp_min, r->mean_rays, MODE_NAME(r->mode));
+        fprintf(f, ", \"width\": %u, \"height\": %u, \"spp\": %u, \"spp_min\": %u, \"mean_rays\": %.4f, ", r->width,
+                r->height, r->spp, r->spp_min, r->mean_rays);
+        if (r->beyond_2se >= 0)
+            fprintf(f, "\"beyond_2se\": %.6g, ", r->beyond_2se);
+        else
+            fprintf(f, "\"beyond_2se\": null, ");
+        fprintf(f, "\"mode\": \"%s\", \"tree\": ", MODE_NAME(r->mode));
         json_tree(f, r->n, r->d);
         fprintf(f, ", \"filter\": \"%s\", \"tile\": ", pn_filter_names[r->filter]);
         if (r->filter != PN_FILTER_NONE)

@@ -80,7 +80,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         {.binding = PN_SHADOW_BINDING_STATUS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
         {.binding = PN_SHADOW_BINDING_ADAPT, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_RAYS, .descriptorType = IMAGE},
-        {.binding = PN_SHADOW_BINDING_TILES, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+        {.binding = PN_SHADOW_BINDING_LISTS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
         {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
@@ -106,10 +106,10 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     out->tiles_across = (desc->width + PN_WORKGROUP - 1) / PN_WORKGROUP;
     out->tile_total = out->tiles_across * ((desc->height + PN_WORKGROUP - 1) / PN_WORKGROUP);
     if (r == PN_OK)
-        r = pn_gpu_buffer_create(dev, "shadow pass's tile lists", (2 * PN_TILE_LIST_WORDS(out->tile_total) + out->tile_total) * 4,
+        r = pn_gpu_buffer_create(dev, "shadow pass's pixel lists", 2 * PN_PIXEL_LIST_WORDS(out->tile_total) * 4,
                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                                      VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                 PN_GPU_DEVICE_LOCAL, &out->tiles);
+                                 PN_GPU_DEVICE_LOCAL, &out->lists);
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "shadow pass's status", sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, PN_GPU_HOST_READBACK,
                                  &out->status);
@@ -153,7 +153,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_STATUS, out->status.buffer);
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_ADAPT, out->adapt.view);
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_RAYS, out->rays.view);
-    pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_TILES, out->tiles.buffer);
+    pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_LISTS, out->lists.buffer);
     if (tlas)
         pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas);
     return PN_OK;
@@ -167,7 +167,7 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
     pn_gpu_image_destroy(dev, &s->rays);
     pn_gpu_buffer_destroy(dev, &s->params);
     pn_gpu_buffer_destroy(dev, &s->status);
-    pn_gpu_buffer_destroy(dev, &s->tiles);
+    pn_gpu_buffer_destroy(dev, &s->lists);
     pn_gpu_buffer_destroy(dev, &s->work);
     pn_gpu_buffer_destroy(dev, &s->ray_dump);
     memset(s, 0, sizeof *s);
@@ -237,37 +237,40 @@ static void between_dispatches(VkCommandBuffer cmd)
                        0, NULL);
 }
 
-// A dispatch of the shadow shader: over every tile of the image (ch.tiles_in 0), or over the
-// tiles of list ch.tiles_in - 1, as many groups as the list holds.
+// A dispatch of the shadow shader: over every tile of the image (ch.list_in 0), or over the pixels
+// of list ch.list_in - 1, as many groups as the list fills.
 static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch)
 {
-    if (ch->tiles_in == 0) {
+    if (ch->list_in == 0) {
         uint32_t gy = s->tile_total / s->tiles_across;
         pn_gpu_compute_dispatch(cmd, &s->compute, sizeof *ch, ch, s->tiles_across, gy, 1);
         return;
     }
-    VkDeviceSize offset = (VkDeviceSize)(ch->tiles_in - 1) * PN_TILE_LIST_WORDS(s->tile_total) * 4;
-    pn_gpu_compute_dispatch_indirect(cmd, &s->compute, sizeof *ch, ch, s->tiles.buffer, offset);
+    VkDeviceSize offset = (VkDeviceSize)(ch->list_in - 1) * PN_PIXEL_LIST_WORDS(s->tile_total) * 4;
+    pn_gpu_compute_dispatch_indirect(cmd, &s->compute, sizeof *ch, ch, s->lists.buffer, offset);
 }
 
-// Samples [begin, end) of every pixel in chunks; adaptively, over the tiles of list tiles_in - 1,
-// each pixel the last decision sent on tracing the part of each chunk below its target.
+// Samples [begin, end) of every pixel in chunks; adaptively (list_in > 0), over the pixels of list
+// list_in - 1, each tracing the part of each chunk between its samples and its target. The chunks
+// start at multiples of the chunk size, so that a round's range [n, 2n) falls in as few as it can:
+// each costs a pixel a walk of the tree.
 static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t begin, uint32_t end,
-                           uint32_t tiles_in, uint32_t light)
+                           uint32_t list_in, uint32_t light)
 {
+    if (list_in)
+        begin -= begin % s->chunk;
     for (uint32_t b = begin; b < end; b += s->chunk) {
         uint32_t e = end - b > s->chunk ? b + s->chunk : end;
-        pn_shadow_chunk ch = {.sample_begin = b, .sample_end = e, .first = b == 0, .last = e == end, .light = light,
-                              .tiles_in = tiles_in};
+        pn_shadow_chunk ch = {.sample_begin = b, .sample_end = e, .first = b == 0 && !list_in, .last = e == end,
+                              .light = light, .list_in = list_in};
         if (b > begin)
             between_dispatches(cmd);
         dispatch(cmd, s, &ch);
     }
 }
 
-// Empties tile list k for a decision to fill (and with `marks` forgets which tiles the earlier
-// rounds listed), after every earlier use of the lists.
-static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k, bool marks)
+// Empties pixel list k for a decision to fill, after every earlier use of the lists.
+static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k)
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
     pn_gpu_cmd_barrier(cmd,
@@ -277,11 +280,8 @@ static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k,
                                            .dstStageMask = COPY,
                                            .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT},
                        0, NULL);
-    const uint32_t empty[4] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1) and the pad
-    VkDeviceSize words = PN_TILE_LIST_WORDS(s->tile_total);
-    vkCmdUpdateBuffer(cmd, s->tiles.buffer, k * words * 4, sizeof empty, empty);
-    if (marks)
-        vkCmdFillBuffer(cmd, s->tiles.buffer, 2 * words * 4, (VkDeviceSize)s->tile_total * 4, 0);
+    const uint32_t empty[4] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1) and no pixels
+    vkCmdUpdateBuffer(cmd, s->lists.buffer, k * PN_PIXEL_LIST_WORDS(s->tile_total) * 4, sizeof empty, empty);
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = COPY,
@@ -309,26 +309,25 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
         record_samples(cmd, s, 0, spp, 0, light);
         return;
     }
-    // Adaptive: the first round over the image, then after each round a decision over its tiles,
-    // which sets each pixel's target and lists the tiles with a pixel that goes on, and the next
-    // round over that list, from MIN up to MAX (each pixel traces its own part); the two lists
-    // alternate. A target at least doubles, so after log2(MAX / MIN) rounds every pixel is done;
-    // the last decision only gives the final estimates.
+    // Adaptive: the first round over the image, then after each round a decision over its pixels,
+    // which sets each pixel's target and lists the pixels that go on, and the next round over that
+    // list, from MIN up to MAX (each pixel traces its own part); the two lists alternate. A target
+    // at least doubles, so after log2(MAX / MIN) rounds every pixel is done; the last decision only
+    // gives the final estimates.
     record_samples(cmd, s, 0, s->spp_min, 0, light);
     uint32_t rounds = 0;
     for (uint32_t n = s->spp_min; n < spp; n *= 2)
         rounds++;
-    uint32_t tiles_in = 0, out = 0;
+    uint32_t list_in = 0, out = 0;
     for (uint32_t decision = 1;; decision++) {
-        reset_list(cmd, s, out, decision == 1);
+        reset_list(cmd, s, out);
         between_dispatches(cmd);
-        dispatch(cmd, s, &(pn_shadow_chunk){.sample_begin = decision, .light = light, .decide = 1, .tiles_in = tiles_in,
-                                            .tiles_out = out});
+        dispatch(cmd, s, &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out});
         if (decision > rounds)
             break;
         between_dispatches(cmd);
         record_samples(cmd, s, s->spp_min, spp, 1 + out, light);
-        tiles_in = 1 + out;
+        list_in = 1 + out;
         out ^= 1;
     }
 }

@@ -63,7 +63,7 @@
                                     // the blocked rays' summed t (float bits), the samples so far (shadow_finish)
 #define PN_SHADOW_BINDING_RAYS 7    // rgba32ui: adaptive sampling's samples for the pixel, and the standard
                                     // error of its V (float bits) (adaptive_decide, shadow_frame.glsl)
-#define PN_SHADOW_BINDING_TILES 8   // storage buffer: adaptive sampling's two lists of tiles (TileList)
+#define PN_SHADOW_BINDING_LISTS 8   // storage buffer: adaptive sampling's two lists of pixels (below)
 #define PN_SHADOW_BINDING_COUNT 9
 #define PN_SHADOW_BINDING_TLAS 9    // acceleration structure: only the modes whose needs.tlas is set
 #define PN_SHADE_BINDING_P 0
@@ -259,7 +259,7 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
                                     // 0: every pixel takes spp (adaptive_decide, shadow_frame.glsl)
     PN_FLOAT(pixel_error)           // adaptive: a pixel stops once its V's standard error is below this
     PN_UINT(tiles_across)           // work groups across the image (its PN_WORKGROUP-square tiles)
-    PN_UINT(tile_total)             // and in all: the room in each tile list
+    PN_UINT(tile_total)             // and in all: a pixel list holds this many groups' pixels
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
@@ -283,14 +283,15 @@ PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
     PN_UINT(last)         // 1: write V = visible / valid
     PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes
     PN_UINT(decide)       // adaptive: 1 = no rays; decide which pixels go on after the round just
-                          // ended (adaptive_decide); sample_begin is then the decision's number, 1..
-    PN_UINT(tiles_in)     // 0: a work group per tile of the image; 1 + k: per tile of list k (indirect)
-    PN_UINT(tiles_out)    // decide: the list (0 or 1) that gets the tiles with a pixel that goes on
+                          // ended (adaptive_decide)
+    PN_UINT(list_in)      // 0: a work group per tile of the image; 1 + k: an invocation per pixel of
+                          // list k (indirect)
+    PN_UINT(list_out)     // decide: the list (0 or 1) that gets the pixels that go on
 } PN_END(ShadowChunk, pn_shadow_chunk)
 
-// The adaptive tile lists (PN_SHADOW_BINDING_TILES), as uint words: list k (0, 1) at
-// k * (4 + tile_total): a VkDispatchIndirectCommand (count, 1, 1) and a pad, then `count` tiles as
-// x | y << 16; after both lists, a word per tile of the image: the last round that listed it.
-#define PN_TILE_LIST_WORDS(tile_total) (4u + (tile_total))
+// The adaptive pixel lists (PN_SHADOW_BINDING_LISTS), as uint words: list k (0, 1) at
+// k * PN_PIXEL_LIST_WORDS: a VkDispatchIndirectCommand (groups, 1, 1) and the count of pixels, then
+// the pixels as x | y << 16, a work group of PN_WORKGROUP^2 per PN_WORKGROUP^2 of them.
+#define PN_PIXEL_LIST_WORDS(tile_total) (4u + (tile_total) * PN_WORKGROUP * PN_WORKGROUP)
 
 #endif

@@ -15,8 +15,7 @@ void main()
     // llvmpipe: 8 consecutive invocations run as one SIMD group; map them to a 4x2 block of
     // pixels (not a row of 8), whose walks are more alike.
     uint idx = gl_LocalInvocationIndex, block = idx / 8u, within = idx % 8u;
-    ivec2 px = shadow_tile() * PN_WORKGROUP
-             + ivec2((block % 2u) * 4u + within % 4u, (block / 2u) * 2u + within / 4u);
+    ivec2 px = shadow_invocation_pixel(ivec2((block % 2u) * 4u + within % 4u, (block / 2u) * 2u + within / 4u));
     vec3 p, nrm;
     if (!shadow_pixel(px, p, nrm))
         return;

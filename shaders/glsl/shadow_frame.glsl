@@ -6,7 +6,7 @@ layout(set = 0, binding = PN_SHADOW_BINDING_N, rgba32f) uniform readonly image2D
 layout(set = 0, binding = PN_SHADOW_BINDING_V, r32f) uniform writeonly image2D img_v;
 layout(set = 0, binding = PN_SHADOW_BINDING_ADAPT, rgba32ui) uniform uimage2D img_adapt;
 layout(set = 0, binding = PN_SHADOW_BINDING_RAYS, rgba32ui) uniform uimage2D img_rays;
-layout(std430, set = 0, binding = PN_SHADOW_BINDING_TILES) buffer TileLists { uint words[]; } tile_lists;
+layout(std430, set = 0, binding = PN_SHADOW_BINDING_LISTS) buffer PixelLists { uint words[]; } pixel_lists;
 
 // This pixel's samples in this dispatch, [pixel_begin, pixel_end) (set by shadow_pixel): the chunk's,
 // or in adaptive sampling's later rounds the part of the chunk between the samples the pixel has
@@ -15,17 +15,25 @@ layout(std430, set = 0, binding = PN_SHADOW_BINDING_TILES) buffer TileLists { ui
 uint pixel_begin, pixel_end, pixel_target;
 bool pixel_last;
 
-// The work group's tile of PN_WORKGROUP x PN_WORKGROUP pixels: its place in the image, or in
-// adaptive sampling's later rounds the tile of the list the dispatch runs over, which holds only the
-// tiles with a pixel that goes on (adaptive_decide): the rest of the image costs nothing. Measured
-// (512 x 512, exact, default scene) a dispatch over the whole image in which no pixel traced took
-// 6.5 ms, as much as a sixth of a 4-sample round.
-ivec2 shadow_tile()
+// The pixel of this invocation: `local` is its place in its work group's PN_WORKGROUP-square tile
+// of the image (each shader maps invocations to the tile as suits it). In adaptive sampling's later
+// rounds the dispatch runs over a list of the pixels that go on instead (adaptive_decide), packed
+// PN_WORKGROUP^2 to a work group in the order they were listed: the rest of the image costs
+// nothing, and a SIMD group's lanes all have rays to trace (in a tile, a penumbra's pixels share
+// their 4 x 2 SIMD groups with pixels that stopped). (-1, -1) past the list's end. Measured
+// (512 x 512, exact, default scene): a dispatch over the whole image in which no pixel traced took
+// 6.5 ms, as much as a sixth of a 4-sample round; over the tiles holding a pixel that goes on
+// (dragon view, 4:64), 79% of the lanes of a SIMD group with work had any, and their rays were
+// 72% of what full groups would trace.
+ivec2 shadow_invocation_pixel(ivec2 local)
 {
-    if (chunk.tiles_in == 0u)
-        return ivec2(gl_WorkGroupID.xy);
-    uint list = (chunk.tiles_in - 1u) * PN_TILE_LIST_WORDS(params.tile_total);
-    uint packed = tile_lists.words[list + 4u + gl_WorkGroupID.x];
+    if (chunk.list_in == 0u)
+        return ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + local;
+    uint list = (chunk.list_in - 1u) * PN_PIXEL_LIST_WORDS(params.tile_total);
+    uint i = gl_WorkGroupID.x * uint(PN_WORKGROUP * PN_WORKGROUP) + gl_LocalInvocationIndex;
+    if (i >= pixel_lists.words[list + 3u])
+        return ivec2(-1);
+    uint packed = pixel_lists.words[list + 4u + i];
     return ivec2(packed & 0xffffu, packed >> 16u);
 }
 
@@ -332,7 +340,7 @@ void adaptive_decide(ivec2 px)
         return;
     }
     // After the first decision, only the pixels that took part in the round just ended.
-    if (chunk.tiles_in != 0u && imageLoad(img_rays, px).z != 0u)
+    if (chunk.list_in != 0u && imageLoad(img_rays, px).z != 0u)
         return; // it stopped earlier: that decision and its estimate stand
     uint done = imageLoad(img_adapt, px).w;
     uvec4 c = imageLoad(img_counts, px);
@@ -361,18 +369,13 @@ void adaptive_decide(ivec2 px)
     bool stop = done >= params.spp || (stderr < params.pixel_error && (!unanimous || agree));
     uint target = stop ? done : min(2u * done, params.spp);
     imageStore(img_rays, px, uvec4(target, floatBitsToUint(stderr), stop ? 1u : 0u, 0u));
-    // The pixel's tile goes on the next round's list, once: the first of its pixels to go on marks
-    // it with the decision's number (chunk.sample_begin; marks only grow within a light's rounds,
-    // shadow_pass.c clears them).
+    // The pixel goes on the next round's list; a new work group for every PN_WORKGROUP^2 of them.
     if (!stop) {
-        uvec2 tile = uvec2(px) / uint(PN_WORKGROUP);
-        uint marks = 2u * PN_TILE_LIST_WORDS(params.tile_total);
-        uint decision = chunk.sample_begin;
-        if (atomicMax(tile_lists.words[marks + tile.y * params.tiles_across + tile.x], decision) < decision) {
-            uint list = chunk.tiles_out * PN_TILE_LIST_WORDS(params.tile_total);
-            uint i = atomicAdd(tile_lists.words[list], 1u);
-            tile_lists.words[list + 4u + i] = tile.x | (tile.y << 16u);
-        }
+        uint list = chunk.list_out * PN_PIXEL_LIST_WORDS(params.tile_total);
+        uint i = atomicAdd(pixel_lists.words[list + 3u], 1u);
+        pixel_lists.words[list + 4u + i] = uint(px.x) | (uint(px.y) << 16u);
+        if (i % uint(PN_WORKGROUP * PN_WORKGROUP) == 0u)
+            atomicAdd(pixel_lists.words[list], 1u);
     }
 }
 
@@ -381,7 +384,7 @@ void adaptive_decide(ivec2 px)
 // pixel_end, pixel_target and pixel_last.
 bool shadow_pixel(ivec2 px, out vec3 p, out vec3 nrm)
 {
-    bool inside = all(lessThan(px, imageSize(img_v)));
+    bool inside = all(greaterThanEqual(px, ivec2(0))) && all(lessThan(px, imageSize(img_v)));
     if (chunk.decide != 0u) {
         if (inside)
             adaptive_decide(px);
@@ -393,7 +396,7 @@ bool shadow_pixel(ivec2 px, out vec3 p, out vec3 nrm)
     pixel_last = chunk.last != 0u;
     // Adaptive sampling's later rounds: the part of the chunk between the pixel's samples and its
     // target, for the pixels that go on.
-    if (chunk.tiles_in != 0u && inside) {
+    if (chunk.list_in != 0u && inside) {
         uvec4 rays = imageLoad(img_rays, px);
         if (rays.z != 0u)
             return false;

@@ -569,7 +569,7 @@ uint objects_blocked(vec3 o, vec3 corners[4], uint count, uint rays)
 
 void main()
 {
-    ivec2 px = shadow_tile() * PN_WORKGROUP + ivec2(gl_LocalInvocationID.xy);
+    ivec2 px = shadow_invocation_pixel(ivec2(gl_LocalInvocationID.xy));
     vec3 p, nrm;
     if (!shadow_pixel(px, p, nrm))
         return;

@@ -26,7 +26,7 @@ bool rq_blocked(vec3 o, vec3 d, out float t_hit)
 
 void main()
 {
-    ivec2 px = shadow_tile() * PN_WORKGROUP + ivec2(gl_LocalInvocationID.xy);
+    ivec2 px = shadow_invocation_pixel(ivec2(gl_LocalInvocationID.xy));
     vec3 p, nrm;
     if (!shadow_pixel(px, p, nrm))
         return;
