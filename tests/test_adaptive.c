@@ -11,6 +11,8 @@
 //  4. The estimate's honesty, printed (not asserted): the share of pixels whose error exceeds twice
 //     their estimated standard error.
 //  5. Bad input: MAX not MIN x 2^k, the budgeted split, the grid sampler: a message and exit 2.
+//  6. Where nothing is sampled adaptively (mode none; a point light, whose one sample is exact) the
+//     EXR has no shadow.rays or shadow.V_stderr: there is no such estimate to give.
 // The scene is the Stanford bunny from ../shared/assets (builtin:default without it), 128 x 96.
 #include <math.h>
 #include <stdio.h>
@@ -167,6 +169,22 @@ static void check_bad_input(void)
     }
 }
 
+static void check_not_adaptive(const char *label, const char *args)
+{
+    const char *out = pn_test_tmp("adaptive_none.exr");
+    if (!render(out, args))
+        return;
+    pn_exr_image x;
+    if (pn_exr_read(out, &x) != PN_OK) {
+        CHECK_MSG(0, "%s: cannot read %s", label, out);
+        return;
+    }
+    CHECK_MSG(!pn_exr_image_channel(&x, "shadow.rays") && !pn_exr_image_channel(&x, "shadow.V_stderr"),
+              "%s: the EXR has adaptive channels", label);
+    CHECK_MSG(pn_exr_image_channel(&x, "shadow.V") != NULL, "%s: no shadow.V", label);
+    pn_exr_image_free(&x);
+}
+
 int main(void)
 {
     snprintf(g_scene, sizeof g_scene, "%s/stanford-bunny-69k.glb", pn_test_env("PN_ASSETS", "../shared/assets"));
@@ -179,5 +197,7 @@ int main(void)
     check_rounds_add_up("exact");
     check_rounds_add_up("linespace");
     check_against_reference();
+    check_not_adaptive("mode none", "--mode none --spp 4:32");
+    check_not_adaptive("point light", "--mode exact --spp 4:32 --light-size 0,0");
     return pn_test_result();
 }

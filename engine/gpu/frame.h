@@ -71,9 +71,10 @@ typedef struct pn_frame_images {
     // the penumbra width at the pixel's mean blocker (world units; FLT_MAX where no ray was
     // blocked, 0 for a point light's blocked rays and on the background).
     const uint32_t *counts;
-    // Adaptive sampling (desc.spp_min): per pixel (of the frame's last light) the samples it took
-    // and the float bits of the standard error of its V_raw (adaptive_decide), then two zeros;
-    // NULL without.
+    // Adaptive sampling (desc.spp_min): per pixel (of the frame's last light) the samples it took,
+    // the float bits of the standard error of its V_raw (adaptive_decide), whether it stopped
+    // before the most, and a zero; NULL where that light was not sampled adaptively (a point
+    // light, mode none, or no spp_min).
     const uint32_t *rays;
     const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are

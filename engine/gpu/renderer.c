@@ -420,6 +420,8 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
+    // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
+    r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
     // llvmpipe: the frame is recorded again only when the shadow pass ran out of the loop budget
     // (pn_shadow_pass_end_frame); on other drivers this loop runs once.
     bool retry = true;
@@ -473,7 +475,7 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->radiance = out->v + px;
     out->v_raw = filtered(r) ? out->radiance + 4 * px : NULL;
     out->counts = (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 8) * px);
-    out->rays = r->desc.spp_min ? (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 4) * px) : NULL;
+    out->rays = r->rays_written ? (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 4) * px) : NULL;
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;

@@ -28,6 +28,7 @@ typedef struct pn_renderer {
     VkQueryPool timestamps;
     VkCommandBuffer cmd;
     uint32_t light_count; // of the last frame
+    bool rays_written;    // its last light was sampled adaptively: the shadow pass's rays image holds it
 } pn_renderer;
 
 // Uploads the scene and creates targets and pipelines as `desc` says.
