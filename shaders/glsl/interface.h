@@ -61,8 +61,8 @@
 #define PN_SHADOW_BINDING_STATUS 5  // storage buffer: uint truncated (llvmpipe: loop budget spent)
 #define PN_SHADOW_BINDING_ADAPT 6   // rgba32ui: (visible, valid) over the first half of the pixel's samples,
                                     // the blocked rays' summed t (float bits), the samples so far (shadow_finish)
-#define PN_SHADOW_BINDING_RAYS 7    // rgba32ui: adaptive sampling's samples for the pixel, and the standard
-                                    // error of its V (float bits) (adaptive_decide, shadow_frame.glsl)
+#define PN_SHADOW_BINDING_RAYS 7    // rgba32ui: adaptive sampling's target samples for the pixel, the standard
+                                    // error of its V (float bits), whether it stopped (adaptive_decide)
 #define PN_SHADOW_BINDING_LISTS 8   // storage buffer: adaptive sampling's two lists of pixels (below)
 #define PN_SHADOW_BINDING_COUNT 9
 #define PN_SHADOW_BINDING_TLAS 9    // acceleration structure: only the modes whose needs.tlas is set
