@@ -300,7 +300,9 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     uint below = half_n - min(half_n, pixel_begin); // this chunk's rays in the first half
     uint first_half = valid_rays & (below >= 32u ? ~0u : (1u << below) - 1u);
     half_counts += uvec2(bitCount(first_half & ~blocked), bitCount(first_half));
-    imageStore(img_adapt, px, uvec4(half_counts, floatBitsToUint(t_sum), pixel_begin + count));
+    // Uniform samples' last chunk carries nothing on: no store.
+    if (params.spp_min != 0u || !pixel_last)
+        imageStore(img_adapt, px, uvec4(half_counts, floatBitsToUint(t_sum), pixel_begin + count));
     float w = pixel_last ? penumbra_width(o, blocked_rays > 0u ? t_sum / float(blocked_rays) : 1.0) : t_sum;
     imageStore(img_counts, px, uvec4(counts, reaches, floatBitsToUint(w)));
     if (pixel_last)
@@ -339,9 +341,8 @@ void adaptive_decide(ivec2 px)
         imageStore(img_rays, px, uvec4(0u, 0u, 1u, 0u));
         return;
     }
-    // After the first decision, only the pixels that took part in the round just ended.
-    if (chunk.list_in != 0u && imageLoad(img_rays, px).z != 0u)
-        return; // it stopped earlier: that decision and its estimate stand
+    // After the first decision the dispatch runs over the list of the pixels that took part in the
+    // round just ended (shadow_invocation_pixel): a pixel that stopped earlier keeps its decision.
     uint done = imageLoad(img_adapt, px).w;
     uvec4 c = imageLoad(img_counts, px);
     bool unanimous = c.y > 0u && (c.x == 0u || c.x == c.y), agree = true;
