@@ -11,8 +11,10 @@
 #  - every configuration's pilots climb 1, 2, 4, ... samples per pixel and the climb ends for a
 #    reason (within the budget, slower than the pick, or a biased mode's error no longer falling),
 #    and line space stops before 256 spp;
+#  - adaptive samples (4:256 down a ladder of pixel errors) are climbed by the configurations the
+#    rule names, and at 0.005 by exact at least;
 #  - an unreachable budget (0) warns and takes the least error found.
-# Arguments: the budgets to try (default 0.05 0.02 0; the fast tier tries 0.05 alone).
+# Arguments: the budgets to try (default 0.05 0.02 0.005 0; the fast tier tries 0.05 alone).
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/quality_auto${1:+_$1}
@@ -23,7 +25,7 @@ common=(builtin:default --size 128x96 --seed 5)
   || { echo "FAIL: reference render"; exit 1; }
 fail=0
 budgets=("$@")
-[ ${#budgets[@]} -gt 0 ] || budgets=(0.05 0.02 0)
+[ ${#budgets[@]} -gt 0 ] || budgets=(0.05 0.02 0.005 0)
 for budget in "${budgets[@]}"; do
   "$BIN" render "${common[@]}" --quality auto --max-error $budget --json -o "$T/auto_$budget.exr" \
     > "$T/auto_$budget.json" 2> "$T/auto_$budget.err" || { echo "FAIL: auto render ($budget)"; fail=1; continue; }
@@ -35,8 +37,9 @@ import quality_rule
 budget = float(sys.argv[1]); run = json.load(open(sys.argv[2])); d = json.load(open(sys.argv[3]))
 err = open(sys.argv[4]).read()
 q = run["quality"]
-print("budget %g: chose %s %s %d spp, pilot MAE %.5f, full MAE %.5f, %d pilots"
-      % (budget, run["mode"], run["tree"], run["spp"], q["pilot_mae"], d["mae"], q["candidates"]))
+print("budget %g: chose %s %s %s%d spp, pilot MAE %.5f, full MAE %.5f, %d pilots (%d adaptive)"
+      % (budget, run["mode"], run["tree"], "%d:" % run["spp_min"] if "spp_min" in run else "", run["spp"],
+         q["pilot_mae"], d["mae"], q["candidates"], sum(t["spp_min"] > 0 for t in q["tried"])))
 assert q["pilot"] == [128, 96] and q["pilot_se"] == 0, q          # its own pilot
 assert abs(d["mae"] - q["pilot_mae"]) < 1e-6, (d["mae"], q["pilot_mae"])
 tried = q["tried"]
@@ -44,10 +47,14 @@ configs = {(t["mode"], str(t["tree"])) for t in tried}
 assert ("exact", "None") in configs and any(m == "linespace" for m, _ in configs), configs
 # The pick is what the rule makes of the times this run reported (quality_rule.py), whichever
 # configuration those times happened to favour; every climb stopped for a reason.
-best = tried[quality_rule.check(tried, run, q["runoff"], q["candidates"])]
+best = tried[quality_rule.check(tried, run, q["runoff"], q["candidates"], budget)]
 assert q["pilot_shadow_ms"] == best["pilot_shadow_ms"] and q["pilot_mae"] == best["pilot_mae"], (q, best)
 if budget > 0:
     assert q["within"] and q["pilot_mae"] <= budget and d["mae"] <= budget, q
+    if budget == 0.005:
+        # Exact's uniform climb goes past 4 samples here, so adaptive samples were tried (which
+        # configurations climbed them is checked by the rule above).
+        assert any(t["spp_min"] == 4 and t["mode"] == "exact" for t in tried), tried
     if budget == 0.02:
         ls = [t for t in tried if t["mode"] == "linespace" and t["tree"] == [7, 3]]
         assert ls and ls[-1]["spp"] < 256, ls                    # stopped: within, slower or at its floor

@@ -5,12 +5,32 @@
 # the engine's comparisons on the very same doubles: ties and the 1.5x margin included, nothing
 # here can go either way on rounding.
 
+import struct
+
 RUNOFF_MARGIN = 1.5
 RUNOFF_MAX = 4
+MAX_SPP = 256
+ADAPTIVE_MIN = 4      # quality.h: PN_QUALITY_ADAPTIVE_MIN
+ADAPTIVE_STEPS = 6    # PN_QUALITY_ADAPTIVE_STEPS
+EXACT_MODES = ("exact", "exact-ls", "rayquery")
+
+
+def f32(x):
+    """x rounded to a float, as the engine stores a pixel error."""
+    return struct.unpack("f", struct.pack("f", x))[0]
+
+
+def adaptive_error(budget, k):
+    """quality.c: adaptive_error, the adaptive climb's k-th pixel error."""
+    return f32(min(1.0, budget * 32.0 / (1 << k)))
 
 
 def key(t):
-    return (t["mode"], None if t["tree"] is None else tuple(t["tree"]), t["spp"])
+    """A configuration: mode, tree, samples, and for adaptive samples their first round and pixel
+    error (to 6 digits: a render's JSON prints it so, the pilots' record to 9)."""
+    spp_min = t.get("spp_min", 0)
+    return (t["mode"], None if t["tree"] is None else tuple(t["tree"]), t["spp"], spp_min,
+            float("%.6g" % t["pixel_error"]) if spp_min else 0.0)
 
 
 def replay(tried):
@@ -32,10 +52,12 @@ def replay(tried):
     return min(timed, key=lambda i: (final(i), i)), finalists
 
 
-def check(tried, pick, runoff, candidates, all_set_up=True):
-    """Asserts that `pick` (a dict with mode, tree, spp) is what the rule makes of `tried`, that the
-    run-off timed its finalists (every one of them with all_set_up: no memory limit refused one at
-    the frame's size), and that every configuration's climb stopped for a reason."""
+def check(tried, pick, runoff, candidates, budget, all_set_up=True, adaptive=True):
+    """Asserts that `pick` (a dict with mode, tree, spp, and spp_min and pixel_error when adaptive)
+    is what the rule makes of `tried`, that the run-off timed its finalists (every one of them with
+    all_set_up: no memory limit refused one at the frame's size), and that every configuration's
+    climbs stopped for a reason. adaptive: the frame could take adaptive samples (stratified
+    sampler, an area light), so every configuration the rule names climbed them."""
     assert candidates == len(tried), (candidates, len(tried))
     best, finalists = replay(tried)
     assert key(pick) == key(tried[best]), (pick, tried[best])
@@ -52,15 +74,32 @@ def check(tried, pick, runoff, candidates, all_set_up=True):
     # Every configuration climbs 1, 2, 4, ... samples per pixel, and its climb ends within the
     # budget, no faster than a pick already within it, with a biased mode's error no longer falling
     # (by 10% a doubling), or at the last spp.
+    # Adaptive climbs (spp_min > 0) go from 4 up to 256 samples down the pixel errors 32, 16, 8, 4,
+    # 2, 1 times the budget, after the same configuration's uniform climb, with the same reasons to end.
     configs = {}
     for i, t in enumerate(tried):
-        configs.setdefault((t["mode"], str(t["tree"])), []).append(i)
+        configs.setdefault((t["mode"], str(t["tree"]), t.get("spp_min", 0) > 0), []).append(i)
     for c, idx in configs.items():
-        assert [tried[i]["spp"] for i in idx] == [1 << k for k in range(len(idx))], (c, idx)
+        if c[2]:
+            assert [tried[i]["spp_min"] for i in idx] == [ADAPTIVE_MIN] * len(idx), (c, idx)
+            assert [tried[i]["spp"] for i in idx] == [MAX_SPP] * len(idx), (c, idx)
+            assert [f32(tried[i]["pixel_error"]) for i in idx] == [adaptive_error(budget, k) for k in range(len(idx))], (c, idx)
+            uniform = configs.get((c[0], c[1], False), [])
+            assert uniform and uniform[-1] < idx[0], (c, idx)   # after the uniform climb
+        else:
+            assert [tried[i]["spp"] for i in idx] == [1 << k for k in range(len(idx))], (c, idx)
         last = tried[idx[-1]]
         before = [tried[i] for i in range(idx[-1]) if tried[i]["within"]]
         slower = before and last["pilot_shadow_ms"] >= min(t["pilot_shadow_ms"] for t in before)
-        flat = len(idx) > 1 and last["pilot_mae"] > 0.9 * tried[idx[-2]]["pilot_mae"] \
-            and c[0] not in ("exact", "exact-ls", "rayquery")
-        assert last["within"] or slower or flat or last["spp"] == 256, (c, last)
+        flat = len(idx) > 1 and last["pilot_mae"] > 0.9 * tried[idx[-2]]["pilot_mae"] and c[0] not in EXACT_MODES
+        at_end = last["spp"] == MAX_SPP if not c[2] else len(idx) == ADAPTIVE_STEPS
+        assert last["within"] or slower or flat or at_end, (c, last)
+    # Which configurations climb adaptive samples: those whose uniform climb went past 4 samples,
+    # exact modes always, a biased mode only where its uniform climb met the budget.
+    for (mode, tree, is_adaptive), idx in configs.items():
+        if is_adaptive:
+            continue
+        met = any(tried[i]["within"] for i in idx)
+        expected = adaptive and budget > 0 and tried[idx[-1]]["spp"] > ADAPTIVE_MIN and (mode in EXACT_MODES or met)
+        assert ((mode, tree, True) in configs) == expected, (mode, tree, expected)
     return best

@@ -131,7 +131,7 @@ typedef struct bench_quality {
     double budget;
     pn_shadow_mode mode;     // the pick
     int n, d;
-    uint32_t spp;
+    uint32_t spp, spp_min;   // spp_min: adaptive samples spp_min:spp at choice.pixel_error, 0: uniform
     double pilot_mae;        // its pilot's estimate of the reference error
     pn_error_metrics ref;    // the pick rendered at full size, against the converged reference
     double shadow_ms;        // the pick's shadow pass at full size
@@ -140,7 +140,7 @@ typedef struct bench_quality {
     bool has_best;           // the matrix has a cell within the budget:
     pn_shadow_mode best_mode; // the fastest such cell
     int best_n, best_d;
-    uint32_t best_spp;
+    uint32_t best_spp, best_spp_min; // best_spp_min: an adaptive cell at the bench's --pixel-error
     double best_ms, best_mae;
     // The pick and that cell timed in alternation at full size, the least of several frames each
     // (both the pick's cell time when it is that cell): the ratio the bench reports as vs_front.

@@ -123,11 +123,13 @@ static bool push_quality(bench_rows *rows, const bench_quality *q)
 // Sets up one configuration of the matrix at full size for timing beside another.
 static pn_result setup_config(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                               const pn_renderer_desc *frame, pn_shadow_mode mode, int n, int d, uint32_t spp,
-                              pn_setup *s)
+                              uint32_t spp_min, float pixel_error, pn_setup *s)
 {
     pn_setup_desc sd = {.frame = *frame, .tree_n = n, .tree_d = d, .view = cam};
     sd.frame.mode = mode;
     sd.frame.spp = spp;
+    sd.frame.spp_min = spp_min;
+    sd.frame.pixel_error = spp_min ? pixel_error : frame->pixel_error;
     sd.frame.dump_rays = false;
     return pn_setup_create(dev, scene, light, &sd, s);
 }
@@ -156,6 +158,7 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
         if (r->filter == PN_FILTER_NONE && !r->per_object && r->ref.mae <= budget && (!bq.has_best || r->shadow_ms < bq.best_ms)) {
             bq.has_best = true;
             bq.best_mode = r->mode, bq.best_n = r->n, bq.best_d = r->d, bq.best_spp = r->spp;
+            bq.best_spp_min = r->spp_min;
             bq.best_ms = r->shadow_ms, bq.best_mae = r->ref.mae;
         }
     }
@@ -166,16 +169,18 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
     }
     const pn_quality_choice *q = &bq.choice;
     bq.choose_ms = pn_ms_since(t0);
-    bq.mode = q->mode, bq.n = q->tree_n, bq.d = q->tree_d, bq.spp = q->spp, bq.pilot_mae = q->pilot_mae;
+    bq.mode = q->mode, bq.n = q->tree_n, bq.d = q->tree_d, bq.spp = q->spp, bq.spp_min = q->spp_min;
+    bq.pilot_mae = q->pilot_mae;
+    // An adaptive pick is a cell only at the matrix's own pixel error.
     const bench_row *cell = NULL;
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         if (r->filter == PN_FILTER_NONE && !r->per_object && r->mode == q->mode && r->n == q->tree_n && r->d == q->tree_d &&
-            r->spp == q->spp)
+            r->spp == q->spp && r->spp_min == q->spp_min && (!q->spp_min || q->pixel_error == o->pixel_error))
             cell = r;
     }
     bool is_front = bq.has_best && cell && bq.best_mode == q->mode && bq.best_n == q->tree_n &&
-                    bq.best_d == q->tree_d && bq.best_spp == q->spp;
+                    bq.best_d == q->tree_d && bq.best_spp == q->spp && bq.best_spp_min == q->spp_min;
     if (cell) {
         bq.shadow_ms = cell->shadow_ms;
         bq.ref = cell->ref;
@@ -185,13 +190,15 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
     // needs nothing more.
     if (!is_front && (bq.has_best || !cell)) {
         pn_setup ps, fs;
-        if (setup_config(dev, scene, cam, light, frame, q->mode, q->tree_n, q->tree_d, q->spp, &ps) != PN_OK) {
+        if (setup_config(dev, scene, cam, light, frame, q->mode, q->tree_n, q->tree_d, q->spp, q->spp_min,
+                         q->pixel_error, &ps) != PN_OK) {
             pn_error("bench: %s: --quality auto's pick cannot be set up at full size (see above)", bq.scene);
             return PN_EXIT_FAILURE;
         }
         bool ok = true;
         if (bq.has_best) {
-            ok = setup_config(dev, scene, cam, light, frame, bq.best_mode, bq.best_n, bq.best_d, bq.best_spp, &fs) ==
+            ok = setup_config(dev, scene, cam, light, frame, bq.best_mode, bq.best_n, bq.best_d, bq.best_spp,
+                              bq.best_spp_min, o->pixel_error, &fs) ==
                  PN_OK;
             if (ok) {
                 pn_renderer *pair[2] = {&ps.renderer, &fs.renderer};
@@ -219,17 +226,25 @@ static int check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene
     }
     if (!push_quality(rows, &bq))
         return PN_EXIT_FAILURE;
-    char tree[32], best_tree[32];
+    char tree[32], best_tree[32], spp[48], best_spp[48];
     tree_label(tree, sizeof tree, q->tree_n, q->tree_d, false);
-    printf("quality auto (max error %.4g): %s%s %u spp%s, shadow %.1f ms, reference MAE %.4f (pilot %.4f; chosen in "
+    if (q->spp_min)
+        snprintf(spp, sizeof spp, "%u:%u spp (pixel error %g)", q->spp_min, q->spp, (double)q->pixel_error);
+    else
+        snprintf(spp, sizeof spp, "%u spp", q->spp);
+    printf("quality auto (max error %.4g): %s%s %s%s, shadow %.1f ms, reference MAE %.4f (pilot %.4f; chosen in "
            "%.1f s)",
-           budget, MODE_NAME(q->mode), tree, q->spp, cell ? " (a cell of the matrix)" : "", bq.shadow_ms, bq.ref.mae,
+           budget, MODE_NAME(q->mode), tree, spp, cell ? " (a cell of the matrix)" : "", bq.shadow_ms, bq.ref.mae,
            q->pilot_mae, bq.choose_ms * 1e-3);
     if (bq.has_best && bq.best_ms > 0) {
         tree_label(best_tree, sizeof best_tree, bq.best_n, bq.best_d, false);
-        printf("; the matrix's fastest within the budget: %s%s %u spp %.1f ms (MAE %.4f); side by side auto takes "
+        if (bq.best_spp_min)
+            snprintf(best_spp, sizeof best_spp, "%u:%u", bq.best_spp_min, bq.best_spp);
+        else
+            snprintf(best_spp, sizeof best_spp, "%u", bq.best_spp);
+        printf("; the matrix's fastest within the budget: %s%s %s spp %.1f ms (MAE %.4f); side by side auto takes "
                "%.2fx its time (%.1f / %.1f ms)\n",
-               MODE_NAME(bq.best_mode), best_tree, bq.best_spp, bq.best_ms, bq.best_mae,
+               MODE_NAME(bq.best_mode), best_tree, best_spp, bq.best_ms, bq.best_mae,
                bq.pair_pick_ms / bq.pair_front_ms, bq.pair_pick_ms, bq.pair_front_ms);
     } else {
         printf("; no cell of the matrix meets the budget\n");

@@ -42,8 +42,10 @@ void pn_print_render_help(void)
            "  --quality auto|manual auto: choose --mode, --tree and --spp from pilot renders (the same\n"
            "                        framing at about 128x128) against a converged exact reference (1024\n"
            "                        samples): the fastest configuration whose mean absolute error of V\n"
-           "                        stays within --max-error; its --spp replaces yours, and it renders\n"
-           "                        without the filter, as it measured (default manual)\n"
+           "                        stays within --max-error, uniform or adaptive samples (--spp 4:256 at\n"
+           "                        pixel errors 32x down to 1x the budget); its --spp (and\n"
+           "                        --pixel-error) replace yours, and it renders without the filter, as it\n"
+           "                        measured (default manual)\n"
            "  --max-error E         the error budget of --quality auto, in [0, 1] (default 0.01; one\n"
            "                        no configuration reaches takes the least error found)\n"
            "  --no-view-cull        build the N-tree over all of the scene, not just over the box of\n"
@@ -352,6 +354,8 @@ int pn_cmd_render(int argc, char **argv)
             if (pn_quality_choose(&dev, &scene, &cam, &prep.lights[0], &frame, o.max_error, o.r.max_bytes, 0, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
                 o.r.spp = choice.spp;
+                o.r.spp_min = choice.spp_min;
+                o.r.pixel_error = choice.spp_min ? choice.pixel_error : o.r.pixel_error;
                 // The pick's error was measured without a filter (quality.c): the frame is that one.
                 o.r.filter = PN_FILTER_NONE;
                 if (choice.tree_n)
@@ -360,9 +364,15 @@ int pn_cmd_render(int argc, char **argv)
                     char tree[32] = "";
                     if (choice.tree_n)
                         snprintf(tree, sizeof tree, " LS(%d,%d)", choice.tree_n, choice.tree_d);
-                    printf("quality auto: %s%s at %u spp (pilot %ux%u, %d pilots: MAE %.4f against the converged "
+                    char spp[64];
+                    if (choice.spp_min)
+                        snprintf(spp, sizeof spp, "%u:%u spp to a pixel error of %g", choice.spp_min, choice.spp,
+                                 (double)choice.pixel_error);
+                    else
+                        snprintf(spp, sizeof spp, "%u spp", choice.spp);
+                    printf("quality auto: %s%s at %s (pilot %ux%u, %d pilots: MAE %.4f against the converged "
                            "reference, budget %.4f; shadow %.1f ms on the pilot)\n",
-                           pn_shadow_mode_get(choice.mode)->name, tree, choice.spp, choice.pilot_width,
+                           pn_shadow_mode_get(choice.mode)->name, tree, spp, choice.pilot_width,
                            choice.pilot_height, choice.candidates, choice.pilot_mae, o.max_error, choice.pilot_ms);
                 }
             } else {

@@ -7,16 +7,20 @@
 #include "scene/view.h"
 
 // Every configuration auto can try: each mode with up to PN_QUALITY_MAX_TREES trees (quality.c)
-// at 1, 2, 4, ... PN_QUALITY_MAX_SPP samples per pixel (9 steps), so that none is left out of the
-// record or the run-off.
-enum { PN_QUALITY_MAX_SPP = 256, PN_QUALITY_MAX_TREES = 4 };
-enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES * 9 };
+// at 1, 2, 4, ... PN_QUALITY_MAX_SPP samples per pixel (9 steps), then adaptively from
+// PN_QUALITY_ADAPTIVE_MIN up to PN_QUALITY_MAX_SPP samples at PN_QUALITY_ADAPTIVE_STEPS pixel
+// errors, so that none is left out of the record or the run-off.
+enum { PN_QUALITY_MAX_SPP = 256, PN_QUALITY_MAX_TREES = 4, PN_QUALITY_ADAPTIVE_MIN = 4, PN_QUALITY_ADAPTIVE_STEPS = 6 };
+enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES * (9 + PN_QUALITY_ADAPTIVE_STEPS) };
 
 // One configuration a pilot rendered.
 typedef struct pn_quality_tried {
     pn_shadow_mode mode;
     int tree_n, tree_d;
-    uint32_t spp;
+    uint32_t spp;         // uniform: every pixel's samples; adaptive: the most a pixel takes
+    uint32_t spp_min;     // adaptive: the first round's samples (render --spp MIN:MAX); 0: uniform
+    float pixel_error;    // adaptive: the target standard error of a pixel's V (--pixel-error)
+    double mean_rays;     // the rays a covered pixel of the pilot took, on average (spp when uniform)
     double pilot_mae, pilot_se, pilot_ms; // se: standard error of the MAE as an estimate of the picture's
     double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
     bool within;        // judged within the budget
@@ -27,6 +31,8 @@ typedef struct pn_quality_choice {
     pn_shadow_mode mode;
     int tree_n, tree_d;   // for the tree modes
     uint32_t spp;
+    uint32_t spp_min;     // adaptive samples, spp_min:spp at pixel_error; 0: uniform
+    float pixel_error;
     bool within;          // the pick's pilot error is within the budget (else: the least error found)
     double pilot_mae;     // mean |V - V_ref| over the pilot's pixels with geometry
     double pilot_se;      // its standard error (0 when the frame is its own pilot)
@@ -48,9 +54,13 @@ typedef struct pn_quality_choice {
 // against the reference, over pixels with geometry) is at most max_error: by two standard errors
 // of margin when the pilot is smaller than the frame, and where the pilot cannot tell, by the same
 // configuration at twice the pilot's width and height (or the frame itself) against that size's
-// reference. A configuration climbs
-// the samples until it meets the budget, is slower than the best pick so far, or its error stops
-// falling (line space's floor). When nothing meets the budget, the least error found (within = false).
+// reference. A configuration climbs the samples until it meets the budget, is slower than the best
+// pick so far, or its error stops falling (line space's floor). Then, where that climb went past 4
+// samples, the sampler is stratified, the light has an area, and the mode is exact or its uniform
+// climb met the budget (adaptive samples cut noise, not a floor), it climbs adaptive samples,
+// PN_QUALITY_ADAPTIVE_MIN up to PN_QUALITY_MAX_SPP, down the pixel errors 32, 16, 8, 4, 2 and 1
+// times the budget, with the same three reasons to stop (quality.c, adaptive_error). When nothing
+// meets the budget, the least error found (within = false).
 // Pilots within the budget and within 1.5x of the fastest one's time (at most 4) are then timed at
 // the frame's size side by side, and the fastest there is the pick (final_ms; quality.c, runoff).
 // reference_spp: the reference's samples (0: PN_REFERENCE_SPP).
