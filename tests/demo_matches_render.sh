@@ -36,6 +36,8 @@ check linespace --mode linespace --spp 4 "${LS[@]}"
 check hybrid_packet_grid --mode hybrid --traversal packet --sampler grid --spp 9 "${LS[@]}"
 check ls_plane --mode ls-plane --spp 4 "${LS[@]}"
 check exact --mode exact --spp 4 "${LS[@]}"
+# Adaptive samples: the demo's first frame is render's (its later frames continue them, demo_refine).
+check exact_adaptive --mode exact --spp 4:16 --pixel-error 0.05 "${LS[@]}"
 # Two lights (--light groups): one tree for both, a shadow and shading pass each, summed.
 check two_lights --mode linespace --spp 4 --light 1,4,1:-0.2,-1,-0.2:0,0,1:1.2,0.8:3 \
   --light -2,3,2:0.5,-1,-0.5:0,0,1:0.6,0.6:1,2,4

@@ -209,12 +209,34 @@ static pn_result apply_moves(pn_demo *d)
 // ---------------------------------------------------------------------------------------------
 // Frames
 
+// Progressive refinement with adaptive samples (--spp MIN:MAX, one light, a mode that traces; not
+// in the error view, whose exact renderer must draw the same samples): instead of averaging frames
+// of new samples, each frame continues the last one's (pn_renderer_set_continue) with twice the
+// most samples and the pixel error over sqrt(2) (a pixel's samples double, so its standard error
+// can fall by that), so the rays go to the pixels still uncertain and none to those already
+// settled (lit, umbra, or a penumbra within the error). Frame k: MAX x 2^k up to
+// REFINE_MAX_SAMPLES, then the image is held.
+enum { REFINE_MAX_SAMPLES = 4096 };
+
+static bool refines_adaptively(const pn_demo *d)
+{
+    return d->accumulate && d->opts.spp_min && d->light_count == 1 && d->view != PN_DEMO_ERROR &&
+           pn_shadow_mode_get(d->opts.mode)->traces;
+}
+
 // Frames to average before holding the image. The grid sampler and a fixed seed repeat the same
-// samples, so their first frame is final.
+// samples, so their first frame is final; adaptive refinement holds once its most samples would
+// pass REFINE_MAX_SAMPLES.
 static uint32_t accumulate_limit(const pn_demo *d)
 {
     if (!d->accumulate)
         return UINT32_MAX; // every frame renders anew (live timings), each on its own
+    if (refines_adaptively(d)) {
+        uint32_t frames = 1;
+        for (long long spp = d->opts.spp * 2; spp <= REFINE_MAX_SAMPLES; spp *= 2)
+            frames++;
+        return frames < d->accumulate_max ? frames : d->accumulate_max;
+    }
     return d->opts.sampler == PN_SAMPLER_GRID ? 1 : d->accumulate_max;
 }
 
@@ -223,9 +245,19 @@ static pn_result render(pn_demo *d)
     if (d->restart || !d->accumulate)
         d->image.frames = 0;
     d->restart = false;
+    bool refine = refines_adaptively(d), continued = refine && d->image.frames > 0;
     // A new seed per accumulated frame: new stratified light samples (frame 0 uses --seed, as render).
-    uint32_t seed = (uint32_t)d->opts.seed + d->image.frames;
+    // Refined adaptively, the same seed: the frame continues the same samples.
+    uint32_t seed = (uint32_t)d->opts.seed + (refine ? 0 : d->image.frames);
     pn_renderer_set_seed(&d->renderer, seed);
+    if (d->opts.spp_min) {
+        uint32_t k = refine ? d->image.frames : 0;
+        float error = d->opts.pixel_error * powf(0.5f, 0.5f * (float)k);
+        PN_TRY(pn_renderer_set_adaptive(&d->renderer, (uint32_t)d->opts.spp_min, (uint32_t)d->opts.spp << k, error));
+        pn_renderer_set_continue(&d->renderer, continued);
+    }
+    if (!continued)
+        d->refined_rays = 0;
     pn_demo_stats *s = &d->stats;
     PN_TRY(pn_renderer_render_lights(&d->renderer, &d->camera, d->lights, d->light_count, &s->times));
     pn_frame_images frame;
@@ -243,19 +275,27 @@ static pn_result render(pn_demo *d)
             s->exact_shadow_ms = t.shadow_ms;
         }
     }
-    pn_demo_image_add(&d->image, &frame, v_exact);
+    pn_demo_image_add(&d->image, &frame, v_exact, continued);
 
     size_t px = (size_t)d->image.width * d->image.height, covered = 0;
     uint8_t *mask = d->view == PN_DEMO_ERROR ? malloc(px) : NULL;
+    uint64_t rays = 0;
     for (size_t i = 0; i < px; i++) {
         bool geometry = frame.p[4 * i + 3] > 0;
         covered += geometry;
+        rays += frame.rays ? frame.rays[4 * i] : 0;
         if (mask)
             mask[i] = geometry;
     }
     s->rays_per_s = 0;
-    for (uint32_t i = 0; i < d->light_count; i++)
-        s->rays_per_s += pn_shadow_rays_per_s(covered, (uint32_t)d->opts.spp, &d->lights[i], s->times.shadow_ms);
+    if (frame.rays && d->light_count == 1) {
+        // Adaptive: the rays the pixels took (in all, when continued: this frame's are the new ones).
+        s->rays_per_s = s->times.shadow_ms > 0 ? (double)(rays - d->refined_rays) / (s->times.shadow_ms * 1e-3) : 0;
+        d->refined_rays = refine ? rays : 0;
+    } else {
+        for (uint32_t i = 0; i < d->light_count; i++)
+            s->rays_per_s += pn_shadow_rays_per_s(covered, (uint32_t)d->opts.spp, &d->lights[i], s->times.shadow_ms);
+    }
     pn_error_metrics m;
     if (mask && pn_error_compare(d->image.v, d->image.vx, mask, px, NULL, &m))
         s->error_mae = m.mae, s->error_p99 = m.p99, s->error_max = m.max;
@@ -290,8 +330,16 @@ static void save_frame(pn_demo *d)
     const pn_exr_attr extra[] = {
         {.name = "penumbra.demo.accumulated_frames", .type = PN_EXR_ATTR_INT, .i = (int32_t)d->image.frames},
         {.name = "penumbra.demo.seeds", .type = PN_EXR_ATTR_STRING,
-         .s = d->image.frames > 1 ? "seed .. seed + accumulated_frames - 1, one per frame" : "seed"},
+         .s = refines_adaptively(d) ? "seed (adaptive samples continued over the accumulated frames)"
+              : d->image.frames > 1 ? "seed .. seed + accumulated_frames - 1, one per frame"
+                                    : "seed"},
         {.name = "penumbra.demo.view", .type = PN_EXR_ATTR_STRING, .s = VIEWS[d->view]},
+        // Refined adaptively: the most samples and the pixel error of the frame saved (render_lights'
+        // penumbra.spp and penumbra.pixel_error are the first frame's).
+        {.name = "penumbra.demo.refined_spp", .type = PN_EXR_ATTR_INT,
+         .i = refines_adaptively(d) ? (int32_t)d->renderer.desc.spp : 0},
+        {.name = "penumbra.demo.refined_pixel_error", .type = PN_EXR_ATTR_FLOAT,
+         .f = {refines_adaptively(d) ? d->renderer.desc.pixel_error : 0.0f}},
         {.name = "penumbra.demo.cells_overlay", .type = PN_EXR_ATTR_INT, .i = d->cells},
         {.name = "penumbra.exposure", .type = PN_EXR_ATTR_FLOAT, .f = {d->opts.exposure}},
         {.name = "penumbra.pool_bytes", .type = PN_EXR_ATTR_FLOAT, .f = {(float)pn_shadow_accel_gpu_bytes(&d->accel)}},

@@ -55,7 +55,9 @@ typedef struct pn_demo_image {
 pn_result pn_demo_image_create(uint32_t width, uint32_t height, pn_demo_image *out);
 void pn_demo_image_destroy(pn_demo_image *img);
 // Adds one frame (and the exact renderer's V when given) to the running averages.
-void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact);
+// replace: the frame already holds every earlier frame's samples (adaptive samples continued,
+// pn_renderer_set_continue): it becomes the image, and the frame count goes on.
+void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact, bool replace);
 
 // ---------------------------------------------------------------------------------------------
 // N-tree builds on a worker thread (demo_builder.c). The worker only runs pn_shadow_accel_build
@@ -192,7 +194,8 @@ typedef struct pn_demo {
     float center[3], radius; // the scene's bounding sphere (without the ground), for step sizes
     pn_demo_view view;
     bool cells;              // N-tree cell overlay
-    bool accumulate;         // progressive refinement while nothing changes
+    bool accumulate;         // progressive refinement while nothing changes (adaptive samples: by
+                             // continuing them where V is uncertain, cmd_demo.c refines_adaptively)
     uint32_t accumulate_max; // frames, then the image is held
     bool show_help, show_hud;
     uint32_t object_sel;     // the object the object keys move (O selects the next)
@@ -226,6 +229,7 @@ typedef struct pn_demo {
     double mouse_x, mouse_y;
 
     uint64_t frame;           // frames presented
+    uint64_t refined_rays;    // adaptive refinement: the rays the frames continued so far took
     pn_demo_stats stats;
     // The last PN_DEMO_HISTORY rendered frames' figures, for the medians printed at exit: a ring,
     // so that a demo left running for hours holds the same memory as after a minute.

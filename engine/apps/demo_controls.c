@@ -342,7 +342,10 @@ enum { SPP_STEP_COUNT = sizeof SPP_STEPS / sizeof SPP_STEPS[0] };
 static void step_spp(pn_demo *d, float dir)
 {
     long long spp = d->opts.spp;
-    if (dir > 0) {
+    if (d->opts.spp_min) {
+        // Adaptive samples (--spp MIN:MAX): the most doubles or halves, down to MIN.
+        spp = dir > 0 ? (spp * 2 <= 1 << 16 ? spp * 2 : spp) : (spp / 2 >= d->opts.spp_min ? spp / 2 : spp);
+    } else if (dir > 0) {
         for (int i = 0; i < SPP_STEP_COUNT && spp == d->opts.spp; i++)
             if (SPP_STEPS[i] > d->opts.spp)
                 spp = SPP_STEPS[i];

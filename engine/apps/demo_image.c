@@ -41,10 +41,10 @@ void pn_demo_image_destroy(pn_demo_image *img)
     memset(img, 0, sizeof *img);
 }
 
-void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact)
+void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact, bool replace)
 {
     size_t px = (size_t)img->width * img->height;
-    if (img->frames == 0) {
+    if (img->frames == 0 || replace) {
         memset(img->sum_rad, 0, px * 4 * sizeof(float));
         memset(img->sum_v, 0, px * sizeof(float));
         memset(img->sum_vx, 0, px * sizeof(float));
@@ -52,17 +52,18 @@ void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const f
     img->frames++;
     // Sums divided by the count: after one frame the average is that frame, bit for bit (the
     // screenshot test relies on it).
+    bool alone = img->frames == 1 || replace;
     float inv = 1.0f / (float)img->frames;
     for (size_t i = 0; i < px * 4; i++) {
         img->sum_rad[i] += frame->radiance[i];
-        img->rad[i] = img->frames == 1 ? frame->radiance[i] : img->sum_rad[i] * inv;
+        img->rad[i] = alone ? frame->radiance[i] : img->sum_rad[i] * inv;
     }
     for (size_t i = 0; i < px; i++) {
         img->sum_v[i] += frame->v[i];
-        img->v[i] = img->frames == 1 ? frame->v[i] : img->sum_v[i] * inv;
+        img->v[i] = alone ? frame->v[i] : img->sum_v[i] * inv;
         if (v_exact) {
             img->sum_vx[i] += v_exact[i];
-            img->vx[i] = img->frames == 1 ? v_exact[i] : img->sum_vx[i] * inv;
+            img->vx[i] = alone ? v_exact[i] : img->sum_vx[i] * inv;
         }
     }
     memcpy(img->p, frame->p, px * 4 * sizeof(float));

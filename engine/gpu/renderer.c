@@ -259,6 +259,13 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         };
         vkCmdCopyImageToBuffer(cmd, shadow[i]->image, SRC, r->readback.buffer, 1, &copy);
     }
+    // Back to the shadow pass's layout after the copy: a frame that continues this one's adaptive
+    // samples (pn_renderer_set_continue) keeps its counts and rays in GENERAL.
+    VkImageMemoryBarrier2 back[2] = {
+        pn_gpu_image_barrier(&r->shadow.counts, COPY, VK_ACCESS_2_NONE, COMPUTE, STORAGE, SRC, GENERAL),
+        pn_gpu_image_barrier(&r->shadow.rays, COPY, VK_ACCESS_2_NONE, COMPUTE, STORAGE, SRC, GENERAL),
+    };
+    pn_gpu_cmd_barrier(cmd, NULL, 2, back);
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){
                            .sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
@@ -422,6 +429,13 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
     // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
+    // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).
+    bool adaptive_one = r->rays_written && light_count == 1;
+    r->shadow.resume_from = r->continue_next && adaptive_one && r->continuable_spp && samples[0] > r->continuable_spp
+                                ? r->continuable_spp
+                                : 0;
+    r->continue_next = false;
+    r->continuable_spp = 0; // until this frame has ended
     // llvmpipe: the frame is recorded again only when the shadow pass ran out of the loop budget
     // (pn_shadow_pass_end_frame); on other drivers this loop runs once.
     bool retry = true;
@@ -437,7 +451,11 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
         VK_CHECK(vkQueueWaitIdle(dev->queue));
         PN_TRY(pn_shadow_pass_end_frame(&r->shadow, &retry));
+        // A continued frame cut short has added to the counts it resumed from: its retry is a
+        // frame of its own, from the first samples.
+        r->shadow.resume_from = 0;
     }
+    r->continuable_spp = adaptive_one ? samples[0] : 0;
 
     uint64_t ts[TS_COUNT];
     uint32_t used = TS_LIGHT + 3 * light_count;
@@ -532,6 +550,8 @@ pn_result pn_renderer_set_adaptive(pn_renderer *r, uint32_t spp_min, uint32_t sp
     r->desc = d;
     return PN_OK;
 }
+
+void pn_renderer_set_continue(pn_renderer *r, bool on) { r->continue_next = on; }
 
 pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on)
 {

@@ -29,6 +29,11 @@ typedef struct pn_renderer {
     VkCommandBuffer cmd;
     uint32_t light_count; // of the last frame
     bool rays_written;    // its last light was sampled adaptively: the shadow pass's rays image holds it
+    // pn_renderer_set_continue: the next frame continues the last one's adaptive samples; and the
+    // most samples a pixel of the last frame could take, where that frame can be continued (one
+    // light, sampled adaptively), else 0.
+    bool continue_next;
+    uint32_t continuable_spp;
 } pn_renderer;
 
 // Uploads the scene and creates targets and pipelines as `desc` says.
@@ -82,6 +87,13 @@ pn_result pn_renderer_set_spp(pn_renderer *r, uint32_t spp);
 // Changes the samples per pixel to adaptive rounds from spp_min up to spp (desc.spp_min; spp_min 0:
 // spp for every pixel) from the next pn_renderer_render on.
 pn_result pn_renderer_set_adaptive(pn_renderer *r, uint32_t spp_min, uint32_t spp, float pixel_error);
+// Progressive refinement by adaptive samples (the demo's accumulation): with `on`, the next frame
+// continues the samples of the one before instead of drawing its own, where that one sampled its
+// one light adaptively and this one raises the most samples (pn_renderer_set_adaptive): every
+// pixel keeps its counts, and the rounds go on from them under the new pixel error and most, so
+// rays go only to the pixels still uncertain. The caller keeps the camera, light, seed and scene
+// as they were (else the counts are another picture's). Otherwise the frame is one of its own.
+void pn_renderer_set_continue(pn_renderer *r, bool on);
 
 // PN_OK if desc's split goes with its filter, sampler and ray dump; else logs why (the command
 // lines check it before any set-up, as a usage error).

@@ -295,16 +295,18 @@ static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k)
 void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    uint32_t spp = s->mode->traces ? samples : 1;
+    bool resume = s->resume_from && pn_shadow_adaptive(s, spp) && spp > s->resume_from;
     // The counts and the adaptive images are rewritten from the first chunk on: discard what the
-    // previous frame (or light) left.
+    // previous frame (or light) left; resumed, keep it, after all of that frame's work on them.
     VkImageMemoryBarrier2 fresh[3];
     const pn_gpu_image *images[3] = {&s->counts, &s->adapt, &s->rays};
     for (int i = 0; i < 3; i++)
         fresh[i] = pn_gpu_image_barrier(images[i], VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
                                         COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL);
+                                        resume ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED,
+                                        VK_IMAGE_LAYOUT_GENERAL);
     pn_gpu_cmd_barrier(cmd, NULL, 3, fresh);
-    uint32_t spp = s->mode->traces ? samples : 1;
     if (!pn_shadow_adaptive(s, spp)) {
         record_samples(cmd, s, 0, spp, 0, light);
         return;
@@ -313,16 +315,24 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     // which sets each pixel's target and lists the pixels that go on, and the next round over that
     // list, from MIN up to MAX (each pixel traces its own part); the two lists alternate. A target
     // at least doubles, so after log2(MAX / MIN) rounds every pixel is done; the last decision only
-    // gives the final estimates.
-    record_samples(cmd, s, 0, s->spp_min, 0, light);
+    // gives the final estimates. Resumed, the first round is the previous frame's and the rounds
+    // that follow it are only those from its most samples to this frame's: a pixel that stopped
+    // early there doubles once per frame from where it stopped. The first decision runs over the
+    // whole image (list_in 0) and writes every pixel's V from its counts, as V is rewritten every
+    // frame (renderer.c discards it) and a pixel that goes on no more traces nothing.
+    if (!resume)
+        record_samples(cmd, s, 0, s->spp_min, 0, light);
     uint32_t rounds = 0;
-    for (uint32_t n = s->spp_min; n < spp; n *= 2)
+    for (uint32_t n = resume ? s->resume_from : s->spp_min; n < spp; n *= 2)
         rounds++;
     uint32_t list_in = 0, out = 0;
     for (uint32_t decision = 1;; decision++) {
         reset_list(cmd, s, out);
         between_dispatches(cmd);
-        dispatch(cmd, s, &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out});
+        // The last decision only reports (.last): a pixel's rays are the samples it took.
+        dispatch(cmd, s,
+                 &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out,
+                                    .last = decision > rounds});
         if (decision > rounds)
             break;
         between_dispatches(cmd);

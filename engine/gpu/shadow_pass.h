@@ -26,6 +26,10 @@ typedef struct pn_shadow_pass {
     uint32_t tiles_across, tile_total; // PN_WORKGROUP-square tiles across the image, and in all
     uint32_t width, height;
     uint32_t spp_min; // adaptive sampling's first round (desc.spp_min at the last update), 0: off
+    // Adaptive sampling continued from the previous frame (pn_renderer_set_continue): the most
+    // samples a pixel of that frame took; the next record keeps every pixel's counts and resumes the
+    // rounds from them. 0: a frame of its own.
+    uint32_t resume_from;
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.
     // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);
@@ -74,7 +78,9 @@ pn_result pn_shadow_check_adaptive(const pn_renderer_desc *desc);
 // index into the lights of pn_shadow_pass_update) after P and N are ready; V is written when the
 // last one ends; adaptively, the rounds with a decision after each (the last one's gives the final
 // error estimate). Every light's samples are the same function of the seed and the pixel, so a light
-// sees the same samples alone as among others.
+// sees the same samples alone as among others. With resume_from, adaptively, the rounds go on from
+// the counts the previous frame left (the same pixels, light and seed), starting with a decision
+// over the whole image under this frame's pixel error and most samples.
 void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light);
 
 // Before a submit: clears the status flag. After it: PN_OK, with *retry set if a dispatch was cut

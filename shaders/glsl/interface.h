@@ -280,7 +280,8 @@ PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
     PN_UINT(sample_begin) // light samples [sample_begin, sample_end) in this dispatch
     PN_UINT(sample_end)
     PN_UINT(first)        // 1: counts start at zero
-    PN_UINT(last)         // 1: write V = visible / valid
+    PN_UINT(last)         // 1: write V = visible / valid; with decide: the frame's last decision,
+                          // which only reports (a pixel's rays: the samples it took)
     PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes
     PN_UINT(decide)       // adaptive: 1 = no rays; decide which pixels go on after the round just
                           // ended (adaptive_decide)

@@ -337,14 +337,22 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
 // the choice open (shadow_pixel).
 void adaptive_decide(ivec2 px)
 {
+    // A decision over the whole image (after the first round, or first in a frame that resumes the
+    // previous one's rounds) writes every pixel's V from its counts: the same value the round
+    // wrote, and in a resumed frame the V of pixels that trace nothing more.
+    bool whole = chunk.list_in == 0u;
     if (imageLoad(img_p, px).w <= 0.0) {
         imageStore(img_rays, px, uvec4(0u, 0u, 1u, 0u));
+        if (whole)
+            imageStore(img_v, px, vec4(0.0));
         return;
     }
     // After the first decision the dispatch runs over the list of the pixels that took part in the
     // round just ended (shadow_invocation_pixel): a pixel that stopped earlier keeps its decision.
     uint done = imageLoad(img_adapt, px).w;
     uvec4 c = imageLoad(img_counts, px);
+    if (whole)
+        imageStore(img_v, px, vec4(c.y > 0u ? float(c.x) / float(c.y) : 1.0));
     bool unanimous = c.y > 0u && (c.x == 0u || c.x == c.y), agree = true;
     ivec2 size = imageSize(img_v);
     float var_sum = 0.0;
@@ -368,7 +376,10 @@ void adaptive_decide(ivec2 px)
     }
     float stderr = estimates > 0u ? sqrt(var_sum / float(estimates)) : (c.z != 0u ? 1.0 : 0.0);
     bool stop = done >= params.spp || (stderr < params.pixel_error && (!unanimous || agree));
-    uint target = stop ? done : min(2u * done, params.spp);
+    // The frame's last decision (chunk.last) sets no target: no round follows it, so the rays image
+    // holds the samples the pixel took. In a frame that continues the previous one's, a pixel that
+    // had stopped early may go on there without reaching the most.
+    uint target = stop || chunk.last != 0u ? done : min(2u * done, params.spp);
     imageStore(img_rays, px, uvec4(target, floatBitsToUint(stderr), stop ? 1u : 0u, 0u));
     // The pixel goes on the next round's list; a new work group for every PN_WORKGROUP^2 of them.
     if (!stop) {
