@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # --quality auto picks mode, tree and samples per pixel against the converged reference (exact at
-# 1024 spp with its own seed, apps/metrics.h):
+# 1024 spp with its own seed, shadow/metrics.h):
 #  - at budgets 0.05 and 0.02 the frame (128x96) is its own pilot, so the pick's pilot error is the
 #    render's error: the full render, diffed against the same reference rendered here, has the
 #    MAE the pilot reported, within the budget;

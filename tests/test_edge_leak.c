@@ -1,4 +1,4 @@
-// The bench's edge-leak measure (pn_edge_leak_measure, engine/apps/metrics.c) against hand-made
+// The bench's edge-leak measure (pn_edge_leak_measure, engine/shadow/metrics.c) against hand-made
 // G-buffers whose band and grown pixels are counted by hand. A 20x10 image at view depth 10 with a
 // pixel angle of 0.01 (a footprint of 0.1 at scale 1); row 9 has no geometry. Columns 0..9 are a
 // floor (normal +y); columns 10..19 are, per layout:
@@ -15,7 +15,7 @@
 // flat), of which (3, 2) grows, and (8, 2) too when flat: away_grown 1, or 2 flat.
 // Every layout is checked at scales 1e-3, 1 and 1e3 and shifted by 1e4 scale units: the counts must
 // not change (the measure is dimensionless; the shift's rounding stays under the slack).
-#include "apps/metrics.h"
+#include "shadow/metrics.h"
 #include "test_util.h"
 
 enum { W = 20, H = 10, CREASE, STEP, FLAT };

@@ -52,7 +52,7 @@
 // as the leaf; the oracle's triangles are the world ones. The case also requires that the build
 // made per-object trees (one per mesh, one for the rest, every object placed), so that it cannot
 // pass on the scene-wide tree.
-#include "apps/setup.h"
+#include "shadow/setup.h"
 #include "gpu/device.h"
 #include "gpu/shadow_pass.h"
 #include "test_util.h"

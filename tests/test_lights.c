@@ -22,7 +22,7 @@
 //        proportional allocation minimises sum E_l^2 V_l (1 - V_l) / n_l. And it is unbiased: the
 //        mean signed error over the pixels is within 4 standard errors of zero.
 // The scene is the built-in default with its ground; validation layer on, any message fails.
-#include "apps/setup.h"
+#include "shadow/setup.h"
 #include "test_util.h"
 
 enum { W = 96, H = 72 };

@@ -16,8 +16,8 @@
 //     samples, asked to continue, is a frame of its own (bit for bit).
 // The scene is the Stanford bunny from ../shared/assets (builtin:default without it) on its ground,
 // 128 x 96; validation layer on, any message fails.
-#include "apps/metrics.h"
-#include "apps/setup.h"
+#include "shadow/metrics.h"
+#include "shadow/setup.h"
 #include "test_util.h"
 
 enum { W = 128, H = 96, PX = W * H };

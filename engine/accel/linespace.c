@@ -1,3 +1,4 @@
+// Line spaces: the shafts between a node's patches, and which of them the node's geometry blocks.
 #include "accel/linespace.h"
 
 #include <stdlib.h>

@@ -1,3 +1,5 @@
+// Triangles sorted by the Morton code of their centroids, for the device-built acceleration
+// structure.
 #include "accel/morton.h"
 
 #include <math.h>

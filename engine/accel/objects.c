@@ -1,3 +1,5 @@
+// Per-object N-trees and their top level (--trees object): build, and the top level's rebuild
+// after a move.
 #include "accel/objects.h"
 
 #include <float.h>

@@ -1,3 +1,4 @@
+// The N-tree's GPU pools packed from a built tree (layouts in interface.h).
 #include "accel/pools.h"
 
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+// Command-line parsing helpers the subcommands share: flags, values, numbers in range, choices.
 #include "apps/args.h"
 
 #include <errno.h>

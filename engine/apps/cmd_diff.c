@@ -7,7 +7,7 @@
 #include "apps/args.h"
 #include "apps/commands.h"
 #include "apps/options.h"
-#include "apps/metrics.h"
+#include "shadow/metrics.h"
 #include "core/log.h"
 #include "io/exr.h"
 #include "io/json.h"

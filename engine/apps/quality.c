@@ -1,11 +1,12 @@
+// --quality auto: pilots of every configuration against a converged reference, and the pick.
 #include "apps/quality.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "apps/metrics.h"
-#include "apps/setup.h"
+#include "shadow/metrics.h"
+#include "shadow/setup.h"
 #include "core/log.h"
 #include "scene/view.h"
 

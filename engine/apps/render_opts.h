@@ -5,7 +5,7 @@
 #include <stdint.h>
 
 #include "apps/args.h"
-#include "apps/setup.h"
+#include "shadow/setup.h"
 #include "gpu/shadow_modes.h"
 #include "scene/view.h"
 

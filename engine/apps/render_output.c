@@ -7,7 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "apps/setup.h"
+#include "shadow/setup.h"
 #include "core/log.h"
 #include "io/file.h"
 #include "io/png.h"

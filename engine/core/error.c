@@ -1,3 +1,4 @@
+// Result codes and their names.
 #include "core/error.h"
 
 const char *pn_result_str(pn_result r)

@@ -1,3 +1,4 @@
+// The logger, the one piece of global state.
 #include "core/log.h"
 
 #include <stdio.h>

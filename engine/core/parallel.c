@@ -1,3 +1,4 @@
+// A parallel for-loop over pthreads.
 #include "core/parallel.h"
 
 #include <pthread.h>

@@ -1,3 +1,4 @@
+// Compute pipelines: shader module, set layout, pipeline, descriptors and dispatches.
 #include "gpu/compute.h"
 
 #include <string.h>

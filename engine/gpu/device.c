@@ -1,3 +1,4 @@
+// The Vulkan device: instance, physical device, one queue, the validation layer and its messages, submits.
 #include "gpu/device.h"
 
 #include <ctype.h>

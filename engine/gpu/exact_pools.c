@@ -1,3 +1,5 @@
+// The exact triangle tests' pools on the GPU: triangles, BVH nodes and the N-tree's candidate
+// lists.
 #include "gpu/exact_pools.h"
 
 #include <stdlib.h>

@@ -1,3 +1,4 @@
+// The filter pass (--filter interleaved): pipeline, push constants and its dispatch.
 #include "gpu/filter_pass.h"
 
 #include <math.h>

@@ -1,3 +1,4 @@
+// The G-buffer pass: the raster pipeline, its targets and the scene's vertex buffers.
 #include "gpu/gbuffer_pass.h"
 
 #include <cglm/cglm.h>

@@ -40,7 +40,7 @@ pn_result pn_gbuffer_pass_update_vertices(pn_gpu_device *dev, pn_gbuffer_pass *g
                                           uint32_t first, uint32_t count);
 
 // The pass's SPIR-V (stage 0: vertex, 1: fragment) and its size in bytes: what a cache of rendered
-// images keys on (apps/bench_reference.c), since these shaders place P and N.
+// images keys on (apps/bench/bench_reference.c), since these shaders place P and N.
 const uint32_t *pn_gbuffer_pass_spirv(int stage, size_t *size);
 
 // The camera as the pass's push constants for an image of width x height: view-projection with

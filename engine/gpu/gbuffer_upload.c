@@ -1,3 +1,5 @@
+// A G-buffer read from an EXR (bench --shader shadow --gbuffer) put where the raster pass would
+// write.
 #include "gpu/gbuffer_upload.h"
 
 #include <string.h>

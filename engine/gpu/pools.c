@@ -1,3 +1,4 @@
+// The N-tree pools uploaded into device-local buffers and bound by device address.
 #include "gpu/pools.h"
 
 #include <stdio.h>

@@ -1,3 +1,5 @@
+// One frame: G-buffer, per light shadow, filter and shading, the readback; and the frame's
+// settings.
 #include "gpu/renderer.h"
 
 #include <math.h>

@@ -1,3 +1,4 @@
+// Buffers, images and barriers: one allocation each, created, uploaded and destroyed.
 #include "gpu/resources.h"
 
 #include <stdio.h>

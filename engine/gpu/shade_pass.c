@@ -1,3 +1,4 @@
+// The shading pass: pipeline and dispatch of albedo / pi x E x V per pixel.
 #include "gpu/shade_pass.h"
 
 #include <math.h>

@@ -1,3 +1,4 @@
+// The shadow mode table: each mode's shader, specialisation and needs, and what a device can run.
 #include "gpu/shadow_modes.h"
 
 #include <stdio.h>

@@ -42,7 +42,7 @@ extern const char *const pn_sampler_names[];
 // (their packet walk is the slower one on lavapipe); ray and packet are taken as given.
 pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t);
 
-// What a mode needs built before it can render (apps/setup.c builds it).
+// What a mode needs built before it can render (shadow/setup.c builds it).
 typedef struct pn_shadow_needs {
     bool tree;        // the N-tree and its line-space pools
     bool candidates;  // the tree's per-leaf triangle lists

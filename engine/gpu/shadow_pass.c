@@ -1,3 +1,5 @@
+// The shadow pass: pipeline, parameters, and the dispatches of a frame's chunks and adaptive
+// rounds.
 #include "gpu/shadow_pass.h"
 
 #include <math.h>

@@ -1,3 +1,4 @@
+// The demo's swapchain: its images filled from host memory and presented.
 #include "gpu/swapchain.h"
 
 #include <string.h>

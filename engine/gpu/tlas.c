@@ -1,3 +1,4 @@
+// The scene's triangles in a device-built acceleration structure, for --mode rayquery.
 #include "gpu/tlas.h"
 
 #include <stdio.h>

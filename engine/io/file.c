@@ -1,3 +1,4 @@
+// Outputs written to a temporary name in the target's folder, then renamed into place or discarded.
 #include "io/file.h"
 
 #include <errno.h>

@@ -1,3 +1,4 @@
+// JSON string escaping for the machine-readable outputs.
 #include "io/json.h"
 
 void pn_json_string(FILE *f, const char *s)

@@ -1,3 +1,4 @@
+// Camera and light: defaults framed from the scene's bounds, light corners and irradiance.
 #include "scene/view.h"
 
 #include <math.h>

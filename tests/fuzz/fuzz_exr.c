@@ -3,7 +3,7 @@
 // otherwise empty folder, then read three ways:
 //   1. pn_exr_read itself;
 //   2. pn_cmd_diff(input.exr, input.exr): the command as typed, default channel shadow.V;
-//   3. pn_bench_load_gbuffer (apps/bench_opts.c): what bench --shader shadow --gbuffer loads.
+//   3. pn_bench_load_gbuffer (apps/bench/bench_opts.c): what bench --shader shadow --gbuffer loads.
 //
 // Beyond "no crash, no leak, no UB", what each accepts must be something the later stages can
 // trust; a violated invariant aborts, which libFuzzer reports as a crash:
@@ -25,7 +25,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "apps/bench.h"
+#include "apps/bench/bench.h"
 #include "apps/commands.h"
 #include "core/log.h"
 #include "io/exr.h"

@@ -1,4 +1,4 @@
-// libFuzzer target: the demo's --script parser (apps/demo_script.c, with the key names of
+// libFuzzer target: the demo's --script parser (apps/demo/demo_script.c, with the key names of
 // demo_controls.c) on arbitrary bytes, without a window: the input is written to input.script in a
 // private, otherwise empty folder and loaded with pn_demo_script_load, then checked against a
 // scene of two objects with pn_demo_script_check, as cmd_demo does. The camera events are then applied
@@ -25,7 +25,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "apps/demo.h"
+#include "apps/demo/demo.h"
 #include "core/log.h"
 #include "scene/scene.h"
 #include "fuzz_util.h"

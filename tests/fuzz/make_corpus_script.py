@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the seed corpus of fuzz_script (tests/fuzz/corpus_script/seed_*): the demo --script files
 the tests use (tests/demo_window.sh, tests/demo_matches_render.sh), one file per command with
-each form it takes (apps/demo.h), and a few that the parser must refuse. Deterministic. Run from
+each form it takes (apps/demo/demo.h), and a few that the parser must refuse. Deterministic. Run from
 anywhere:
     python3 tests/fuzz/make_corpus_script.py
 Crash reproducers (regress_*) are not touched.

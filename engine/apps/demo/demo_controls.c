@@ -5,7 +5,7 @@
 #include <string.h>
 #include <strings.h>
 
-#include "apps/demo.h"
+#include "apps/demo/demo.h"
 #include "core/timer.h"
 
 // ---------------------------------------------------------------------------------------------

@@ -8,7 +8,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
-#include "apps/demo.h"
+#include "apps/demo/demo.h"
 
 // Resident pages now: the second field of /proc/self/statm (Linux); 0 elsewhere.
 static uint64_t resident_bytes(void)

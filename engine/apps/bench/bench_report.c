@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "apps/bench.h"
+#include "apps/bench/bench.h"
 #include "core/log.h"
 #include "core/parallel.h"
 #include "io/file.h"

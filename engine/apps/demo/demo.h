@@ -16,7 +16,7 @@
 #include <stdio.h>
 
 #include "apps/render_opts.h"
-#include "apps/setup.h"
+#include "shadow/setup.h"
 #include "gpu/swapchain.h"
 
 // penumbra demo's command line: render's options (apps/render_opts.h) and the demo's own.

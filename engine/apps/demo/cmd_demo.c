@@ -12,8 +12,8 @@
 #include <string.h>
 
 #include "apps/commands.h"
-#include "apps/demo.h"
-#include "apps/metrics.h"
+#include "apps/demo/demo.h"
+#include "shadow/metrics.h"
 #include "apps/render_output.h"
 #include "core/timer.h"
 #include "io/png.h"

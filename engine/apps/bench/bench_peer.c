@@ -2,7 +2,7 @@
 // mode on all cores, timed as the cells are.
 #include <stdio.h>
 
-#include "apps/bench.h"
+#include "apps/bench/bench.h"
 #include "core/parallel.h"
 #include "core/timer.h"
 
@@ -37,7 +37,7 @@ double pn_bench_embree_time(const bench_opts *o, const pn_embree_scene *s, const
             times[r - o->warmup] = pn_ms_since(t0);
         embree_rays = j.rays;
     }
-    embree_ms = pn_bench_median(times, o->repeat);
+    embree_ms = pn_time_median(times, o->repeat);
     fprintf(stderr, "bench: Embree (%u threads): %.1f ms for %llu rays (%.2f M rays/s; BVH %.0f ms)\n",
             pn_parallel_threads(), embree_ms, (unsigned long long)embree_rays,
             embree_rays / (embree_ms * 1e3), pn_embree_scene_build_ms(s));

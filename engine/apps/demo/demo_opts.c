@@ -3,7 +3,7 @@
 #include <string.h>
 
 #include "apps/commands.h"
-#include "apps/demo.h"
+#include "apps/demo/demo.h"
 #include "core/log.h"
 
 void pn_print_demo_help(void)

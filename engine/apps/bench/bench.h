@@ -1,7 +1,7 @@
 // penumbra bench: the state its files share and the functions they call across each other.
 //
-//   cmd_bench.c     help text and the command's entry (parse, device, scenes, reports)
-//   bench_opts.c    the command line and --gbuffer
+//   cmd_bench.c     the command's entry (parse, device, scenes, reports)
+//   bench_opts.c    the help text, the command line and --gbuffer
 //   bench_views.c   the standard views, and the scenes of --scenes
 //   bench_reference.c  the converged reference per view and size, cached on disk
 //   bench_matrix.c  one view's matrix: timed frames, the two errors, --work, --max-error
@@ -12,10 +12,10 @@
 #include <stdint.h>
 
 #include "apps/embree_peer.h"
-#include "apps/metrics.h"
+#include "shadow/metrics.h"
 #include "apps/quality.h"
 #include "apps/render_opts.h"
-#include "apps/setup.h"
+#include "shadow/setup.h"
 
 // A cell's mode name.
 #define MODE_NAME(m) (pn_shadow_mode_get(m)->name)
@@ -194,9 +194,6 @@ pn_result pn_bench_load_gbuffer(bench_opts *o);
 // ---------------------------------------------------------------------------------------------
 // The matrix (bench_matrix.c)
 
-
-// Median of v[0..n) (sorts v).
-double pn_bench_median(double *v, int n);
 
 // One view's matrix: appends (and prints) a row per cell; rtc may be NULL (no CPU peer). An exit code.
 int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const bench_view *view,

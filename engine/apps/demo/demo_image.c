@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "apps/demo.h"
-#include "apps/font.h"
+#include "apps/demo/demo.h"
+#include "apps/demo/font.h"
 #include "io/png.h"
 
 pn_result pn_demo_image_create(uint32_t width, uint32_t height, pn_demo_image *out)

@@ -7,25 +7,13 @@
 #include <string.h>
 
 #include "apps/args.h"
-#include "apps/bench.h"
-#include "apps/metrics.h"
+#include "apps/bench/bench.h"
+#include "shadow/metrics.h"
 #include "apps/quality.h"
-#include "apps/setup.h"
+#include "shadow/setup.h"
 #include "core/log.h"
 #include "core/timer.h"
 #include "io/exr.h"
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-double pn_bench_median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 // Renders warm-up and timed frames; fills the timing fields of `row` and leaves the last frame's
 // images in the renderer.
@@ -42,12 +30,12 @@ static pn_result time_frames_lights(const bench_opts *o, pn_renderer *r, const p
             return PN_ERR_VULKAN;
         g[i] = t.gbuffer_ms, s[i] = t.shadow_ms, f[i] = t.filter_ms, h[i] = t.shade_ms;
     }
-    row->gbuffer_ms = pn_bench_median(g, o->repeat);
+    row->gbuffer_ms = pn_time_median(g, o->repeat);
     // Without a filter the interval between the shadow and shading passes holds no work, only the
     // timestamps' own overhead: 0, so that an unfiltered cell's time is its shadow pass.
-    row->filter_ms = row->filter != PN_FILTER_NONE ? pn_bench_median(f, o->repeat) : 0.0;
-    row->shade_ms = pn_bench_median(h, o->repeat);
-    row->shadow_ms = pn_bench_median(s, o->repeat); // sorts s
+    row->filter_ms = row->filter != PN_FILTER_NONE ? pn_time_median(f, o->repeat) : 0.0;
+    row->shade_ms = pn_time_median(h, o->repeat);
+    row->shadow_ms = pn_time_median(s, o->repeat); // sorts s
     row->shadow_min_ms = s[0];
     row->shadow_max_ms = s[o->repeat - 1];
     return PN_OK;

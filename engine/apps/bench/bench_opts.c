@@ -1,5 +1,5 @@
-// penumbra bench's command line: the option parser, --scenes folders, and the G-buffer of
-// --shader shadow --gbuffer.
+// penumbra bench's command line: the help text, the option parser, --scenes folders, and the
+// G-buffer of --shader shadow --gbuffer.
 #include <dirent.h>
 #include <errno.h>
 #include <math.h>
@@ -9,7 +9,7 @@
 #include <sys/stat.h>
 
 #include "apps/args.h"
-#include "apps/bench.h"
+#include "apps/bench/bench.h"
 #include "apps/commands.h"
 #include "apps/render_opts.h"
 #include "core/log.h"
@@ -133,6 +133,69 @@ static bool add_view_arg(bench_opts *o, const char *name)
 }
 
 const char *const pn_bench_tree_kind_names[] = {"scene", "object", NULL};
+
+void pn_print_bench_help(void)
+{
+    printf("usage: penumbra bench [options]\n"
+           "  Renders a matrix of views x sizes x modes x trees x filters x samples per pixel, each cell\n"
+           "  with warm-up and repeated frames timed by GPU timestamps (median and spread), and measures\n"
+           "  two errors of its V over the pixels with geometry (MAE, RMSE, p99, max):\n"
+           "    reference: against the converged reference, exact at --reference-spp samples with a seed\n"
+           "               of its own (cached in OUT/reference): what the user sees, bias and noise;\n"
+           "    bias:      against exact with the same pixels and light samples: the mode's bias alone.\n"
+           "  Embree 3 traces exact's rays on all cores as the CPU peer. Writes a console table, bench.csv,\n"
+           "  bench.json, time_to_error.md (per mode the fastest cell reaching each error level) and a\n"
+           "  log-log plot of reference error vs shadow time per view and size with the Pareto front.\n"
+           "  --views V,...        standard views: bunny, dragon, buddha, sponza or all (default: all whose\n"
+           "                       mesh is in $PN_ASSETS, else ../shared/assets)\n"
+           "  --scenes A,B,...     other scenes (files, builtin:NAME, folders of .glb), framed as render does\n"
+           "  --modes M,...        of the modes that trace (default: all the device can run)\n"
+           "  --trees N,d:N,d:...  trees for the line-space modes (default 6,3:7,3:8,3)\n"
+           "  --tree-kinds K,...   scene, object: an axis of the matrix (default scene). scene: one tree\n"
+           "                       over the scene, culled by the view and light; object: a tree per mesh\n"
+           "                       in its own frame, shared by its instances, and a top level (mode\n"
+           "                       linespace only; see render --trees). Rows report what moving one\n"
+           "                       object costs each: a rebuild, or with per-object trees the top level's\n"
+           "                       rebuild and upload, timed\n"
+           "  --spp S,...          samples per pixel, an axis of the matrix (default 1,4,16,64,4:64);\n"
+           "                       MIN:MAX is an adaptive cell (render --spp MIN:MAX; no Embree peer)\n"
+           "  --pixel-error E      the adaptive cells' target standard error per pixel (default %.3g)\n"
+           "  --filter F,...       none, interleaved: an axis of the matrix (default both); a filtered cell's\n"
+           "                       time is its shadow pass plus its filter pass, and it reports the share of\n"
+           "                       pixels near edges of geometry whose error the filter grows by > 0.05\n"
+           "  --tile WxH           the filtered cells' interleaving tile and window, 1..8 each (default 3x3)\n"
+           "  --lights K,...       also time every configuration (first --spp and --filter) with K lights:\n"
+           "                       the view's light turned about the vertical through the scene's centre in\n"
+           "                       K even steps, light i with 2^-i of the first's radiance (together the\n"
+           "                       view's light's), over one scene-wide tree (the first of --trees)\n"
+           "                       built for the set, both --split even and budget with the set's radiance error against its converged reference;\n"
+           "                       frame time, its ratios to the view's light alone and to the set's lights\n"
+           "                       each alone, pools and build time (console and bench.json's \"lights\")\n"
+           "  --edge-images        per filtered cell, OUT/edge_<cell>.exr: shadow.V, shadow.V_raw, reference.V,\n"
+           "                       edge (0 away from edges, 1 edge, 2 within 2 px, 3 there with the error grown)\n"
+           "                       and the filter's inputs: P, N, Z, shadow.valid and shadow.penumbra\n"
+           "  --reference-spp S    samples of the converged reference (default %d)\n"
+           "  --seed S             the measured frames' random choices (default 1): another seed, another\n"
+           "                       draw of the samples, e.g. to see the errors' spread\n"
+           "  --size WxH,...       image sizes (default 512x512)\n"
+           "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"
+           "  --traversal auto|ray|packet  --sampler grid|stratified   (default auto, stratified)\n"
+           "  --out DIR            where the CSV, JSON, tables, plots and reference cache go (default bench-out)\n"
+           "  --reference-cache DIR   cache the converged references here instead of OUT/reference (runs\n"
+           "                       with other outputs share them; a file's name holds a hash of what it depends on)\n"
+           "  --no-embree          skip the CPU peer\n"
+           "  --shader shadow --gbuffer FILE.exr\n"
+           "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"
+           "                       (render --aovs of the same scene); the size is the EXR's\n"
+           "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
+           "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
+           "                       stack; their distribution is printed and written as EXR layers work.*\n"
+           "  --max-error E,...    also run --quality auto at each budget (reference MAE), render its pick at\n"
+           "                       full size and compare it with the matrix's fastest cell within the budget\n"
+           "  --quick              a small matrix (the bunny view or builtin:default, 256x256, 4 and 16 spp,\n"
+           "                       LS(6,3) and LS(7,3), 3 repeats)\n",
+           (double)PN_DEFAULT_PIXEL_ERROR, PN_REFERENCE_SPP);
+}
 
 int pn_bench_parse(int argc, char **argv, bench_opts *o)
 {

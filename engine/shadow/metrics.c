@@ -1,9 +1,10 @@
+// Error measures of one image against another: MAE, RMSE, percentiles, and the filter's edge leak.
 #include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "apps/metrics.h"
+#include "shadow/metrics.h"
 
 static int cmp_float(const void *a, const void *b)
 {

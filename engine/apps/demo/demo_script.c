@@ -5,7 +5,7 @@
 #include <string.h>
 #include <sys/types.h>
 
-#include "apps/demo.h"
+#include "apps/demo/demo.h"
 
 static bool parse_uint(const char *s, uint32_t *out)
 {

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "apps/bench.h"
+#include "apps/bench/bench.h"
 #include "core/log.h"
 
 // Offsets are in units of r from c. The three Table-1 meshes: the object fills most of the frame,

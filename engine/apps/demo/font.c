@@ -1,4 +1,5 @@
-#include "apps/font.h"
+// The demo's built-in 5x7 bitmap font and the text drawing of its overlay.
+#include "apps/demo/font.h"
 
 // Column-major: byte k is column k of the glyph, bit r its row r (bit 0 at the top). The classic
 // 5x7 dot-matrix design of character LCDs.

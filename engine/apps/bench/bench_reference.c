@@ -15,7 +15,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "apps/bench.h"
+#include "apps/bench/bench.h"
 #include "core/log.h"
 #include "gpu/gbuffer_pass.h"
 #include "core/timer.h"

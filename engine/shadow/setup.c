@@ -1,4 +1,6 @@
-#include "apps/setup.h"
+// What a shadow mode needs built for a scene and its lights, built, uploaded and bound to a
+// renderer.
+#include "shadow/setup.h"
 
 #include <math.h>
 #include <string.h>

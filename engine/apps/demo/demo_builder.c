@@ -4,7 +4,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "apps/demo.h"
+#include "apps/demo/demo.h"
 #include "core/timer.h"
 
 // The parts of `s` a move changes (pn_scene_move_object: vertices, object transforms, bounds) copied
