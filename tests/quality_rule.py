@@ -22,7 +22,7 @@ def f32(x):
 
 def adaptive_error(budget, k):
     """quality.c: adaptive_error, the adaptive climb's k-th pixel error."""
-    return f32(min(1.0, budget * 32.0 / (1 << k)))
+    return f32(budget * 32.0 / (1 << k))
 
 
 def key(t):

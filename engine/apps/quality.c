@@ -86,6 +86,8 @@ static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, d
     p->sd.frame.height = (uint32_t)fmax(1.0, round(frame->height * scale));
     p->sd.frame.dump_rays = false;
     p->sd.frame.count_work = false;
+    p->sd.frame.spp_min = 0; // uniform unless a pilot says otherwise (and the references always)
+    p->sd.frame.pixel_error = 0;
     p->px = (size_t)p->sd.frame.width * p->sd.frame.height;
     p->reference_spp = reference_spp;
     p->ref = malloc(p->px * sizeof *p->ref);
@@ -292,8 +294,9 @@ void pn_quality_write_tried(FILE *f, const pn_quality_choice *q)
 // stop with almost none, so the MAE over the picture is a fraction of that, about the share of
 // pixels in penumbra. Measured, MAE / E: 0.04 (builtin:default, 128x96), 0.09-0.2 (bunny and
 // dragon views, 512x512, E 0.02-0.1). So the climb starts where nearly every pixel stops after its
-// first round and halves E down to the budget itself (a picture of penumbrae).
-static float adaptive_error(double budget, int k) { return (float)fmin(1.0, budget * 32.0 / (double)(1 << k)); }
+// first round and halves E down to the budget itself (a picture of penumbrae). Above 1 (budgets
+// over 1/32) E only lets every pixel stop that has a valid half: no clamp, so no step repeats.
+static float adaptive_error(double budget, int k) { return (float)(budget * 32.0 / (double)(1 << k)); }
 
 // The climb's state over one set-up: the pick so far lives in the choice.
 typedef struct climb {
@@ -383,9 +386,11 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     out->pilot_height = pilot.sd.frame.height;
     out->reference_ms = pilot.reference_ms;
     climb c = {dev, scene, cam, light, max_error, &pilot, &big, out, false};
-    // Adaptive samples need the stratified sampler's Sobol' draws (pn_shadow_check_adaptive), and
-    // a budget of 0 is met by nothing.
-    bool adaptive = frame->sampler == PN_SAMPLER_STRATIFIED && max_error > 0 && !pn_light_is_point(light);
+    // Adaptive samples need the stratified sampler's Sobol' draws, the even split and no ray dump
+    // (pn_shadow_check_adaptive: the frame's own options must allow the pick), and a budget of 0 is
+    // met by nothing.
+    bool adaptive = frame->sampler == PN_SAMPLER_STRATIFIED && frame->split == PN_SPLIT_EVEN && !frame->dump_rays &&
+                    max_error > 0 && !pn_light_is_point(light);
     pn_setup_desc sd = pilot.sd;
     sd.frame.spp_min = 0;
     sd.frame.pixel_error = 0;

@@ -262,7 +262,7 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         vkCmdCopyImageToBuffer(cmd, shadow[i]->image, SRC, r->readback.buffer, 1, &copy);
     }
     // Back to the shadow pass's layout after the copy: a frame that continues this one's adaptive
-    // samples (pn_renderer_set_continue) keeps its counts and rays in GENERAL.
+    // samples (pn_renderer_set_continue) takes counts, half counts and rays from GENERAL.
     VkImageMemoryBarrier2 back[2] = {
         pn_gpu_image_barrier(&r->shadow.counts, COPY, VK_ACCESS_2_NONE, COMPUTE, STORAGE, SRC, GENERAL),
         pn_gpu_image_barrier(&r->shadow.rays, COPY, VK_ACCESS_2_NONE, COMPUTE, STORAGE, SRC, GENERAL),
@@ -433,9 +433,12 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
     // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).
     bool adaptive_one = r->rays_written && light_count == 1;
-    r->shadow.resume_from = r->continue_next && adaptive_one && r->continuable_spp && samples[0] > r->continuable_spp
+    bool same = r->continuable_spp_min == r->desc.spp_min && r->continuable_seed == r->desc.seed;
+    r->shadow.resume_from = r->continue_next && adaptive_one && same && r->continuable_spp &&
+                                    samples[0] > r->continuable_spp
                                 ? r->continuable_spp
                                 : 0;
+    r->resumed = r->shadow.resume_from != 0;
     r->continue_next = false;
     r->continuable_spp = 0; // until this frame has ended
     // llvmpipe: the frame is recorded again only when the shadow pass ran out of the loop budget
@@ -455,9 +458,11 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         PN_TRY(pn_shadow_pass_end_frame(&r->shadow, &retry));
         // A continued frame cut short has added to the counts it resumed from: its retry is a
         // frame of its own, from the first samples.
+        r->resumed = r->resumed && !retry;
         r->shadow.resume_from = 0;
     }
     r->continuable_spp = adaptive_one ? samples[0] : 0;
+    r->continuable_spp_min = r->desc.spp_min, r->continuable_seed = r->desc.seed;
 
     uint64_t ts[TS_COUNT];
     uint32_t used = TS_LIGHT + 3 * light_count;

@@ -29,11 +29,13 @@ typedef struct pn_renderer {
     VkCommandBuffer cmd;
     uint32_t light_count; // of the last frame
     bool rays_written;    // its last light was sampled adaptively: the shadow pass's rays image holds it
-    // pn_renderer_set_continue: the next frame continues the last one's adaptive samples; and the
+    // pn_renderer_set_continue: the next frame continues the last one's adaptive samples; the
     // most samples a pixel of the last frame could take, where that frame can be continued (one
-    // light, sampled adaptively), else 0.
+    // light, sampled adaptively), else 0, with its first round and seed (a frame with others is
+    // one of its own); and whether the last frame did continue the one before.
     bool continue_next;
-    uint32_t continuable_spp;
+    uint32_t continuable_spp, continuable_spp_min, continuable_seed;
+    bool resumed;
 } pn_renderer;
 
 // Uploads the scene and creates targets and pipelines as `desc` says.
@@ -91,8 +93,9 @@ pn_result pn_renderer_set_adaptive(pn_renderer *r, uint32_t spp_min, uint32_t sp
 // continues the samples of the one before instead of drawing its own, where that one sampled its
 // one light adaptively and this one raises the most samples (pn_renderer_set_adaptive): every
 // pixel keeps its counts, and the rounds go on from them under the new pixel error and most, so
-// rays go only to the pixels still uncertain. The caller keeps the camera, light, seed and scene
-// as they were (else the counts are another picture's). Otherwise the frame is one of its own.
+// rays go only to the pixels still uncertain. A frame with another seed or first round is one of
+// its own; the caller keeps the camera, light and scene as they were (else the counts are another
+// picture's). Otherwise the frame is one of its own. pn_renderer.resumed tells which it was.
 void pn_renderer_set_continue(pn_renderer *r, bool on);
 
 // PN_OK if desc's split goes with its filter, sampler and ray dump; else logs why (the command

@@ -319,7 +319,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     // at least doubles, so after log2(MAX / MIN) rounds every pixel is done; the last decision only
     // gives the final estimates. Resumed, the first round is the previous frame's and the rounds
     // that follow it are only those from its most samples to this frame's: a pixel that stopped
-    // early there doubles once per frame from where it stopped. The first decision runs over the
+    // early there doubles once per round from where it stopped. The first decision runs over the
     // whole image (list_in 0) and writes every pixel's V from its counts, as V is rewritten every
     // frame (renderer.c discards it) and a pixel that goes on no more traces nothing.
     if (!resume)

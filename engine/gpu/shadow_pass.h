@@ -26,9 +26,9 @@ typedef struct pn_shadow_pass {
     uint32_t tiles_across, tile_total; // PN_WORKGROUP-square tiles across the image, and in all
     uint32_t width, height;
     uint32_t spp_min; // adaptive sampling's first round (desc.spp_min at the last update), 0: off
-    // Adaptive sampling continued from the previous frame (pn_renderer_set_continue): the most
-    // samples a pixel of that frame took; the next record keeps every pixel's counts and resumes the
-    // rounds from them. 0: a frame of its own.
+    // Adaptive sampling continued from the previous frame (pn_renderer_set_continue): that frame's
+    // most samples (its spp); the next record keeps every pixel's counts and resumes the rounds
+    // from them. 0: a frame of its own.
     uint32_t resume_from;
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.

@@ -209,43 +209,12 @@ static pn_result apply_moves(pn_demo *d)
 // ---------------------------------------------------------------------------------------------
 // Frames
 
-// Progressive refinement with adaptive samples (--spp MIN:MAX, one light, a mode that traces; not
-// in the error view, whose exact renderer must draw the same samples): instead of averaging frames
-// of new samples, each frame continues the last one's (pn_renderer_set_continue) with twice the
-// most samples and the pixel error over sqrt(2) (a pixel's samples double, so its standard error
-// can fall by that), so the rays go to the pixels still uncertain and none to those already
-// settled (lit, umbra, or a penumbra within the error). Frame k: MAX x 2^k up to
-// REFINE_MAX_SAMPLES, then the image is held.
-enum { REFINE_MAX_SAMPLES = 4096 };
-
-static bool refines_adaptively(const pn_demo *d)
-{
-    return d->accumulate && d->opts.spp_min && d->light_count == 1 && d->view != PN_DEMO_ERROR &&
-           pn_shadow_mode_get(d->opts.mode)->traces;
-}
-
-// Frames to average before holding the image. The grid sampler and a fixed seed repeat the same
-// samples, so their first frame is final; adaptive refinement holds once its most samples would
-// pass REFINE_MAX_SAMPLES.
-static uint32_t accumulate_limit(const pn_demo *d)
-{
-    if (!d->accumulate)
-        return UINT32_MAX; // every frame renders anew (live timings), each on its own
-    if (refines_adaptively(d)) {
-        uint32_t frames = 1;
-        for (long long spp = d->opts.spp * 2; spp <= REFINE_MAX_SAMPLES; spp *= 2)
-            frames++;
-        return frames < d->accumulate_max ? frames : d->accumulate_max;
-    }
-    return d->opts.sampler == PN_SAMPLER_GRID ? 1 : d->accumulate_max;
-}
-
 static pn_result render(pn_demo *d)
 {
     if (d->restart || !d->accumulate)
         d->image.frames = 0;
     d->restart = false;
-    bool refine = refines_adaptively(d), continued = refine && d->image.frames > 0;
+    bool refine = pn_demo_refines_adaptively(d), continued = refine && d->image.frames > 0;
     // A new seed per accumulated frame: new stratified light samples (frame 0 uses --seed, as render).
     // Refined adaptively, the same seed: the frame continues the same samples.
     uint32_t seed = (uint32_t)d->opts.seed + (refine ? 0 : d->image.frames);
@@ -289,8 +258,10 @@ static pn_result render(pn_demo *d)
     }
     s->rays_per_s = 0;
     if (frame.rays && d->light_count == 1) {
-        // Adaptive: the rays the pixels took (in all, when continued: this frame's are the new ones).
-        s->rays_per_s = s->times.shadow_ms > 0 ? (double)(rays - d->refined_rays) / (s->times.shadow_ms * 1e-3) : 0;
+        // Adaptive: the rays the pixels took (in all, when the frame resumed the last one's: this
+        // frame's are the new ones).
+        uint64_t before = d->renderer.resumed && rays >= d->refined_rays ? d->refined_rays : 0;
+        s->rays_per_s = s->times.shadow_ms > 0 ? (double)(rays - before) / (s->times.shadow_ms * 1e-3) : 0;
         d->refined_rays = refine ? rays : 0;
     } else {
         for (uint32_t i = 0; i < d->light_count; i++)
@@ -330,16 +301,16 @@ static void save_frame(pn_demo *d)
     const pn_exr_attr extra[] = {
         {.name = "penumbra.demo.accumulated_frames", .type = PN_EXR_ATTR_INT, .i = (int32_t)d->image.frames},
         {.name = "penumbra.demo.seeds", .type = PN_EXR_ATTR_STRING,
-         .s = refines_adaptively(d) ? "seed (adaptive samples continued over the accumulated frames)"
+         .s = pn_demo_refines_adaptively(d) ? "seed (adaptive samples continued over the accumulated frames)"
               : d->image.frames > 1 ? "seed .. seed + accumulated_frames - 1, one per frame"
                                     : "seed"},
         {.name = "penumbra.demo.view", .type = PN_EXR_ATTR_STRING, .s = VIEWS[d->view]},
         // Refined adaptively: the most samples and the pixel error of the frame saved (render_lights'
         // penumbra.spp and penumbra.pixel_error are the first frame's).
         {.name = "penumbra.demo.refined_spp", .type = PN_EXR_ATTR_INT,
-         .i = refines_adaptively(d) ? (int32_t)d->renderer.desc.spp : 0},
+         .i = pn_demo_refines_adaptively(d) ? (int32_t)d->renderer.desc.spp : 0},
         {.name = "penumbra.demo.refined_pixel_error", .type = PN_EXR_ATTR_FLOAT,
-         .f = {refines_adaptively(d) ? d->renderer.desc.pixel_error : 0.0f}},
+         .f = {pn_demo_refines_adaptively(d) ? d->renderer.desc.pixel_error : 0.0f}},
         {.name = "penumbra.demo.cells_overlay", .type = PN_EXR_ATTR_INT, .i = d->cells},
         {.name = "penumbra.exposure", .type = PN_EXR_ATTR_FLOAT, .f = {d->opts.exposure}},
         {.name = "penumbra.pool_bytes", .type = PN_EXR_ATTR_FLOAT, .f = {(float)pn_shadow_accel_gpu_bytes(&d->accel)}},
@@ -545,7 +516,7 @@ static int run(pn_demo *d, const pn_demo_opts *o, pn_demo_script *script)
         uint64_t t0 = pn_time_ns();
         d->stats.move_ms = 0;
         const char *shot = apply_script(d, script);
-        bool held = d->image.frames >= accumulate_limit(d) && !d->restart && !d->renderer_dirty;
+        bool held = d->image.frames >= pn_demo_accumulate_limit(d) && !d->restart && !d->renderer_dirty;
         bool building = atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE;
         // Nothing to refine: wait for input instead of spinning (still wakes for the build's progress).
         if (held && !building && !shot && !d->save && !o->frames)
@@ -571,7 +542,7 @@ static int run(pn_demo *d, const pn_demo_opts *o, pn_demo_script *script)
 
         uint64_t t1 = pn_time_ns();
         d->stats.building = atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE;
-        held = d->image.frames >= accumulate_limit(d) && !d->restart;
+        held = d->image.frames >= pn_demo_accumulate_limit(d) && !d->restart;
         if (!held) {
             if (render(d) != PN_OK)
                 return PN_EXIT_FAILURE;

@@ -59,6 +59,13 @@ void pn_demo_image_destroy(pn_demo_image *img);
 // pn_renderer_set_continue): it becomes the image, and the frame count goes on.
 void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact, bool replace);
 
+struct pn_demo;
+// Whether accumulation refines by continuing adaptive samples (--spp MIN:MAX, one light, a mode
+// that traces; not in the error view, whose exact renderer must draw the same samples), and how
+// many frames accumulate before the image is held.
+bool pn_demo_refines_adaptively(const struct pn_demo *d);
+uint32_t pn_demo_accumulate_limit(const struct pn_demo *d);
+
 // ---------------------------------------------------------------------------------------------
 // N-tree builds on a worker thread (demo_builder.c). The worker only runs pn_shadow_accel_build
 // (CPU, no Vulkan); the frame loop uploads the result and swaps it in.

@@ -41,6 +41,36 @@ void pn_demo_image_destroy(pn_demo_image *img)
     memset(img, 0, sizeof *img);
 }
 
+// Progressive refinement with adaptive samples (demo.h): instead of averaging frames
+// of new samples, each frame continues the last one's (pn_renderer_set_continue) with twice the
+// most samples and the pixel error over sqrt(2) (a pixel's samples double, so its standard error
+// can fall by that), so the rays go to the pixels still uncertain and none to those already
+// settled (lit, umbra, or a penumbra within the error). Frame k: MAX x 2^k up to
+// REFINE_MAX_SAMPLES, then the image is held.
+enum { REFINE_MAX_SAMPLES = 4096 };
+
+bool pn_demo_refines_adaptively(const pn_demo *d)
+{
+    return d->accumulate && d->opts.spp_min && d->light_count == 1 && d->view != PN_DEMO_ERROR &&
+           pn_shadow_mode_get(d->opts.mode)->traces;
+}
+
+// Frames to average before holding the image. The grid sampler and a fixed seed repeat the same
+// samples, so their first frame is final; adaptive refinement holds once its most samples would
+// pass REFINE_MAX_SAMPLES.
+uint32_t pn_demo_accumulate_limit(const pn_demo *d)
+{
+    if (!d->accumulate)
+        return UINT32_MAX; // every frame renders anew (live timings), each on its own
+    if (pn_demo_refines_adaptively(d)) {
+        uint32_t frames = 1;
+        for (long long spp = d->opts.spp * 2; spp <= REFINE_MAX_SAMPLES; spp *= 2)
+            frames++;
+        return frames < d->accumulate_max ? frames : d->accumulate_max;
+    }
+    return d->opts.sampler == PN_SAMPLER_GRID ? 1 : d->accumulate_max;
+}
+
 void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact, bool replace)
 {
     size_t px = (size_t)img->width * img->height;
@@ -233,7 +263,10 @@ static void params_text(const pn_demo *d, char *out, size_t n)
     if (mode->needs.tree && at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " LS(%d,%d)%s %s", d->accel.desc.tree_n, d->accel.desc.tree_d,
                        d->accel.desc.per_object ? " per object" : "", pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal)]);
-    if (at >= 0 && (size_t)at < n)
+    if (at >= 0 && (size_t)at < n && o->spp_min) // adaptive: the most of the frame shown (refined: raised)
+        at += snprintf(out + at, n - (size_t)at, " %s %lld:%u spp%s", pn_sampler_names[o->sampler], o->spp_min,
+                       d->renderer.desc.spp, o->filter != PN_FILTER_NONE ? " filtered" : "");
+    else if (at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " %s %lld spp%s", pn_sampler_names[o->sampler], o->spp,
                        o->filter != PN_FILTER_NONE ? " filtered" : "");
     if (d->light_count > 1 && at >= 0 && (size_t)at < n) // which light the light keys move
@@ -298,8 +331,9 @@ void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra)
         if (!d->accumulate)
             ADD("accumulation off\n");
         else
-            ADD("accumulated %u of %u frames%s\n", d->image.frames, d->accumulate_max,
-                d->image.frames >= d->accumulate_max ? " (held)" : "");
+            ADD("accumulated %u of %u frames%s%s\n", d->image.frames, pn_demo_accumulate_limit(d),
+                pn_demo_refines_adaptively(d) ? " (adaptive samples continued)" : "",
+                d->image.frames >= pn_demo_accumulate_limit(d) ? " (held)" : "");
         ADD("view %s%s\n", view_name(d), d->cells ? " + tree cells" : "");
         if (d->scene.object_count > 0) {
             // What a move costs the frame: per-object trees rebuild the top level only.
