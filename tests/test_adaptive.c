@@ -187,12 +187,7 @@ static void check_not_adaptive(const char *label, const char *args)
 
 int main(void)
 {
-    snprintf(g_scene, sizeof g_scene, "%s/stanford-bunny-69k.glb", pn_test_env("PN_ASSETS", "../shared/assets"));
-    FILE *f = fopen(g_scene, "rb");
-    if (f)
-        fclose(f);
-    else
-        snprintf(g_scene, sizeof g_scene, "builtin:default");
+    pn_test_scene(g_scene, sizeof g_scene, "stanford-bunny-69k.glb");
     check_bad_input();
     check_rounds_add_up("exact");
     check_rounds_add_up("linespace");

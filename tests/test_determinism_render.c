@@ -264,12 +264,7 @@ int main(void)
     setvbuf(stdout, NULL, _IOLBF, 0);
     uint64_t t0 = pn_time_ns();
     char scene[1024];
-    snprintf(scene, sizeof scene, "%s/stanford-bunny-69k.glb", pn_test_env("PN_ASSETS", "../shared/assets"));
-    FILE *f = fopen(scene, "rb");
-    if (f)
-        fclose(f);
-    else
-        snprintf(scene, sizeof scene, "builtin:default");
+    pn_test_scene(scene, sizeof scene, "stanford-bunny-69k.glb");
     printf("scene: %s\n", scene);
 
     static const struct {

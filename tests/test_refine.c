@@ -12,8 +12,9 @@
 //     and some stop, or the check proves nothing.
 //  3. The picture converges: against a converged reference (exact, 1024 samples, another seed), the
 //     MAE of V falls from the first frame to the third continued one.
-//  4. Continuing is only ever a choice: a uniform frame, or one that does not raise the most
-//     samples, asked to continue, is a frame of its own (bit for bit).
+//  4. Continuing is only ever a choice: a uniform frame, one that does not raise the most samples, or
+//     one of another seed, asked to continue, is a frame of its own (pn_renderer.resumed false, and
+//     bit for bit where the samples are the same); in 1. the continued frame did resume.
 // The scene is the Stanford bunny from ../shared/assets (builtin:default without it) on its ground,
 // 128 x 96; validation layer on, any message fails.
 #include "shadow/metrics.h"
@@ -79,8 +80,11 @@ static void check_frames_add_up(pn_gpu_device *dev, const pn_scene *scene, const
     bool ok = render(&s, cam, light, f) && pn_renderer_set_adaptive(&s.renderer, 4, 32, 0.0f) == PN_OK;
     pn_renderer_set_continue(&s.renderer, true);
     ok = ok && render(&s, cam, light, f);
+    bool resumed = s.renderer.resumed; // else the two frames below are both of their own: equal anyway
     pn_renderer_set_continue(&s.renderer, false);
     ok = ok && render(&s, cam, light, g); // 4:32 in one frame, same set-up and seed
+    CHECK_MSG(!ok || (resumed && !s.renderer.resumed), "%s: the continued frame did not resume (%d), or the one "
+              "not asked to did (%d)", name, resumed, s.renderer.resumed);
     pn_setup_destroy(dev, &s);
     if (!ok)
         return;
@@ -204,25 +208,30 @@ static void check_not_continued(pn_gpu_device *dev, const pn_scene *scene, const
     pn_renderer_set_continue(&s.renderer, true);
     ok = ok && render(&s, cam, light, g);
     if (ok)
-        CHECK_MSG(differing_v(f, g) == 0, "a frame asked to continue without more samples differs from its own");
+        CHECK_MSG(!s.renderer.resumed && differing_v(f, g) == 0,
+                  "a frame asked to continue without more samples resumed, or differs from its own");
     // Uniform samples: nothing adaptive to continue.
     ok = ok && pn_renderer_set_adaptive(&s.renderer, 0, 16, 0.05f) == PN_OK && render(&s, cam, light, f);
     pn_renderer_set_continue(&s.renderer, true);
     ok = ok && render(&s, cam, light, g);
     if (ok)
-        CHECK_MSG(differing_v(f, g) == 0 && !g->has_rays, "a uniform frame asked to continue differs from its own");
+        CHECK_MSG(!s.renderer.resumed && differing_v(f, g) == 0 && !g->has_rays,
+                  "a uniform frame asked to continue resumed, or differs from its own");
+    // Another seed: the counts are another draw's.
+    ok = ok && pn_renderer_set_adaptive(&s.renderer, 4, 16, 0.05f) == PN_OK && render(&s, cam, light, f);
+    pn_renderer_set_seed(&s.renderer, 6);
+    ok = ok && pn_renderer_set_adaptive(&s.renderer, 4, 32, 0.05f) == PN_OK;
+    pn_renderer_set_continue(&s.renderer, true);
+    ok = ok && render(&s, cam, light, g);
+    if (ok)
+        CHECK_MSG(!s.renderer.resumed, "a frame of another seed asked to continue resumed the last one's counts");
     pn_setup_destroy(dev, &s);
 }
 
 int main(void)
 {
     char path[1024];
-    snprintf(path, sizeof path, "%s/stanford-bunny-69k.glb", pn_test_env("PN_ASSETS", "../shared/assets"));
-    FILE *file = fopen(path, "rb");
-    if (file)
-        fclose(file);
-    else
-        snprintf(path, sizeof path, "builtin:default");
+    pn_test_scene(path, sizeof path, "stanford-bunny-69k.glb");
     pn_scene scene;
     if (pn_scene_load(path, &scene) != PN_OK) {
         CHECK_MSG(false, "%s", path);

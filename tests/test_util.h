@@ -62,6 +62,18 @@ static inline const char *pn_test_tmp(const char *file)
     return b;
 }
 
+// A mesh from the shared assets ($PN_ASSETS, else ../shared/assets) when it is there, else
+// builtin:default: the tests run on a machine without the assets too.
+static inline void pn_test_scene(char *out, size_t n, const char *asset)
+{
+    snprintf(out, n, "%s/%s", pn_test_env("PN_ASSETS", "../shared/assets"), asset);
+    FILE *f = fopen(out, "rb");
+    if (f)
+        fclose(f);
+    else
+        snprintf(out, n, "builtin:default");
+}
+
 // Runs "$PN_BIN <args>" through the shell; returns the exit status (or -1).
 static inline int pn_test_run(const char *args)
 {

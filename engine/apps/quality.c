@@ -392,8 +392,6 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     bool adaptive = frame->sampler == PN_SAMPLER_STRATIFIED && frame->split == PN_SPLIT_EVEN && !frame->dump_rays &&
                     max_error > 0 && !pn_light_is_point(light);
     pn_setup_desc sd = pilot.sd;
-    sd.frame.spp_min = 0;
-    sd.frame.pixel_error = 0;
     pn_setup s;
     for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
         const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
@@ -440,8 +438,6 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                     break;
                 prev_mae = mae;
             }
-            sd.frame.spp_min = 0;
-            sd.frame.pixel_error = 0;
             pn_setup_destroy(dev, &s);
         }
     }

@@ -298,7 +298,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     uint32_t spp = s->mode->traces ? samples : 1;
-    bool resume = s->resume_from && pn_shadow_adaptive(s, spp) && spp > s->resume_from;
+    bool resume = s->resume_from != 0; // the renderer sets it only for an adaptive frame with more samples
     // The counts and the adaptive images are rewritten from the first chunk on: discard what the
     // previous frame (or light) left; resumed, keep it, after all of that frame's work on them.
     VkImageMemoryBarrier2 fresh[3];
@@ -320,8 +320,8 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     // gives the final estimates. Resumed, the first round is the previous frame's and the rounds
     // that follow it are only those from its most samples to this frame's: a pixel that stopped
     // early there doubles once per round from where it stopped. The first decision runs over the
-    // whole image (list_in 0) and writes every pixel's V from its counts, as V is rewritten every
-    // frame (renderer.c discards it) and a pixel that goes on no more traces nothing.
+    // whole image (list_in 0) and writes every pixel's V from its counts (.first), as V is rewritten
+    // every frame (renderer.c discards it) and a pixel that goes on no more traces nothing.
     if (!resume)
         record_samples(cmd, s, 0, s->spp_min, 0, light);
     uint32_t rounds = 0;
@@ -334,7 +334,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
         // The last decision only reports (.last): a pixel's rays are the samples it took.
         dispatch(cmd, s,
                  &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out,
-                                    .last = decision > rounds});
+                                    .first = resume && decision == 1, .last = decision > rounds});
         if (decision > rounds)
             break;
         between_dispatches(cmd);

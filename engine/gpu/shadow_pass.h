@@ -28,7 +28,8 @@ typedef struct pn_shadow_pass {
     uint32_t spp_min; // adaptive sampling's first round (desc.spp_min at the last update), 0: off
     // Adaptive sampling continued from the previous frame (pn_renderer_set_continue): that frame's
     // most samples (its spp); the next record keeps every pixel's counts and resumes the rounds
-    // from them. 0: a frame of its own.
+    // from them. 0: a frame of its own. Set by the renderer, only where the frame samples adaptively
+    // with more samples than that.
     uint32_t resume_from;
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.

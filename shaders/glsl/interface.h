@@ -279,7 +279,8 @@ PN_STRUCT(FilterPush, pn_filter_push) {
 PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
     PN_UINT(sample_begin) // light samples [sample_begin, sample_end) in this dispatch
     PN_UINT(sample_end)
-    PN_UINT(first)        // 1: counts start at zero
+    PN_UINT(first)        // 1: counts start at zero; with decide: it opens a frame that resumes the
+                          // previous one's rounds, and writes every pixel's V
     PN_UINT(last)         // 1: write V = visible / valid; with decide: the frame's last decision,
                           // which only reports (a pixel's rays: the samples it took)
     PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes

@@ -251,6 +251,10 @@ float penumbra_width(vec3 o, float t)
     return t < 1.0 ? side * (t / (1.0 - t)) : PN_PENUMBRA_NONE;
 }
 
+// V from the pixel's (visible, valid) counts: 1 without a valid ray (the light does not reach it,
+// or its rays missed the sliver that does; shadow_finish tells the two apart for the filter).
+float counts_v(uvec2 counts) { return counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0; }
+
 // Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid.
 void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
 {
@@ -306,7 +310,7 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     float w = pixel_last ? penumbra_width(o, blocked_rays > 0u ? t_sum / float(blocked_rays) : 1.0) : t_sum;
     imageStore(img_counts, px, uvec4(counts, reaches, floatBitsToUint(w)));
     if (pixel_last)
-        imageStore(img_v, px, vec4(counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0));
+        imageStore(img_v, px, vec4(counts_v(counts)));
 }
 
 // Adaptive sampling (--spp MIN:MAX): every pixel traces MIN samples, then rounds in which the
@@ -337,13 +341,13 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
 // the choice open (shadow_pixel).
 void adaptive_decide(ivec2 px)
 {
-    // A decision over the whole image (after the first round, or first in a frame that resumes the
-    // previous one's rounds) writes every pixel's V from its counts: the same value the round
-    // wrote, and in a resumed frame the V of pixels that trace nothing more.
-    bool whole = chunk.list_in == 0u;
+    // The decision that opens a frame resuming the previous one's rounds (chunk.first) writes every
+    // pixel's V from the counts that frame left: V is rewritten every frame, and a pixel that goes on
+    // no more traces nothing in this one.
+    bool opens = chunk.first != 0u;
     if (imageLoad(img_p, px).w <= 0.0) {
         imageStore(img_rays, px, uvec4(0u, 0u, 1u, 0u));
-        if (whole)
+        if (opens)
             imageStore(img_v, px, vec4(0.0));
         return;
     }
@@ -351,8 +355,8 @@ void adaptive_decide(ivec2 px)
     // round just ended (shadow_invocation_pixel): a pixel that stopped earlier keeps its decision.
     uint done = imageLoad(img_adapt, px).w;
     uvec4 c = imageLoad(img_counts, px);
-    if (whole)
-        imageStore(img_v, px, vec4(c.y > 0u ? float(c.x) / float(c.y) : 1.0));
+    if (opens)
+        imageStore(img_v, px, vec4(counts_v(c.xy)));
     bool unanimous = c.y > 0u && (c.x == 0u || c.x == c.y), agree = true;
     ivec2 size = imageSize(img_v);
     float var_sum = 0.0;
