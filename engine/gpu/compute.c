@@ -37,6 +37,29 @@ pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, 
     return PN_OK;
 }
 
+pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, VkPipelineLayout layout, const uint32_t *spirv, size_t spirv_size,
+                                  const VkSpecializationInfo *spec, VkPipeline *out)
+{
+    VkShaderModule module = VK_NULL_HANDLE;
+    PN_TRY(pn_gpu_shader_module(dev, spirv, spirv_size, &module));
+    VkComputePipelineCreateInfo ci = {
+        .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                  .stage = VK_SHADER_STAGE_COMPUTE_BIT,
+                  .module = module,
+                  .pName = "main",
+                  .pSpecializationInfo = spec},
+        .layout = layout,
+    };
+    VkResult vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, out);
+    vkDestroyShaderModule(dev->device, module, NULL);
+    if (vr != VK_SUCCESS) {
+        pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
+        return PN_ERR_VULKAN;
+    }
+    return PN_OK;
+}
+
 pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out)
 {
     memset(out, 0, sizeof *out);
@@ -52,29 +75,11 @@ pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *d
             b[i].descriptorCount = 1;
         sizes[i] = (VkDescriptorPoolSize){b[i].descriptorType, b[i].descriptorCount};
     }
-    VkShaderModule module = VK_NULL_HANDLE;
     pn_result r = pn_gpu_set_layout(dev, b, desc->binding_count, &out->set_layout);
     if (r == PN_OK)
         r = pn_gpu_pipeline_layout(dev, out->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, desc->push_size, &out->layout);
     if (r == PN_OK)
-        r = pn_gpu_shader_module(dev, desc->spirv, desc->spirv_size, &module);
-    if (r == PN_OK) {
-        VkComputePipelineCreateInfo ci = {
-            .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-            .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                      .stage = VK_SHADER_STAGE_COMPUTE_BIT,
-                      .module = module,
-                      .pName = "main",
-                      .pSpecializationInfo = desc->spec},
-            .layout = out->layout,
-        };
-        VkResult vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, &out->pipeline);
-        vkDestroyShaderModule(dev->device, module, NULL);
-        if (vr != VK_SUCCESS) {
-            pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
-            r = PN_ERR_VULKAN;
-        }
-    }
+        r = pn_gpu_compute_pipeline(dev, out->layout, desc->spirv, desc->spirv_size, desc->spec, &out->pipeline);
     if (r == PN_OK && desc->binding_count) {
         VkDescriptorPoolCreateInfo pi = {
             .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,

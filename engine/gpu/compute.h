@@ -12,6 +12,11 @@ pn_result pn_gpu_set_layout(pn_gpu_device *dev, const VkDescriptorSetLayoutBindi
 pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, VkShaderStageFlags stages,
                                  uint32_t push_size, VkPipelineLayout *out);
 
+// A compute pipeline of `spirv` with `layout` (spec may be NULL): pn_gpu_compute_create's, or
+// another specialisation of the same shader sharing a pass's layout and set.
+pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, VkPipelineLayout layout, const uint32_t *spirv, size_t spirv_size,
+                                  const VkSpecializationInfo *spec, VkPipeline *out);
+
 typedef struct pn_gpu_compute_desc {
     const uint32_t *spirv;
     size_t spirv_size; // bytes

@@ -429,6 +429,8 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
+    for (uint32_t i = 0; i < light_count; i++)
+        PN_TRY(pn_shadow_pass_prepare(dev, &r->shadow, samples[i]));
     // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
     // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).

@@ -61,6 +61,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                          .needs = {.bvh = true, .exact_pools = true},
                          .traces = true,
                          .exact = true,
+                         .packet_rays = true,
                          .auto_trees = 1},
     [PN_SHADOW_RAYQUERY] = {.name = "rayquery",
                             .help = "the device's ray queries (VK_KHR_ray_query; Mesa 25 lavapipe, RTX, RDNA2+, Arc)",

@@ -65,6 +65,9 @@ typedef struct pn_shadow_mode_info {
     // alone, in each object's frame. The others read candidate lists, leaf planes or the leaf size
     // of one world-space tree.
     bool objects;
+    // Its shader's packet walk unrolls its per-ray loops to the most rays a pixel has in a dispatch
+    // (PN_SPEC_PACKET_RAYS): the shadow pass makes a pipeline per size (exact).
+    bool packet_rays;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)
 } pn_shadow_mode_info;

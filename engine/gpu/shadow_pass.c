@@ -54,6 +54,12 @@ void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
     *grid_v = spp / u;
 }
 
+// The shadow shaders' specialisation (interface.h), in pn_shadow_pass.spec_data.
+static const VkSpecializationMapEntry SPEC_ENTRIES[4] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
+                                                         {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
+                                                         {.constantID = PN_SPEC_COUNT_WORK, .offset = 8, .size = 4},
+                                                         {.constantID = PN_SPEC_PACKET_RAYS, .offset = 12, .size = 4}};
+
 pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
                                 const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, pn_shadow_pass *out)
 {
@@ -87,11 +93,11 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
     int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal);
-    int32_t spec_data[3] = {traversal, out->mode->variant, desc->count_work ? 1 : 0};
-    VkSpecializationMapEntry entries[3] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
-                                           {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
-                                           {.constantID = PN_SPEC_COUNT_WORK, .offset = 8, .size = 4}};
-    VkSpecializationInfo spec = {.mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof spec_data, .pData = spec_data};
+    out->sized_rays = out->mode->packet_rays && traversal == PN_TRAVERSAL_PACKET_ID;
+    memcpy(out->spec_data, (int32_t[4]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK},
+           sizeof out->spec_data);
+    VkSpecializationInfo spec = {.mapEntryCount = 4, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof out->spec_data,
+                                 .pData = out->spec_data};
     const VkBufferUsageFlags ADDRESSED = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     uint64_t px = (uint64_t)desc->width * desc->height;
     pn_result r = pn_gpu_compute_create(dev,
@@ -163,6 +169,9 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
 
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
 {
+    for (int k = 0; k < PN_PACKET_RAY_SIZES; k++)
+        if (s->by_rays[k])
+            vkDestroyPipeline(dev->device, s->by_rays[k], NULL);
     pn_gpu_compute_destroy(dev, &s->compute);
     pn_gpu_image_destroy(dev, &s->counts);
     pn_gpu_image_destroy(dev, &s->adapt);
@@ -223,6 +232,43 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     memcpy(s->params.mapped, &sp, sizeof sp);
 }
 
+// k with 2^k the smallest power of two >= rays.
+static uint32_t rays_size(uint32_t rays)
+{
+    uint32_t k = 0;
+    while ((1u << k) < rays)
+        k++;
+    return k;
+}
+
+pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples)
+{
+    if (!s->sized_rays || !s->mode->traces)
+        return PN_OK;
+    // The dispatches' rays per pixel: the chunk's, or fewer in the frame's first (or only) round.
+    uint32_t rounds[2] = {pn_shadow_adaptive(s, samples) ? s->spp_min : samples, samples};
+    for (int i = 0; i < 2; i++) {
+        uint32_t k = rays_size(rounds[i] < s->chunk ? rounds[i] : s->chunk);
+        if ((1u << k) >= PN_MAX_CHUNK || s->by_rays[k])
+            continue; // compute.pipeline's, or made already
+        int32_t data[4];
+        memcpy(data, s->spec_data, sizeof data);
+        data[3] = (int32_t)(1u << k);
+        VkSpecializationInfo spec = {.mapEntryCount = 4, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
+        PN_TRY(pn_gpu_compute_pipeline(dev, s->compute.layout, s->mode->spirv, s->mode->spirv_size, &spec, &s->by_rays[k]));
+    }
+    return PN_OK;
+}
+
+// The pipeline for a dispatch of at most `rays` rays per pixel: the smallest made that holds them.
+static VkPipeline pipeline_for(const pn_shadow_pass *s, uint32_t rays)
+{
+    for (uint32_t k = rays_size(rays); s->sized_rays && (1u << k) < PN_MAX_CHUNK; k++)
+        if (s->by_rays[k])
+            return s->by_rays[k];
+    return s->compute.pipeline;
+}
+
 // Each dispatch reads the counts the previous one wrote (see ShadowChunk in interface.h), and an
 // indirect one its group count.
 static void between_dispatches(VkCommandBuffer cmd)
@@ -243,13 +289,15 @@ static void between_dispatches(VkCommandBuffer cmd)
 // of list ch.list_in - 1, as many groups as the list fills.
 static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch)
 {
+    pn_gpu_compute c = s->compute;
+    c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin);
     if (ch->list_in == 0) {
         uint32_t gy = s->tile_total / s->tiles_across;
-        pn_gpu_compute_dispatch(cmd, &s->compute, sizeof *ch, ch, s->tiles_across, gy, 1);
+        pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, s->tiles_across, gy, 1);
         return;
     }
     VkDeviceSize offset = (VkDeviceSize)(ch->list_in - 1) * PN_PIXEL_LIST_WORDS(s->tile_total) * 4;
-    pn_gpu_compute_dispatch_indirect(cmd, &s->compute, sizeof *ch, ch, s->lists.buffer, offset);
+    pn_gpu_compute_dispatch_indirect(cmd, &c, sizeof *ch, ch, s->lists.buffer, offset);
 }
 
 // Samples [begin, end) of every pixel in chunks; adaptively (list_in > 0), over the pixels of list

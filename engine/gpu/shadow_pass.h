@@ -9,9 +9,17 @@
 #include "gpu/resources.h"
 #include "scene/view.h"
 
+enum { PN_PACKET_RAY_SIZES = 6 }; // 1, 2, 4 .. PN_MAX_CHUNK (32) rays
+
 typedef struct pn_shadow_pass {
     const pn_shadow_mode_info *mode;
-    pn_gpu_compute compute;
+    pn_gpu_compute compute; // its pipeline is the one for PN_MAX_CHUNK rays
+    // A mode with packet_rays under packet traversal: by_rays[k] is the pipeline for at most 2^k
+    // rays of a pixel per dispatch, made when a frame first needs it (pn_shadow_pass_prepare);
+    // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits.
+    VkPipeline by_rays[PN_PACKET_RAY_SIZES];
+    int32_t spec_data[4];
+    bool sized_rays;
     pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
     pn_gpu_buffer status;   // llvmpipe: host-visible flag, a dispatch ran out of the loop budget
     pn_gpu_buffer ray_dump; // with desc.dump_rays
@@ -66,6 +74,10 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
 // Writes the frame's parameters (its 1..PN_MAX_LIGHTS lights, samples, pools); the queue must be idle.
 void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *lights,
                            uint32_t light_count);
+
+// After pn_shadow_pass_update, for each light's `samples` (pn_shadow_samples): makes the pipelines
+// its dispatches want that are not made yet (by_rays; nothing for other modes).
+pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples);
 
 // Whether a light of `samples` samples per pixel (pn_shadow_samples) is sampled adaptively:
 // rounds from desc.spp_min up to `samples` (a point light's single sample never is).

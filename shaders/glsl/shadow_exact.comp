@@ -1,5 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 // Exact soft shadows (--mode exact): every shadow ray is traced through the BVH with the watertight
 // triangle test; any hit blocks it. The ground truth of every error figure, and the baseline the
 // paper compared against (Aila and Laine style GPU traversal).
