@@ -71,7 +71,7 @@ expect 1 "index_range.gltf.*(out of range|range)" -- "${R[@]}" "$TMP/index_range
 expect 1 "nan.gltf.*(NaN|non-finite|finite)" -- "${R[@]}" "$TMP/nan.gltf"
 expect 1 "points.gltf.*no triangles" -- "${R[@]}" "$TMP/points.gltf"
 expect 1 "builtin:nope.*no such built-in" -- "${R[@]}" builtin:nope
-# Precision limits (README, "Accuracy at the extremes"): a scene float cannot resolve, a tree whose
+# Precision limits (engine/shadow/README.md, "Accuracy at the extremes"): a scene float cannot resolve, a tree whose
 # leaves it cannot resolve; a coarser tree and the exact mode render.
 expect 1 "far7.gltf.*only 1 float steps" -- "${R[@]}" "$TMP/far7.gltf"
 expect 1 "far4.gltf.*LS\(7,3\) leaves .* float steps" -- "${R[@]}" "$TMP/far4.gltf" --mode linespace

@@ -13,7 +13,7 @@
 // tree's lattice, aligned with light samples so that ray directions have exact zero components).
 // For each pixel the oracle counts, over the grid sampler's light samples (which it computes as the
 // shader does, in the box of the part of the light above the pixel's horizon), the rays that are surely valid, surely free and surely blocked under the mode's
-// documented bound (README, "Accuracy at the extremes"), and requires
+// documented bound (engine/shadow/README.md, "Accuracy at the extremes"), and requires
 //     free_sure / (valid + unsure) <= V <= (valid - blocked_sure + unsure) / (valid + unsure)
 // plus: every V finite and in [0,1], background V = 0, radiance finite and >= 0, mode none V = 1.
 // Exact mode renders once more through the raster pass with the filter (--filter interleaved): its V

@@ -565,7 +565,7 @@ static void test_camera(void)
     pn_scene_destroy(&s);
 }
 
-// Area lights from node extras (README, scene/gltf.cpp): node 1 a light at (0,10,0) facing down
+// Area lights from node extras (engine/apps/README.md, scene/gltf.cpp): node 1 a light at (0,10,0) facing down
 // (-90 degrees about +X maps (x,y,z) to (x,z,-y): -Z goes to -Y and +Y to -Z), 2 x 1
 // scaled by (1.5, 2, 1); node 2 a point light with one radiance number, under a parent moved to
 // (5,0,0); nodes 3-5 malformed (size of one number, negative radiance, width 0 with height 1):

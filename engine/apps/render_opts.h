@@ -59,8 +59,8 @@ typedef struct pn_render_opts {
 
 // The defaults render documents: 1280x720, exact, auto traversal, stratified, 4 spp (with the
 // filter the front of the bench's time-to-error tables at reference MAE 0.02 on its four views:
-// README, Benchmarks), LS(7,3) for the line-space modes, seed 1, the interleaved filter over 3x3
-// tiles (README: it lowers the error against the converged reference at 4-64 spp on the bench's
+// engine/apps/bench/README.md), LS(7,3) for the line-space modes, seed 1, the interleaved filter over 3x3
+// tiles (engine/gpu/README.md: it lowers the error against the converged reference at 4-64 spp on the bench's
 // views), ground on, exposure 1, 45 degree field of
 // view.
 pn_render_opts pn_render_opts_default(void);

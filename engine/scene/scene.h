@@ -81,7 +81,7 @@ typedef struct pn_scene {
     uint32_t texture_count;
     bool has_camera; // the file's first camera, if it had one
     pn_camera camera;
-    // The file's area lights: glTF nodes whose extras hold "penumbra_light" (README), in node order.
+    // The file's area lights: glTF nodes whose extras hold "penumbra_light" (engine/apps/README.md), in node order.
     uint32_t light_count;
     pn_light lights[PN_SCENE_MAX_LIGHTS];
     float bounds_min[3], bounds_max[3]; // of all vertices that are referenced by a triangle

@@ -95,7 +95,7 @@ vec2 sobol_sample(uint k, uint shift)
 // (bench --seed 1, 2, 3, exact, 256x256; filtered reference MAE, mean of the seeds, one shift per
 // cell -> now): bunny 4 spp 0.0113 -> 0.0109, 16 spp 0.0045 -> 0.0040; dragon 4 spp 0.0095 ->
 // 0.0087, 16 spp 0.0041 -> 0.0034. On Sponza's wall V_raw's RMS error fell from 0.060 to 0.035
-// (unfiltered, per-pixel samples: 0.032; README, the filter).
+// (unfiltered, per-pixel samples: 0.032; engine/gpu/README.md, the filter).
 // Any tile_w x tile_h window holds one pixel of each position in the tile, so the filter's window
 // sees spp * T samples spread over the sub-cells of every cell.
 // A 1 x 1 tile gives the per-pixel sampler exactly. chunk_rays maps (s, t) into the pixel's
