@@ -1,9 +1,6 @@
-// OpenEXR output and input through OpenEXRCore, the C API of OpenEXR 3.x. Over 500 lines because
-// OpenEXRCore's encode and decode pipelines take that much set-up each (chunk loops, channel
-// matching, attribute types); reading and writing share the error handling and stay together.
-//
-// The library keeps the channel list sorted by name whatever order channels were added in, so
-// the encode and decode pipelines are always matched to our planes by channel name.
+// Reading EXRs through OpenEXRCore: every channel of a scanline or tiled file's first part,
+// converted to float, with every size a damaged or hostile file claims checked before anything is
+// allocated. The decode pipeline is matched to our planes by channel name.
 #include "io/exr.h"
 
 #include <openexr.h>
@@ -13,339 +10,9 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "io/exr_core.h"
 #include "io/file.h"
 
-// The library reports details through a callback rather than return values; collect what the
-// current call of this thread reported so that the one line we log says what went wrong.
-static _Thread_local char g_exr_msg[512];
-
-static void exr_error_cb(exr_const_context_t ctxt, exr_result_t code, const char *msg)
-{
-    (void)ctxt;
-    if (!msg || !*msg)
-        msg = exr_get_default_error_message(code);
-    // A failure often reports its cause first and then its consequence: keep both.
-    size_t len = strlen(g_exr_msg), start = len;
-    if (len == 0)
-        snprintf(g_exr_msg, sizeof g_exr_msg, "%s", msg);
-    else if (len + 2 < sizeof g_exr_msg)
-        snprintf(g_exr_msg + len, sizeof g_exr_msg - len, "; %s", msg);
-    // Messages quote names read from the file: keep the log line one line of plain text.
-    for (char *c = g_exr_msg + start; *c; c++)
-        if ((unsigned char)*c < 0x20 || (unsigned char)*c >= 0x7F)
-            *c = '?';
-}
-
-// A file's string made safe to log: control and non-ASCII bytes become '?', long ones are cut.
-static const char *printable(const char *s, size_t n, char *buf, size_t size)
-{
-    size_t k = 0, i = 0;
-    for (; s && i < n && s[i] && k + 4 < size; i++) {
-        unsigned char c = (unsigned char)s[i];
-        buf[k++] = c < 0x20 || c >= 0x7F ? '?' : (char)c;
-    }
-    if (s && i < n && s[i]) { // cut short (size is at least 5)
-        memcpy(buf + k, "...", 3);
-        k += 3;
-    }
-    buf[k] = '\0';
-    return buf;
-}
-
-// Evaluates a library call with the message slot cleared, so a failure's message is its own.
-#define EXR_CALL(expr) (g_exr_msg[0] = '\0', (expr))
-
-static const char *exr_msg(exr_result_t rv)
-{
-    return g_exr_msg[0] ? g_exr_msg : exr_get_default_error_message(rv);
-}
-
-static exr_context_initializer_t exr_init(void)
-{
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = exr_error_cb;
-    return init;
-}
-
-// Longest attribute or channel name the format allows (31 without the long-name flag).
-#define PN_EXR_SHORT_NAME 31
-#define PN_EXR_MAX_NAME 255
-
-// Attributes the writer sets itself; a user attribute of the same name would clash.
-static const char *const k_reserved_attrs[] = {
-    "channels",         "compression",        "dataWindow",        "displayWindow",
-    "lineOrder",        "pixelAspectRatio",   "screenWindowCenter", "screenWindowWidth",
-    "tiles",            "type",               "name",              "version",
-    "chunkCount",
-};
-
-static int is_reserved_attr(const char *name)
-{
-    for (size_t i = 0; i < sizeof k_reserved_attrs / sizeof k_reserved_attrs[0]; i++)
-        if (strcmp(name, k_reserved_attrs[i]) == 0)
-            return 1;
-    return 0;
-}
-
-static pn_result validate_write(const char *path, int width, int height,
-                                const pn_exr_channel *channels, int channel_count,
-                                const pn_exr_attr *attrs, int attr_count, int *long_names)
-{
-    const char *p = path ? path : "(null)";
-    if (!path || !*path) {
-        pn_error("EXR output: no path given");
-        return PN_ERR_INVALID;
-    }
-    if (width <= 0 || height <= 0 || (int64_t)width * 4 > INT32_MAX ||
-        (uint64_t)width * (uint64_t)height > SIZE_MAX / 4) {
-        pn_error("%s: invalid EXR size %dx%d", p, width, height);
-        return PN_ERR_INVALID;
-    }
-    if (!channels) {
-        pn_error("%s: no EXR channels given", p);
-        return PN_ERR_INVALID;
-    }
-    if (channel_count <= 0 || channel_count > INT16_MAX) {
-        pn_error("%s: an EXR needs 1 to %d channels (got %d)", p, INT16_MAX, channel_count);
-        return PN_ERR_INVALID;
-    }
-    if (attr_count < 0 || (attr_count > 0 && !attrs)) {
-        pn_error("%s: invalid EXR attribute list", p);
-        return PN_ERR_INVALID;
-    }
-    *long_names = 0;
-    for (int i = 0; i < channel_count; i++) {
-        const char *n = channels[i].name;
-        if (!n || !*n) {
-            pn_error("%s: EXR channel %d has no name", p, i);
-            return PN_ERR_INVALID;
-        }
-        if (strlen(n) > PN_EXR_MAX_NAME) {
-            pn_error("%s: EXR channel name \"%.40s...\" is too long", p, n);
-            return PN_ERR_INVALID;
-        }
-        if (strlen(n) > PN_EXR_SHORT_NAME)
-            *long_names = 1;
-        if (!channels[i].data) {
-            pn_error("%s: EXR channel \"%s\" has no data", p, n);
-            return PN_ERR_INVALID;
-        }
-        for (int j = 0; j < i; j++)
-            if (strcmp(channels[j].name, n) == 0) {
-                pn_error("%s: EXR channel \"%s\" given twice", p, n);
-                return PN_ERR_INVALID;
-            }
-    }
-    for (int i = 0; i < attr_count; i++) {
-        const pn_exr_attr *a = &attrs[i];
-        if (!a->name || !*a->name) {
-            pn_error("%s: EXR attribute %d has no name", p, i);
-            return PN_ERR_INVALID;
-        }
-        if (strlen(a->name) > PN_EXR_MAX_NAME) {
-            pn_error("%s: EXR attribute name \"%.40s...\" is too long", p, a->name);
-            return PN_ERR_INVALID;
-        }
-        if (strlen(a->name) > PN_EXR_SHORT_NAME)
-            *long_names = 1;
-        if (is_reserved_attr(a->name)) {
-            pn_error("%s: EXR attribute name \"%s\" is reserved", p, a->name);
-            return PN_ERR_INVALID;
-        }
-        switch (a->type) {
-        case PN_EXR_ATTR_STRING:
-            if (!a->s) {
-                pn_error("%s: EXR string attribute \"%s\" has no value", p, a->name);
-                return PN_ERR_INVALID;
-            }
-            if (strlen(a->s) > INT32_MAX / 2) {
-                pn_error("%s: EXR string attribute \"%s\" is too long", p, a->name);
-                return PN_ERR_INVALID;
-            }
-            break;
-        case PN_EXR_ATTR_FLOAT:
-        case PN_EXR_ATTR_INT:
-        case PN_EXR_ATTR_V3F: break;
-        default:
-            pn_error("%s: EXR attribute \"%s\" has an unknown type %d", p, a->name, (int)a->type);
-            return PN_ERR_INVALID;
-        }
-        for (int j = 0; j < i; j++)
-            if (strcmp(attrs[j].name, a->name) == 0) {
-                pn_error("%s: EXR attribute \"%s\" given twice", p, a->name);
-                return PN_ERR_INVALID;
-            }
-    }
-    return PN_OK;
-}
-
-static exr_result_t set_attr(exr_context_t ctx, int part, const pn_exr_attr *a)
-{
-    switch (a->type) {
-    case PN_EXR_ATTR_STRING: return exr_attr_set_string(ctx, part, a->name, a->s);
-    case PN_EXR_ATTR_FLOAT: return exr_attr_set_float(ctx, part, a->name, a->f[0]);
-    case PN_EXR_ATTR_INT: return exr_attr_set_int(ctx, part, a->name, a->i);
-    case PN_EXR_ATTR_V3F: {
-        exr_attr_v3f_t v;
-        v.x = a->f[0];
-        v.y = a->f[1];
-        v.z = a->f[2];
-        return exr_attr_set_v3f(ctx, part, a->name, &v);
-    }
-    }
-    return EXR_ERR_INVALID_ARGUMENT;
-}
-
-static const pn_exr_channel *find_channel(const pn_exr_channel *channels, int count,
-                                          const char *name)
-{
-    for (int i = 0; name && i < count; i++)
-        if (strcmp(channels[i].name, name) == 0)
-            return &channels[i];
-    return NULL;
-}
-
-// Writes the whole image into the open context; returns the first failure and what failed.
-static exr_result_t write_image(exr_context_t ctx, int width, int height,
-                                const pn_exr_channel *channels, int channel_count,
-                                const pn_exr_attr *attrs, int attr_count, int long_names,
-                                const char **what)
-{
-    exr_result_t rv;
-    int part = 0;
-
-    *what = "cannot set up EXR part";
-    if (long_names && (rv = EXR_CALL(exr_set_longname_support(ctx, 1))))
-        return rv;
-    if ((rv = EXR_CALL(exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, &part))))
-        return rv;
-    if ((rv = EXR_CALL(exr_initialize_required_attr_simple(ctx, part, width, height,
-                                                           EXR_COMPRESSION_ZIP))))
-        return rv;
-    exr_attr_box2i_t dw;
-    dw.min.x = 0;
-    dw.min.y = 0;
-    dw.max.x = width - 1;
-    dw.max.y = height - 1;
-    if ((rv = EXR_CALL(exr_set_data_window(ctx, part, &dw))))
-        return rv;
-    if ((rv = EXR_CALL(exr_set_compression(ctx, part, EXR_COMPRESSION_ZIP))))
-        return rv;
-    if ((rv = EXR_CALL(exr_set_lineorder(ctx, part, EXR_LINEORDER_INCREASING_Y))))
-        return rv;
-
-    *what = "cannot add EXR channel";
-    for (int i = 0; i < channel_count; i++)
-        if ((rv = EXR_CALL(exr_add_channel(ctx, part, channels[i].name, EXR_PIXEL_FLOAT,
-                                           EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1))))
-            return rv;
-
-    *what = "cannot set EXR attribute";
-    for (int i = 0; i < attr_count; i++)
-        if ((rv = EXR_CALL(set_attr(ctx, part, &attrs[i]))))
-            return rv;
-
-    *what = "cannot write EXR header";
-    if ((rv = EXR_CALL(exr_write_header(ctx))))
-        return rv;
-
-    int32_t lines = 0;
-    if ((rv = EXR_CALL(exr_get_scanlines_per_chunk(ctx, part, &lines))))
-        return rv;
-    if (lines <= 0)
-        return EXR_ERR_INVALID_ARGUMENT;
-
-    *what = "cannot write EXR pixels";
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    int initialized = 0;
-    for (int y = 0; y < height && rv == EXR_ERR_SUCCESS; y += lines) {
-        exr_chunk_info_t cinfo;
-        memset(&cinfo, 0, sizeof cinfo);
-        if ((rv = EXR_CALL(exr_write_scanline_chunk_info(ctx, part, y, &cinfo))))
-            break;
-        if (cinfo.start_y < 0 || cinfo.height <= 0 || cinfo.start_y + cinfo.height > height ||
-            cinfo.width != width) {
-            g_exr_msg[0] = '\0';
-            rv = EXR_ERR_INCORRECT_CHUNK;
-            break;
-        }
-        rv = EXR_CALL(initialized ? exr_encoding_update(ctx, part, &cinfo, &enc)
-                                  : exr_encoding_initialize(ctx, part, &cinfo, &enc));
-        if (rv)
-            break;
-        initialized = 1;
-        for (int c = 0; c < enc.channel_count; c++) {
-            exr_coding_channel_info_t *ch = &enc.channels[c];
-            const pn_exr_channel *src = find_channel(channels, channel_count, ch->channel_name);
-            if (!src) {
-                snprintf(g_exr_msg, sizeof g_exr_msg, "channel \"%s\" has no data",
-                         ch->channel_name ? ch->channel_name : "?");
-                rv = EXR_ERR_INVALID_ARGUMENT;
-                break;
-            }
-            ch->user_bytes_per_element = 4;
-            ch->user_data_type = EXR_PIXEL_FLOAT;
-            ch->user_pixel_stride = 4;
-            ch->user_line_stride = 4 * width;
-            ch->encode_from_ptr = (const uint8_t *)(src->data + (size_t)cinfo.start_y * width);
-        }
-        if (rv)
-            break;
-        if (y == 0 && (rv = EXR_CALL(exr_encoding_choose_default_routines(ctx, part, &enc))))
-            break;
-        rv = EXR_CALL(exr_encoding_run(ctx, part, &enc));
-    }
-    if (initialized)
-        exr_encoding_destroy(ctx, &enc);
-    return rv;
-}
-
-pn_result pn_exr_write(const char *path, int width, int height, const pn_exr_channel *channels,
-                       int channel_count, const pn_exr_attr *attrs, int attr_count)
-{
-    int long_names = 0;
-    pn_result r = validate_write(path, width, height, channels, channel_count, attrs, attr_count,
-                                 &long_names);
-    if (r != PN_OK)
-        return r;
-
-    char tmp[4096];
-    if ((r = pn_file_tmp_path(path, tmp, sizeof tmp)) != PN_OK)
-        return r;
-
-    exr_context_initializer_t init = exr_init();
-    exr_context_t ctx = NULL;
-    exr_result_t rv = EXR_CALL(exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init));
-    if (rv != EXR_ERR_SUCCESS) {
-        pn_error("%s: cannot create EXR: %s", path, exr_msg(rv));
-        if (ctx)
-            exr_finish(&ctx);
-        pn_file_discard(tmp);
-        return PN_ERR_IO;
-    }
-
-    const char *what = "cannot write EXR";
-    rv = write_image(ctx, width, height, channels, channel_count, attrs, attr_count, long_names,
-                     &what);
-    char msg[sizeof g_exr_msg];
-    snprintf(msg, sizeof msg, "%s", exr_msg(rv));
-
-    // exr_finish writes the chunk offset table and closes the file: its failure fails the write.
-    exr_result_t frv = EXR_CALL(exr_finish(&ctx));
-    if (rv == EXR_ERR_SUCCESS && frv != EXR_ERR_SUCCESS) {
-        rv = frv;
-        what = "cannot finish EXR";
-        snprintf(msg, sizeof msg, "%s", exr_msg(frv));
-    }
-    if (rv != EXR_ERR_SUCCESS) {
-        pn_error("%s: %s: %s", path, what, msg);
-        pn_file_discard(tmp);
-        return PN_ERR_IO;
-    }
-    return pn_file_commit(tmp, path);
-}
-
-// ---- reading
 
 const float *pn_exr_image_channel(const pn_exr_image *img, const char *name)
 {
@@ -423,7 +90,7 @@ static pn_result aim_decoder(exr_reader *rd, exr_decode_pipeline_t *dec, int64_t
         if (ch->width != cinfo->width || ch->height != cinfo->height) {
             char nb[64];
             pn_error("%s: EXR channel \"%s\" has an unexpected size", rd->path,
-                     printable(rd->img->names[k], strlen(rd->img->names[k]), nb, sizeof nb));
+                     pn_exr_printable(rd->img->names[k], strlen(rd->img->names[k]), nb, sizeof nb));
             return PN_ERR_FORMAT;
         }
         ch->user_bytes_per_element = 4;
@@ -444,7 +111,7 @@ static pn_result decode_chunk(exr_reader *rd, exr_decode_pipeline_t *dec, int *i
     if (!*initialized) {
         rv = EXR_CALL(exr_decoding_initialize(rd->ctx, 0, cinfo, dec));
         if (rv) {
-            pn_error("%s: cannot decode EXR: %s", rd->path, exr_msg(rv));
+            pn_error("%s: cannot decode EXR: %s", rd->path, pn_exr_msg(rv));
             return PN_ERR_FORMAT;
         }
         *initialized = 1;
@@ -463,7 +130,7 @@ static pn_result decode_chunk(exr_reader *rd, exr_decode_pipeline_t *dec, int *i
     if (rv == EXR_ERR_SUCCESS)
         rv = EXR_CALL(exr_decoding_run(rd->ctx, 0, dec));
     if (rv != EXR_ERR_SUCCESS) {
-        pn_error("%s: cannot decode EXR chunk %d: %s", rd->path, cinfo->idx, exr_msg(rv));
+        pn_error("%s: cannot decode EXR chunk %d: %s", rd->path, cinfo->idx, pn_exr_msg(rv));
         return rv == EXR_ERR_OUT_OF_MEMORY ? PN_ERR_MEMORY : PN_ERR_FORMAT;
     }
     return PN_OK;
@@ -492,7 +159,7 @@ static pn_result check_chunk_size(exr_reader *rd, const exr_chunk_info_t *cinfo)
 
 static pn_result chunk_info_error(exr_reader *rd, exr_result_t rv)
 {
-    pn_error("%s: damaged EXR: %s", rd->path, exr_msg(rv));
+    pn_error("%s: damaged EXR: %s", rd->path, pn_exr_msg(rv));
     return rv == EXR_ERR_OUT_OF_MEMORY ? PN_ERR_MEMORY : PN_ERR_FORMAT;
 }
 
@@ -583,7 +250,7 @@ static pn_result read_part(exr_reader *rd)
     }
     exr_storage_t storage;
     if ((rv = EXR_CALL(exr_get_storage(rd->ctx, 0, &storage)))) {
-        pn_error("%s: damaged EXR: %s", rd->path, exr_msg(rv));
+        pn_error("%s: damaged EXR: %s", rd->path, pn_exr_msg(rv));
         return PN_ERR_FORMAT;
     }
     if (storage != EXR_STORAGE_SCANLINE && storage != EXR_STORAGE_TILED) {
@@ -592,7 +259,7 @@ static pn_result read_part(exr_reader *rd)
     }
     exr_compression_t comp = EXR_COMPRESSION_NONE;
     if ((rv = EXR_CALL(exr_get_compression(rd->ctx, 0, &comp)))) {
-        pn_error("%s: damaged EXR: %s", rd->path, exr_msg(rv));
+        pn_error("%s: damaged EXR: %s", rd->path, pn_exr_msg(rv));
         return PN_ERR_FORMAT;
     }
     rd->comp = comp;
@@ -605,7 +272,7 @@ static pn_result read_part(exr_reader *rd)
         return PN_ERR_UNSUPPORTED;
     }
     if ((rv = EXR_CALL(exr_get_data_window(rd->ctx, 0, &rd->dw)))) {
-        pn_error("%s: damaged EXR: %s", rd->path, exr_msg(rv));
+        pn_error("%s: damaged EXR: %s", rd->path, pn_exr_msg(rv));
         return PN_ERR_FORMAT;
     }
     int64_t w = (int64_t)rd->dw.max.x - rd->dw.min.x + 1;
@@ -630,7 +297,7 @@ static pn_result read_part(exr_reader *rd)
     for (int i = 0; i < chl->num_channels; i++) {
         const exr_attr_chlist_entry_t *e = &chl->entries[i];
         char n[64];
-        printable(e->name.str, e->name.length > 0 ? (size_t)e->name.length : 0, n, sizeof n);
+        pn_exr_printable(e->name.str, e->name.length > 0 ? (size_t)e->name.length : 0, n, sizeof n);
         if (e->pixel_type != EXR_PIXEL_UINT && e->pixel_type != EXR_PIXEL_HALF &&
             e->pixel_type != EXR_PIXEL_FLOAT) {
             pn_error("%s: EXR channel \"%s\" has unknown pixel type %d", rd->path, n,
@@ -683,7 +350,7 @@ static pn_result read_part(exr_reader *rd)
             if (strcmp(img->names[j], img->names[i]) == 0) {
                 char nb[64];
                 pn_error("%s: EXR channel \"%s\" appears twice", rd->path,
-                         printable(img->names[i], strlen(img->names[i]), nb, sizeof nb));
+                         pn_exr_printable(img->names[i], strlen(img->names[i]), nb, sizeof nb));
                 return PN_ERR_FORMAT;
             }
     }
@@ -702,7 +369,7 @@ pn_result pn_exr_read(const char *path, pn_exr_image *out)
         return PN_ERR_INVALID;
     }
 
-    exr_context_initializer_t init = exr_init();
+    exr_context_initializer_t init = pn_exr_init();
     exr_reader rd;
     memset(&rd, 0, sizeof rd);
     rd.path = path;
@@ -712,10 +379,10 @@ pn_result pn_exr_read(const char *path, pn_exr_image *out)
         if (rd.ctx)
             exr_finish(&rd.ctx);
         if (rv == EXR_ERR_FILE_ACCESS) {
-            pn_error("%s: cannot open EXR: %s", path, exr_msg(rv));
+            pn_error("%s: cannot open EXR: %s", path, pn_exr_msg(rv));
             return PN_ERR_IO;
         }
-        pn_error("%s: not a readable EXR: %s", path, exr_msg(rv));
+        pn_error("%s: not a readable EXR: %s", path, pn_exr_msg(rv));
         return rv == EXR_ERR_OUT_OF_MEMORY ? PN_ERR_MEMORY : PN_ERR_FORMAT;
     }
 
