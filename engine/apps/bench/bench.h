@@ -4,7 +4,10 @@
 //   bench_opts.c    the help text, the command line and --gbuffer
 //   bench_views.c   the standard views, and the scenes of --scenes
 //   bench_reference.c  the converged reference per view and size, cached on disk
-//   bench_matrix.c  one view's matrix: timed frames, the two errors, --work, --max-error
+//   bench_matrix.c  one view's matrix: the cells, the two errors, --work
+//   bench_frames.c  what the matrix, --lights and --max-error share: timed frames, set-ups
+//   bench_lights.c  --lights: frames of several lights over one tree
+//   bench_quality.c --max-error: --quality auto's pick against the matrix's front
 //   bench_peer.c    the CPU peer, Embree 3 (the only file of the bench that includes Embree)
 //   bench_report.c  console table, bench.csv, bench.json and gnuplot plots
 #pragma once
@@ -198,6 +201,65 @@ pn_result pn_bench_load_gbuffer(bench_opts *o);
 // One view's matrix: appends (and prints) a row per cell; rtc may be NULL (no CPU peer). An exit code.
 int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const bench_view *view,
                   bench_rows *rows);
+
+// What one view's matrix shares with --lights (bench_matrix.c, bench_lights.c).
+// One configuration (a mode and tree) with every filter at every spp of the matrix over one set-up:
+// a row per filter and spp with both errors. v_exact holds exact's V per filter and spp (the bias
+// reference: exact with the same samples and the same filter), which exact itself stores there.
+// exact_ms per filter and spp, embree_ms per spp (0: no peer).
+typedef struct bench_group {
+    const bench_opts *o;
+    pn_gpu_device *dev;
+    const pn_scene *scene;
+    const pn_camera *cam;
+    const pn_light *light;
+    bench_row base;
+    pn_renderer_desc frame;
+    const float *v_conv;
+    const uint8_t *mask;
+    uint64_t covered;
+    float *v_exact;
+    double exact_ms[2 * MAX_LIST], embree_ms[MAX_LIST];
+    pn_embree_scene *rtc; // traces exact's rays
+    double move_ms;             // the configuration's (bench_row.move_ms)
+} bench_group;
+
+// ---------------------------------------------------------------------------------------------
+// Timed frames and set-ups (bench_frames.c)
+
+// Renders warm-up and timed frames of `lights`; fills the timing fields of `row` and leaves the
+// last frame's images in the renderer.
+pn_result pn_bench_time_frames(const bench_opts *o, pn_renderer *r, const pn_camera *cam, const pn_light *lights,
+                               uint32_t light_count, bench_row *row);
+// Appends the `size` bytes at `item` to the array *items of *count elements, doubling its capacity
+// *cap when full (from 16). False when out of memory; the array is then unchanged.
+bool pn_bench_append(void **items, int *count, int *cap, const void *item, size_t size);
+// " LS(n,d)" (with " per object"), or "" for a mode without a tree.
+void pn_bench_tree_label(char *out, size_t n, int tn, int td, bool per_object);
+// Sets up one configuration of the matrix at full size for timing beside another.
+pn_result pn_bench_setup_config(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
+                                const pn_renderer_desc *frame, pn_shadow_mode mode, int n, int d, uint32_t spp,
+                                uint32_t spp_min, float pixel_error, pn_setup *s);
+
+// ---------------------------------------------------------------------------------------------
+// Several lights (bench_lights.c)
+
+// The view's light turned about the vertical through `centre` in k even steps, light i with 2^-i
+// of the first's radiance, together the one light's.
+void pn_bench_light_set(const pn_light *light, const float centre[3], uint32_t k, pn_light *out);
+// The set's converged reference radiance (rgba per pixel) into `out`.
+pn_result pn_bench_lights_reference(const bench_group *g, const pn_light *set, uint32_t k, float *out);
+// --lights rows of one configuration (refs[li]: light count li's reference, or NULL). An exit code.
+int pn_bench_run_lights(const bench_group *g, const float centre[3], pn_shadow_mode mode, int tn, int td,
+                        float *const *refs, bench_rows *rows);
+
+// ---------------------------------------------------------------------------------------------
+// --max-error (bench_quality.c)
+
+// --quality auto against the matrix at one budget (rows from first_row are the group's). An exit code.
+int pn_bench_check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                           const pn_light *light, const pn_renderer_desc *frame, const float *v_conv,
+                           const uint8_t *mask, double budget, bench_rows *rows, int first_row);
 
 // ---------------------------------------------------------------------------------------------
 // Views (bench_views.c)
