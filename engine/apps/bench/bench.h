@@ -9,9 +9,11 @@
 //   bench_lights.c  --lights: frames of several lights over one tree
 //   bench_quality.c --max-error: --quality auto's pick against the matrix's front
 //   bench_peer.c    the CPU peer, Embree 3 (the only file of the bench that includes Embree)
-//   bench_report.c  console table, bench.csv, bench.json and gnuplot plots
+//   bench_report.c  console table, bench.csv, bench.json, time_to_error.md
+//   bench_plot.c    the gnuplot plots
 #pragma once
 #include <stdbool.h>
+#include <stdio.h>
 #include <stdint.h>
 
 #include "apps/embree_peer.h"
@@ -305,13 +307,22 @@ void pn_bench_print_row(const bench_row *r);
 // Prints one --lights row on the console.
 void pn_bench_print_light_row(const bench_light_row *r);
 
+// Opens dir/name for writing under a temporary name (path and tmp: 4096 bytes each); NULL, logged,
+// on failure. pn_bench_close_out closes it and renames it into place (false, logged, on failure).
+FILE *pn_bench_open_out(const char *dir, const char *name, char *path, char *tmp);
+bool pn_bench_close_out(FILE *f, const char *path, const char *tmp);
+
+// The end of the group (one view and size: all its modes, trees and spp) whose first row is
+// `first`: the matrix appends each group's rows together, so a group is a run of rows.
+int pn_bench_group_end(const bench_rows *rows, int first);
+
 // Writes dir/bench.csv: one line per row. False (logged) on failure.
 bool pn_bench_write_csv(const char *dir, const bench_rows *rows);
 
 // Writes dir/bench.json: the device, CPU and options, then the rows. False (logged) on failure.
 bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows);
 
-// Writes per view and size a gnuplot .dat and .gp (reference error vs shadow time, log-log: a curve
+// (bench_plot.c) Writes per view and size a gnuplot .dat and .gp (reference error vs shadow time, log-log: a curve
 // per mode and tree through its spp points, the Pareto front, Embree's time on exact's rays) and
 // draws them as PNG with gnuplot when present. False (logged) on failure.
 bool pn_bench_write_plots(const char *dir, const bench_rows *rows);

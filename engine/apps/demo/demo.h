@@ -257,13 +257,24 @@ void pn_demo_orbit(pn_demo *d, float yaw_deg, float pitch_deg);
 void pn_demo_pan(pn_demo *d, float x, float y); // view heights at the target's distance
 void pn_demo_zoom(pn_demo *d, float factor);
 // Moves object `index` (pn_scene.objects) by `delta` in world space: the scene's vertices, transform
-// and bounds now, the renderers and trees before the next frame (cmd_demo.c). Logs and returns false
+// and bounds now, the renderers and trees before the next frame (demo_trees.c). Logs and returns false
 // for no such object, or a move beyond PN_MAX_COORD from the origin.
 bool pn_demo_move_object(pn_demo *d, uint32_t index, const float delta[3]);
 // Parses a key name as scripts write it ("M", "shift+N", "-", "left", "pageup"); false if unknown.
 bool pn_demo_key_parse(const char *name, int *key, int *mods);
 // The controls, one per line, for --help and the H overlay. Writes at most n bytes.
 void pn_demo_controls_text(char *out, size_t n);
+
+// Trees (demo_trees.c), called by the frame loop before each frame.
+// What a tree for the demo is built with: every mode's needs, so that a mode switch never rebuilds.
+pn_shadow_accel_desc pn_demo_tree_desc(const pn_demo *d, int n, int depth);
+// Swaps in a finished rebuild (renderer_dirty set) and starts the next one when the wanted tree
+// (want_n, want_d, want_rebuild) differs.
+pn_result pn_demo_update_tree(pn_demo *d);
+// pn_demo_update_tree until no build runs or is due (a script's screenshot waits for it).
+pn_result pn_demo_settle_tree(pn_demo *d);
+// Brings the renderers and trees up to the objects moved since the last frame, and reports the cost.
+pn_result pn_demo_apply_moves(pn_demo *d);
 
 // Composition (demo_image.c): the frame as shown, without text, into d->image.rgba.
 void pn_demo_compose(pn_demo *d);

@@ -192,7 +192,7 @@ static void next_light(pn_demo *d, float step)
 // ---------------------------------------------------------------------------------------------
 // Objects (glTF nodes with a mesh). A move changes the scene's vertices, the object's transform and
 // the bounds here; the frame loop brings the renderers and trees up to it before the next frame
-// (cmd_demo.c, apply_moves), where its cost is measured.
+// (demo_trees.c, pn_demo_apply_moves), where its cost is measured.
 
 // The world box of object i's vertices.
 static void object_box(const pn_demo *d, uint32_t i, float lo[3], float hi[3])
