@@ -52,6 +52,9 @@
 // as the leaf; the oracle's triangles are the world ones. The case also requires that the build
 // made per-object trees (one per mesh, one for the rest, every object placed), so that it cannot
 // pass on the scene-wide tree.
+//
+// Over 500 lines because its double-precision oracle of every mode, its filter oracle and
+// its sweep of scenes are written here, independent of the code they check.
 #include "shadow/setup.h"
 #include "gpu/device.h"
 #include "gpu/shadow_pass.h"

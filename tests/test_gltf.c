@@ -1,6 +1,9 @@
 // pn_gltf_load: node transforms, primitive modes, normals and winding, materials and textures, the
 // camera, hostile files (each must fail cleanly with *out zeroed), and the real meshes listed in
 // $PN_ASSETS/MANIFEST.md with their documented triangle counts.
+//
+// Over 500 lines because each glTF feature and each hostile file is a file written here (its
+// JSON and buffers), with what it must load as.
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <stdarg.h>

@@ -1,6 +1,9 @@
 // io/exr, io/png and io/file: round trips checked bit for bit, files checked independently of
 // the code that wrote them (OpenEXRCore directly, exrheader, a PNG parser written here,
 // oiiotool), and failures that must leave no partial file and keep the previous output.
+//
+// Over 500 lines because each of its checks carries its own independent reader (OpenEXRCore
+// directly, a PNG parser, the tools) and its own hostile files.
 #define _POSIX_C_SOURCE 200809L
 #include <dirent.h>
 #include <errno.h>

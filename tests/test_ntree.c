@@ -16,6 +16,9 @@
 //     spaces;
 //  6. the memory limit: one byte below the pools' size refuses the build, exactly the size passes.
 // PN_TEST_SCALE (default 1) scales the segment counts (for sanitizer runs).
+//
+// Over 500 lines because each of its oracles (clipping, brute-force shafts, candidate lists,
+// leaf planes) is written here, independent of the code it checks.
 #include <float.h>
 #include <math.h>
 #include <stdatomic.h>

@@ -1,4 +1,7 @@
 // The Vulkan device: instance, physical device, one queue, the validation layer and its messages, submits.
+//
+// Over 500 lines because instance, physical device, feature chain (ray queries, 64-bit floats,
+// buffer addresses, synchronization2) and the validation messenger are one sequence of set-up.
 #include "gpu/device.h"
 
 #include <ctype.h>

@@ -1,5 +1,8 @@
 // One frame: G-buffer, per light shadow, filter and shading, the readback; and the frame's
 // settings.
+//
+// Over 500 lines because the frame's recording, its readback and the settings that change
+// between frames (pn_renderer_set_*) share the renderer's private images and barriers.
 #include "gpu/renderer.h"
 
 #include <math.h>

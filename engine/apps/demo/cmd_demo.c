@@ -5,6 +5,9 @@
 // tree swapped in) -> pn_renderer_render (and the exact
 // renderer in the error view) -> accumulate -> compose on the CPU (tone map or view, cell overlay)
 // -> copy into the acquired swapchain image with the overlay text -> present.
+//
+// Over 500 lines because the window loop, its GLFW callbacks, the swapchain copy and the
+// end-of-run summary share the loop's state; trees and moves are demo_trees.c's.
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
