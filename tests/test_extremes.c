@@ -58,6 +58,7 @@
 #include "shadow/setup.h"
 #include "gpu/device.h"
 #include "gpu/shadow_pass.h"
+#include "filter_oracle.h"
 #include "test_util.h"
 #include <float.h>
 
@@ -918,7 +919,7 @@ static void check_frame(const sweep_case *c, int mi, const oracle *o, const pn_f
 //  1. check_filter_frame: the filtered V is finite, in [0, 1], 0 on the background, and on every
 //     covered pixel the weighted mean that filter.comp documents, recomputed here in double from
 //     the frame's own P, N (w = view depth), coverage, V_raw and light samples per pixel (as
-//     tests/filter.sh does, an independent implementation of the geometric and the range weights),
+//     filter_oracle.h, shared with test_filter.c: an implementation of the weights from their documentation),
 //     within a bound on the float evaluation's rounding;
 //  2. filter_pair: the weights are scale-invariant. Cases that are the same local scene at another
 //     scale or translation (same_local_scene) must give the same filtered V on the GPU wherever the
@@ -929,288 +930,31 @@ static void check_frame(const sweep_case *c, int mi, const oracle *o, const pn_f
 
 #define FILTER_TILE 3
 #define FILTER_TAPS (FILTER_TILE * FILTER_TILE)
-#define FLOAT_U 0x1p-24         // float's unit roundoff
-#define FILTER_RANGE_SIGMAS 2.5 // filter.comp's RANGE_SIGMAS
 
-typedef struct filter_frame {
+// A filtered frame of the sweep with its storage; `view` points into it for the filter's oracle
+// (filter_oracle.h, shared with test_filter.c): extreme_frame_bind.
+typedef struct extreme_frame {
+    filter_frame view;
     bool rendered;
-    uint32_t samples;  // filter.comp's pc.samples: the shadow pass's light samples per pixel, 0 for a point light
-    float eye_mag;     // the camera position's largest coordinate magnitude
-    float pixel_angle; // what filter_pass.c passes: 2 tan(yfov / 2) / height
     float p[4 * SIZE * SIZE], n[4 * SIZE * SIZE], v[SIZE * SIZE], v_raw[SIZE * SIZE];
-    // The shadow pass's counts: valid rays per pixel, and whether the light reaches above the
-    // pixel's horizon (filter.comp: a pixel without a valid ray has no V of its own)
     uint32_t valid[SIZE * SIZE];
     bool reaches[SIZE * SIZE];
-    float width[SIZE * SIZE]; // the penumbra width at the pixel's mean blocker (filter.comp's penumbra_weight)
+    float width[SIZE * SIZE];
     uint64_t range_between; // check_filter_frame's count of pixels with a range weight between 0 and 1
     uint64_t pen_between;   // ... with a penumbra weight between 0 and 1
-} filter_frame;
+} extreme_frame;
 
-// A weight strictly between 0 and 1, i.e. neither keeping nor dropping its tap: more than 1e-3 from
-// both, far beyond every rounding bound here, so that the double weight's verdict is the float's.
-static bool filter_between(double w) { return w > 1e-3 && w < 1 - 1e-3; }
-
-// One neighbour q of a pixel p in its window, as filter.comp weighs it, evaluated in double from the
-// frame's float P and N.
-typedef struct filter_tap {
-    double w;         // max(1 - rho^2, 0) c^2: the geometric weight (times pen, filter_recompute)
-    double wgeo;      // the geometric weight alone
-    double pen;       // filter_penumbra: 1 for a pixel without a V of its own
-    double rho;       // the larger of the two plane offsets over their footprints
-    double c;         // max(n.m, 0)
-    double err;       // bound on |w - the shader's float w| (filter_tap_at)
-    double mag;       // the largest coordinate magnitude of p and q
-    double footprint; // the smaller of the two footprints, times the pixel distance (world units)
-    double depth;     // the smaller of the two view depths
-} filter_tap;
-
-// filter.comp's plane_offset: how far q leaves p's tangent plane, less 8 ulps of the magnitude, over
-// the footprint; [*lo, *hi] holds the shader's float evaluation of it. In float, q - p rounds each
-// component (u) and the dot product adds gamma_3 of s1 = sum |n_k (q_k - p_k)|: 4.1u s1 together;
-// the allowance's product rounds by u of it, the subtraction by u of the result. The footprint (two
-// products) and the division (2.5 ulp, Vulkan's bound for it) are relative: 7u. A point within the
-// allowance gives exactly 0 in both (the clamp), p itself among them (footprint 0).
-static double filter_offset(const float *p, const float *n, double footprint, const float *q, double *lo, double *hi)
+static void extreme_frame_bind(extreme_frame *e, uint32_t samples, float eye_mag, float pixel_angle)
 {
-    double mag = 0, d = 0, s1 = 0;
-    for (int k = 0; k < 3; k++) {
-        mag = fmax(mag, fmax(fabs(p[k]), fabs(q[k])));
-        d += (double)n[k] * ((double)q[k] - p[k]);
-        s1 += fabs((double)n[k] * ((double)q[k] - p[k]));
-    }
-    double allowance = 8 * fmax(mag, 1e-30) * 0x1p-23; // 8 ulp_bound(mag): 2^-23 is the float 1.1920929e-7
-    double fp = fmax(footprint, 1e-30), u = FLOAT_U;
-    double off_lo = fmax(fabs(d) - 4.1 * u * s1 - allowance * (1 + u), 0) * (1 - u);
-    double off_hi = fmax(fabs(d) + 4.1 * u * s1 - allowance * (1 - u), 0) * (1 + u);
-    *lo = off_lo / fp * (1 - 7 * u);
-    *hi = off_hi / fp * (1 + 7 * u);
-    return fmax(fabs(d) - allowance, 0) / fp;
-}
-
-// filter.comp's geometric weight: max(1 - rho^2, 0) c^2, 1 on the pixel's plane, 0 a footprint per
-// pixel off it or across a right angle. It falls with rho and rises with c.
-static double filter_weight(double rho, double c) { return fmax(1 - rho * rho, 0) * c * c; }
-
-// False outside the image or on the background (filter.comp skips those).
-static bool filter_tap_at(const filter_frame *f, int x, int y, int dx, int dy, filter_tap *t)
-{
-    int qx = x + dx, qy = y + dy;
-    if (qx < 0 || qy < 0 || qx >= SIZE || qy >= SIZE || !(f->p[4 * (qy * SIZE + qx) + 3] > 0))
-        return false;
-    const float *p = &f->p[4 * (y * SIZE + x)], *n = &f->n[4 * (y * SIZE + x)];
-    const float *q = &f->p[4 * (qy * SIZE + qx)], *m = &f->n[4 * (qy * SIZE + qx)];
-    double pixels = abs(dx) > abs(dy) ? abs(dx) : abs(dy);
-    // The shader's footprints: view depth (N.w) x the float pixel angle x the pixel distance.
-    double fp_p = (double)n[3] * f->pixel_angle * pixels, fp_q = (double)m[3] * f->pixel_angle * pixels;
-    double lo1, hi1, lo2, hi2;
-    double r1 = filter_offset(p, n, fp_p, q, &lo1, &hi1), r2 = filter_offset(q, m, fp_q, p, &lo2, &hi2);
-    double nm = 0, s2 = 0;
-    for (int k = 0; k < 3; k++) {
-        nm += (double)n[k] * m[k];
-        s2 += fabs((double)n[k] * m[k]);
-    }
-    t->rho = fmax(r1, r2);
-    t->c = fmax(nm, 0);
-    t->w = t->wgeo = filter_weight(t->rho, t->c);
-    t->pen = 1;
-    // The float weight: rho within the larger of the two offsets' intervals, c within gamma_3 s2
-    // (3.1u s2) of its double, so w lies between w(rho_hi, c_lo) and w(rho_lo, c_hi);
-    // the roundings of rho^2, 1 - rho^2, c c and the product add 4u where that is not exactly 0.
-    double c_lo = fmax(nm - 3.1 * FLOAT_U * s2, 0), c_hi = fmax(nm + 3.1 * FLOAT_U * s2, 0);
-    double w_lo = filter_weight(fmax(hi1, hi2), c_lo), w_hi = filter_weight(fmax(lo1, lo2), c_hi);
-    t->err = fmax(w_hi - t->w, t->w - w_lo) + (w_hi > 0 ? 4 * FLOAT_U : 0);
-    t->mag = 0;
-    for (int k = 0; k < 3; k++)
-        t->mag = fmax(t->mag, fmax(fabs(p[k]), fabs(q[k])));
-    t->footprint = fmin(fp_p, fp_q);
-    t->depth = fmin(n[3], m[3]);
-    return true;
-}
-
-// filter.comp's penumbra_weight of taps p and q (pixel indices): max(1 - |q - p|^2 / (width / 2)^2, 0)
-// with width the smaller of the two pixels' penumbra widths, 0 at width 0. *err bounds the shader's
-// float evaluation against this double one: q - p rounds each component (u), the width's halving
-// is exact, the division adds 2.5 ulp (5u) and the dot product gamma_3 (3.1u), so r^2 is within
-// 2 (u + 5u) + 3.1u = 15.1u of its double, relative; 1 - r^2 adds u absolute. Twice that, for
-// contraction and reordering.
-#define FILTER_PENUMBRA_TOLERANCE 0.5 // filter.comp's PENUMBRA_TOLERANCE
-static double filter_penumbra(const filter_frame *f, int p, int q, double *err)
-{
-    double width = fmin(f->width[p], f->width[q]) * FILTER_PENUMBRA_TOLERANCE, r2 = 0;
-    if (!(width > 0)) {
-        *err = 0;
-        return 0;
-    }
-    for (int k = 0; k < 3; k++) {
-        double r = ((double)f->p[4 * q + k] - f->p[4 * p + k]) / width;
-        r2 += r * r;
-    }
-    *err = r2 * (1 + 15.1 * FLOAT_U) >= 1 ? (r2 * (1 - 15.1 * FLOAT_U) >= 1 ? 0 : 1) : 2 * (15.1 * FLOAT_U * r2 + FLOAT_U);
-    return fmax(1 - r2, 0);
-}
-
-// filter.comp's spread for a window mean m: RANGE_SIGMAS standard deviations of the difference of
-// two pixels' V, each the mean of `samples` Bernoulli trials of probability m; 0 for samples = 0 (a
-// point light: V has no noise, only equal V average).
-static double filter_spread(double m, uint32_t samples)
-{
-    return samples ? FILTER_RANGE_SIGMAS * sqrt(2 * m * (1 - m) / samples) : 0;
-}
-
-// The spreads of the means in [m_lo, m_hi] (within [0, 1]) lie in [*lo, *hi]: m (1 - m) rises up to
-// m = 1/2 and falls after it, so its extremes are at the interval's ends, or at 1/2 if inside.
-static void filter_spread_range(double m_lo, double m_hi, uint32_t samples, double *lo, double *hi)
-{
-    double a = filter_spread(m_lo, samples), b = filter_spread(m_hi, samples);
-    *lo = fmin(a, b);
-    *hi = m_lo <= 0.5 && m_hi >= 0.5 ? filter_spread(0.5, samples) : fmax(a, b);
-}
-
-// filter.comp's range weight of a neighbour whose V_raw differs from the pixel's by d: 1 at d = 0
-// (the pixel itself and its equals), else max(1 - r^2, 0) with r = d over the spread, which is at
-// least the shader's float 1e-30 (that only keeps the quotient finite). It rises with the spread.
-static double filter_range_weight(double d, double spread)
-{
-    if (d == 0)
-        return 1;
-    double r = d / fmax(spread, 1e-30f);
-    return fmax(1 - r * r, 0);
-}
-
-// [*lo, *hi] holds the shader's float range weight for d != 0 and a float spread in [s_lo, s_hi].
-// V_raw's values are ratios of sample counts (visible over valid), 0 or at least 1 / 1024 here, so
-// the float d is 0 exactly when the double one is (even where denormals flush), and that case has no
-// rounding. Otherwise the float d (one subtraction, u) and r (a division, 2.5 ulp: 5u) are within 6u
-// relative, r^2 within u more and 1 - r^2 within u absolute (its result is at most 1); the clamp
-// makes it exactly 0 where the float r^2 is surely 1 or more. Every constant twice, for contraction
-// and reordering (as in filter_mean_tol).
-static void filter_range_weight_float(double d, double s_lo, double s_hi, double *lo, double *hi)
-{
-    const double u = FLOAT_U;
-    double r_lo = d / fmax(s_hi, 1e-30f) * (1 - 12 * u), r_hi = d / fmax(s_lo, 1e-30f) * (1 + 12 * u);
-    double x_lo = r_lo * r_lo * (1 - 2 * u), x_hi = r_hi * r_hi * (1 + 2 * u);
-    *lo = x_hi >= 1 ? 0 : fmax(1 - x_hi - 2 * u, 0);
-    *hi = x_lo >= 1 ? 0 : fmin(1 - x_lo + 2 * u, 1);
-}
-
-// A bound on |the shader's float weighted mean - the double one| for values in [0, 1], weights of
-// sum W in double and a bound dw on the sum of |each float weight - its double|. The float sums of
-// the window's w v and of w (at most 9 terms) are within gamma_10 of theirs, besides the weights'
-// own errors: the mean moves by at most (dw + 2 gamma_10 W) / (W - dw - gamma_10 W) (|v - mean| <= 1
-// for values in [0, 1]); the division adds 2.5 ulp (5u) of a mean <= 1. Twice the bound: the
-// compiler may contract or reorder the float operations, which changes the constants above, not
-// their order. 1 (any value) where the weights' errors may reach their sum.
-static double filter_mean_tol(double w, double dw)
-{
-    double g10 = 10.1 * FLOAT_U;
-    double den = w - dw - g10 * w;
-    return den > 0 ? 2 * ((dw + 2 * g10 * w) / den + 5 * FLOAT_U) : 1;
-}
-
-// One covered pixel's window as filter.comp evaluates it, in double from the frame's floats, with
-// bounds on the shader's float evaluation (filter_recompute). Taps in the shader's order.
-typedef struct filter_window {
-    bool in[FILTER_TAPS];      // the tap is in the image and covered: filter.comp weighs it
-    filter_tap t[FILTER_TAPS]; // its geometric weight
-    float v_raw[FILTER_TAPS];  // its V_raw
-    double d[FILTER_TAPS];     // |its V_raw - the pixel's|
-    double wr[FILTER_TAPS];    // its range weight (filter_range_weight of the spread below)
-    double wg, mean, mean_tol; // first loop: the sum of the geometric weights, V_raw's mean under
-                               // them and a bound on |mean - the shader's float mean|
-    double spread;             // filter_spread(mean)
-    double w, v, tol;          // second loop: the sum of the weights wg wr, the filtered V and a
-                               // bound on |V - the shader's float V|
-    bool range_between;        // a tap the geometry keeps has a range weight between 0 and 1
-    bool pen_between;          // ... a penumbra weight between 0 and 1
-} filter_window;
-
-// filter.comp at pixel (x, y), covered. Both loops are weighted means of the window's V_raw
-// (filter_mean_tol): the first under the geometric weights, whose errors are filter_tap_at's; the
-// second under wg wr, whose errors follow from intervals:
-//  - the float mean lies within mean_tol of the double one, so its spread in filter_spread_range of
-//    that interval; the float spread adds relative rounding: 1 - mean (u), the product (u) and the
-//    division by samples (2.5 ulp: 5u) make 7u of sqrt's argument, half that after the sqrt, which
-//    adds 4.5 ulp (9u: Vulkan's sqrt inherits 1 / inversesqrt's precision, 2 + 2.5 ulp), and the
-//    product by RANGE_SIGMAS u: 13.5u, twice 27u. Denormals may flush to 0 (Vulkan allows it),
-//    which moves the argument by less than 2 FLT_MIN (the product's and the quotient's) and the
-//    spread by less than RANGE_SIGMAS sqrt(2 FLT_MIN) more. With samples = 0 the spread is exactly 0;
-//  - each tap's range weight then lies in filter_range_weight_float's interval (exactly 1 at
-//    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
-//    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
-//
-// A pixel without a valid ray keeps its V_raw where the light cannot reach it and otherwise takes
-// the geometric mean of its neighbours'; a neighbour without a valid ray is no tap.
-static void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
-{
-    int lo = -(FILTER_TILE - 1) / 2, k = 0;
-    float v_p = f->v_raw[y * SIZE + x];
-    bool unknown = f->valid[y * SIZE + x] == 0;
-    double sum = 0, dw = 0;
-    memset(o, 0, sizeof *o);
-    if (unknown && !f->reaches[y * SIZE + x]) {
-        o->v = v_p;
-        return;
-    }
-    for (int dy = lo; dy < lo + FILTER_TILE; dy++)
-        for (int dx = lo; dx < lo + FILTER_TILE; dx++, k++) {
-            o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]) && f->valid[(y + dy) * SIZE + x + dx] > 0;
-            if (!o->in[k])
-                continue;
-            if (!unknown) { // the penumbra weight, and its error next to the geometric weight's
-                filter_tap *t = &o->t[k];
-                double pen_err;
-                t->pen = filter_penumbra(f, y * SIZE + x, (y + dy) * SIZE + x + dx, &pen_err);
-                t->w = t->wgeo * t->pen;
-                t->err = t->err * t->pen + (t->wgeo + t->err) * pen_err + 2 * FLOAT_U * t->w;
-                o->pen_between = o->pen_between || (t->wgeo > 1e-3 && filter_between(t->pen));
-            }
-            o->v_raw[k] = f->v_raw[(y + dy) * SIZE + x + dx];
-            o->d[k] = fabs((double)o->v_raw[k] - v_p);
-            sum += o->t[k].w * o->v_raw[k];
-            o->wg += o->t[k].w;
-            dw += o->t[k].err;
-        }
-    o->mean = o->wg > 0 ? fmin(fmax(sum / o->wg, 0), 1) : v_p;
-    o->mean_tol = filter_mean_tol(o->wg, dw);
-    if (unknown) {
-        o->v = o->wg > 0 ? o->mean : 1;
-        o->tol = o->wg > 0 ? o->mean_tol : 0;
-        return;
-    }
-    o->spread = filter_spread(o->mean, f->samples);
-    double s_lo, s_hi;
-    filter_spread_range(fmax(o->mean - o->mean_tol, 0), fmin(o->mean + o->mean_tol, 1), f->samples, &s_lo, &s_hi);
-    const double rel = 27 * FLOAT_U, flush = FILTER_RANGE_SIGMAS * sqrt(2 * FLT_MIN);
-    s_lo = f->samples ? fmax(s_lo * (1 - rel) - flush, 0) : 0;
-    s_hi = f->samples ? s_hi * (1 + rel) + flush : 0;
-    sum = dw = o->w = 0;
-    o->range_between = false;
-    for (k = 0; k < FILTER_TAPS; k++) {
-        o->wr[k] = 0;
-        if (!o->in[k])
-            continue;
-        const filter_tap *t = &o->t[k];
-        o->wr[k] = filter_range_weight(o->d[k], o->spread);
-        double w = t->w * o->wr[k], w_lo = fmax(t->w - t->err, 0), w_hi = t->w + t->err;
-        if (o->d[k] != 0) {
-            double wr_lo, wr_hi;
-            filter_range_weight_float(o->d[k], s_lo, s_hi, &wr_lo, &wr_hi);
-            w_lo *= wr_lo * (1 - 2 * FLOAT_U);
-            w_hi *= wr_hi * (1 + 2 * FLOAT_U);
-        }
-        sum += w * o->v_raw[k];
-        o->w += w;
-        dw += fmax(w_hi - w, w - w_lo);
-        o->range_between = o->range_between || (t->w > 1e-3 && filter_between(o->wr[k]));
-    }
-    o->v = o->w > 0 ? fmin(fmax(sum / o->w, 0), 1) : v_p;
-    o->tol = filter_mean_tol(o->w, dw);
+    e->view = (filter_frame){.width = SIZE, .height = SIZE, .tile_w = FILTER_TILE, .tile_h = FILTER_TILE,
+                             .samples = samples, .eye_mag = eye_mag, .pixel_angle = pixel_angle,
+                             .p = e->p, .n = e->n, .v = e->v, .v_raw = e->v_raw, .valid = e->valid,
+                             .reaches = e->reaches, .penumbra = e->width};
 }
 
 // Requirement 1 on one filtered frame. Returns how many covered pixels have a range weight between
 // 0 and 1 (filter_window.range_between).
-static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
+static uint64_t check_filter_frame(const sweep_case *c, const extreme_frame *f)
 {
     uint64_t covered = 0, bad = 0, off = 0, alone = 0, changed = 0, range = 0, pen = 0, no_ray = 0, borrowed = 0;
     double diff_max = 0, tol_max = 0;
@@ -1228,7 +972,7 @@ static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
                 continue;
             covered++;
             filter_window o;
-            filter_recompute(f, x, y, &o);
+            filter_recompute(&f->view, x, y, &o);
             double d = fabs(v - o.v);
             diff_max = fmax(diff_max, d);
             tol_max = fmax(tol_max, o.tol);
@@ -1248,19 +992,19 @@ static uint64_t check_filter_frame(const sweep_case *c, const filter_frame *f)
     fprintf(stderr, "  filter    %dx%d exact spp %u (samples %u): %llu px, |V - recomputed| max %.2e (bound max %.2e),"
                     " %llu px alone on their surface, %llu changed, %llu with range and %llu with penumbra weights between 0 and 1,"
                     " %llu without a valid ray (%llu taking their neighbours' V)\n",
-            FILTER_TILE, FILTER_TILE, c->spp, f->samples, (unsigned long long)covered, diff_max, tol_max,
+            FILTER_TILE, FILTER_TILE, c->spp, f->view.samples, (unsigned long long)covered, diff_max, tol_max,
             (unsigned long long)alone, (unsigned long long)changed, (unsigned long long)range, (unsigned long long)pen,
             (unsigned long long)no_ray, (unsigned long long)borrowed);
     CHECK_MSG(bad == 0 && off == 0, "%s filter: %llu bad values, %llu of %llu pixels off the recomputed filter", c->name,
               (unsigned long long)bad, (unsigned long long)off, (unsigned long long)covered);
     CHECK_MSG(covered > 0, "%s filter: no covered pixels", c->name);
-    ((filter_frame *)f)->pen_between = pen;
+    ((extreme_frame *)f)->pen_between = pen;
     return range;
 }
 
 // Exact mode through the raster pass with the filter on; false if it could not render (checked).
 static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_scene *scene, const pn_shadow_accel *acc,
-                            const pn_camera *cam, const pn_light *light, filter_frame *out)
+                            const pn_camera *cam, const pn_light *light, extreme_frame *out)
 {
     pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = PN_SHADOW_REFERENCE,
                            .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_AUTO, // auto: exact walks as a packet
@@ -1287,10 +1031,10 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
         for (int i = 0; i < SIZE * SIZE; i++)
             out->valid[i] = img.counts[4 * i + 1], out->reaches[i] = img.counts[4 * i + 2] != 0,
             memcpy(&out->width[i], &img.counts[4 * i + 3], sizeof(float));
-        out->pixel_angle = (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE);
-        out->eye_mag = fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2])));
-        // As renderer.c passes it to the filter.
-        out->samples = pn_filter_noise_samples(rd.spp ? rd.spp : 1, light);
+        // The samples as renderer.c passes them to the filter.
+        extreme_frame_bind(out, pn_filter_noise_samples(rd.spp ? rd.spp : 1, light),
+                           fmaxf(fabsf(cam->pos[0]), fmaxf(fabsf(cam->pos[1]), fabsf(cam->pos[2]))),
+                           (float)(2.0 * tan(0.5 * cam->yfov_deg * 3.14159265358979323846 / 180.0) / SIZE));
         out->rendered = true;
     }
     pn_renderer_destroy(&ren);
@@ -1356,7 +1100,7 @@ typedef struct filter_pair_stats {
 // footprint, the shader keeps weights that depend on rounding, on purpose (filter.comp,
 // plane_offset); such pixels (bound above FILTER_TIGHT) are checked against their loose bound and
 // counted apart.
-static void filter_pair(const sweep_case *ca, const filter_frame *fa, const sweep_case *cb, const filter_frame *fb,
+static void filter_pair(const sweep_case *ca, const extreme_frame *fa, const sweep_case *cb, const extreme_frame *fb,
                         filter_pair_stats *st)
 {
     filter_pair_stats s = {0};
@@ -1388,9 +1132,9 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                         mag_a = fmax(mag_a, fabs(fa->p[4 * q + k]));
                         mag_b = fmax(mag_b, fabs(fb->p[4 * q + k]));
                     }
-                    mag_a = fmax(mag_a, fa->eye_mag);
-                    mag_b = fmax(mag_b, fb->eye_mag);
-                    double fp_local = (double)fa->n[4 * q + 3] / ca->scale * fa->pixel_angle;
+                    mag_a = fmax(mag_a, fa->view.eye_mag);
+                    mag_b = fmax(mag_b, fb->view.eye_mag);
+                    double fp_local = (double)fa->n[4 * q + 3] / ca->scale * fa->view.pixel_angle;
                     double slack = 16 * mag_a * 0x1p-23 / ca->scale + 16 * mag_b * 0x1p-23 / cb->scale;
                     if (nn < 1 - 1e-4 || dist > 0.25 * fp_local + slack)
                         same_geometry = false;
@@ -1407,8 +1151,8 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                 continue;
             }
             filter_window wa, wb;
-            filter_recompute(fa, x, y, &wa);
-            filter_recompute(fb, x, y, &wb);
+            filter_recompute(&fa->view, x, y, &wa);
+            filter_recompute(&fb->view, x, y, &wb);
             // The geometric weights' differences (the same surfaces: the same taps in both).
             double dg[FILTER_TAPS] = {0}, dg_sum = 0;
             bool partial = false;
@@ -1419,7 +1163,7 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
                 partial = partial || filter_between(ta->wgeo);
                 dg[k] = fabs(ta->c * ta->c - tb->c * tb->c);
                 if (ta->rho != 0) {
-                    double ma = fmax(ta->mag, fa->eye_mag), mb = fmax(tb->mag, fb->eye_mag);
+                    double ma = fmax(ta->mag, fa->view.eye_mag), mb = fmax(tb->mag, fb->view.eye_mag);
                     double ea = 16 * ma * 0x1p-23, eb = 16 * mb * 0x1p-23;
                     double u = 3 * (ea / ta->footprint + eb / tb->footprint);
                     double delta = ea / ta->depth + eb / tb->depth;
@@ -1443,7 +1187,7 @@ static void filter_pair(const sweep_case *ca, const filter_frame *fa, const swee
             }
             // The range weights', through frame b's mean.
             double dm = wb.wg > 0 ? dg_sum / wb.wg : 1, s_lo, s_hi, dw = 0;
-            filter_spread_range(fmax(wa.mean - dm, 0), fmin(wa.mean + dm, 1), fb->samples, &s_lo, &s_hi);
+            filter_spread_range(fmax(wa.mean - dm, 0), fmin(wa.mean + dm, 1), fb->view.samples, &s_lo, &s_hi);
             for (int k = 0; k < FILTER_TAPS; k++) {
                 if (!wa.in[k] || !wb.in[k])
                     continue;
@@ -1505,7 +1249,7 @@ static pn_result open_case(const sweep_case *c, const char *what, pn_scene *scen
 }
 
 // A filter_only case: its scene with the BVH only (exact mode), the filtered frame and its check.
-static void run_filter_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filtered)
+static void run_filter_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *filtered)
 {
     pn_scene scene;
     tri world[64];
@@ -1533,7 +1277,7 @@ static void run_filter_case(pn_gpu_device *dev, const sweep_case *c, filter_fram
     pn_scene_destroy(&scene);
 }
 
-static void run_case(pn_gpu_device *dev, const sweep_case *c, filter_frame *filtered)
+static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *filtered)
 {
     pn_scene scene;
     tri world[64];
@@ -1828,7 +1572,7 @@ int main(int argc, char **argv)
     if (pn_gpu_device_create(&desc, &dev) != PN_OK)
         TEST_SKIP("no Vulkan device");
     int n = (int)(sizeof cases / sizeof cases[0]);
-    filter_frame *filtered = calloc((size_t)n, sizeof *filtered);
+    extreme_frame *filtered = calloc((size_t)n, sizeof *filtered);
     CHECK(filtered);
     if (!filtered)
         exit(1);
