@@ -243,7 +243,7 @@ static uint32_t rays_size(uint32_t rays)
 
 pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples)
 {
-    if (!s->sized_rays || !s->mode->traces)
+    if (!s->sized_rays)
         return PN_OK;
     // The dispatches' rays per pixel: the chunk's, or fewer in the frame's first (or only) round.
     uint32_t rounds[2] = {pn_shadow_adaptive(s, samples) ? s->spp_min : samples, samples};

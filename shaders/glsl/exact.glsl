@@ -255,8 +255,8 @@ uint mask_stack[BVH_STACK], first_stack[BVH_STACK], count_stack[BVH_STACK];
 // slab tests of a step run over rays 0 .. PACKET_RAYS - 1, unrolled, a ray outside the node's mask
 // masked off, so that every ray's inverse direction has a constant index and stays in registers;
 // looping over the mask's set bits instead indexes that array per lane, a scalar load per lane
-// and word (llvmpipe.md, fact 5). Measured (dragon 512x512, Mesa 25): 4 spp 235 -> 191 ms, 16 spp
-// 503 -> 450 ms; at 32 (64 spp) no change either way.
+// and word (llvmpipe.md, fact 5). Measured (dragon 512x512, Mesa 25; llvmpipe.md): 4 spp 226 -> 201
+// ms, 16 spp 506 -> 466 ms; at 32 rays (64 spp) no change either way.
 layout(constant_id = PN_SPEC_PACKET_RAYS) const uint PACKET_RAYS = MAX_CHUNK;
 
 // The chunk's rays `live` (their samples in [box_lo, box_hi] of the light's (s, t)) through the
