@@ -1,9 +1,9 @@
-// glTF 2.0 loader: tinygltf parses the file, this flattens the default scene into pn_scene (one
-// world-space indexed triangle list, a draw per primitive instance, materials, RGBA8 textures,
-// the first perspective camera). The project's only C++ file; nothing C++ crosses its boundary:
-// every exception is caught here and every array handed out is malloc'd for pn_scene_destroy.
-// Its length is the project's fixed choice of one C++ file for tinygltf: every glTF check and
-// conversion (accessors, nodes, materials, images, cameras) lives behind that one C function.
+// glTF 2.0 loader: tinygltf parses the file, this reads and checks the default scene and hands
+// its parts to scene/build.c, which makes the pn_scene (one world-space indexed triangle list, a
+// draw per primitive instance, materials, RGBA8 textures, the first perspective camera). The
+// project's only C++ file; nothing C++ crosses its boundary: every exception is caught here.
+// Its length is the project's fixed choice of one C++ file for tinygltf: every glTF check
+// (the file, accessors, nodes, materials, images, cameras, lights) lives behind that one C function.
 //
 // tinygltf checks the JSON structure but not the binary layout, so everything read from a buffer
 // is validated here first, in 64-bit arithmetic, against counts a hostile file may make up.
@@ -29,15 +29,15 @@
 
 extern "C" {
 #include "core/log.h"
+#include "scene/build.h"
 #include "scene/scene.h"
 }
 
 namespace {
 
-// Output limits: a scene beyond these is not something this renderer can hold on the GPU, and
-// refusing early keeps a file that instances one big mesh many times from exhausting memory.
-constexpr uint64_t kMaxVertices = 1ull << 27; // 4 GiB of pn_vertex
-constexpr uint64_t kMaxIndices = 1ull << 29;  // 2 GiB of indices
+// Output limits (build.h): refused here, before anything is decoded, with the accessor named.
+constexpr uint64_t kMaxVertices = PN_SCENE_MAX_VERTICES;
+constexpr uint64_t kMaxIndices = PN_SCENE_MAX_INDICES;
 // An accessor without a bufferView is all zeros (plus sparse values): no data bounds its count.
 constexpr uint64_t kMaxUnbackedCount = 1ull << 24;
 // Node graphs are trees; a deeper one is not a scene anybody made by hand or by an exporter.
@@ -83,42 +83,6 @@ Mat4 mat_mul(const Mat4 &a, const Mat4 &b)
     return r;
 }
 
-// The upper 3x3 as rows, for the per-vertex loops.
-struct Affine {
-    double a[3][3];
-    double t[3];
-    double normal[3][3]; // cofactor matrix times sign(det): inverse-transpose up to a scale
-    double det;
-};
-
-Affine make_affine(const Mat4 &w)
-{
-    Affine f{};
-    for (int r = 0; r < 3; r++) {
-        for (int c = 0; c < 3; c++)
-            f.a[r][c] = w.m[c * 4 + r];
-        f.t[r] = w.m[12 + r];
-    }
-    const double(*a)[3] = f.a;
-    double cof[3][3] = {
-        {a[1][1] * a[2][2] - a[1][2] * a[2][1], a[1][2] * a[2][0] - a[1][0] * a[2][2],
-         a[1][0] * a[2][1] - a[1][1] * a[2][0]},
-        {a[0][2] * a[2][1] - a[0][1] * a[2][2], a[0][0] * a[2][2] - a[0][2] * a[2][0],
-         a[0][1] * a[2][0] - a[0][0] * a[2][1]},
-        {a[0][1] * a[1][2] - a[0][2] * a[1][1], a[0][2] * a[1][0] - a[0][0] * a[1][2],
-         a[0][0] * a[1][1] - a[0][1] * a[1][0]},
-    };
-    f.det = a[0][0] * cof[0][0] + a[0][1] * cof[0][1] + a[0][2] * cof[0][2];
-    // inverse-transpose = cof / det; the scale does not matter as normals are renormalised, the
-    // sign does (a mirroring transform must not turn normals inside out). With det == 0 the
-    // cofactor still gives the normal of the flattened surface.
-    double s = f.det < 0.0 ? -1.0 : 1.0;
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++)
-            f.normal[r][c] = s * cof[r][c];
-    return f;
-}
-
 inline bool finite3(const double v[3])
 {
     return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
@@ -132,27 +96,6 @@ inline bool normalize3(double v[3])
         return false;
     v[0] /= len, v[1] /= len, v[2] /= len;
     return finite3(v);
-}
-
-// Unit normal of triangle (a, b, c) wound counter-clockwise, or false if it has no area.
-inline bool face_normal(const float a[3], const float b[3], const float c[3], double n[3])
-{
-    double e1[3] = {(double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]};
-    double e2[3] = {(double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]};
-    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-    return normalize3(n);
-}
-
-inline void set_normal(pn_vertex &v, const double n[3])
-{
-    v.normal[0] = (float)n[0], v.normal[1] = (float)n[1], v.normal[2] = (float)n[2];
-}
-
-inline void set_up_normal(pn_vertex &v)
-{
-    v.normal[0] = 0.0f, v.normal[1] = 1.0f, v.normal[2] = 0.0f;
 }
 
 uint64_t component_size(int type)
@@ -359,67 +302,15 @@ struct Access {
     int ncomp;
 };
 
-// A malloc'd growable array of plain structs, so that the big output arrays are built in place
-// and handed to the C side without a copy (pn_scene_destroy frees them with free()).
-template <typename T> class CArray {
-    static_assert(std::is_trivially_copyable<T>::value, "plain data only");
-
-public:
-    CArray() = default;
-    ~CArray() { std::free(p_); }
-    CArray(const CArray &) = delete;
-    CArray &operator=(const CArray &) = delete;
-
-    size_t size() const { return n_; }
-    bool empty() const { return n_ == 0; }
-    T *data() { return p_; }
-    // Resizes to n elements; new ones are uninitialised. Throws std::bad_alloc.
-    void resize(size_t n)
-    {
-        if (n > cap_) {
-            size_t c = cap_ + cap_ / 2 + 64;
-            if (c < n)
-                c = n;
-            void *q = std::realloc(p_, c * sizeof(T));
-            if (!q)
-                throw std::bad_alloc();
-            p_ = static_cast<T *>(q);
-            cap_ = c;
-        }
-        n_ = n;
-    }
-    // Gives up ownership of the (trimmed) array.
-    T *release()
-    {
-        if (n_ && n_ < cap_) {
-            void *q = std::realloc(p_, n_ * sizeof(T));
-            if (q)
-                p_ = static_cast<T *>(q);
-        }
-        T *r = p_;
-        p_ = nullptr;
-        n_ = cap_ = 0;
-        return r;
-    }
-
-private:
-    T *p_ = nullptr;
-    size_t n_ = 0, cap_ = 0;
-};
-
 class Loader {
 public:
     Loader(const char *path, const tinygltf::Model &model) : path_(path), m_(model) {}
-    ~Loader()
-    {
-        for (pn_texture &t : textures_)
-            std::free(t.rgba);
-    }
+    ~Loader() { pn_scene_build_destroy(&b_); }
     Loader(const Loader &) = delete;
     Loader &operator=(const Loader &) = delete;
 
     void run();
-    pn_result emit(pn_scene *out);
+    void emit(pn_scene *out);
 
 private:
     [[noreturn]] void fail(pn_result r, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
@@ -438,7 +329,8 @@ private:
     void visit_camera(int node, const Mat4 &world);
     void visit_light(int node, const Mat4 &world);
     void instance_mesh(int mesh, const Mat4 &world);
-    void instance_primitive(int mesh, int prim, const Affine &xf);
+    void instance_primitive(int mesh, int prim, const pn_scene_xform &xf);
+    void built(pn_result r); // throws on PN_ERR_MEMORY, the one error the builder's appends have
     uint32_t material_for(int mesh, int material);
     void build_materials();
     int32_t texture_for(int material, const tinygltf::TextureInfo &info);
@@ -446,22 +338,13 @@ private:
     const char *path_;
     const tinygltf::Model &m_;
 
-    CArray<pn_vertex> vertices_;
-    CArray<uint32_t> indices_;
-    std::vector<pn_draw> draws_;
-    std::vector<pn_material> materials_;
-    std::vector<pn_texture> textures_;
-    std::vector<int32_t> image_texture_; // glTF image -> index in textures_, -1 none, -2 unseen
+    pn_scene_build b_{}; // the scene so far; b_.scene's camera and lights are set here directly
+    std::vector<int32_t> image_texture_; // glTF image -> index in the textures, -1 none, -2 unseen
     bool default_material_used_ = false;
-    bool has_camera_ = false;
-    pn_camera camera_{};
-    std::vector<pn_light> lights_;
     // Instancing (pn_scene.meshes, .objects): each glTF mesh's local triangles, captured at its
     // first instance, and every instance.
-    std::vector<int32_t> mesh_index_; // glTF mesh -> index in mesh_soup_, -1 not yet instanced
-    std::vector<std::vector<float>> mesh_soup_;
-    std::vector<pn_scene_object> objects_;
-    bool capture_ = false; // instance_primitive appends the local triangles to mesh_soup_.back()
+    std::vector<int32_t> mesh_index_; // glTF mesh -> index in the scene's meshes, -1 not yet instanced
+    int64_t capture_ = -1; // the scene mesh instance_primitive captures local triangles into, or -1
 
     std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
     std::vector<uint8_t> camera_warned_;
@@ -504,6 +387,13 @@ void Loader::warn(const char *fmt, ...)
     std::vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
     pn_warn("%s: %s", path_, msg);
+}
+
+void Loader::built(pn_result r)
+{
+    if (r == PN_ERR_MEMORY)
+        throw std::bad_alloc();
+    assert(r == PN_OK);
 }
 
 std::string Loader::mesh_tag(int mesh) const
@@ -738,7 +628,7 @@ void Loader::run()
     image_texture_.assign(m_.images.size(), -2);
     build_materials();
     traverse();
-    if (indices_.empty()) {
+    if (b_.scene.index_count == 0) {
         std::string why;
         if (m_.meshes.empty()) {
             why = "the file has no meshes";
@@ -821,19 +711,19 @@ void Loader::traverse()
             mesh_instances_++;
             pn_scene_object o{};
             o.node = (uint32_t)it.node;
-            o.first_index = (uint32_t)indices_.size();
-            o.first_vertex = (uint32_t)vertices_.size();
+            o.first_index = b_.scene.index_count;
+            o.first_vertex = b_.scene.vertex_count;
             for (int r = 0; r < 3; r++) {
                 for (int c = 0; c < 3; c++)
                     o.to_world[r][c] = (float)world.m[c * 4 + r];
                 o.to_world[r][3] = (float)world.m[12 + r];
             }
             instance_mesh(n.mesh, world);
-            o.index_count = (uint32_t)indices_.size() - o.first_index;
-            o.vertex_count = (uint32_t)vertices_.size() - o.first_vertex;
+            o.index_count = b_.scene.index_count - o.first_index;
+            o.vertex_count = b_.scene.vertex_count - o.first_vertex;
             if (o.index_count) {
                 o.mesh = (uint32_t)mesh_index_[(size_t)n.mesh];
-                objects_.push_back(o);
+                built(pn_scene_build_add_object(&b_, &o));
             }
         }
         for (size_t i = n.children.size(); i-- > 0;)
@@ -847,7 +737,7 @@ void Loader::visit_camera(int node, const Mat4 &w)
     if (ci < 0 || (size_t)ci >= m_.cameras.size())
         fail(PN_ERR_FORMAT, "node %d: camera %d does not exist (%zu cameras)", node, ci,
              m_.cameras.size());
-    if (has_camera_)
+    if (b_.scene.has_camera)
         return;
     const tinygltf::Camera &cam = m_.cameras[(size_t)ci];
     if (cam.type != "perspective") {
@@ -879,13 +769,14 @@ void Loader::visit_camera(int node, const Mat4 &w)
         }
         return;
     }
-    has_camera_ = true;
+    pn_camera &camera = b_.scene.camera;
+    b_.scene.has_camera = true;
     for (int i = 0; i < 3; i++) {
-        camera_.pos[i] = (float)pos[i];
-        camera_.target[i] = (float)(pos[i] + fwd[i]);
-        camera_.up[i] = (float)up[i];
+        camera.pos[i] = (float)pos[i];
+        camera.target[i] = (float)(pos[i] + fwd[i]);
+        camera.up[i] = (float)up[i];
     }
-    camera_.yfov_deg = (float)(yfov * 180.0 / kPi);
+    camera.yfov_deg = (float)(yfov * 180.0 / kPi);
 }
 
 // An area light on a node (glTF has no area-light extension): extras {"penumbra_light": {"size":
@@ -929,7 +820,7 @@ void Loader::visit_light(int node, const Mat4 &w)
         problem = "its position is not finite or beyond 1e18 from the origin";
     else if (!normalize3(nrm) || !normalize3(ay) || !(sx > 0 && std::isfinite(sx)) || !(sy > 0 && std::isfinite(sy)))
         problem = "its node's transform is degenerate";
-    else if (lights_.size() == PN_SCENE_MAX_LIGHTS)
+    else if (b_.scene.light_count == PN_SCENE_MAX_LIGHTS)
         problem = "more lights than the 16 a frame takes";
     if (problem) {
         warn("node %d: light ignored: %s", node, problem);
@@ -944,25 +835,26 @@ void Loader::visit_light(int node, const Mat4 &w)
     }
     l.size[0] = (float)(size[0] * sx);
     l.size[1] = (float)(size[1] * sy);
-    lights_.push_back(l);
+    b_.scene.lights[b_.scene.light_count++] = l;
 }
 
 void Loader::instance_mesh(int mesh, const Mat4 &world)
 {
-    Affine xf = make_affine(world);
+    pn_scene_xform xf = pn_scene_xform_from_matrix(world.m);
     const tinygltf::Mesh &me = m_.meshes[(size_t)mesh];
     // The first instance also keeps the mesh's local triangles; the others produce the same ones.
-    capture_ = mesh_index_[(size_t)mesh] < 0;
-    if (capture_) {
-        mesh_index_[(size_t)mesh] = (int32_t)mesh_soup_.size();
-        mesh_soup_.emplace_back();
+    if (mesh_index_[(size_t)mesh] < 0) {
+        uint32_t index;
+        built(pn_scene_build_add_mesh(&b_, &index));
+        mesh_index_[(size_t)mesh] = (int32_t)index;
+        capture_ = index;
     }
     for (size_t p = 0; p < me.primitives.size(); p++)
         instance_primitive(mesh, (int)p, xf);
-    capture_ = false;
+    capture_ = -1;
 }
 
-void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
+void Loader::instance_primitive(int mesh, int prim, const pn_scene_xform &xf)
 {
     const tinygltf::Primitive &pr = m_.meshes[(size_t)mesh].primitives[(size_t)prim];
     uint8_t &warned = mesh_warned_[(size_t)mesh];
@@ -1075,105 +967,25 @@ void Loader::instance_primitive(int mesh, int prim, const Affine &xf)
             tri_[3 * i + 2] = src(0);
         }
     }
-    // A mirroring transform turns counter-clockwise into clockwise; swap to keep the front face.
-    if (xf.det < 0.0)
-        for (uint64_t i = 0; i < ntri; i++)
-            std::swap(tri_[3 * i + 1], tri_[3 * i + 2]);
-
-    if (capture_) {
-        std::vector<float> &soup = mesh_soup_.back();
-        for (uint64_t k = 0; k < ntri * 3; k++)
-            soup.insert(soup.end(), &pos_[tri_[k] * 3], &pos_[tri_[k] * 3] + 3);
-    }
-
     const uint64_t out_verts = has_nrm ? n : ntri * 3;
-    if (vertices_.size() + out_verts > kMaxVertices || indices_.size() + ntri * 3 > kMaxIndices)
+    if (b_.scene.vertex_count + out_verts > kMaxVertices || b_.scene.index_count + ntri * 3 > kMaxIndices)
         fail(PN_ERR_MEMORY, "scene too large: more than %llu vertices or %llu indices",
              (unsigned long long)kMaxVertices, (unsigned long long)kMaxIndices);
-    const uint32_t material = material_for(mesh, pr.material);
-
-    // --- world-space vertices
-    const size_t base = vertices_.size();
-    vertices_.resize(base + out_verts);
-    pn_vertex *vout = vertices_.data() + base;
-    auto world_pos = [&](uint64_t i, float out[3]) {
-        const float *p = &pos_[i * 3];
-        for (int r = 0; r < 3; r++) {
-            double v = xf.a[r][0] * p[0] + xf.a[r][1] * p[1] + xf.a[r][2] * p[2] + xf.t[r];
-            out[r] = (float)v;
-            if (!std::isfinite(out[r]))
-                fail(PN_ERR_FORMAT,
-                     "%s primitive %d: vertex %llu is not finite after the node transform",
-                     mesh_tag(mesh).c_str(), prim, (unsigned long long)i);
-        }
-    };
-    auto set_uv = [&](pn_vertex &v, uint64_t i) {
-        float u = has_uv ? uv_[i * 2] : 0.0f, w = has_uv ? uv_[i * 2 + 1] : 0.0f;
-        v.uv[0] = std::isfinite(u) ? u : 0.0f;
-        v.uv[1] = std::isfinite(w) ? w : 0.0f;
-    };
-
-    const size_t ibase = indices_.size();
-    indices_.resize(ibase + ntri * 3);
-    uint32_t *iout = indices_.data() + ibase;
-    if (has_nrm) {
-        bad_normal_.assign(n, 0);
-        bool any_bad = false;
-        for (uint64_t i = 0; i < n; i++) {
-            pn_vertex &v = vout[i];
-            world_pos(i, v.pos);
-            const float *q = &nrm_[i * 3];
-            double nw[3];
-            for (int r = 0; r < 3; r++)
-                nw[r] = xf.normal[r][0] * q[0] + xf.normal[r][1] * q[1] + xf.normal[r][2] * q[2];
-            if (normalize3(nw)) {
-                set_normal(v, nw);
-            } else {
-                bad_normal_[i] = 1;
-                any_bad = true;
-                set_up_normal(v);
-            }
-            set_uv(v, i);
-        }
-        for (uint64_t k = 0; k < ntri * 3; k++)
-            iout[k] = (uint32_t)(base + tri_[k]);
-        if (any_bad) {
-            // Zero or NaN normals take the normal of the first triangle using the vertex.
-            for (uint64_t t = 0; t < ntri; t++) {
-                const uint32_t *c = &tri_[3 * t];
-                if (!bad_normal_[c[0]] && !bad_normal_[c[1]] && !bad_normal_[c[2]])
-                    continue;
-                double fn[3];
-                if (!face_normal(vout[c[0]].pos, vout[c[1]].pos, vout[c[2]].pos, fn))
-                    continue;
-                for (int j = 0; j < 3; j++)
-                    if (bad_normal_[c[j]] == 1) {
-                        bad_normal_[c[j]] = 2;
-                        set_normal(vout[c[j]], fn);
-                    }
-            }
-        }
-    } else {
-        // No normals: flat shading, three vertices of their own per triangle.
-        for (uint64_t t = 0; t < ntri; t++) {
-            pn_vertex *v = vout + 3 * t;
-            for (int j = 0; j < 3; j++) {
-                uint32_t s = tri_[3 * t + (uint64_t)j];
-                world_pos(s, v[j].pos);
-                set_uv(v[j], s);
-            }
-            double fn[3];
-            for (int j = 0; j < 3; j++) {
-                if (face_normal(v[0].pos, v[1].pos, v[2].pos, fn))
-                    set_normal(v[j], fn);
-                else
-                    set_up_normal(v[j]);
-            }
-            for (int j = 0; j < 3; j++)
-                iout[3 * t + (uint64_t)j] = (uint32_t)(base + 3 * t + (uint64_t)j);
-        }
-    }
-    draws_.push_back(pn_draw{(uint32_t)ibase, (uint32_t)(ntri * 3), material});
+    pn_scene_build_prim p{};
+    p.positions = pos_.data();
+    p.normals = has_nrm ? nrm_.data() : nullptr;
+    p.uvs = has_uv ? uv_.data() : nullptr;
+    p.vertex_count = n;
+    p.triangles = tri_.data();
+    p.triangle_count = ntri;
+    p.material = material_for(mesh, pr.material);
+    p.capture_mesh = capture_;
+    uint64_t bad_vertex = 0;
+    pn_result r = pn_scene_build_add_prim(&b_, &p, &xf, &bad_vertex);
+    if (r == PN_ERR_FORMAT)
+        fail(PN_ERR_FORMAT, "%s primitive %d: vertex %llu is not finite after the node transform",
+             mesh_tag(mesh).c_str(), prim, (unsigned long long)bad_vertex);
+    built(r);
 }
 
 uint32_t Loader::material_for(int mesh, int material)
@@ -1192,7 +1004,6 @@ uint32_t Loader::material_for(int mesh, int material)
 
 void Loader::build_materials()
 {
-    materials_.reserve(m_.materials.size() + 1);
     for (size_t i = 0; i < m_.materials.size(); i++) {
         const tinygltf::PbrMetallicRoughness &pbr = m_.materials[i].pbrMetallicRoughness;
         pn_material mat{{1.0f, 1.0f, 1.0f, 1.0f}, -1};
@@ -1207,7 +1018,7 @@ void Loader::build_materials()
         }
         if (pbr.baseColorTexture.index != -1)
             mat.texture = texture_for((int)i, pbr.baseColorTexture);
-        materials_.push_back(mat);
+        built(pn_scene_build_add_material(&b_, &mat));
     }
 }
 
@@ -1246,141 +1057,24 @@ int32_t Loader::texture_for(int material, const tinygltf::TextureInfo &info)
              img.uri.empty() ? "" : "')");
         return -1;
     }
-    uint8_t *rgba = static_cast<uint8_t *>(std::malloc(w * h * 4));
-    if (!rgba)
+    int32_t index;
+    if (pn_scene_build_add_texture(&b_, (uint32_t)w, (uint32_t)h, (int)comp, (int)bytes, img.image.data(),
+                                   &index) != PN_OK)
         fail(PN_ERR_MEMORY, "image %d: out of memory for %llux%llu pixels", ii,
              (unsigned long long)w, (unsigned long long)h);
-    const uint8_t *src = img.image.data();
-    const uint64_t px = w * h;
-    // 16-bit samples are native-endian uint16 from stb_image; keep the high byte.
-    auto sample = [&](uint64_t i, uint64_t c) -> uint8_t {
-        if (bytes == 1)
-            return src[i * comp + c];
-        uint16_t v;
-        std::memcpy(&v, src + (i * comp + c) * 2, 2);
-        return (uint8_t)(v >> 8);
-    };
-    for (uint64_t i = 0; i < px; i++) {
-        uint8_t *d = rgba + i * 4;
-        switch (comp) {
-        case 1: d[0] = d[1] = d[2] = sample(i, 0), d[3] = 255; break;
-        case 2: d[0] = d[1] = d[2] = sample(i, 0), d[3] = sample(i, 1); break;
-        case 3: d[0] = sample(i, 0), d[1] = sample(i, 1), d[2] = sample(i, 2), d[3] = 255; break;
-        default:
-            d[0] = sample(i, 0), d[1] = sample(i, 1), d[2] = sample(i, 2), d[3] = sample(i, 3);
-        }
-    }
-    try {
-        textures_.push_back(pn_texture{(uint32_t)w, (uint32_t)h, rgba});
-    } catch (...) {
-        std::free(rgba);
-        throw;
-    }
-    slot = (int32_t)(textures_.size() - 1);
+    slot = index;
     return slot;
 }
 
-void free_arrays(pn_scene *s)
+// Moves the result into *out.
+void Loader::emit(pn_scene *out)
 {
-    std::free(s->vertices);
-    std::free(s->indices);
-    std::free(s->draws);
-    std::free(s->materials);
-    if (s->textures)
-        for (uint32_t i = 0; i < s->texture_count; i++)
-            std::free(s->textures[i].rgba);
-    std::free(s->textures);
-    if (s->meshes)
-        for (uint32_t i = 0; i < s->mesh_count; i++)
-            std::free(s->meshes[i].tris);
-    std::free(s->meshes);
-    std::free(s->objects);
-    std::memset(s, 0, sizeof *s);
-}
-
-template <typename T> T *dup_array(const std::vector<T> &v)
-{
-    if (v.empty())
-        return nullptr;
-    T *p = static_cast<T *>(std::malloc(v.size() * sizeof(T)));
-    if (p)
-        std::memcpy(p, v.data(), v.size() * sizeof(T));
-    return p;
-}
-
-// Moves the result into *out (malloc'd arrays). On failure nothing is left allocated.
-pn_result Loader::emit(pn_scene *out)
-{
-    if (default_material_used_)
-        materials_.push_back(pn_material{{1.0f, 1.0f, 1.0f, 1.0f}, -1});
-    std::memset(out, 0, sizeof *out);
-    std::snprintf(out->name, sizeof out->name, "%s", path_);
-    out->vertex_count = (uint32_t)vertices_.size();
-    out->index_count = (uint32_t)indices_.size();
-    out->vertices = vertices_.release();
-    out->indices = indices_.release();
-    out->draws = dup_array(draws_);
-    out->materials = dup_array(materials_);
-    out->draw_count = (uint32_t)draws_.size();
-    out->material_count = (uint32_t)materials_.size();
-    if (!textures_.empty()) {
-        out->textures = dup_array(textures_);
-        if (out->textures) {
-            // ownership of the pixels moves to *out
-            out->texture_count = (uint32_t)textures_.size();
-            textures_.clear();
-        }
+    if (default_material_used_) {
+        const pn_material white{{1.0f, 1.0f, 1.0f, 1.0f}, -1};
+        built(pn_scene_build_add_material(&b_, &white));
     }
-    if (!out->vertices || !out->indices || !out->draws || !out->materials ||
-        (!textures_.empty() && !out->textures)) {
-        free_arrays(out);
-        pn_error("%s: out of memory", path_);
-        return PN_ERR_MEMORY;
-    }
-    out->objects = dup_array(objects_);
-    out->meshes = static_cast<pn_scene_mesh *>(std::calloc(mesh_soup_.size() + 1, sizeof(pn_scene_mesh)));
-    bool ok = (out->objects || objects_.empty()) && out->meshes;
-    if (ok) {
-        out->object_count = (uint32_t)objects_.size();
-        out->mesh_count = (uint32_t)mesh_soup_.size();
-        for (size_t i = 0; i < mesh_soup_.size() && ok; i++) {
-            pn_scene_mesh &m = out->meshes[i];
-            m.triangle_count = (uint32_t)(mesh_soup_[i].size() / 9);
-            m.tris = static_cast<float(*)[3][3]>(std::malloc(mesh_soup_[i].size() * sizeof(float) + 1));
-            ok = m.tris != nullptr;
-            if (ok && !mesh_soup_[i].empty()) // a mesh whose primitives gave no triangles has none
-                std::memcpy(m.tris, mesh_soup_[i].data(), mesh_soup_[i].size() * sizeof(float));
-        }
-    }
-    if (!ok) {
-        free_arrays(out);
-        pn_error("%s: out of memory", path_);
-        return PN_ERR_MEMORY;
-    }
-    out->has_camera = has_camera_;
-    out->camera = camera_;
-    out->light_count = (uint32_t)lights_.size();
-    for (size_t i = 0; i < lights_.size(); i++)
-        out->lights[i] = lights_[i];
-
-    // Positions are known finite, so plain comparisons do (fmin/fmax are slow library calls).
-    const pn_vertex *v = out->vertices;
-    const uint32_t *idx = out->indices;
-    float bmin[3], bmax[3];
-    for (int c = 0; c < 3; c++)
-        bmin[c] = bmax[c] = v[idx[0]].pos[c];
-    for (uint32_t k = 1; k < out->index_count; k++) {
-        const float *p = v[idx[k]].pos;
-        for (int c = 0; c < 3; c++) {
-            bmin[c] = p[c] < bmin[c] ? p[c] : bmin[c];
-            bmax[c] = p[c] > bmax[c] ? p[c] : bmax[c];
-        }
-    }
-    for (int c = 0; c < 3; c++) {
-        out->bounds_min[c] = bmin[c];
-        out->bounds_max[c] = bmax[c];
-    }
-    return PN_OK;
+    std::snprintf(b_.scene.name, sizeof b_.scene.name, "%s", path_);
+    pn_scene_build_finish(&b_, out);
 }
 
 // --- reading files: the scene and the buffers and images it references. tinygltf's own reader
@@ -1624,7 +1318,8 @@ pn_result load(const char *path, pn_scene *out)
     }
     Loader loader(path, model);
     loader.run();
-    return loader.emit(out);
+    loader.emit(out);
+    return PN_OK;
 }
 
 } // namespace
