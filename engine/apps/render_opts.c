@@ -9,6 +9,7 @@
 #include "core/log.h"
 #include "core/timer.h"
 #include "gpu/renderer.h"
+#include "scene/interior.h"
 
 pn_render_opts pn_render_opts_default(void)
 {
@@ -308,11 +309,26 @@ static bool light_in_range(const char *what, const pn_light *l)
     return true;
 }
 
+// --light-pos/-normal/-up/-size/-radiance: changes to the one default light.
+static bool light_flags_given(const pn_render_opts *o)
+{
+    return o->has_light_pos || o->has_light_normal || o->has_light_up || o->has_light_size || o->has_light_radiance;
+}
+
 bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *lights,
                           uint32_t *light_count)
 {
-    if (s->has_camera && !o->has_cam_pos && !o->has_cam_target)
+    // A scene that encloses its centre (an atrium, a room) is seen from inside, by the camera and
+    // the light its interior gives (scene/interior.h), unless the file or the options place them.
+    bool frame = !(s->has_camera && !o->has_cam_pos && !o->has_cam_target);
+    bool default_light = o->light_count == 0 && (s->light_count == 0 || light_flags_given(o));
+    pn_interior interior = {0};
+    if (frame || default_light)
+        pn_interior_find(s, o->fov, &interior);
+    if (!frame)
         *cam = s->camera;
+    else if (interior.is_interior)
+        *cam = interior.camera;
     else
         pn_camera_frame(s->bounds_min, s->bounds_max, o->fov, cam);
     if (o->has_fov)
@@ -335,8 +351,7 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
     if (!(fabsf(d[0]) + fabsf(d[2]) > 1e-6f * dl)) // looking straight up or down: an up vector not parallel to the view
         cam->up[0] = 0, cam->up[1] = 0, cam->up[2] = -1;
 
-    bool light_flags =
-        o->has_light_pos || o->has_light_normal || o->has_light_up || o->has_light_size || o->has_light_radiance;
+    bool light_flags = light_flags_given(o);
     if (o->light_count > 0 && light_flags) {
         pn_error("--light and --light-pos/-normal/-up/-size/-radiance: give each light as one --light group, or "
                  "change the one default light with the others");
@@ -371,7 +386,10 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
     }
     *light_count = 1;
     pn_light *light = &lights[0];
-    pn_light_default(s->bounds_min, s->bounds_max, light);
+    if (interior.is_interior)
+        *light = interior.light;
+    else
+        pn_light_default(s->bounds_min, s->bounds_max, light);
     if (o->has_light_pos)
         memcpy(light->pos, o->light.pos, sizeof light->pos);
     if (!in_range("light position", light->pos))
