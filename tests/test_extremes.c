@@ -709,6 +709,7 @@ static void build_scene(const sweep_case *c, pn_scene *sc, tri *world, int *coun
 
 static void make_light(const sweep_case *c, pn_light *l)
 {
+    *l = (pn_light){0};
     double p[3], nl = len3(c->light_normal), nn[3], nw[3], uw[3];
     to_world(c, c->light_pos, p);
     for (int k = 0; k < 3; k++)

@@ -13,6 +13,8 @@
 #include <time.h>
 
 #include "core/log.h"
+#include "io/exr.h"
+#include "scene/light.h"
 #include "scene/scene.h"
 #include "test_util.h"
 
@@ -568,6 +570,72 @@ static void test_camera(void)
     pn_scene_destroy(&s);
 }
 
+// KHR_lights_punctual as exporters write it: a directional light (node 1, turned to shine down,
+// colour and an angular_diameter in extras), a point light (node 2, under a parent at (1,0,0)), a
+// spot (node 3, shining down, its cones); then lights that must be skipped with a warning: an
+// unknown type, a negative radius, a diameter that is not a number, an index past the list, and a
+// node whose scale is 0 (no direction). The file lists the extension as required: it is read, not
+// refused. The lights come out as the kinds of scene/light.h with colour x intensity; render draws
+// the scene with them (one V per light in the EXR).
+static void test_punctual(void)
+{
+    unsigned char bin[CUBE_BIN_LEN];
+    cube_bin(bin);
+    parts p = {
+        .scenes = "[{\"nodes\":[0,1,8,3,4,5,6,7]}]",
+        .nodes = "[{\"mesh\":0},"
+                 "{\"rotation\":[-" Q45 ",0,0," Q45 "],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
+                 "{\"translation\":[0,2,3],\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}},"
+                 "{\"translation\":[0,5,0],\"rotation\":[-" Q45 ",0,0," Q45 "],"
+                 "\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}},"
+                 "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":3}}},"
+                 "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":4}}},"
+                 "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":5}}},"
+                 "{\"children\":[9],\"extensions\":{\"KHR_lights_punctual\":{\"light\":9}}},"
+                 "{\"translation\":[1,0,0],\"children\":[2]},"
+                 "{\"scale\":[0,0,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}}]",
+        .extra = "\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensionsRequired\":[\"KHR_lights_punctual\"],"
+                 "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
+                 "{\"type\":\"directional\",\"color\":[1,0.5,0.25],\"intensity\":4,\"extras\":{\"angular_diameter\":2}},"
+                 "{\"type\":\"point\",\"intensity\":20,\"name\":\"bulb\"},"
+                 "{\"type\":\"spot\",\"intensity\":50,\"spot\":{\"innerConeAngle\":0.2,\"outerConeAngle\":0.6}},"
+                 "{\"type\":\"area\",\"intensity\":1},"
+                 "{\"type\":\"point\",\"intensity\":1,\"extras\":{\"radius\":-1}},"
+                 "{\"type\":\"directional\",\"intensity\":1,\"extras\":{\"angular_diameter\":\"wide\"}}]}},",
+        .bin = bin,
+        .bin_len = sizeof bin};
+    pn_scene s;
+    const char *path = write_gltf("punctual.gltf", &p);
+    if (load_ok(path, &s) != PN_OK)
+        return;
+    CHECK_MSG(s.light_count == 3, "%u lights, expected 3", s.light_count);
+    if (s.light_count == 3) {
+        const pn_light *sun = &s.lights[0], *pt = &s.lights[1], *spot = &s.lights[2];
+        CHECK(sun->kind == PN_LIGHT_SUN && pt->kind == PN_LIGHT_OMNI && spot->kind == PN_LIGHT_OMNI);
+        CHECK_MSG(fabsf(sun->normal[1] + 1) < 1e-6f && fabsf(sun->normal[0]) < 1e-6f && fabsf(sun->normal[2]) < 1e-6f,
+                  "sun shines along (%g %g %g)", sun->normal[0], sun->normal[1], sun->normal[2]);
+        CHECK(sun->radiance[0] == 4.0f && sun->radiance[1] == 2.0f && sun->radiance[2] == 1.0f);
+        CHECK_MSG(fabsf(sun->angle - 2.0f * 3.14159265f / 180) < 1e-7f, "sun diameter %g rad", sun->angle);
+        CHECK(pt->pos[0] == 1.0f && pt->pos[1] == 2.0f && pt->pos[2] == 3.0f && pt->radiance[1] == 20.0f);
+        CHECK(pt->cone[1] == 0.0f && pt->size[0] == 0.0f);
+        CHECK(spot->pos[1] == 5.0f && fabsf(spot->normal[1] + 1) < 1e-6f && spot->radiance[2] == 50.0f);
+        CHECK(spot->cone[0] == 0.2f && spot->cone[1] == 0.6f);
+    }
+    pn_scene_destroy(&s);
+    // The scene renders with them: one V per light.
+    char args[1024];
+    const char *exr = pn_test_tmp("punctual.exr");
+    snprintf(args, sizeof args, "render %s --size 64x48 --spp 4 -o %s >/dev/null 2>&1", path, exr);
+    CHECK_MSG(pn_test_run(args) == 0, "render %s failed", path);
+    pn_exr_image img;
+    if (pn_exr_read(exr, &img) == PN_OK) {
+        CHECK(pn_exr_image_channel(&img, "shadow.V.0") && pn_exr_image_channel(&img, "shadow.V.2") &&
+              !pn_exr_image_channel(&img, "shadow.V.3"));
+        pn_exr_image_free(&img);
+    } else
+        CHECK_MSG(false, "cannot read %s", exr);
+}
+
 // Area lights from node extras (engine/apps/README.md, scene/gltf.cpp): node 1 a light at (0,10,0) facing down
 // (-90 degrees about +X maps (x,y,z) to (x,z,-y): -Z goes to -Y and +Y to -Z), 2 x 1
 // scaled by (1.5, 2, 1); node 2 a point light with one radiance number, under a parent moved to
@@ -887,6 +955,7 @@ int main(void)
     test_textures();
     test_camera();
     test_lights();
+    test_punctual();
     test_bad_normals();
     test_bad_inputs();
     test_assets();

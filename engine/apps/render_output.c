@@ -135,6 +135,10 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         F1("penumbra.light.width", light->size[0]),
         F1("penumbra.light.height", light->size[1]),
         V3("penumbra.light.radiance", light->radiance),
+        {.name = "penumbra.light.kind", .type = PN_EXR_ATTR_STRING, .s = pn_light_kind_get(light->kind)->name},
+        F1("penumbra.light.angle", light->angle * 180.0f / 3.14159265f), // a sun's diameter, degrees
+        {.name = "penumbra.light.cone", .type = PN_EXR_ATTR_V3F, // a spot's inner and outer angles, degrees
+         .f = {light->cone[0] * 180.0f / 3.14159265f, light->cone[1] * 180.0f / 3.14159265f, 0}},
         F1("penumbra.gpu_ms.gbuffer", t->gbuffer_ms),
         F1("penumbra.gpu_ms.shadow", t->shadow_ms),
         F1("penumbra.gpu_ms.filter", t->filter_ms),
@@ -158,10 +162,11 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     };
 #undef V3
 #undef F1
-    // Lights 1.. as penumbra.light.i.*: the same six attributes as light 0's.
+    // Lights 1.. as penumbra.light.i.*: the six attributes of light 0's geometry, and its kind.
     enum { BASE = sizeof attrs / sizeof attrs[0], MAX_EXTRA = 16, PER_LIGHT = 6 };
-    pn_exr_attr all[BASE + PER_LIGHT * PN_MAX_LIGHTS + MAX_EXTRA];
+    pn_exr_attr all[BASE + (PER_LIGHT + 1) * PN_MAX_LIGHTS + MAX_EXTRA];
     static const char *const fields[PER_LIGHT] = {"pos", "normal", "up", "width", "height", "radiance"};
+    char kind_names[PN_MAX_LIGHTS][40];
     char attr_names[PN_MAX_LIGHTS][PER_LIGHT][40];
     memcpy(all, attrs, sizeof attrs);
     int n = BASE;
@@ -177,6 +182,8 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
                 a.f[0] = l->size[f == 3 ? 0 : 1];
             all[n++] = a;
         }
+        snprintf(kind_names[i], sizeof kind_names[i], "penumbra.light.%u.kind", i);
+        all[n++] = (pn_exr_attr){.name = kind_names[i], .type = PN_EXR_ATTR_STRING, .s = pn_light_kind_get(l->kind)->name};
     }
     if (extra_count > MAX_EXTRA)
         extra_count = MAX_EXTRA;

@@ -328,6 +328,7 @@ private:
     void traverse();
     void visit_camera(int node, const Mat4 &world);
     void visit_light(int node, const Mat4 &world);
+    void visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &world);
     void instance_mesh(int mesh, const Mat4 &world);
     void instance_primitive(int mesh, int prim, const pn_scene_xform &xf);
     void built(pn_result r); // throws on PN_ERR_MEMORY, the one error the builder's appends have
@@ -349,6 +350,7 @@ private:
     std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
     std::vector<uint8_t> camera_warned_;
     bool warned_skin_ = false;
+    bool warned_range_ = false;
 
     // What was skipped, to say why a scene ends up without triangles.
     uint64_t mesh_instances_ = 0, skipped_points_lines_ = 0, skipped_no_position_ = 0,
@@ -617,6 +619,8 @@ void Loader::run()
         fail(PN_ERR_FORMAT, "glTF version \"%.16s\" is not supported (2.x required)",
              version.c_str());
     for (const std::string &ext : m_.extensionsRequired) {
+        if (ext == "KHR_lights_punctual")
+            continue; // read (visit_punctual)
         if (ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" ||
             ext == "KHR_mesh_quantization")
             fail(PN_ERR_FORMAT, "requires extension %s, which is not supported", ext.c_str());
@@ -700,6 +704,9 @@ void Loader::traverse()
             visit_camera(it.node, world);
         if (n.extras.IsObject() && n.extras.Has("penumbra_light"))
             visit_light(it.node, world);
+        auto punctual = n.extensions.find("KHR_lights_punctual");
+        if (punctual != n.extensions.end())
+            visit_punctual(it.node, punctual->second, world);
         if (n.skin != -1 && !warned_skin_) {
             warned_skin_ = true;
             warn("skinning is not supported; skinned meshes are drawn in their bind pose");
@@ -835,6 +842,99 @@ void Loader::visit_light(int node, const Mat4 &w)
     }
     l.size[0] = (float)(size[0] * sx);
     l.size[1] = (float)(size[1] * sy);
+    b_.scene.lights[b_.scene.light_count++] = l;
+}
+
+// KHR_lights_punctual: a node's extension {"light": i} places light i of the file's list at the
+// node's origin, shining along the node's -Z axis (spot, directional). The extension's units are
+// kept, colour times intensity, without a conversion to watts: a point's or spot's candela is its
+// intensity, a directional light's lux its irradiance on a plane facing it. Sizes come from the
+// light's extras: "angular_diameter" in degrees for a directional light (default 0.53, the sun's;
+// 0 is a hard directional light), "radius" for a point or spot (0, the default, is a point;
+// a sphere light is not drawn yet: a radius above 0 is warned about and drawn as a point). A spot's
+// cones shade with the extension's falloff; its "range" is not applied (warned once). A malformed
+// light is reported and skipped.
+void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
+{
+    const tinygltf::Value &index = ext.Get("light");
+    if (!ext.IsObject() || !index.IsNumber()) {
+        warn("node %d: KHR_lights_punctual without a light index; ignored", node);
+        return;
+    }
+    double li = index.GetNumberAsDouble();
+    if (!(li >= 0 && li < (double)m_.lights.size() && li == std::floor(li))) {
+        warn("node %d: KHR_lights_punctual light %g does not exist (%zu lights); ignored", node, li, m_.lights.size());
+        return;
+    }
+    const tinygltf::Light &src = m_.lights[(size_t)li];
+    pn_light l{};
+    double pos[3] = {w.m[12], w.m[13], w.m[14]};
+    double dir[3] = {-w.m[8], -w.m[9], -w.m[10]}; // the node's -Z axis
+    double up[3] = {w.m[4], w.m[5], w.m[6]};      // and its +Y
+    double color[3] = {1, 1, 1};
+    const char *problem = nullptr;
+    auto extra = [&](const char *key, double fallback, double *out) {
+        *out = fallback;
+        if (!src.extras.IsObject() || !src.extras.Has(key))
+            return true;
+        const tinygltf::Value &x = src.extras.Get(key);
+        *out = x.IsNumber() ? x.GetNumberAsDouble() : NAN;
+        return std::isfinite(*out) && *out >= 0;
+    };
+    if (src.type == "directional")
+        l.kind = PN_LIGHT_SUN;
+    else if (src.type == "point" || src.type == "spot")
+        l.kind = PN_LIGHT_OMNI;
+    else
+        problem = "its type is not directional, point or spot";
+    if (!problem && !src.color.empty()) {
+        if (src.color.size() != 3)
+            problem = "its color is not 3 numbers";
+        for (size_t k = 0; !problem && k < 3; k++)
+            if (!(std::isfinite(src.color[k]) && src.color[k] >= 0))
+                problem = "its color is not 3 finite non-negative numbers";
+            else
+                color[k] = src.color[k];
+    }
+    double diameter = 0, radius = 0;
+    if (problem) {
+    } else if (!(std::isfinite(src.intensity) && src.intensity >= 0))
+        problem = "its intensity is not a finite non-negative number";
+    else if (!finite3(pos) || std::fabs(pos[0]) > 1e18 || std::fabs(pos[1]) > 1e18 || std::fabs(pos[2]) > 1e18)
+        problem = "its position is not finite or beyond 1e18 from the origin";
+    else if (!normalize3(dir) || !normalize3(up))
+        problem = "its node's transform is degenerate (no direction)";
+    else if (l.kind == PN_LIGHT_SUN && !(extra("angular_diameter", 0.53, &diameter) && diameter <= 10))
+        problem = "extras.angular_diameter is not a number of degrees in [0, 10]";
+    else if (l.kind == PN_LIGHT_OMNI && !extra("radius", 0, &radius))
+        problem = "extras.radius is not a finite non-negative number";
+    else if (src.type == "spot" && !(src.spot.innerConeAngle >= 0 && src.spot.innerConeAngle < src.spot.outerConeAngle &&
+                                     src.spot.outerConeAngle <= kPi / 2))
+        problem = "its spot cones are not 0 <= innerConeAngle < outerConeAngle <= pi/2";
+    else if (b_.scene.light_count == PN_SCENE_MAX_LIGHTS)
+        problem = "more lights than the 16 a frame takes";
+    if (problem) {
+        warn("node %d: KHR_lights_punctual light %d ('%.64s') skipped: %s", node, (int)li, src.name.c_str(), problem);
+        return;
+    }
+    if (radius > 0)
+        warn("node %d: light %d has radius %g: sphere lights are not drawn yet; drawn as a point (hard shadows)", node,
+             (int)li, radius);
+    if (src.range > 0 && !warned_range_) {
+        warned_range_ = true;
+        warn("KHR_lights_punctual range is not applied: lights reach without a cutoff");
+    }
+    for (int k = 0; k < 3; k++) {
+        l.pos[k] = (float)pos[k];
+        l.normal[k] = (float)dir[k];
+        l.up[k] = (float)up[k];
+        l.radiance[k] = (float)(color[k] * src.intensity);
+    }
+    l.angle = (float)(diameter * kPi / 180.0);
+    if (src.type == "spot") {
+        l.cone[0] = (float)src.spot.innerConeAngle;
+        l.cone[1] = (float)src.spot.outerConeAngle;
+    }
     b_.scene.lights[b_.scene.light_count++] = l;
 }
 

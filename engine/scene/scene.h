@@ -36,14 +36,26 @@ typedef struct pn_camera {
     float yfov_deg; // vertical field of view
 } pn_camera;
 
-// One rectangular, one-sided Lambertian emitter; size 0,0 is a point light (hard shadows).
+// The kinds of light (scene/light.h holds their table: sampling, irradiance, reach).
+typedef enum pn_light_kind {
+    PN_LIGHT_RECT, // a one-sided Lambertian rectangle; size 0,0: a point emitting as one (cosine lobe)
+    PN_LIGHT_OMNI, // a point emitting the same intensity every way (glTF's point), or into a cone (spot)
+    PN_LIGHT_SUN,  // a directional light with an angular diameter (glTF's directional)
+    PN_LIGHT_KIND_COUNT
+} pn_light_kind;
+
+// One light. Zero-initialised fields give a rectangle (the kind every option and file had first).
 typedef struct pn_light {
-    float pos[3];      // centre
-    float normal[3];   // unit; the side it emits to
+    float pos[3];      // centre (SUN: placed by pn_light_place_sun, far beyond the scene)
+    float normal[3];   // unit; the side it emits to (OMNI: a spot's axis; SUN: the light's direction of travel)
     float up[3];       // orients the height axis (projected onto the light's plane)
-    float size[2];     // width, height: both positive, or both 0 (a point)
-    float radiance[3]; // emitted radiance, linear RGB; for a point, radiant intensity along the normal
-                       // (W/sr: the limit of radiance x area; it falls off with the cosine)
+    float size[2];     // width, height: both positive, or both 0 (a point). SUN: its far disk's square
+    float radiance[3]; // emitted radiance, linear RGB; for a point, radiant intensity (W/sr: for RECT
+                       // the limit of radiance x area along the normal, falling off with the cosine);
+                       // SUN: the irradiance on a plane facing it (as glTF's lux)
+    pn_light_kind kind;
+    float angle;   // SUN: angular diameter, radians (0.53 degrees is the sun's)
+    float cone[2]; // OMNI: a spot's inner and outer cone half-angles, radians; 0, 0: no cone
 } pn_light;
 
 // A mesh in its own frame, as a scene file's nodes instance it: the triangles' positions as a soup
@@ -81,7 +93,8 @@ typedef struct pn_scene {
     uint32_t texture_count;
     bool has_camera; // the file's first camera, if it had one
     pn_camera camera;
-    // The file's area lights: glTF nodes whose extras hold "penumbra_light" (engine/apps/README.md), in node order.
+    // The file's lights, in node order: KHR_lights_punctual's, and area lights in node extras
+    // ("penumbra_light", engine/apps/README.md).
     uint32_t light_count;
     pn_light lights[PN_SCENE_MAX_LIGHTS];
     float bounds_min[3], bounds_max[3]; // of all vertices that are referenced by a triangle

@@ -47,6 +47,11 @@
 #define PN_SAMPLER_STRATIFIED_ID 0 // jittered strata, per-pixel rotated R2 jitters (the default)
 #define PN_SAMPLER_GRID_ID 1 // the paper's uniform grid
 // ShadowParams.split: how a pixel's rays are shared among several lights.
+// Light.corners[0].w: the light's kind (scene/light.h, the kinds' table).
+#define PN_LIGHT_RECT_ID 0 // a one-sided Lambertian parallelogram; all corners equal: a point emitting as one
+#define PN_LIGHT_OMNI_ID 1 // a point emitting the same intensity every way, or into a spot's cone
+#define PN_LIGHT_SUN_ID 2  // a directional light with an angular diameter: a disk far beyond the scene
+
 #define PN_SPLIT_EVEN_ID 0   // spp rays for every light
 #define PN_SPLIT_BUDGET_ID 1 // a budget of rays per pixel, shared by each light's unshadowed irradiance
 
@@ -191,11 +196,18 @@ PN_STRUCT(ObjectData, pn_gpu_object) {
 layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer ObjectPool { ObjectData objects[]; };
 #endif
 
-// The rectangular one-sided Lambertian area light. 96 bytes.
+// A light of the frame: the parallelogram its samples are drawn over, and its kind. 96 bytes.
+//   corners[i].xyz: counter-clockwise seen from the emitting side (a sun's: the square round its far
+//     disk; all equal for a point); corners[0].w: PN_LIGHT_*_ID;
+//   OMNI: corners[1].w, corners[2].w the cosines of a spot's outer and inner cone angles (-2, -1
+//     without a cone)
+//   normal: unit, the emitting side (xyz; a spot's axis, a sun's direction of travel)
+//   radiance: rgb; w = 1: a point (RECT with all corners equal, or OMNI), rgb its intensity (W/sr);
+//     SUN: rgb the irradiance on a plane facing it
 PN_STRUCT(Light, pn_light_gpu) {
-    PN_VEC4S(corners, 4) // counter-clockwise seen from the emitting side (xyz)
-    PN_VEC4(normal)      // unit, the emitting side (xyz)
-    PN_VEC4(radiance)    // rgb; w = 1: a point light (all corners equal), rgb is its intensity (W/sr)
+    PN_VEC4S(corners, 4)
+    PN_VEC4(normal)
+    PN_VEC4(radiance)
 } PN_END(Light, pn_light_gpu)
 
 // The shading pass's push constants: one light's term of the sum over lights. 112 bytes.

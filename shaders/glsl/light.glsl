@@ -1,12 +1,34 @@
-// The rectangular one-sided Lambertian area light: Light in interface.h.
+// A light's unshadowed irradiance: Light in interface.h, the kinds' table in scene/light.h.
 #include "interface.h"
 
-// Exact irradiance per unit radiance at p with unit normal n (Lambert's edge sum over the
-// polygon clipped to the receiver's upper hemisphere; zero behind the light); per unit intensity
-// for a point light.
-// Same algorithm as pn_light_irradiance on the CPU, in float.
+// A spot's falloff at the cosine c from its axis (pn_light_spot): the square of the ramp linear in
+// the cosine from the outer cone (corners[1].w) to the inner (corners[2].w); 1 without a cone.
+float light_spot(Light l, float c)
+{
+    float scale = 1.0 / max(0.001, l.corners[2].w - l.corners[1].w);
+    float a = clamp((c - l.corners[1].w) * scale, 0.0, 1.0);
+    return a * a;
+}
+
+// Unshadowed irradiance at p with unit normal n, per unit of the light's radiance (rgb), as
+// pn_light_irradiance on the CPU in float: RECT exact (Lambert's edge sum over the polygon clipped to
+// the receiver's upper hemisphere; zero behind the light), a RECT point cos(light) cos(receiver) /
+// r^2; OMNI cos(receiver) / r^2 times a spot's falloff; SUN cos(receiver) towards it.
 float light_irradiance(Light l, vec3 p, vec3 n)
 {
+    uint kind = uint(l.corners[0].w);
+    if (kind == PN_LIGHT_SUN_ID)
+        return max(dot(n, -l.normal.xyz), 0.0);
+    if (kind == PN_LIGHT_OMNI_ID) {
+        vec3 d = p - l.corners[0].xyz;
+        // Scaled to a max norm of 1 for the directions: |d|^3 may leave float range far out.
+        float m = max(max(abs(d.x), abs(d.y)), abs(d.z));
+        if (!(m > 0.0))
+            return 0.0;
+        vec3 u = normalize(d / m);
+        float r2 = dot(d, d); // below FLT_MAX: positions are within 1e18 (pn_scene_validate)
+        return max(-dot(n, u), 0.0) / r2 * light_spot(l, dot(l.normal.xyz, u));
+    }
     vec3 centre = 0.25 * (l.corners[0].xyz + l.corners[1].xyz + l.corners[2].xyz + l.corners[3].xyz);
     if (dot(l.normal.xyz, p - centre) <= 0.0)
         return 0.0;

@@ -62,7 +62,9 @@ bool leaf_plane_blocks(uint node, uint cell, uint n3, vec3 lo, vec3 ld, float ep
 // RISE_LEAVES); a later one may hold the surface the light is mounted on, and does not block.
 float leaf_t_fall(vec3 d)
 {
-    vec3 nl = LIGHT.normal.xyz;
+    // An OMNI light has no emitting side: its point is mounted on whatever surface the ray ends at,
+    // seen along the ray (n_L = -d / |d|, the plane through the point facing the ray).
+    vec3 nl = LIGHT_KIND == PN_LIGHT_OMNI_ID ? normalize(-d) : LIGHT.normal.xyz;
     return 1.0 - RISE_LEAVES * params.leaf_size * (abs(nl.x) + abs(nl.y) + abs(nl.z)) / dot(nl, -d);
 }
 

@@ -138,6 +138,30 @@ vec2 light_sample(uint k, uvec2 pixel)
 
 // The light this dispatch traces (ShadowChunk.light; the pass runs once per light).
 #define LIGHT params.lights[chunk.light]
+#define LIGHT_KIND uint(LIGHT.corners[0].w)
+
+// A light sample's (s, t) in the light's parallelogram (light_point) from the sampler's: the same
+// for a rectangle; for a sun the concentric map (Shirley and Chiu) of the square onto the disk
+// inscribed in it, which keeps the strata (each maps to a piece of the disk of the same area). The
+// result stays in the unit square (clamped against rounding), so the corners bound every point.
+vec2 light_warp(vec2 st)
+{
+    if (LIGHT_KIND != PN_LIGHT_SUN_ID)
+        return st;
+    vec2 a = 2.0 * st - 1.0;
+    if (a.x == 0.0 && a.y == 0.0)
+        return vec2(0.5);
+    const float quarter_pi = 0.78539816;
+    float r, phi;
+    if (abs(a.x) > abs(a.y)) {
+        r = a.x;
+        phi = quarter_pi * (a.y / a.x);
+    } else {
+        r = a.y;
+        phi = 2.0 * quarter_pi - quarter_pi * (a.x / a.y);
+    }
+    return clamp(0.5 + 0.5 * r * vec2(cos(phi), sin(phi)), 0.0, 1.0);
+}
 
 vec3 light_point(vec2 st)
 {

@@ -94,7 +94,13 @@ float light_weight(Light l, vec3 p, vec3 nrm)
 {
     vec3 centre = 0.25 * (l.corners[0].xyz + l.corners[1].xyz + l.corners[2].xyz + l.corners[3].xyz);
     vec3 d = centre - p;
-    if (dot(l.normal.xyz, -d) <= 0.0)
+    uint kind = uint(l.corners[0].w);
+    float radiance = l.radiance.r + l.radiance.g + l.radiance.b; // the error figures sum r, g and b
+    if (kind == PN_LIGHT_SUN_ID) { // its irradiance, E cos(receiver), as light_irradiance
+        float c = dot(nrm, -l.normal.xyz);
+        return c > 0.0 ? max(radiance * c, 1e-30) : 0.0;
+    }
+    if (kind != PN_LIGHT_OMNI_ID && dot(l.normal.xyz, -d) <= 0.0)
         return 0.0;
     // Unit directions: |d|^4 would leave float range for scenes far from the origin.
     float r2 = max(dot(d, d), 1e-30);
@@ -109,8 +115,7 @@ float light_weight(Light l, vec3 p, vec3 nrm)
     if (!above)
         return 0.0;
     float area = length(cross(l.corners[1].xyz - l.corners[0].xyz, l.corners[3].xyz - l.corners[0].xyz));
-    float cosines = dot(l.normal.xyz, -d) * inversesqrt(r2) * (cos_r / 5.0);
-    float radiance = l.radiance.r + l.radiance.g + l.radiance.b; // the error figures sum r, g and b
+    float cosines = (kind == PN_LIGHT_OMNI_ID ? 1.0 : dot(l.normal.xyz, -d) * inversesqrt(r2)) * (cos_r / 5.0);
     return max(radiance * min(area / r2 * cosines, 3.14159265), 1e-30);
 }
 
@@ -175,8 +180,15 @@ uint chunk_count(vec3 p, vec3 nrm)
 // V = visible / valid measures (the rest is invalid whatever is in the way): so a grazing pixel,
 // which sees only a sliver of the light above its horizon, spends its rays on the sliver and gets
 // the estimate that uniform samples over the whole light mostly discard or miss.
+// A sun's samples are warped onto its disk (light_warp): its box is the whole square, the samples
+// below the horizon invalid (it is half a degree across: only grazing pixels lose any).
 void horizon_box(vec3 o, vec3 nrm, out vec2 lo, out vec2 hi)
 {
+    if (LIGHT_KIND == PN_LIGHT_SUN_ID) {
+        lo = vec2(0.0);
+        hi = vec2(1.0);
+        return;
+    }
     const vec2 square[4] = vec2[4](vec2(0.0, 0.0), vec2(1.0, 0.0), vec2(1.0, 1.0), vec2(0.0, 1.0));
     float h[4];
     for (int c = 0; c < 4; c++)
@@ -215,10 +227,11 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
     if (any(greaterThan(box_lo, box_hi)))
         box_lo = vec2(0.0), box_hi = vec2(1.0); // none of the light is above: every ray is invalid
     for (i = 0u; i < count; i++) {
-        vec2 st = box_lo + light_sample(pixel_begin + i, pixel) * (box_hi - box_lo);
+        vec2 st = light_warp(box_lo + light_sample(pixel_begin + i, pixel) * (box_hi - box_lo));
         vec3 d = light_point(st) - o;
         float dn = dot(d, nrm);
-        bool valid = dn > 0.0 && dot(LIGHT.normal.xyz, -d) > 0.0;
+        // An OMNI light emits every way; the others from one side.
+        bool valid = dn > 0.0 && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(LIGHT.normal.xyz, -d) > 0.0);
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
