@@ -572,7 +572,7 @@ static void test_camera(void)
 
 // KHR_lights_punctual as exporters write it: a directional light (node 1, turned to shine down,
 // colour and an angular_diameter in extras), a point light (node 2, under a parent at (1,0,0)), a
-// spot (node 3, shining down, its cones); then lights that must be skipped with a warning: an
+// spot (node 3, shining down, its cones), a point with a radius (node 10: a sphere); then lights that must be skipped with a warning: an
 // unknown type, a negative radius, a diameter that is not a number, an index past the list, and a
 // node whose scale is 0 (no direction). The file lists the extension as required: it is read, not
 // refused. The lights come out as the kinds of scene/light.h with colour x intensity; render draws
@@ -582,7 +582,7 @@ static void test_punctual(void)
     unsigned char bin[CUBE_BIN_LEN];
     cube_bin(bin);
     parts p = {
-        .scenes = "[{\"nodes\":[0,1,8,3,4,5,6,7]}]",
+        .scenes = "[{\"nodes\":[0,1,8,3,4,5,6,7,10]}]",
         .nodes = "[{\"mesh\":0},"
                  "{\"rotation\":[-" Q45 ",0,0," Q45 "],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
                  "{\"translation\":[0,2,3],\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}},"
@@ -593,7 +593,8 @@ static void test_punctual(void)
                  "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":5}}},"
                  "{\"children\":[9],\"extensions\":{\"KHR_lights_punctual\":{\"light\":9}}},"
                  "{\"translation\":[1,0,0],\"children\":[2]},"
-                 "{\"scale\":[0,0,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}}]",
+                 "{\"scale\":[0,0,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}},"
+                 "{\"translation\":[0,3,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":6}}}]",
         .extra = "\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensionsRequired\":[\"KHR_lights_punctual\"],"
                  "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
                  "{\"type\":\"directional\",\"color\":[1,0.5,0.25],\"intensity\":4,\"extras\":{\"angular_diameter\":2}},"
@@ -601,15 +602,21 @@ static void test_punctual(void)
                  "{\"type\":\"spot\",\"intensity\":50,\"spot\":{\"innerConeAngle\":0.2,\"outerConeAngle\":0.6}},"
                  "{\"type\":\"area\",\"intensity\":1},"
                  "{\"type\":\"point\",\"intensity\":1,\"extras\":{\"radius\":-1}},"
-                 "{\"type\":\"directional\",\"intensity\":1,\"extras\":{\"angular_diameter\":\"wide\"}}]}},",
+                 "{\"type\":\"directional\",\"intensity\":1,\"extras\":{\"angular_diameter\":\"wide\"}},"
+                 "{\"type\":\"point\",\"intensity\":10,\"extras\":{\"radius\":0.5}}]}},",
         .bin = bin,
         .bin_len = sizeof bin};
     pn_scene s;
     const char *path = write_gltf("punctual.gltf", &p);
     if (load_ok(path, &s) != PN_OK)
         return;
-    CHECK_MSG(s.light_count == 3, "%u lights, expected 3", s.light_count);
-    if (s.light_count == 3) {
+    CHECK_MSG(s.light_count == 4, "%u lights, expected 4", s.light_count);
+    if (s.light_count == 4) {
+        // A point with a radius: a sphere of the same intensity, I = pi r^2 L.
+        const pn_light *ball = &s.lights[3];
+        CHECK(ball->kind == PN_LIGHT_SPHERE && ball->radius == 0.5f && ball->pos[1] == 3.0f);
+        CHECK_MSG(fabsf(ball->radiance[0] - (float)(10 / (3.14159265358979 * 0.25))) < 1e-5f, "sphere radiance %g",
+                  ball->radiance[0]);
         const pn_light *sun = &s.lights[0], *pt = &s.lights[1], *spot = &s.lights[2];
         CHECK(sun->kind == PN_LIGHT_SUN && pt->kind == PN_LIGHT_OMNI && spot->kind == PN_LIGHT_OMNI);
         CHECK_MSG(fabsf(sun->normal[1] + 1) < 1e-6f && fabsf(sun->normal[0]) < 1e-6f && fabsf(sun->normal[2]) < 1e-6f,
@@ -629,8 +636,8 @@ static void test_punctual(void)
     CHECK_MSG(pn_test_run(args) == 0, "render %s failed", path);
     pn_exr_image img;
     if (pn_exr_read(exr, &img) == PN_OK) {
-        CHECK(pn_exr_image_channel(&img, "shadow.V.0") && pn_exr_image_channel(&img, "shadow.V.2") &&
-              !pn_exr_image_channel(&img, "shadow.V.3"));
+        CHECK(pn_exr_image_channel(&img, "shadow.V.0") && pn_exr_image_channel(&img, "shadow.V.3") &&
+              !pn_exr_image_channel(&img, "shadow.V.4"));
         pn_exr_image_free(&img);
     } else
         CHECK_MSG(false, "cannot read %s", exr);

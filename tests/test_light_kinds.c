@@ -10,7 +10,10 @@
 //    diameter must not pass (the oracle tells them apart). An omni light and a spot: V exactly 0 or
 //    1 on either side of the occluder's projected edge (x = 0.25 h / (h - 0.5)), and the radiance
 //    where V = 1 equal to albedo / pi x I cos / r^2 (times the spot's falloff), in double here.
-//  - Every mode under a sun and a spot (builtin:default): the exact ones V bit for bit as exact.
+//  - A sphere light over the edge: V against the chord of the cap it shows (to O(theta^2)), and its
+//    radiance against the closed form; its irradiance against the integral over its cone, the cone
+//    above, across and below the horizon (Snyder's form), as a sun's across the horizon.
+//  - Every mode under a sun, a spot and a sphere (builtin:default): exact-ls V bit for bit as exact.
 #include <math.h>
 #include <string.h>
 
@@ -52,6 +55,55 @@ static void check_sun_irradiance(void)
         CHECK_MSG(fabs(got - expect) <= 1e-4 * fmax(expect, 1e-3), "sun, normal %d: %.8f, the integral %.8f", k, got,
                   expect);
     }
+}
+
+// A sphere of unit radiance: the integral of max(n . w, 0) over the cone it subtends, in double
+// (polar cells round the axis), against pn_light_irradiance (Snyder's closed form) with the cone
+// wholly above the horizon, straddling it and wholly below; and a sun straddling the horizon.
+static void check_sphere_irradiance(void)
+{
+    const pn_light sph = {.kind = PN_LIGHT_SPHERE, .pos = {0, 2, 0}, .radius = 0.8f};
+    double d = 2, delta = asin(0.8 / d);
+    const double axis[3] = {0, 1, 0}, t[3] = {1, 0, 0}, b[3] = {0, 0, 1};
+    // Normals at 0, 50, 68 (straddling: 90 - 23.6 < 68 < 90 + 23.6), 100 and 120 degrees from the axis.
+    const double angles[5] = {0, 50, 68, 100, 120};
+    for (int k = 0; k < 5; k++) {
+        double a = angles[k] * PI / 180, n[3] = {sin(a), cos(a), 0}, sum = 0;
+        const int N = 600;
+        for (int i = 0; i < N; i++) {
+            double th0 = delta * i / N, th1 = delta * (i + 1) / N, th = 0.5 * (th0 + th1);
+            double dw = (cos(th0) - cos(th1)) * 2 * PI / N;
+            for (int j = 0; j < N; j++) {
+                double ph = 2 * PI * (j + 0.5) / N, w[3];
+                for (int c = 0; c < 3; c++)
+                    w[c] = cos(th) * axis[c] + sin(th) * (cos(ph) * t[c] + sin(ph) * b[c]);
+                double c = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
+                sum += (c > 0 ? c : 0) * dw;
+            }
+        }
+        double got = pn_light_irradiance(&sph, (double[3]){0, 0, 0}, n);
+        CHECK_MSG(fabs(got - sum) <= 1e-4 * fmax(sum, 1e-2), "sphere, normal at %g degrees: %.8f, the integral %.8f",
+                  angles[k], got, sum);
+    }
+    // A sun of 4 degrees whose disk the horizon cuts (its centre 1 degree below it): E / E_perp is
+    // the part above, over pi sin^2(2 degrees), against the same integral.
+    pn_light sun = {.kind = PN_LIGHT_SUN, .normal = {0, -1, 0}, .angle = (float)(4 * PI / 180)};
+    double sd = 0.5 * (double)sun.angle, a = (91.0) * PI / 180, n[3] = {sin(a), cos(a), 0}, sum = 0;
+    const int N = 600;
+    for (int i = 0; i < N; i++) {
+        double th0 = sd * i / N, th1 = sd * (i + 1) / N, th = 0.5 * (th0 + th1);
+        double dw = (cos(th0) - cos(th1)) * 2 * PI / N;
+        for (int j = 0; j < N; j++) {
+            double ph = 2 * PI * (j + 0.5) / N, w[3];
+            for (int c = 0; c < 3; c++)
+                w[c] = cos(th) * axis[c] + sin(th) * (cos(ph) * t[c] + sin(ph) * b[c]);
+            double c = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
+            sum += (c > 0 ? c : 0) * dw;
+        }
+    }
+    sum /= PI * sin(sd) * sin(sd);
+    double got = pn_light_irradiance(&sun, (double[3]){0, 0, 0}, n);
+    CHECK_MSG(sum > 0 && fabs(got - sum) <= 1e-3 * sum, "sun across the horizon: %.8f, the integral %.8f", got, sum);
 }
 
 // KHR_lights_punctual's reference: lightAngleScale = 1 / max(0.001, cos(inner) - cos(outer)),
@@ -150,6 +202,7 @@ static double sun_edge_error(const frame *f, double diameter_deg, int *pixels)
 int main(void)
 {
     check_sun_irradiance();
+    check_sphere_irradiance();
     check_spot_falloff();
 
     // A sun of 10 degrees straight down: its penumbra at the edge is 2 x 0.5 tan(5 deg) = 0.087 wide.
@@ -167,6 +220,47 @@ int main(void)
             if (f.v[i] == 1.0f && receiver(&f, i))
                 worst = fmax(worst, fabs(f.r[i] - f.alb[i] / PI * 2.0) / (f.alb[i] / PI * 2.0));
         CHECK_MSG(worst < 1e-5, "sun radiance off by %.2g", worst);
+        pn_exr_image_free(&f.img);
+    }
+
+    // A sphere of radius 0.1 at height 2 over the occluder's edge: each receiver point samples the
+    // cone it subtends (half-angle about 0.05), which the edge cuts. To O(theta^2) (0.3% here) the
+    // cap is a disk of angular radius theta and the edge a chord: V = chord(-angle / theta), angle
+    // the cap centre's angular distance from the plane through the point and the edge, positive
+    // on the lit side. Also against a sphere of twice the radius.
+    if (render("sphere:0.25,2,0:0.1:50", "kinds_sphere.exr", 256, &f)) {
+        double err[2] = {0, 0};
+        int n = 0;
+        for (int i = 0; i < f.img.width * f.img.height; i++) {
+            double x = f.px[i], z = f.pz[i];
+            if (fabs(z) >= 0.15 || fabs(x - 0.25) > 0.04 || !receiver(&f, i))
+                continue;
+            // The plane through g = (x, 0, z) and the edge (0.25, 0.5, z) + s (0, 0, 1): normal
+            // (0.5, 0.25 - x, 0) turned towards the lit side (x' > 0.25 at y = 0.5).
+            double nn[3] = {0.5, -(0.25 - x), 0}, nl = hypot(nn[0], nn[1]);
+            double c[3] = {0.25 - x, 2.0, -z}, cl = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+            double ang = asin((nn[0] * c[0] + nn[1] * c[1]) / (nl * cl));
+            for (int m = 0; m < 2; m++) {
+                double theta = asin((m ? 0.2 : 0.1) / cl), a = fmin(fmax(-ang / theta, -1), 1);
+                double v = (acos(a) - a * sqrt(1 - a * a)) / PI;
+                err[m] += fabs(f.v[i] - v);
+            }
+            n++;
+        }
+        printf("sphere r 0.1: %d pixels by the edge, mean |V - disk chord| %.4f (against r 0.2: %.4f)\n", n,
+               n ? err[0] / n : 1.0, n ? err[1] / n : 1.0);
+        CHECK_MSG(n > 50 && err[0] / n < 0.02 && err[1] > 3 * err[0], "sphere penumbra: %d pixels, %.4f (r 0.2: %.4f)", n,
+                  err[0] / n, err[1] / n);
+        // Lit receiver: radiance = albedo / pi x L x the CPU's closed form.
+        pn_light sph = {.kind = PN_LIGHT_SPHERE, .pos = {0.25f, 2, 0}, .radius = 0.1f};
+        double worst = 0;
+        for (int i = 0; i < f.img.width * f.img.height; i++)
+            if (f.v[i] == 1.0f && receiver(&f, i)) {
+                double e = pn_light_irradiance(&sph, (double[3]){f.px[i], 0, f.pz[i]}, (double[3]){0, 1, 0});
+                double expect = f.alb[i] / PI * 50 * e;
+                worst = fmax(worst, fabs(f.r[i] - expect) / expect);
+            }
+        CHECK_MSG(worst < 1e-4, "sphere radiance off by %.2g", worst);
         pn_exr_image_free(&f.img);
     }
 
@@ -205,12 +299,12 @@ int main(void)
     // ones give exact's V bit for bit; the line-space ones their approximation (mean |V - exact's|
     // below 0.05 here; bench and engine/shadow/README.md give their errors).
     const char *modes[] = {"exact-ls", "rayquery", "hybrid", "linespace", "ls-leaf", "ls-plane"};
-    const char *kinds[2] = {"sun:0.3,-1,0.2:6:2", "spot:0.3,2,0.1:0,-1,0:25,40:5"};
+    const char *kinds[3] = {"sun:0.3,-1,0.2:6:2", "spot:0.3,2,0.1:0,-1,0:25,40:5", "sphere:0.3,2,0.1:0.3:3"};
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
     bool ray_query = pn_gpu_device_create(&desc, &dev) == PN_OK && dev.ray_query;
     pn_gpu_device_destroy(&dev);
-    for (int k = 0; k < 2; k++) {
+    for (int k = 0; k < 3; k++) {
         frame ref;
         char name[64];
         snprintf(name, sizeof name, "kinds_%d_exact.exr", k);

@@ -22,7 +22,7 @@ typedef struct pn_ntree_desc {
     // whose plane has the whole scene and every light on one closed side (a ground plane under
     // everything, the outer walls of a room lit from inside). NULL keeps every triangle.
     const float (*cull_light)[3];
-    uint32_t cull_light_corners; // points at cull_light: 4 per light (0 counts as 4, one light)
+    uint32_t cull_light_corners; // points at cull_light: 8 per light, pn_light_reach (0 counts as 4)
     // With a box (lo xyz, hi xyz): also leave out triangles wholly outside it, e.g. the box of the
     // visible receivers and the light, which holds every segment from one to the other.
     const float *keep_box;

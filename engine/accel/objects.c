@@ -140,7 +140,7 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
     memcpy(out->cull_box, scene->bounds_min, 3 * sizeof(float));
     memcpy(out->cull_box + 3, scene->bounds_max, 3 * sizeof(float));
     uint32_t corners = desc->cull_light ? (desc->cull_light_corners ? desc->cull_light_corners : 4) : 0;
-    out->cull_light_corners = corners < 4 * PN_MAX_LIGHTS ? corners : 4 * PN_MAX_LIGHTS;
+    out->cull_light_corners = corners < 8 * PN_MAX_LIGHTS ? corners : 8 * PN_MAX_LIGHTS;
     if (out->cull_light_corners)
         memcpy(out->cull_light, desc->cull_light, out->cull_light_corners * sizeof out->cull_light[0]);
     if (r == PN_OK)

@@ -42,7 +42,7 @@ typedef struct pn_objects {
     // What they were judged against (pn_ntree_can_block): the scene's bounds at build and the
     // lights' corners; pn_objects_cull_holds asks again after objects moved.
     float cull_box[6];
-    float cull_light[4 * PN_MAX_LIGHTS][3];
+    float cull_light[8 * PN_MAX_LIGHTS][3];
     uint32_t cull_light_corners;
     double leaf_size;         // the smallest world_leaf: rays rise clear of their surface by it, and
                               // by world_leaf before the instance's own tree may block them

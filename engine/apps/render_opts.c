@@ -54,7 +54,8 @@ static void light_any_up(pn_light *l)
     l->up[0] = steep ? 1.0f : 0.0f, l->up[1] = steep ? 0.0f : 1.0f, l->up[2] = 0.0f;
 }
 
-// --light omni:POS:I, spot:POS:DIR:INNER,OUTER:I (degrees), sun:DIR:DIAMETER:E (degrees), rect:P:N:U:S:R.
+// --light omni:POS:I, spot:POS:DIR:INNER,OUTER:I (degrees), sphere:POS:RADIUS:L, sun:DIR:DIAMETER:E
+// (degrees), rect:P:N:U:S:R.
 static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int parts, const char *v, pn_render_opts *o)
 {
     pn_light *l = &o->lights[o->light_count];
@@ -86,6 +87,15 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
             ok = false;
         }
         l->cone[0] = cone[0] * 3.14159265f / 180, l->cone[1] = cone[1] * 3.14159265f / 180;
+    } else if (kind == PN_LIGHT_SPHERE && parts == 3) {
+        l->normal[1] = -1;
+        ok = pn_parse_floats("--light position", part[0], l->pos, 3) &&
+             pn_parse_float_range("--light radius", part[1], 0.0f, FLT_MAX, &l->radius) &&
+             pn_parse_rgb("--light radiance", part[2], l->radiance);
+        if (ok && !(l->radius > 0)) {
+            pn_error("--light sphere radius: must be positive (omni:position:intensity is a point), got '%s'", part[1]);
+            ok = false;
+        }
     } else if (kind == PN_LIGHT_SUN && parts == 3) {
         float deg;
         ok = pn_parse_floats("--light direction", part[0], l->normal, 3) &&
@@ -94,7 +104,8 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
         l->angle = deg * 3.14159265f / 180;
     } else {
         pn_error("--light: expected omni:position:intensity, spot:position:direction:inner,outer:intensity, "
-                 "sun:direction:diameter:irradiance or rect:position:normal:up:size:radiance, got '%s'",
+                 "sphere:position:radius:radiance, sun:direction:diameter:irradiance or "
+                 "rect:position:normal:up:size:radiance, got '%s'",
                  v);
         return false;
     }
@@ -136,7 +147,7 @@ static bool parse_light_group(const char *v, pn_render_opts *o)
         if (spot)
             kind = PN_LIGHT_OMNI;
         else if (!pn_light_kind_parse(part[0], &kind)) {
-            pn_error("--light: unknown kind '%s' (rect, omni, spot, sun)", part[0]);
+            pn_error("--light: unknown kind '%s' (rect, omni, spot, sphere, sun)", part[0]);
             return false;
         }
         return parse_light_kind(kind, spot, part + 1, parts - 1, v, o);
@@ -301,6 +312,7 @@ void pn_render_opts_print_help(void)
            "                        (shadow.V.0, shadow.V.1, ...). Other kinds (scene/light.h):\n"
            "                        omni:P:I  a point emitting intensity I every way\n"
            "                        spot:P:DIR:INNER,OUTER:I  the same within a cone (degrees, glTF's falloff)\n"
+           "                        sphere:P:R:L  a sphere of radius R and radiance L\n"
            "                        sun:DIR:DIAMETER:E  light travelling along DIR from a disk DIAMETER\n"
            "                        degrees across (0.53 is the sun's), E the irradiance facing it\n"
            "scene:\n"

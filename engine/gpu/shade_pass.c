@@ -23,6 +23,12 @@ pn_light_gpu pn_light_to_gpu(const pn_light *l)
     g.radiance[3] = pn_light_is_point(l) ? 1.0f : 0.0f; // light.glsl: radiance is then an intensity
     assert(pn_light_kind_get(l->kind)); // a light made without its kind: zero-initialise pn_light
     g.corners[0][3] = (float)pn_light_kind_get(l->kind)->gpu_id;
+    if (l->kind == PN_LIGHT_SUN) { // its Snyder form (light.glsl)
+        float sh = sinf(0.5f * l->angle);
+        g.corners[1][3] = sh * sh;
+    }
+    if (l->kind == PN_LIGHT_SPHERE)
+        g.corners[1][3] = l->radius;
     if (l->kind == PN_LIGHT_OMNI) { // the spot's cone as cosines; none: every cosine is inside
         bool cone = l->cone[1] > 0;
         g.corners[1][3] = cone ? cosf(l->cone[1]) : -2.0f;

@@ -850,8 +850,8 @@ void Loader::visit_light(int node, const Mat4 &w)
 // kept, colour times intensity, without a conversion to watts: a point's or spot's candela is its
 // intensity, a directional light's lux its irradiance on a plane facing it. Sizes come from the
 // light's extras: "angular_diameter" in degrees for a directional light (default 0.53, the sun's;
-// 0 is a hard directional light), "radius" for a point or spot (0, the default, is a point;
-// a sphere light is not drawn yet: a radius above 0 is warned about and drawn as a point). A spot's
+// 0 is a hard directional light), "radius" for a point (0, the default, is a point; above 0 a sphere
+// of that radius and the same intensity; a spot's radius is warned about and not drawn). A spot's
 // cones shade with the extension's falloff; its "range" is not applied (warned once). A malformed
 // light is reported and skipped.
 void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
@@ -917,9 +917,16 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
         warn("node %d: KHR_lights_punctual light %d ('%.64s') skipped: %s", node, (int)li, src.name.c_str(), problem);
         return;
     }
-    if (radius > 0)
-        warn("node %d: light %d has radius %g: sphere lights are not drawn yet; drawn as a point (hard shadows)", node,
+    // A point light with a radius is a sphere of the same intensity: I = pi r^2 L every way.
+    double to_radiance = 1;
+    if (radius > 0 && src.type == "point") {
+        l.kind = PN_LIGHT_SPHERE;
+        l.radius = (float)radius;
+        to_radiance = 1 / (kPi * radius * radius);
+    } else if (radius > 0) {
+        warn("node %d: spot %d has radius %g: a spot with a size is not drawn yet; drawn as a point spot", node,
              (int)li, radius);
+    }
     if (src.range > 0 && !warned_range_) {
         warned_range_ = true;
         warn("KHR_lights_punctual range is not applied: lights reach without a cutoff");
@@ -928,7 +935,7 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
         l.pos[k] = (float)pos[k];
         l.normal[k] = (float)dir[k];
         l.up[k] = (float)up[k];
-        l.radiance[k] = (float)(color[k] * src.intensity);
+        l.radiance[k] = (float)(color[k] * src.intensity * to_radiance);
     }
     l.angle = (float)(diameter * kPi / 180.0);
     if (src.type == "spot") {

@@ -20,6 +20,11 @@ static const pn_light_kind_info KINDS[PN_LIGHT_KIND_COUNT] = {
                       "directions within the angular diameter, to 1e-5 of it",
                       "E cos(receiver) at the disk's centre: exact while all of the disk is above the horizon",
                       "the scene's bounds and the far disk: any blocker in the scene", PN_LIGHT_SUN_ID, false},
+    [PN_LIGHT_SPHERE] = {"sphere",
+                         "uniform by solid angle over the cone the sphere subtends from the receiver (concentric map "
+                         "of the square's strata), ending on the disk of its tangent circle",
+                         "Snyder's closed form for a sphere, the part below the receiver's horizon cut off: exact",
+                         "the sphere's bounding box", PN_LIGHT_SPHERE_ID, false},
 };
 
 const pn_light_kind_info *pn_light_kind_get(pn_light_kind kind)
@@ -101,6 +106,35 @@ bool pn_light_place_sun(pn_light *l, const float lo[3], const float hi[3])
     return true;
 }
 
+void pn_light_reach(const pn_light *l, float pts[8][3])
+{
+    if (l->kind == PN_LIGHT_SPHERE) { // the corners of its bounding box
+        for (int i = 0; i < 8; i++)
+            for (int k = 0; k < 3; k++)
+                pts[i][k] = l->pos[k] + ((i >> k) & 1 ? l->radius : -l->radius);
+        return;
+    }
+    pn_light_corners(l, pts);
+    memcpy(pts[4], pts, 4 * sizeof pts[0]);
+}
+
+double pn_light_sphere_irradiance(double cos_theta, double sin2_sigma)
+{
+    // Snyder (1996), as Lagarde and de Rousiers (2014) write it: pi sin^2 s cos t while the whole
+    // cap is above the horizon (cos^2 t > sin^2 s), else the part above, in closed form.
+    const double pi = 3.14159265358979323846;
+    if (!(sin2_sigma > 0))
+        return 0;
+    if (cos_theta * cos_theta > sin2_sigma)
+        return cos_theta > 0 ? pi * sin2_sigma * cos_theta : 0;
+    double sin_theta = sqrt(fmax(1 - cos_theta * cos_theta, 0));
+    double x = sqrt(1 / sin2_sigma - 1);
+    double y = -x * cos_theta / sin_theta;
+    double sy = sin_theta * sqrt(fmax(1 - y * y, 0));
+    double e = (cos_theta * acos(fmin(fmax(y, -1), 1)) - x * sy) * sin2_sigma + atan(sy / x);
+    return e > 0 ? e : 0;
+}
+
 double pn_light_spot(const pn_light *l, double c)
 {
     if (l->kind != PN_LIGHT_OMNI || !(l->cone[1] > 0))
@@ -113,11 +147,19 @@ double pn_light_spot(const pn_light *l, double c)
 
 double pn_light_irradiance(const pn_light *l, const double p[3], const double n[3])
 {
-    if (l->kind == PN_LIGHT_SUN) { // E cos(receiver) towards the disk's centre, per unit E
-        double len = sqrt(d3_dot((double[3]){l->normal[0], l->normal[1], l->normal[2]},
-                                 (double[3]){l->normal[0], l->normal[1], l->normal[2]}));
-        double c = -(n[0] * l->normal[0] + n[1] * l->normal[1] + n[2] * l->normal[2]) / len;
-        return c > 0 ? c : 0;
+    if (l->kind == PN_LIGHT_SUN) { // per unit E: the sphere's form over its projected solid angle
+        double ln[3] = {l->normal[0], l->normal[1], l->normal[2]};
+        double c = -d3_dot(n, ln) / sqrt(d3_dot(ln, ln)), s = sin(0.5 * (double)l->angle);
+        if (!(s > 0))
+            return c > 0 ? c : 0;
+        return pn_light_sphere_irradiance(c, s * s) / (3.14159265358979323846 * s * s);
+    }
+    if (l->kind == PN_LIGHT_SPHERE) { // per unit radiance
+        double a[3] = {l->pos[0] - p[0], l->pos[1] - p[1], l->pos[2] - p[2]};
+        double d2 = d3_dot(a, a), r2 = (double)l->radius * l->radius;
+        if (!(d2 > r2))
+            return 0; // inside the light
+        return pn_light_sphere_irradiance(d3_dot(n, a) / sqrt(d2), r2 / d2);
     }
     if (l->kind == PN_LIGHT_OMNI) { // I cos(receiver) / r^2 times the spot's falloff, per unit I
         double to_p[3] = {p[0] - l->pos[0], p[1] - l->pos[1], p[2] - l->pos[2]};

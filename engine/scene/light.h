@@ -35,8 +35,18 @@ static inline bool pn_light_is_point(const pn_light *l)
 bool pn_light_frame(const pn_light *l, float tangent[3], float bitangent[3]);
 
 // The four corners of the parallelogram its samples lie in, counter-clockwise seen from the
-// emitting side: a rectangle's own; a sun's, the square round its far disk; a point's, pos four times.
+// emitting side: a rectangle's own; a sun's, the square round its far disk; a point's, pos four
+// times; a sphere's, its centre four times (each receiver point has its own square, light_patch).
 void pn_light_corners(const pn_light *l, float corners[4][3]);
+
+// Points whose hull holds every point a ray to the light can end at (the "reach" of the table):
+// the four corners twice, or a sphere's bounding box.
+void pn_light_reach(const pn_light *l, float pts[8][3]);
+
+// Irradiance from a sphere of unit radiance subtending a cone of half-angle s (sin2_sigma = sin^2 s)
+// whose axis makes angle t (cos_theta) with the receiver's normal, the part below the horizon cut
+// off: Snyder's closed form. A sun is the same sphere far away.
+double pn_light_sphere_irradiance(double cos_theta, double sin2_sigma);
 
 // Places a sun for a scene with bounds lo..hi: its disk, seen from every point of the bounds at its
 // angular diameter to 1e-5 of it, 1e5 bounding radii away against its direction of travel. False
@@ -46,9 +56,8 @@ bool pn_light_place_sun(pn_light *l, const float lo[3], const float hi[3]);
 // Unshadowed irradiance at point p with unit normal n, per unit of l->radiance, double precision:
 // RECT per unit radiance (polygon clipped to the receiver's upper hemisphere; zero behind the
 // light), a RECT point per unit intensity, cos(light) cos(receiver) / r^2; OMNI per unit intensity,
-// cos(receiver) / r^2 times a spot's falloff; SUN per unit of its irradiance, cos(receiver) at the
-// disk's centre (exact while the whole disk is above the receiver's horizon; within angle / 2 of
-// grazing it counts the part below).
+// cos(receiver) / r^2 times a spot's falloff; SUN per unit of its irradiance, SPHERE per unit
+// radiance: pn_light_sphere_irradiance (exact, the part below the horizon cut off).
 double pn_light_irradiance(const pn_light *l, const double p[3], const double n[3]);
 
 // A spot's falloff at the cosine c of the angle from its axis, as KHR_lights_punctual's reference

@@ -12,12 +12,13 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
     memset(out, 0, sizeof *out);
     out->desc = *desc;
     pn_result r = PN_OK;
-    // Every light's corners: a triangle stays if it can block a ray to any of them.
-    float corners[4 * PN_MAX_LIGHTS][3];
+    // Every light's reach (the points whose hull holds every end of its rays, scene/light.h): a
+    // triangle stays if it can block a ray to any of them.
+    float corners[8 * PN_MAX_LIGHTS][3];
     uint32_t lights = desc->light_count ? desc->light_count : 1;
     for (uint32_t i = 0; desc->needs.tree && i < lights && i < PN_MAX_LIGHTS; i++)
-        pn_light_corners(&desc->light[i], &corners[4 * i]);
-    uint32_t light_corners = 4 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS);
+        pn_light_reach(&desc->light[i], &corners[8 * i]);
+    uint32_t light_corners = 8 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS);
     if (desc->needs.tree && desc->per_object) {
         // Line spaces only: no candidate lists or leaf planes; the renderer binds per-object trees
         // for linespace alone.
@@ -172,9 +173,9 @@ pn_result pn_view_box(pn_gpu_device *dev, const pn_scene *scene, const pn_camera
         for (int k = 0; k < 3; k++)
             box[k] = INFINITY, box[3 + k] = -INFINITY;
         for (uint32_t i = 0; i < (light_count ? light_count : 1); i++) {
-            float corners[4][3];
-            pn_light_corners(&lights[i], corners);
-            for (int c = 0; c < 4; c++)
+            float corners[8][3];
+            pn_light_reach(&lights[i], corners);
+            for (int c = 0; c < 8; c++)
                 for (int k = 0; k < 3; k++) {
                     box[k] = corners[c][k] < box[k] ? corners[c][k] : box[k];
                     box[3 + k] = corners[c][k] > box[3 + k] ? corners[c][k] : box[3 + k];

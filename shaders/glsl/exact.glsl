@@ -202,7 +202,7 @@ Frustum frustum_make(vec3 o, vec2 st_lo, vec2 st_hi)
         f.D[c] = q[c] - o;
         f.dmax = max(f.dmax, length(f.D[c]));
     }
-    vec3 twist = LIGHT.corners[2].xyz - LIGHT.corners[1].xyz - LIGHT.corners[3].xyz + LIGHT.corners[0].xyz;
+    vec3 twist = patch_corners[2] - patch_corners[1] - patch_corners[3] + patch_corners[0];
     f.delta = 16.0 * ulp_bound(mag) + length(twist);
     f.dmax += f.delta;
     return f;

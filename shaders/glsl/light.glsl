@@ -10,15 +10,40 @@ float light_spot(Light l, float c)
     return a * a;
 }
 
+// Irradiance from a sphere of unit radiance subtending a cone of half-angle s (s2 = sin^2 s) at an
+// angle t from the normal (c = cos t), the part below the horizon cut off: Snyder's closed form, as
+// pn_light_sphere_irradiance.
+float sphere_irradiance(float c, float s2)
+{
+    if (c * c > s2)
+        return c > 0.0 ? 3.14159265 * s2 * c : 0.0;
+    float sin_t = sqrt(max(1.0 - c * c, 0.0));
+    float x = sqrt(1.0 / s2 - 1.0);
+    float y = -x * c / sin_t;
+    float sy = sin_t * sqrt(max(1.0 - y * y, 0.0));
+    return max((c * acos(clamp(y, -1.0, 1.0)) - x * sy) * s2 + atan(sy / x), 0.0);
+}
+
 // Unshadowed irradiance at p with unit normal n, per unit of the light's radiance (rgb), as
 // pn_light_irradiance on the CPU in float: RECT exact (Lambert's edge sum over the polygon clipped to
 // the receiver's upper hemisphere; zero behind the light), a RECT point cos(light) cos(receiver) /
-// r^2; OMNI cos(receiver) / r^2 times a spot's falloff; SUN cos(receiver) towards it.
+// r^2; OMNI cos(receiver) / r^2 times a spot's falloff; SUN per unit of its irradiance and SPHERE
+// per unit radiance, Snyder's form.
 float light_irradiance(Light l, vec3 p, vec3 n)
 {
     uint kind = uint(l.corners[0].w);
-    if (kind == PN_LIGHT_SUN_ID)
-        return max(dot(n, -l.normal.xyz), 0.0);
+    if (kind == PN_LIGHT_SUN_ID) { // per unit E: the sphere's form over its projected solid angle
+        float c = dot(n, -l.normal.xyz), s2 = l.corners[1].w;
+        return s2 > 0.0 ? sphere_irradiance(c, s2) / (3.14159265 * s2) : max(c, 0.0);
+    }
+    if (kind == PN_LIGHT_SPHERE_ID) {
+        vec3 a = l.corners[0].xyz - p;
+        float len = length(a), r = l.corners[1].w; // below FLT_MAX: positions are within 1e18
+        if (!(len > r))
+            return 0.0; // inside the light
+        float s = r / len;
+        return sphere_irradiance(dot(n, a) / len, s * s);
+    }
     if (kind == PN_LIGHT_OMNI_ID) {
         vec3 d = p - l.corners[0].xyz;
         // Scaled to a max norm of 1 for the directions: |d|^3 may leave float range far out.

@@ -64,7 +64,7 @@ float leaf_t_fall(vec3 d)
 {
     // An OMNI light has no emitting side: its point is mounted on whatever surface the ray ends at,
     // seen along the ray (n_L = -d / |d|, the plane through the point facing the ray).
-    vec3 nl = LIGHT_KIND == PN_LIGHT_OMNI_ID ? normalize(-d) : LIGHT.normal.xyz;
+    vec3 nl = LIGHT_KIND == PN_LIGHT_OMNI_ID ? normalize(-d) : patch_normal;
     return 1.0 - RISE_LEAVES * params.leaf_size * (abs(nl.x) + abs(nl.y) + abs(nl.z)) / dot(nl, -d);
 }
 

@@ -140,17 +140,56 @@ vec2 light_sample(uint k, uvec2 pixel)
 #define LIGHT params.lights[chunk.light]
 #define LIGHT_KIND uint(LIGHT.corners[0].w)
 
-// A light sample's (s, t) in the light's parallelogram (light_point) from the sampler's: the same
-// for a rectangle; for a sun the concentric map (Shirley and Chiu) of the square onto the disk
-// inscribed in it, which keeps the strata (each maps to a piece of the disk of the same area). The
-// result stays in the unit square (clamped against rounding), so the corners bound every point.
-vec2 light_warp(vec2 st)
+// The parallelogram this pixel's light samples lie in (light_point, counter-clockwise seen from
+// the side it emits to) and that side's normal: the light's own, or for a sphere a square of the
+// pixel's own (light_patch). patch_none: the point is inside the sphere, no ray carries light.
+vec3 patch_corners[4];
+vec3 patch_normal;
+bool patch_none;
+float patch_k;   // SPHERE: 1 - cos(theta_max) of the cone the sphere subtends from the point
+float patch_tan; // SPHERE: tan(theta_max)
+
+// Sets the patch for the pixel at o. A sphere of centre c and radius r, at distance d: the cone of
+// half-angle theta_max (sin = r / d) touches it along its tangent circle, at distance d - r^2 / d
+// along the axis with radius r sqrt(d^2 - r^2) / d; the square round that circle, facing o, holds
+// every ray's end (light_warp puts them on that circle's disk: the segment to it differs from the
+// one to the sphere's near side only within the sphere, where no geometry is).
+void light_patch(vec3 o)
 {
-    if (LIGHT_KIND != PN_LIGHT_SUN_ID)
-        return st;
+    patch_none = false;
+    patch_normal = LIGHT.normal.xyz;
+    for (int c = 0; c < 4; c++)
+        patch_corners[c] = LIGHT.corners[c].xyz;
+    if (LIGHT_KIND != PN_LIGHT_SPHERE_ID)
+        return;
+    vec3 a = LIGHT.corners[0].xyz - o;
+    float r = LIGHT.corners[1].w, d = length(a); // below FLT_MAX: positions are within 1e18
+    if (!(d > r)) {
+        patch_none = true;
+        return;
+    }
+    vec3 w = a / d;
+    float s = r / d, cos_max = sqrt(max(1.0 - s * s, 0.0));
+    patch_k = s * s / (1.0 + cos_max); // 1 - cos, without cancelling when the sphere is small or far
+    patch_tan = s / max(cos_max, 1e-30);
+    vec3 m = o + (d - r * s) * w;
+    float rho = r * cos_max;
+    vec3 t = normalize(cross(w, abs(w.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+    patch_normal = -w;
+    vec3 b = cross(patch_normal, t); // t x b = the normal, as pn_light_frame
+    patch_corners[0] = m - rho * t - rho * b;
+    patch_corners[1] = m + rho * t - rho * b;
+    patch_corners[2] = m + rho * t + rho * b;
+    patch_corners[3] = m - rho * t + rho * b;
+}
+
+// The concentric map (Shirley and Chiu) of the unit square onto the unit disk: it keeps areas and
+// so the strata (each maps to a piece of the disk of the same area, compact).
+vec2 concentric(vec2 st)
+{
     vec2 a = 2.0 * st - 1.0;
     if (a.x == 0.0 && a.y == 0.0)
-        return vec2(0.5);
+        return vec2(0.0);
     const float quarter_pi = 0.78539816;
     float r, phi;
     if (abs(a.x) > abs(a.y)) {
@@ -160,14 +199,34 @@ vec2 light_warp(vec2 st)
         r = a.y;
         phi = 2.0 * quarter_pi - quarter_pi * (a.x / a.y);
     }
-    return clamp(0.5 + 0.5 * r * vec2(cos(phi), sin(phi)), 0.0, 1.0);
+    return r * vec2(cos(phi), sin(phi));
+}
+
+// A light sample's (s, t) in the patch (light_point) from the sampler's: the same for a rectangle;
+// for a sun the disk inscribed in its square (uniform by area); for a sphere the point where the
+// direction drawn uniformly by solid angle over its cone meets the tangent circle's disk: from the
+// disk point x of radius u^(1/2), cos(theta) = 1 - u (1 - cos theta_max), and the point lies at
+// tan(theta) / tan(theta_max) of the disk's radius. The result stays in the unit square (clamped
+// against rounding), so the patch's corners bound every point.
+vec2 light_warp(vec2 st)
+{
+    uint kind = LIGHT_KIND;
+    if (kind != PN_LIGHT_SUN_ID && kind != PN_LIGHT_SPHERE_ID)
+        return st;
+    vec2 x = concentric(st);
+    if (kind == PN_LIGHT_SPHERE_ID) {
+        float u = dot(x, x), uk = u * patch_k;
+        float scale = u > 0.0 ? sqrt(uk * (2.0 - uk)) / (1.0 - uk) / patch_tan / sqrt(u) : 0.0;
+        x *= scale;
+    }
+    return clamp(0.5 + 0.5 * x, 0.0, 1.0);
 }
 
 vec3 light_point(vec2 st)
 {
     // Corners 0..3 at (s,t) = (0,0), (1,0), (1,1), (0,1): bilinear = exact point on the parallelogram.
-    vec3 a = mix(LIGHT.corners[0].xyz, LIGHT.corners[1].xyz, st.x);
-    vec3 b = mix(LIGHT.corners[3].xyz, LIGHT.corners[2].xyz, st.x);
+    vec3 a = mix(patch_corners[0], patch_corners[1], st.x);
+    vec3 b = mix(patch_corners[3], patch_corners[2], st.x);
     return mix(a, b, st.y);
 }
 

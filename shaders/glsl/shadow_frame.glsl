@@ -98,7 +98,14 @@ float light_weight(Light l, vec3 p, vec3 nrm)
     float radiance = l.radiance.r + l.radiance.g + l.radiance.b; // the error figures sum r, g and b
     if (kind == PN_LIGHT_SUN_ID) { // its irradiance, E cos(receiver), as light_irradiance
         float c = dot(nrm, -l.normal.xyz);
-        return c > 0.0 ? max(radiance * c, 1e-30) : 0.0;
+        return c > -sqrt(l.corners[1].w) ? max(radiance * max(c, 0.0), 1e-30) : 0.0;
+    }
+    if (kind == PN_LIGHT_SPHERE_ID) { // L pi (r / d)^2 cos(receiver) towards its centre, some part above
+        float r = l.corners[1].w, len = length(d);
+        if (!(len > r))
+            return 0.0;
+        float c = dot(nrm, d) / len, s = r / len;
+        return c > -s ? max(radiance * 3.14159265 * s * s * max(c, 0.0), 1e-30) : 0.0;
     }
     if (kind != PN_LIGHT_OMNI_ID && dot(l.normal.xyz, -d) <= 0.0)
         return 0.0;
@@ -180,11 +187,11 @@ uint chunk_count(vec3 p, vec3 nrm)
 // V = visible / valid measures (the rest is invalid whatever is in the way): so a grazing pixel,
 // which sees only a sliver of the light above its horizon, spends its rays on the sliver and gets
 // the estimate that uniform samples over the whole light mostly discard or miss.
-// A sun's samples are warped onto its disk (light_warp): its box is the whole square, the samples
-// below the horizon invalid (it is half a degree across: only grazing pixels lose any).
+// A sun's and a sphere's samples are warped onto a disk (light_warp): their box is the whole
+// square, the samples below the horizon invalid.
 void horizon_box(vec3 o, vec3 nrm, out vec2 lo, out vec2 hi)
 {
-    if (LIGHT_KIND == PN_LIGHT_SUN_ID) {
+    if (LIGHT_KIND == PN_LIGHT_SUN_ID || LIGHT_KIND == PN_LIGHT_SPHERE_ID) {
         lo = vec2(0.0);
         hi = vec2(1.0);
         return;
@@ -192,7 +199,7 @@ void horizon_box(vec3 o, vec3 nrm, out vec2 lo, out vec2 hi)
     const vec2 square[4] = vec2[4](vec2(0.0, 0.0), vec2(1.0, 0.0), vec2(1.0, 1.0), vec2(0.0, 1.0));
     float h[4];
     for (int c = 0; c < 4; c++)
-        h[c] = dot(LIGHT.corners[c].xyz - o, nrm);
+        h[c] = dot(patch_corners[c] - o, nrm);
     lo = vec2(1.0);
     hi = vec2(0.0);
     for (int c = 0; c < 4; c++) {
@@ -223,6 +230,7 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
     st_lo = vec2(1.0);
     st_hi = vec2(0.0);
     vec2 box_lo, box_hi;
+    light_patch(o);
     horizon_box(o, nrm, box_lo, box_hi);
     if (any(greaterThan(box_lo, box_hi)))
         box_lo = vec2(0.0), box_hi = vec2(1.0); // none of the light is above: every ray is invalid
@@ -230,8 +238,8 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
         vec2 st = light_warp(box_lo + light_sample(pixel_begin + i, pixel) * (box_hi - box_lo));
         vec3 d = light_point(st) - o;
         float dn = dot(d, nrm);
-        // An OMNI light emits every way; the others from one side.
-        bool valid = dn > 0.0 && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(LIGHT.normal.xyz, -d) > 0.0);
+        // An OMNI light emits every way; the others from one side; none reaches inside a sphere.
+        bool valid = dn > 0.0 && !patch_none && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(patch_normal, -d) > 0.0);
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
@@ -253,13 +261,13 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
 // here); 0 for a point light (hard shadows).
 float penumbra_width(vec3 o, float t)
 {
-    vec3 c0 = LIGHT.corners[0].xyz, c1 = LIGHT.corners[1].xyz, c3 = LIGHT.corners[3].xyz;
-    vec3 d = 0.25 * (c0 + c1 + LIGHT.corners[2].xyz + c3) - o;
+    vec3 c0 = patch_corners[0], c1 = patch_corners[1], c3 = patch_corners[3];
+    vec3 d = 0.25 * (c0 + c1 + patch_corners[2] + c3) - o;
     // The cosine from d scaled to a max norm of 1: its square neither overflows nor underflows at
     // any scale positions take (pn_scene_validate).
     float m = max(max(abs(d.x), abs(d.y)), abs(d.z));
     vec3 u = m > 0.0 ? d / m : vec3(0.0);
-    float cos_l = m > 0.0 ? max(dot(LIGHT.normal.xyz, -u), 0.0) / length(u) : 0.0;
+    float cos_l = m > 0.0 ? max(dot(patch_normal, -u), 0.0) / length(u) : 0.0;
     float side = min(distance(c1, c0), distance(c3, c0)) * cos_l;
     return t < 1.0 ? side * (t / (1.0 - t)) : PN_PENUMBRA_NONE;
 }
