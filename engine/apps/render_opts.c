@@ -96,6 +96,17 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
             pn_error("--light sphere radius: must be positive (omni:position:intensity is a point), got '%s'", part[1]);
             ok = false;
         }
+    } else if (kind == PN_LIGHT_DISK && parts == 5) {
+        ok = pn_parse_floats("--light position", part[0], l->pos, 3) &&
+             pn_parse_floats("--light normal", part[1], l->normal, 3) &&
+             pn_parse_floats("--light up", part[2], l->up, 3) &&
+             pn_parse_float_range("--light radius", part[3], 0.0f, FLT_MAX, &l->radius) &&
+             pn_parse_rgb("--light radiance", part[4], l->radiance);
+        if (ok && !(l->radius > 0)) {
+            pn_error("--light disk radius: must be positive, got '%s'", part[3]);
+            ok = false;
+        }
+        l->size[0] = l->size[1] = 2 * l->radius; // the square round it
     } else if (kind == PN_LIGHT_SUN && parts == 3) {
         float deg;
         ok = pn_parse_floats("--light direction", part[0], l->normal, 3) &&
@@ -104,12 +115,13 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
         l->angle = deg * 3.14159265f / 180;
     } else {
         pn_error("--light: expected omni:position:intensity, spot:position:direction:inner,outer:intensity, "
-                 "sphere:position:radius:radiance, sun:direction:diameter:irradiance or "
+                 "sphere:position:radius:radiance, disk:position:normal:up:radius:radiance, "
+                 "sun:direction:diameter:irradiance or "
                  "rect:position:normal:up:size:radiance, got '%s'",
                  v);
         return false;
     }
-    if (ok && kind != PN_LIGHT_RECT)
+    if (ok && kind != PN_LIGHT_RECT && kind != PN_LIGHT_DISK)
         light_any_up(l);
     if (ok && (l->radiance[0] < 0 || l->radiance[1] < 0 || l->radiance[2] < 0)) {
         pn_error("--light: the radiance, intensity or irradiance must not be negative, got '%s'", value);
@@ -147,7 +159,7 @@ static bool parse_light_group(const char *v, pn_render_opts *o)
         if (spot)
             kind = PN_LIGHT_OMNI;
         else if (!pn_light_kind_parse(part[0], &kind)) {
-            pn_error("--light: unknown kind '%s' (rect, omni, spot, sphere, sun)", part[0]);
+            pn_error("--light: unknown kind '%s' (rect, omni, spot, sphere, disk, sun)", part[0]);
             return false;
         }
         return parse_light_kind(kind, spot, part + 1, parts - 1, v, o);
@@ -313,6 +325,7 @@ void pn_render_opts_print_help(void)
            "                        omni:P:I  a point emitting intensity I every way\n"
            "                        spot:P:DIR:INNER,OUTER:I  the same within a cone (degrees, glTF's falloff)\n"
            "                        sphere:P:R:L  a sphere of radius R and radiance L\n"
+           "                        disk:P:N:U:R:L  a one-sided disk of radius R facing N\n"
            "                        sun:DIR:DIAMETER:E  light travelling along DIR from a disk DIAMETER\n"
            "                        degrees across (0.53 is the sun's), E the irradiance facing it\n"
            "scene:\n"

@@ -25,6 +25,10 @@ static const pn_light_kind_info KINDS[PN_LIGHT_KIND_COUNT] = {
                          "of the square's strata), ending on the disk of its tangent circle",
                          "Snyder's closed form for a sphere, the part below the receiver's horizon cut off: exact",
                          "the sphere's bounding box", PN_LIGHT_SPHERE_ID, false},
+    [PN_LIGHT_DISK] = {"disk", "uniform by area over the disk (concentric map of the square's strata)",
+                       "Lambert's edge sum over a regular polygon of PN_LIGHT_DISK_SIDES sides and the disk's area, "
+                       "clipped to the receiver's hemisphere (tests/test_light_kinds.c bounds its error)",
+                       "the square round the disk", PN_LIGHT_DISK_ID, false},
 };
 
 const pn_light_kind_info *pn_light_kind_get(pn_light_kind kind)
@@ -183,14 +187,27 @@ double pn_light_irradiance(const pn_light *l, const double p[3], const double n[
         double r2 = d3_dot(to_p, to_p), cr = -d3_dot(n, to_p);
         return cr > 0 ? d3_dot(ln, to_p) * cr / (r2 * r2) : 0;
     }
+    double in[PN_LIGHT_DISK_SIDES][3];
+    int sides = 4;
+    if (l->kind == PN_LIGHT_DISK) {
+        // The regular polygon of the same area: radius r sqrt(a / sin a), a = 2 pi / sides.
+        float t[3], bt[3];
+        pn_light_frame(l, t, bt);
+        sides = PN_LIGHT_DISK_SIDES;
+        double a = 2 * 3.14159265358979323846 / sides, rr = (double)l->radius * sqrt(a / sin(a));
+        for (int i = 0; i < sides; i++)
+            for (int k = 0; k < 3; k++)
+                in[i][k] = (double)l->pos[k] - p[k] + rr * (cos(a * i) * t[k] + sin(a * i) * bt[k]);
+    } else {
+        for (int i = 0; i < 4; i++)
+            for (int k = 0; k < 3; k++)
+                in[i][k] = (double)qf[i][k] - p[k];
+    }
     // Clip the polygon (relative to p) to the receiver's upper hemisphere, n . x >= 0.
-    double in[4][3], out[8][3];
-    for (int i = 0; i < 4; i++)
-        for (int k = 0; k < 3; k++)
-            in[i][k] = (double)qf[i][k] - p[k];
+    double out[PN_LIGHT_DISK_SIDES + 4][3];
     int m = 0;
-    for (int i = 0; i < 4; i++) {
-        const double *a = in[i], *b = in[(i + 1) % 4];
+    for (int i = 0; i < sides; i++) {
+        const double *a = in[i], *b = in[(i + 1) % sides];
         double da = d3_dot(n, a), db = d3_dot(n, b);
         if (da >= 0)
             memcpy(out[m++], a, sizeof out[0]);

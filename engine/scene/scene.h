@@ -42,6 +42,7 @@ typedef enum pn_light_kind {
     PN_LIGHT_OMNI, // a point emitting the same intensity every way (glTF's point), or into a cone (spot)
     PN_LIGHT_SUN,  // a directional light with an angular diameter (glTF's directional)
     PN_LIGHT_SPHERE, // a sphere of uniform radiance (glTF's point with a radius)
+    PN_LIGHT_DISK,   // a one-sided Lambertian disk
     PN_LIGHT_KIND_COUNT
 } pn_light_kind;
 
@@ -57,7 +58,7 @@ typedef struct pn_light {
     pn_light_kind kind;
     float angle;   // SUN: angular diameter, radians (0.53 degrees is the sun's)
     float cone[2]; // OMNI: a spot's inner and outer cone half-angles, radians; 0, 0: no cone
-    float radius;  // SPHERE: its radius (pos its centre)
+    float radius;  // SPHERE, DISK: the radius (pos the centre; a disk's size is the square round it)
 } pn_light;
 
 // A mesh in its own frame, as a scene file's nodes instance it: the triangles' positions as a soup

@@ -52,6 +52,8 @@
 #define PN_LIGHT_OMNI_ID 1 // a point emitting the same intensity every way, or into a spot's cone
 #define PN_LIGHT_SUN_ID 2  // a directional light with an angular diameter: a disk far beyond the scene
 #define PN_LIGHT_SPHERE_ID 3 // a sphere of uniform radiance: each point samples the cone it subtends
+#define PN_LIGHT_DISK_ID 4   // a one-sided Lambertian disk: the square round it, samples mapped onto it
+#define PN_LIGHT_DISK_SIDES 64 // light_irradiance integrates a disk as a regular polygon of as many sides and the same area
 
 #define PN_SPLIT_EVEN_ID 0   // spp rays for every light
 #define PN_SPLIT_BUDGET_ID 1 // a budget of rays per pixel, shared by each light's unshadowed irradiance
@@ -202,7 +204,8 @@ layout(buffer_reference, std430, buffer_reference_align = 16) readonly buffer Ob
 //     disk; all equal for a point); corners[0].w: PN_LIGHT_*_ID;
 //   OMNI: corners[1].w, corners[2].w the cosines of a spot's outer and inner cone angles (-2, -1
 //     without a cone); SUN: corners[1].w sin^2 of half its diameter; SPHERE: every corner its
-//     centre, corners[1].w its radius (each point's own square: light_patch)
+//     centre, corners[1].w its radius (each point's own square: light_patch); DISK: the corners
+//     of the square round it
 //   normal: unit, the emitting side (xyz; a spot's axis, a sun's direction of travel)
 //   radiance: rgb; w = 1: a point (RECT with all corners equal, or OMNI), rgb its intensity (W/sr);
 //     SUN: rgb the irradiance on a plane facing it

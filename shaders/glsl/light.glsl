@@ -24,6 +24,52 @@ float sphere_irradiance(float c, float s2)
     return max((c * acos(clamp(y, -1.0, 1.0)) - x * sy) * s2 + atan(sy / x), 0.0);
 }
 
+// Lambert's edge term of the edge from a to b (relative to the receiver point).
+float edge_term(vec3 a, vec3 b, vec3 n)
+{
+    vec3 c = cross(a, b);
+    float cl = length(c);
+    return cl > 0.0 ? atan(cl, dot(a, b)) * dot(c, n) / cl : 0.0;
+}
+
+// A disk as the regular polygon of PN_LIGHT_DISK_SIDES sides and its area (pn_light_irradiance),
+// clipped to the receiver's hemisphere edge by edge: a convex polygon leaves it at most once and
+// comes back at most once, and the clipped polygon's edges are the kept parts of the sides plus
+// the chord from where it leaves to where it comes back.
+float disk_irradiance(Light l, vec3 p, vec3 n)
+{
+    vec3 centre = 0.5 * (l.corners[0].xyz + l.corners[2].xyz);
+    if (dot(l.normal.xyz, p - centre) <= 0.0)
+        return 0.0;
+    vec3 t = 0.5 * (l.corners[1].xyz - l.corners[0].xyz), b = 0.5 * (l.corners[3].xyz - l.corners[0].xyz);
+    const float a = 6.28318531 / float(PN_LIGHT_DISK_SIDES);
+    float scale = sqrt(a / sin(a)); // the polygon's radius over the disk's: the same area
+    vec3 c = centre - p;
+    float sum = 0.0;
+    vec3 leave = vec3(0.0), enter = vec3(0.0);
+    bool left = false, entered = false;
+    vec3 va = c + scale * t;
+    for (int i = 1; i <= PN_LIGHT_DISK_SIDES; i++) {
+        vec3 vb = c + scale * (cos(a * float(i)) * t + sin(a * float(i)) * b);
+        float da = dot(n, va), db = dot(n, vb);
+        if (da >= 0.0 && db >= 0.0) {
+            sum += edge_term(va, vb, n);
+        } else if (da >= 0.0) {
+            leave = va + (da / (da - db)) * (vb - va);
+            sum += edge_term(va, leave, n);
+            left = true;
+        } else if (db >= 0.0) {
+            enter = va + (da / (da - db)) * (vb - va);
+            sum += edge_term(enter, vb, n);
+            entered = true;
+        }
+        va = vb;
+    }
+    if (left && entered)
+        sum += edge_term(leave, enter, n);
+    return 0.5 * abs(sum);
+}
+
 // Unshadowed irradiance at p with unit normal n, per unit of the light's radiance (rgb), as
 // pn_light_irradiance on the CPU in float: RECT exact (Lambert's edge sum over the polygon clipped to
 // the receiver's upper hemisphere; zero behind the light), a RECT point cos(light) cos(receiver) /
@@ -57,6 +103,8 @@ float light_irradiance(Light l, vec3 p, vec3 n)
     vec3 centre = 0.25 * (l.corners[0].xyz + l.corners[1].xyz + l.corners[2].xyz + l.corners[3].xyz);
     if (dot(l.normal.xyz, p - centre) <= 0.0)
         return 0.0;
+    if (kind == PN_LIGHT_DISK_ID)
+        return disk_irradiance(l, p, n);
     if (l.radiance.w != 0.0) { // point light: cos(light) cos(receiver) / r^2 per unit intensity
         vec3 d = p - centre;
         float r2 = dot(d, d); // below FLT_MAX: positions are within 1e18 (pn_scene_validate)

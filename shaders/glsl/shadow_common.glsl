@@ -203,7 +203,7 @@ vec2 concentric(vec2 st)
 }
 
 // A light sample's (s, t) in the patch (light_point) from the sampler's: the same for a rectangle;
-// for a sun the disk inscribed in its square (uniform by area); for a sphere the point where the
+// for a sun or a disk the disk inscribed in its square (uniform by area); for a sphere the point where the
 // direction drawn uniformly by solid angle over its cone meets the tangent circle's disk: from the
 // disk point x of radius u^(1/2), cos(theta) = 1 - u (1 - cos theta_max), and the point lies at
 // tan(theta) / tan(theta_max) of the disk's radius. The result stays in the unit square (clamped
@@ -211,7 +211,7 @@ vec2 concentric(vec2 st)
 vec2 light_warp(vec2 st)
 {
     uint kind = LIGHT_KIND;
-    if (kind != PN_LIGHT_SUN_ID && kind != PN_LIGHT_SPHERE_ID)
+    if (kind != PN_LIGHT_SUN_ID && kind != PN_LIGHT_SPHERE_ID && kind != PN_LIGHT_DISK_ID)
         return st;
     vec2 x = concentric(st);
     if (kind == PN_LIGHT_SPHERE_ID) {

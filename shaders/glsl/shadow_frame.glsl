@@ -122,6 +122,8 @@ float light_weight(Light l, vec3 p, vec3 nrm)
     if (!above)
         return 0.0;
     float area = length(cross(l.corners[1].xyz - l.corners[0].xyz, l.corners[3].xyz - l.corners[0].xyz));
+    if (kind == PN_LIGHT_DISK_ID)
+        area *= 0.78539816; // the disk in its square
     float cosines = (kind == PN_LIGHT_OMNI_ID ? 1.0 : dot(l.normal.xyz, -d) * inversesqrt(r2)) * (cos_r / 5.0);
     return max(radiance * min(area / r2 * cosines, 3.14159265), 1e-30);
 }
@@ -187,11 +189,11 @@ uint chunk_count(vec3 p, vec3 nrm)
 // V = visible / valid measures (the rest is invalid whatever is in the way): so a grazing pixel,
 // which sees only a sliver of the light above its horizon, spends its rays on the sliver and gets
 // the estimate that uniform samples over the whole light mostly discard or miss.
-// A sun's and a sphere's samples are warped onto a disk (light_warp): their box is the whole
-// square, the samples below the horizon invalid.
+// A sun's, a sphere's and a disk's samples are warped onto a disk (light_warp): their box is the
+// whole square, the samples below the horizon invalid.
 void horizon_box(vec3 o, vec3 nrm, out vec2 lo, out vec2 hi)
 {
-    if (LIGHT_KIND == PN_LIGHT_SUN_ID || LIGHT_KIND == PN_LIGHT_SPHERE_ID) {
+    if (LIGHT_KIND == PN_LIGHT_SUN_ID || LIGHT_KIND == PN_LIGHT_SPHERE_ID || LIGHT_KIND == PN_LIGHT_DISK_ID) {
         lo = vec2(0.0);
         hi = vec2(1.0);
         return;

@@ -40,6 +40,9 @@ typedef struct pn_bench_view_spec {
     float light[3], aim[3]; // the light's centre and the point its normal faces
     float light_size;       // width = height
     bool ground;            // add render's ground plane under the object
+    pn_light_kind kind;     // RECT; SUN: from the light's centre towards aim, sun_deg across;
+                            // SPHERE: at the light's centre, light_size / 2 in radius
+    float sun_deg;
 } pn_bench_view_spec;
 
 // What one group of the matrix renders: a scene and how it is seen.

@@ -121,7 +121,8 @@ static bool add_view_arg(bench_opts *o, const char *name)
     }
     const pn_bench_view_spec *spec = pn_bench_view_spec_find(name);
     if (!spec) {
-        pn_error("--views: no standard view '%s' (have: bunny, dragon, buddha, sponza, all)", name);
+        pn_error("--views: no standard view '%s' (have: bunny, dragon, buddha, sponza, bunny-sun, bunny-sphere, all)",
+                 name);
         return false;
     }
     if (!pn_bench_view_standard(&v, spec)) {
@@ -146,7 +147,8 @@ void pn_print_bench_help(void)
            "  Embree 3 traces exact's rays on all cores as the CPU peer. Writes a console table, bench.csv,\n"
            "  bench.json, time_to_error.md (per mode the fastest cell reaching each error level) and a\n"
            "  log-log plot of reference error vs shadow time per view and size with the Pareto front.\n"
-           "  --views V,...        standard views: bunny, dragon, buddha, sponza or all (default: all whose\n"
+           "  --views V,...        standard views: bunny, dragon, buddha, sponza, bunny-sun, bunny-sphere (the\n"
+           "                       bunny's under a sun and a sphere light) or all (default: all whose\n"
            "                       mesh is in $PN_ASSETS, else ../shared/assets)\n"
            "  --scenes A,B,...     other scenes (files, builtin:NAME, folders of .glb), framed as render does\n"
            "  --modes M,...        of the modes that trace (default: all the device can run)\n"

@@ -23,6 +23,12 @@ static const pn_bench_view_spec SPECS[] = {
      {-1.6f, 0.7f, 0.5f}, {0.0f, 0.0f, 0.0f}, 0.4f, true},
     {"sponza", "dabrovic-sponza-66k.glb", {-0.6f, -0.25f, 0.05f}, {0.4f, -0.15f, 0.0f}, 60.0f,
      {0.1f, 0.6f, 0.2f}, {-0.1f, -0.35f, -0.1f}, 0.15f, false},
+    // The bunny's view under the other kinds of light (scene/light.h): the sun (0.53 degrees) from
+    // the light's direction, and a sphere as wide as the light.
+    {"bunny-sun", "stanford-bunny-69k.glb", {0.2f, 1.1f, 2.3f}, {0.4f, -0.3f, 0.0f}, 45.0f,
+     {-1.3f, 1.6f, 0.5f}, {0.0f, 0.0f, 0.0f}, 0.5f, true, PN_LIGHT_SUN, 0.53f},
+    {"bunny-sphere", "stanford-bunny-69k.glb", {0.2f, 1.1f, 2.3f}, {0.4f, -0.3f, 0.0f}, 45.0f,
+     {-1.3f, 1.6f, 0.5f}, {0.0f, 0.0f, 0.0f}, 0.5f, true, PN_LIGHT_SPHERE, 0},
 };
 enum { SPEC_COUNT = sizeof SPECS / sizeof SPECS[0] };
 
@@ -94,6 +100,18 @@ int pn_bench_view_prepare(const bench_view *v, pn_prepared_scene *out)
     if (fabsf(l->normal[2]) > 0.9f) // up must not be parallel to the normal
         l->up[0] = 1, l->up[2] = 0;
     l->size[0] = l->size[1] = s->light_size * r;
+    l->kind = s->kind;
+    if (s->kind == PN_LIGHT_SPHERE) {
+        l->radius = 0.5f * s->light_size * r;
+        l->size[0] = l->size[1] = 0;
+    } else if (s->kind == PN_LIGHT_SUN) {
+        l->angle = s->sun_deg * 3.14159265f / 180;
+        if (!pn_light_place_sun(l, lo, hi)) {
+            pn_error("bench: %s: the scene is too large to place a sun", s->name);
+            pn_scene_destroy(&out->scene);
+            return PN_EXIT_FAILURE;
+        }
+    }
     // Radiance for an irradiance of pi at the aim point facing the light (the preview's exposure).
     l->radiance[0] = l->radiance[1] = l->radiance[2] = 1.0f;
     double p[3] = {aim[0], aim[1], aim[2]}, n[3] = {-l->normal[0], -l->normal[1], -l->normal[2]};
