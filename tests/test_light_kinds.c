@@ -16,7 +16,10 @@
 //  - A disk facing down over the edge: V against the chord of the disk (exact: uniform by area), its
 //    radiance against the CPU's polygon; its irradiance against the integral over its area.
 //  - Every mode under a sun, a spot, a sphere and a disk (builtin:default): exact-ls V bit for bit.
+//  - Each kind at the extremes: the same edge and its oracles scaled by 1e-4 and 1e6, and moved by
+//    1e4 and (at scale 1e3) 1e7 from the origin (check_extremes).
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "gpu/device.h"
@@ -237,12 +240,139 @@ static double sun_edge_error(const frame *f, double diameter_deg, int *pixels)
     return n ? sum / n : 1.0;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Each kind at the extremes of scale and offset: builtin:penumbra's geometry (a 4x4 receiver at
+// y = 0, a 0.5x0.5 occluder at y = 0.5) written as a glTF whose node scales it by s and moves it
+// by (t, t, t); the light, camera and oracle scaled and moved alike, the oracle read in the local
+// frame, x = (P - t) / s. The same closed forms as above: the sun's and the disk's chord (exact),
+// the sphere's (to O(theta^2)), the omni light's hard edge; a pixel's side of the omni edge is
+// certain 8 ulps of the magnitude (over s) away from it.
+
+static void b64(const unsigned char *d, size_t n, char *o)
+{
+    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)d[i] << 16 | (i + 1 < n ? (unsigned)d[i + 1] << 8 : 0) | (i + 2 < n ? d[i + 2] : 0);
+        *o++ = t[v >> 18 & 63], *o++ = t[v >> 12 & 63];
+        *o++ = i + 1 < n ? t[v >> 6 & 63] : '=';
+        *o++ = i + 2 < n ? t[v & 63] : '=';
+    }
+    *o = 0;
+}
+
+static const char *write_penumbra_gltf(const char *name, double s, double t)
+{
+    // 8 positions (two quads facing +y), then 12 uint16 indices.
+    const float pos[8][3] = {{-2, 0, 2}, {2, 0, 2}, {2, 0, -2}, {-2, 0, -2},
+                             {-0.25f, 0.5f, 0.25f}, {0.25f, 0.5f, 0.25f}, {0.25f, 0.5f, -0.25f}, {-0.25f, 0.5f, -0.25f}};
+    const uint16_t idx[12] = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
+    unsigned char bin[96 + 24];
+    memcpy(bin, pos, 96);
+    memcpy(bin + 96, idx, 24);
+    char data[200];
+    b64(bin, sizeof bin, data);
+    const char *path = pn_test_tmp(name);
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return NULL;
+    fprintf(f,
+            "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+            "\"nodes\":[{\"mesh\":0,\"scale\":[%.17g,%.17g,%.17g],\"translation\":[%.17g,%.17g,%.17g]}],"
+            "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],"
+            "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":8,\"type\":\"VEC3\","
+            "\"min\":[-2,0,-2],\"max\":[2,0.5,2]},{\"bufferView\":1,\"componentType\":5123,\"count\":12,\"type\":\"SCALAR\"}],"
+            "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":96},{\"buffer\":0,\"byteOffset\":96,\"byteLength\":24}],"
+            "\"buffers\":[{\"byteLength\":120,\"uri\":\"data:application/octet-stream;base64,%s\"}]}",
+            s, s, s, t, t, t, data);
+    fclose(f);
+    return path;
+}
+
+static void check_extremes(void)
+{
+    const double cases[4][2] = {{1e-4, 0}, {1e6, 0}, {1, 1e4}, {1e3, 1e7}};
+    for (int c = 0; c < 4; c++) {
+        double sc = cases[c][0], t = cases[c][1];
+        char name[64];
+        snprintf(name, sizeof name, "kinds_extreme_%d.gltf", c);
+        const char *gltf = write_penumbra_gltf(name, sc, t);
+        CHECK(gltf != NULL);
+        if (!gltf)
+            continue;
+        // The spacing of floats at the case's magnitude, in local units.
+        double mag = fabs(t) + 4 * sc, ulp = mag * 1.1920929e-7 / sc;
+        for (int k = 0; k < 4; k++) {
+            char light[256], args[2048];
+            const char *kind = k == 0 ? "sun" : k == 1 ? "sphere" : k == 2 ? "disk" : "omni";
+            if (k == 0)
+                snprintf(light, sizeof light, "sun:0,-1,0:10:2");
+            else if (k == 1)
+                snprintf(light, sizeof light, "sphere:%.9g,%.9g,%.9g:%.9g:50", t + 0.25 * sc, t + 2 * sc, t, 0.1 * sc);
+            else if (k == 2)
+                snprintf(light, sizeof light, "disk:%.9g,%.9g,%.9g:0,-1,0:0,0,1:%.9g:10", t + 0.25 * sc, t + 2 * sc, t,
+                         0.3 * sc);
+            else
+                snprintf(light, sizeof light, "omni:%.9g,%.9g,%.9g:5", t, t + 2 * sc, t);
+            const char *exr = pn_test_tmp("kinds_extreme.exr");
+            snprintf(args, sizeof args,
+                     "render %s --no-ground --size 200x140 --camera-pos %.9g,%.9g,%.9g --camera-target %.9g,%.9g,%.9g "
+                     "--fov 30 --mode exact --spp %d --filter none --aovs --light %s -o %s >/dev/null",
+                     gltf, t + 1.5 * sc, t + 0.25 * sc, t, t + 0.25 * sc, t, t, k == 3 ? 1 : 256, light, exr);
+            frame f;
+            if (!read_frame(args, exr, &f))
+                continue;
+            double err = 0;
+            int n = 0, wrong = 0;
+            for (int i = 0; i < f.img.width * f.img.height; i++) {
+                double x = (f.px[i] - t) / sc, y = (f.py[i] - t) / sc, z = (f.pz[i] - t) / sc;
+                if (!(f.alb[i] > 0) || fabs(y) > 1e-3 + 4 * ulp)
+                    continue;
+                double a = 2; // the chord's offset in the light's radius; |a| >= 1: no penumbra here
+                if (k == 0)
+                    a = (0.25 - x) / (0.5 * tan(5 * PI / 180));
+                else if (k == 1) {
+                    double nn[2] = {0.5, -(0.25 - x)}, nl = hypot(nn[0], nn[1]);
+                    double cc[3] = {0.25 - x, 2.0, -z}, cl = sqrt(cc[0] * cc[0] + cc[1] * cc[1] + cc[2] * cc[2]);
+                    a = -asin((nn[0] * cc[0] + nn[1] * cc[1]) / (nl * cl)) / asin(0.1 / cl);
+                } else if (k == 2)
+                    a = (x + (0.25 - x) * 4 - 0.25) / 0.3;
+                if (k < 3) {
+                    if (fabs(z) >= 0.1 || fabs(a) >= 1)
+                        continue;
+                    err += fabs(f.v[i] - (acos(a) - a * sqrt(1 - a * a)) / PI);
+                    n++;
+                } else {
+                    double edge = 0.25 * 2 / 1.5, m = 1e-4 + 8 * ulp;
+                    bool inside = fabs(x) < edge - m && fabs(z) < edge - m, outside = fabs(x) > edge + m || fabs(z) > edge + m;
+                    wrong += (inside && f.v[i] != 0.0f) || (outside && f.v[i] != 1.0f);
+                    n += inside || outside;
+                }
+            }
+            if (k < 3) {
+                // The edge's own rounding moves it by an ulp: as a share of the penumbra (0.044 to
+                // 0.2 wide here), at most 0.03 of V on average at 1e4 (ulp 1e-3); 0.02 elsewhere.
+                double bound = 0.02 + 2 * ulp / 0.044;
+                printf("%s at scale %g, offset %g: %d penumbra pixels, mean |V - chord| %.4f (bound %.3f)\n", kind, sc, t,
+                       n, n ? err / n : 1.0, bound);
+                CHECK_MSG(n > 30 && err / n < bound, "%s at scale %g, offset %g: %d pixels, mean error %.4f", kind, sc, t,
+                          n, n ? err / n : 1.0);
+            } else {
+                printf("omni at scale %g, offset %g: %d receiver pixels, %d on the wrong side of the edge\n", sc, t, n,
+                       wrong);
+                CHECK_MSG(n > 1000 && wrong == 0, "omni at scale %g, offset %g: %d wrong of %d", sc, t, wrong, n);
+            }
+            pn_exr_image_free(&f.img);
+        }
+    }
+}
+
 int main(void)
 {
     check_sun_irradiance();
     check_sphere_irradiance();
     check_disk_irradiance();
     check_spot_falloff();
+    check_extremes();
 
     // A sun of 10 degrees straight down: its penumbra at the edge is 2 x 0.5 tan(5 deg) = 0.087 wide.
     // 256 stratified samples: V's error per pixel is below 0.01.
