@@ -30,74 +30,19 @@
 
 #define PI 3.14159265358979323846
 
-static void check_sun_irradiance(void)
+// The integral of max(n . w, 0) over the directions w within `delta` of the unit `axis`, in double:
+// N x N polar cells round the axis, each its exact solid angle times the integrand at its middle.
+static double cone_integral(const double axis[3], double delta, const double n[3], int N)
 {
-    pn_light l = {.kind = PN_LIGHT_SUN, .normal = {0.3f, -1.0f, 0.2f}, .angle = (float)(4.0 * PI / 180)};
-    double len = sqrt(0.09 + 1 + 0.04), axis[3] = {-0.3 / len, 1 / len, -0.2 / len}; // towards the sun
-    double delta = 0.5 * l.angle;
     // An orthonormal frame round the axis.
     double t[3] = {axis[1], -axis[0], 0}, tl = sqrt(t[0] * t[0] + t[1] * t[1]);
+    if (!(tl > 1e-9))
+        t[0] = 1, t[1] = 0, tl = 1;
     t[0] /= tl, t[1] /= tl;
     double b[3] = {axis[1] * t[2] - axis[2] * t[1], axis[2] * t[0] - axis[0] * t[2], axis[0] * t[1] - axis[1] * t[0]};
-    const double normals[4][3] = {{0, 1, 0}, {0.6, 0.8, 0}, {-0.5, 0.5, 0.7071067811865476}, {0.1, 0.3, -0.9486832980505138}};
-    for (int k = 0; k < 4; k++) {
-        const double *n = normals[k];
-        // E / E_perp = integral of max(n . w, 0) over the cone / its projected solid angle pi sin^2 delta.
-        double sum = 0;
-        const int N = 400;
-        for (int i = 0; i < N; i++) {
-            double th0 = delta * i / N, th1 = delta * (i + 1) / N, th = 0.5 * (th0 + th1);
-            double dw_ring = (cos(th0) - cos(th1)) * 2 * PI / N; // solid angle of one cell
-            for (int j = 0; j < N; j++) {
-                double ph = 2 * PI * (j + 0.5) / N, w[3];
-                for (int c = 0; c < 3; c++)
-                    w[c] = cos(th) * axis[c] + sin(th) * (cos(ph) * t[c] + sin(ph) * b[c]);
-                double c = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
-                sum += (c > 0 ? c : 0) * dw_ring;
-            }
-        }
-        double expect = sum / (PI * sin(delta) * sin(delta));
-        double got = pn_light_irradiance(&l, (double[3]){0, 0, 0}, n);
-        CHECK_MSG(fabs(got - expect) <= 1e-4 * fmax(expect, 1e-3), "sun, normal %d: %.8f, the integral %.8f", k, got,
-                  expect);
-    }
-}
-
-// A sphere of unit radiance: the integral of max(n . w, 0) over the cone it subtends, in double
-// (polar cells round the axis), against pn_light_irradiance (Snyder's closed form) with the cone
-// wholly above the horizon, straddling it and wholly below; and a sun straddling the horizon.
-static void check_sphere_irradiance(void)
-{
-    const pn_light sph = {.kind = PN_LIGHT_SPHERE, .pos = {0, 2, 0}, .radius = 0.8f};
-    double d = 2, delta = asin(0.8 / d);
-    const double axis[3] = {0, 1, 0}, t[3] = {1, 0, 0}, b[3] = {0, 0, 1};
-    // Normals at 0, 50, 68 (straddling: 90 - 23.6 < 68 < 90 + 23.6), 100 and 120 degrees from the axis.
-    const double angles[5] = {0, 50, 68, 100, 120};
-    for (int k = 0; k < 5; k++) {
-        double a = angles[k] * PI / 180, n[3] = {sin(a), cos(a), 0}, sum = 0;
-        const int N = 600;
-        for (int i = 0; i < N; i++) {
-            double th0 = delta * i / N, th1 = delta * (i + 1) / N, th = 0.5 * (th0 + th1);
-            double dw = (cos(th0) - cos(th1)) * 2 * PI / N;
-            for (int j = 0; j < N; j++) {
-                double ph = 2 * PI * (j + 0.5) / N, w[3];
-                for (int c = 0; c < 3; c++)
-                    w[c] = cos(th) * axis[c] + sin(th) * (cos(ph) * t[c] + sin(ph) * b[c]);
-                double c = n[0] * w[0] + n[1] * w[1] + n[2] * w[2];
-                sum += (c > 0 ? c : 0) * dw;
-            }
-        }
-        double got = pn_light_irradiance(&sph, (double[3]){0, 0, 0}, n);
-        CHECK_MSG(fabs(got - sum) <= 1e-4 * fmax(sum, 1e-2), "sphere, normal at %g degrees: %.8f, the integral %.8f",
-                  angles[k], got, sum);
-    }
-    // A sun of 4 degrees whose disk the horizon cuts (its centre 1 degree below it): E / E_perp is
-    // the part above, over pi sin^2(2 degrees), against the same integral.
-    pn_light sun = {.kind = PN_LIGHT_SUN, .normal = {0, -1, 0}, .angle = (float)(4 * PI / 180)};
-    double sd = 0.5 * (double)sun.angle, a = (91.0) * PI / 180, n[3] = {sin(a), cos(a), 0}, sum = 0;
-    const int N = 600;
+    double sum = 0;
     for (int i = 0; i < N; i++) {
-        double th0 = sd * i / N, th1 = sd * (i + 1) / N, th = 0.5 * (th0 + th1);
+        double th0 = delta * i / N, th1 = delta * (i + 1) / N, th = 0.5 * (th0 + th1);
         double dw = (cos(th0) - cos(th1)) * 2 * PI / N;
         for (int j = 0; j < N; j++) {
             double ph = 2 * PI * (j + 0.5) / N, w[3];
@@ -107,7 +52,45 @@ static void check_sphere_irradiance(void)
             sum += (c > 0 ? c : 0) * dw;
         }
     }
-    sum /= PI * sin(sd) * sin(sd);
+    return sum;
+}
+
+// A sun's irradiance per unit E_perp: the integral over its cone over its projected solid angle
+// pi sin^2(diameter / 2), receivers facing it at several angles, all of its disk above the horizon.
+static void check_sun_irradiance(void)
+{
+    pn_light l = {.kind = PN_LIGHT_SUN, .normal = {0.3f, -1.0f, 0.2f}, .angle = (float)(4.0 * PI / 180)};
+    double len = sqrt(0.09 + 1 + 0.04), axis[3] = {-0.3 / len, 1 / len, -0.2 / len}; // towards the sun
+    double delta = 0.5 * l.angle;
+    const double normals[4][3] = {{0, 1, 0}, {0.6, 0.8, 0}, {-0.5, 0.5, 0.7071067811865476}, {0.1, 0.3, -0.9486832980505138}};
+    for (int k = 0; k < 4; k++) {
+        double expect = cone_integral(axis, delta, normals[k], 400) / (PI * sin(delta) * sin(delta));
+        double got = pn_light_irradiance(&l, (double[3]){0, 0, 0}, normals[k]);
+        CHECK_MSG(fabs(got - expect) <= 1e-4 * fmax(expect, 1e-3), "sun, normal %d: %.8f, the integral %.8f", k, got,
+                  expect);
+    }
+}
+
+// A sphere of unit radiance: the integral over the cone it subtends against pn_light_irradiance
+// (Snyder's closed form) with the cone wholly above the horizon, straddling it and wholly below;
+// and a sun straddling the horizon.
+static void check_sphere_irradiance(void)
+{
+    const pn_light sph = {.kind = PN_LIGHT_SPHERE, .pos = {0, 2, 0}, .radius = 0.8f};
+    const double axis[3] = {0, 1, 0}, delta = asin(0.8 / 2);
+    // Normals at 0, 50, 68 (straddling: 90 - 23.6 < 68 < 90 + 23.6), 100 and 120 degrees from the axis.
+    const double angles[5] = {0, 50, 68, 100, 120};
+    for (int k = 0; k < 5; k++) {
+        double a = angles[k] * PI / 180, n[3] = {sin(a), cos(a), 0};
+        double sum = cone_integral(axis, delta, n, 600), got = pn_light_irradiance(&sph, (double[3]){0, 0, 0}, n);
+        CHECK_MSG(fabs(got - sum) <= 1e-4 * fmax(sum, 1e-2), "sphere, normal at %g degrees: %.8f, the integral %.8f",
+                  angles[k], got, sum);
+    }
+    // A sun of 4 degrees whose disk the horizon cuts (its centre 1 degree below it): E / E_perp is
+    // the part above, over pi sin^2(2 degrees), against the same integral.
+    pn_light sun = {.kind = PN_LIGHT_SUN, .normal = {0, -1, 0}, .angle = (float)(4 * PI / 180)};
+    double sd = 0.5 * (double)sun.angle, a = 91.0 * PI / 180, n[3] = {sin(a), cos(a), 0};
+    double sum = cone_integral(axis, sd, n, 600) / (PI * sin(sd) * sin(sd));
     double got = pn_light_irradiance(&sun, (double[3]){0, 0, 0}, n);
     CHECK_MSG(sum > 0 && fabs(got - sum) <= 1e-3 * sum, "sun across the horizon: %.8f, the integral %.8f", got, sum);
 }

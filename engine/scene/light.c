@@ -73,15 +73,18 @@ bool pn_light_frame(const pn_light *l, float t[3], float b[3])
 void pn_light_corners(const pn_light *l, float q[4][3])
 {
     float t[3], b[3];
-    if (!pn_light_frame(l, t, b)) {
+    // A point's and a sphere's corners are its centre (light_patch makes a sphere's per pixel).
+    if (l->kind == PN_LIGHT_OMNI || l->kind == PN_LIGHT_SPHERE || !pn_light_frame(l, t, b)) {
         for (int i = 0; i < 4; i++)
             memcpy(q[i], l->pos, sizeof q[i]);
         return;
     }
     const float s[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    // A disk's square is its diameter wide, whatever its size says.
+    float w = l->kind == PN_LIGHT_DISK ? 2 * l->radius : l->size[0], h = l->kind == PN_LIGHT_DISK ? 2 * l->radius : l->size[1];
     for (int i = 0; i < 4; i++)
         for (int k = 0; k < 3; k++)
-            q[i][k] = l->pos[k] + 0.5f * (s[i][0] * l->size[0] * t[k] + s[i][1] * l->size[1] * b[k]);
+            q[i][k] = l->pos[k] + 0.5f * (s[i][0] * w * t[k] + s[i][1] * h * b[k]);
 }
 
 static double d3_dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
