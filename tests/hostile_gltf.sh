@@ -93,9 +93,10 @@ for rel in "${files[@]}"; do
   fi
   k=$((k + 1))
   out="$TMP/out$k.exr"
-  # Line-space shadows with a small tree and few rays: the default mode, exercised on odd
-  # geometry, at a fraction of the cost of the defaults.
-  err=$(timeout -k 5 "$LIMIT" "$BIN" render "$MODELS/$rel" --size 64x64 --spp 4 --tree 4,2 --json -o "$out" \
+  # A small N-tree with line spaces and few rays, exercised on odd geometry at a fraction of the
+  # cost of the defaults: exact-ls, the line-space mode that tests alpha-masked casters' texels
+  # (several of these files have MASK or BLEND materials, which linespace refuses).
+  err=$(timeout -k 5 "$LIMIT" "$BIN" render "$MODELS/$rel" --size 64x64 --spp 4 --mode exact-ls --tree 4,2 --json -o "$out" \
         2>&1 >"$TMP/stdout$k"); rc=$?
   if [ "$rc" -eq 124 ] || [ "$rc" -eq 137 ]; then
     echo "FAIL: $rel: still running after ${LIMIT} s (hang?)"; fail=1; continue

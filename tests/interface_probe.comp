@@ -71,7 +71,7 @@ void main()
         put_light(lights[i]);
     for (int i = 0; i < 2; i++) {
         Material m = materials[i];
-        put(m.base_color); put(m.texture); put(m.pad0); put(m.pad1); put(m.pad2);
+        put(m.base_color); put(m.texture); put(m.alpha_cutoff); put(m.pad1); put(m.pad2);
     }
 
     for (int c = 0; c < 4; c++)

@@ -53,7 +53,7 @@ static const field node_fields[] = {F(pn_gpu_node, min),       F(pn_gpu_node, si
 static const field bvh_fields[] = {F(pn_bvh_node, min), F(pn_bvh_node, first), F(pn_bvh_node, max),
                                    F(pn_bvh_node, count), {0}};
 static const field material_fields[] = {F(pn_material_gpu, base_color), F(pn_material_gpu, texture),
-                                        F(pn_material_gpu, pad0),       F(pn_material_gpu, pad1),
+                                        F(pn_material_gpu, alpha_cutoff), F(pn_material_gpu, pad1),
                                         F(pn_material_gpu, pad2),       {0}};
 static const field gbuffer_fields[] = {F(pn_gbuffer_push, view_proj), F(pn_gbuffer_push, eye),
                                        F(pn_gbuffer_push, forward),   F(pn_gbuffer_push, material),

@@ -29,5 +29,7 @@ pn_result pn_bvh_build(const pn_scene *scene, pn_bvh *out);
 pn_result pn_bvh_build_boxes(const float (*box)[6], uint32_t n, pn_bvh *out);
 void pn_bvh_destroy(pn_bvh *bvh);
 
-// Triangle vertices in scene order, 3 x vec4 (w = 0) per triangle: the GPU's triangle pool.
+// Triangle vertices in scene order, 3 x vec4 per triangle (w = 0, but for an alpha-masked
+// triangle's first vertex, whose w holds its mask record: accel/alpha.h, which follows them): the
+// GPU's triangle pool.
 pn_result pn_triangle_pool(const pn_scene *scene, float **out, uint64_t *bytes);

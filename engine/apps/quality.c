@@ -395,8 +395,9 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     pn_setup s;
     for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
         const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
-        if (!info->traces || !pn_shadow_mode_available(dev, (pn_shadow_mode)m, NULL))
-            continue; // e.g. rayquery without ray queries: not a candidate here
+        if (!info->traces || !pn_shadow_mode_available(dev, (pn_shadow_mode)m, NULL) ||
+            !pn_shadow_mode_takes_scene((pn_shadow_mode)m, scene, NULL, 0))
+            continue; // e.g. rayquery without ray queries, line space over alpha masks: not a candidate here
         int trees = info->auto_trees < (int)(sizeof TREES / sizeof TREES[0]) ? info->auto_trees
                                                                              : (int)(sizeof TREES / sizeof TREES[0]);
         for (int t = 0; r == PN_OK && t < trees; t++) {

@@ -27,6 +27,7 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
     for (uint32_t i = 0; i < s->material_count; i++) {
         memcpy(m[i].base_color, s->materials[i].base_color, sizeof m[i].base_color);
         m[i].texture = s->materials[i].texture;
+        m[i].alpha_cutoff = s->materials[i].alpha_cutoff;
     }
     pn_result res = pn_gpu_buffer_create_with_data(dev, "material buffer", m, s->material_count * sizeof *m,
                                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->materials);

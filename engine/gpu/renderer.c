@@ -123,6 +123,11 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
                  dev->props.deviceName, mode->name, lack);
         return PN_ERR_UNSUPPORTED;
     }
+    char why[512];
+    if (!pn_shadow_mode_takes_scene(desc->mode, scene, why, sizeof why)) {
+        pn_error("%s", why);
+        return PN_ERR_UNSUPPORTED;
+    }
     if (mode->needs.tlas && !desc->tlas) {
         pn_error("%s shadows need the device's acceleration structure", mode->name);
         return PN_ERR_INVALID;

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "accel/alpha.h"
 #include "core/log.h"
 #include "gpu/frame.h"
 #include "shadow_exact_comp.h"
@@ -53,6 +54,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                             .variant = PN_VARIANT_EXACT_LS,
                             .needs = {.tree = true, .candidates = true, .exact_pools = true},
                             .traces = true,
+                         .alpha_masks = true,
                             .exact = true,
                             .auto_trees = 1},
     [PN_SHADOW_EXACT] = {.name = "exact",
@@ -60,6 +62,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                          SHADER(shadow_exact_comp),
                          .needs = {.bvh = true, .exact_pools = true},
                          .traces = true,
+                         .alpha_masks = true,
                          .exact = true,
                          .packet_rays = true,
                          .auto_trees = 1},
@@ -101,6 +104,19 @@ int pn_shadow_mode_parse(const char *opt, const char *name)
     }
     pn_error("%s: expected one of %s, got '%s'", opt, list, name);
     return -1;
+}
+
+bool pn_shadow_mode_takes_scene(pn_shadow_mode m, const pn_scene *scene, char *why, size_t n)
+{
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(m);
+    uint64_t masked = mode && mode->traces && !mode->alpha_masks ? pn_alpha_masked_triangles(scene) : 0;
+    if (masked && why)
+        snprintf(why, n,
+                 "%s: %llu alpha-masked triangles: mode %s would shadow their cut-out texels (it answers rays from "
+                 "%s); exact and exact-ls test the texels",
+                 scene->name, (unsigned long long)masked, mode->name,
+                 m == PN_SHADOW_RAYQUERY ? "the device's opaque geometry" : "line spaces, a cell holding one being filled");
+    return masked == 0;
 }
 
 bool pn_shadow_mode_available(const pn_gpu_device *dev, pn_shadow_mode m, const char **why)

@@ -10,6 +10,7 @@
 
 #include "gpu/device.h"
 #include "interface.h" // PN_TRAVERSAL_*, PN_SAMPLER_*: values the shaders test
+#include "scene/scene.h"
 
 typedef enum pn_shadow_mode {
     PN_SHADOW_NONE,      // V = 1: unshadowed
@@ -68,6 +69,10 @@ typedef struct pn_shadow_mode_info {
     // Its shader's packet walk unrolls its per-ray loops to the most rays a pixel has in a dispatch
     // (PN_SPEC_PACKET_RAYS): the shadow pass makes a pipeline per size (exact).
     bool packet_rays;
+    // Tests the texels of alpha-masked casters (pn_material.alpha_cutoff) where rays hit them. The
+    // others answer rays from line spaces (a cell holding a masked triangle is filled) or from
+    // the device's opaque geometry, so they refuse scenes with masked casters.
+    bool alpha_masks;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)
 } pn_shadow_mode_info;
@@ -81,6 +86,10 @@ int pn_shadow_mode_parse(const char *opt, const char *name);
 // Every mode's needs together, of the modes `dev` can run: a set-up from which any of them can
 // render (the demo switches modes without rebuilding).
 pn_shadow_needs pn_shadow_needs_all(const pn_gpu_device *dev);
+
+// True if mode m can render `scene`; else false with a message in why[0..n) (when given): a mode
+// without alpha_masks on a scene with alpha-masked casters.
+bool pn_shadow_mode_takes_scene(pn_shadow_mode m, const pn_scene *scene, char *why, size_t n);
 
 // True if `dev` can run mode m; else false with *why (when given) saying what it lacks.
 bool pn_shadow_mode_available(const pn_gpu_device *dev, pn_shadow_mode m, const char **why);

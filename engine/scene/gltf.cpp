@@ -1113,7 +1113,7 @@ void Loader::build_materials()
 {
     for (size_t i = 0; i < m_.materials.size(); i++) {
         const tinygltf::PbrMetallicRoughness &pbr = m_.materials[i].pbrMetallicRoughness;
-        pn_material mat{{1.0f, 1.0f, 1.0f, 1.0f}, -1};
+        pn_material mat{{1.0f, 1.0f, 1.0f, 1.0f}, -1, 0.0f};
         bool ok = pbr.baseColorFactor.size() == 4;
         for (size_t c = 0; ok && c < 4; c++)
             ok = std::isfinite(pbr.baseColorFactor[c]);
@@ -1125,6 +1125,22 @@ void Loader::build_materials()
         }
         if (pbr.baseColorTexture.index != -1)
             mat.texture = texture_for((int)i, pbr.baseColorTexture);
+        // alphaMode: MASK cuts the surface out below alphaCutoff; BLEND (partial coverage) casts
+        // as MASK at 0.5, a shadow ray being either blocked or not; OPAQUE ignores alpha.
+        const tinygltf::Material &gm = m_.materials[i];
+        if (gm.alphaMode == "MASK" || gm.alphaMode == "BLEND") {
+            double cut = gm.alphaMode == "BLEND" ? 0.5 : gm.alphaCutoff;
+            if (!(std::isfinite(cut) && cut > 0 && cut <= 1)) {
+                warn("material %zu: alphaCutoff %g is not in (0, 1]; using 0.5", i, cut);
+                cut = 0.5;
+            }
+            if (pbr.baseColorTexture.index != -1 && mat.texture < 0)
+                warn("material %zu: its alpha texture cannot be read; the mask is skipped (the surface is "
+                     "opaque where its base colour alpha is above the cutoff)", i);
+            mat.alpha_cutoff = (float)cut;
+        } else if (gm.alphaMode != "OPAQUE" && !gm.alphaMode.empty()) {
+            warn("material %zu: alphaMode \"%.16s\" is not OPAQUE, MASK or BLEND; opaque", i, gm.alphaMode.c_str());
+        }
         built(pn_scene_build_add_material(&b_, &mat));
     }
 }
@@ -1177,7 +1193,7 @@ int32_t Loader::texture_for(int material, const tinygltf::TextureInfo &info)
 void Loader::emit(pn_scene *out)
 {
     if (default_material_used_) {
-        const pn_material white{{1.0f, 1.0f, 1.0f, 1.0f}, -1};
+        const pn_material white{{1.0f, 1.0f, 1.0f, 1.0f}, -1, 0.0f};
         built(pn_scene_build_add_material(&b_, &white));
     }
     std::snprintf(b_.scene.name, sizeof b_.scene.name, "%s", path_);

@@ -15,6 +15,9 @@ typedef struct pn_vertex {
 typedef struct pn_material {
     float base_color[4]; // glTF baseColorFactor, linear (default 1,1,1,1)
     int32_t texture;     // index into pn_scene.textures for baseColorTexture, or -1
+    // Alpha-masked (glTF alphaMode MASK, and BLEND taken as MASK at 0.5): the surface is cut out
+    // where base_color[3] x the texture's alpha is below this; 0: opaque.
+    float alpha_cutoff;
 } pn_material;
 
 typedef struct pn_texture {

@@ -1,6 +1,7 @@
 // Exact shadow rays: watertight ray-triangle test (Woop, Benthin, Wald 2013), the BVH traversal
 // (a short explicit stack, any hit) and the triangle pools. Mirrors engine/accel/bvh.h.
 // Include after shadow_common.glsl (uses ShadowParams).
+#include "alpha.glsl"
 
 // BvhNodeData (interface.h, pn_bvh_node on the C side): interior (count == 0): children first and
 // first + 1; leaf: triangles bvh_tris[first .. first + count).
@@ -34,7 +35,7 @@ WRay wray(vec3 o, vec3 d)
 // Does the ray hit triangle (a, b, c) at t in (t_min, t_max)? Two-sided. Edges and vertices are
 // shared without gaps: the edge functions are exact in sign, recomputed in double when zero.
 // t_frac: (T, det), the hit's t = T / det where it hits (divided only for the hit that blocks).
-bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out vec2 t_frac)
+bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out vec2 t_frac, out vec3 uvw)
 {
     vec3 A = a - r.o, B = b - r.o, C = c - r.o;
     float Ax = A[r.k.x] - r.s.x * A[r.k.z], Ay = A[r.k.y] - r.s.y * A[r.k.z];
@@ -53,6 +54,7 @@ bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out vec2 t
     // t = T / det; compare without dividing (flip both for a negative determinant).
     float sd = det < 0.0 ? -1.0 : 1.0;
     t_frac = vec2(T, det);
+    uvw = vec3(U, V, W); // the hit's barycentric weights of a, b, c, times det
     return hit && T * sd > t_min * det * sd && T * sd < t_max * det * sd;
 }
 
@@ -65,8 +67,13 @@ bool tri_hit(WRay r, uint tri, float t_min, float t_max)
     if (COUNT_WORK)
         work.z++;
     vec2 t_frac;
-    bool hit = wt_hit(r, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz,
-                      params.tris.v[3u * tri + 2u].xyz, t_min, t_max, t_frac);
+    vec3 uvw;
+    vec4 a = params.tris.v[3u * tri];
+    bool hit = wt_hit(r, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz, t_min, t_max,
+                      t_frac, uvw);
+    uint rec = floatBitsToUint(a.w); // alpha_record: a masked triangle's hit may be on a cut-out texel
+    if (hit && rec != 0u)
+        hit = !alpha_cut(rec, uvw / t_frac.y);
     hit_frac = hit ? t_frac : hit_frac;
     return hit;
 }
@@ -230,8 +237,9 @@ uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
         hi = max(hi, e);
     }
     float adet = abs(t.det);
+    uint rec = alpha_record(tri); // masked: every ray's hit is tested against its texel
     bool misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
-    bool covers = !misses && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
+    bool covers = !misses && rec == 0u && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
     uint hits = covers ? live : 0u;
     for (uint m = hits; m != 0u; m &= m - 1u)
         blocker_at(findLSB(m), adet / lo.w);
@@ -241,6 +249,8 @@ uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
             work.z++;
         vec4 e = packet_edges(t, dir[j]);
         bool hit = packet_hit(t, e);
+        if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
+            hit = !alpha_cut(rec, e.yzx / e.w);
         hits |= hit ? (1u << j) : 0u;
         if (hit)
             blocker_at(j, adet / e.w);

@@ -25,6 +25,10 @@ void main()
     vec4 albedo = m.base_color;
     if (m.texture >= 0)
         albedo *= texture(textures[m.texture], in_uv); // sRGB format: sampled as linear
+    // Alpha-masked: no surface where the alpha is below the cutoff (the shadow rays' alpha test:
+    // alpha.glsl, at the nearest texel; this one filtered as the albedo).
+    if (m.alpha_cutoff > 0.0 && albedo.a < m.alpha_cutoff)
+        discard;
     // Interpolated normals shorten; surfaces are two-sided for shading, so face the viewer.
     vec3 n = normalize(in_normal);
     vec3 to_eye = pc.eye.xyz - in_pos;

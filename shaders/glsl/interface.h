@@ -227,8 +227,8 @@ PN_STRUCT(ShadePush, pn_shade_push) {
 // A glTF material as the G-buffer pass reads it. 32 bytes.
 PN_STRUCT(Material, pn_material_gpu) {
     PN_VEC4(base_color)
-    PN_INT(texture) // -1: none
-    PN_INT(pad0)
+    PN_INT(texture)       // -1: none
+    PN_FLOAT(alpha_cutoff) // > 0: alpha-masked, the surface is cut out where base_color.a x texture.a is below it
     PN_INT(pad1)
     PN_INT(pad2)
 } PN_END(Material, pn_material_gpu)

@@ -357,6 +357,12 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
                     pn_warn("bench: %s skipped: %s lacks %s", info->name, dev->props.deviceName, lack);
                 continue;
             }
+            char why[512];
+            if (!pn_shadow_mode_takes_scene(o->modes[m], &scene, why, sizeof why)) {
+                if (si == 0)
+                    pn_warn("bench: skipped: %s", why);
+                continue;
+            }
             // A mode without a tree is one configuration; a tree mode one per tree and tree kind
             // (per-object trees serve linespace alone).
             for (int kind = PN_TREE_KIND_SCENE; kind <= PN_TREE_KIND_OBJECT && rc == PN_EXIT_OK; kind++) {
@@ -394,7 +400,8 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
             pn_shadow_mode mode = m < 0 ? PN_SHADOW_REFERENCE : o->modes[m];
             const pn_shadow_mode_info *info = pn_shadow_mode_get(mode);
             const char *lack;
-            if ((m >= 0 && mode == PN_SHADOW_REFERENCE) || !pn_shadow_mode_available(dev, mode, &lack))
+            if ((m >= 0 && mode == PN_SHADOW_REFERENCE) || !pn_shadow_mode_available(dev, mode, &lack) ||
+                !pn_shadow_mode_takes_scene(mode, &scene, NULL, 0))
                 continue;
             rc = pn_bench_run_lights(&g, centre, mode, info->needs.tree ? o->trees[0][0] : 0,
                             info->needs.tree ? o->trees[0][1] : 0, refs, rows);

@@ -290,6 +290,7 @@ static int tracing_modes(const pn_demo *d, pn_shadow_mode out[PN_SHADOW_MODE_COU
     int count = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
         if (pn_shadow_mode_get((pn_shadow_mode)m)->traces && pn_shadow_mode_available(&d->dev, (pn_shadow_mode)m, NULL) &&
+            pn_shadow_mode_takes_scene((pn_shadow_mode)m, &d->scene, NULL, 0) &&
             (!d->opts.per_object || pn_shadow_mode_get((pn_shadow_mode)m)->objects))
             out[count++] = (pn_shadow_mode)m;
     return count;

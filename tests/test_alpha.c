@@ -1,0 +1,244 @@
+// Alpha-masked casters (glTF alphaMode MASK): a quad at y = 0.5 textured with an 8 x 8 checkerboard
+// of alpha 0 and 255 over a 4 x 4 ground at y = 0, an omni light straight above at (0, 2, 0).
+// Oracle, in double: a ground point g's ray to the light crosses y = 0.5 at 0.75 g; inside the
+// quad its uv is (0.75 g.x + 0.5, 0.75 g.z + 0.5) and the nearest texel decides: V = 0 under an
+// opaque texel, 1 under a cut-out one or beside the quad (pixels within 1e-4 of a texel's edge in
+// uv are left out). Checked for exact and exact-ls, with both traversals; the G-buffer shows no
+// surface where the quad is cut out (seen from above, every quad pixel is an opaque texel's);
+// the line-space modes and rayquery refuse the scene, naming the masked triangles; BLEND casts as
+// MASK at 0.5; a mask whose texture cannot be read is skipped with a warning and renders opaque.
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+#include <zlib.h>
+
+#include "io/exr.h"
+#include "test_util.h"
+
+static void be32(unsigned char *p, uint32_t v) { p[0] = v >> 24, p[1] = v >> 16 & 255, p[2] = v >> 8 & 255, p[3] = v & 255; }
+
+// Writes an 8 x 8 RGBA PNG, white, alpha 255 on texels with (x + y) even, else 0.
+static bool write_checker_png(const char *path)
+{
+    unsigned char raw[8 * (1 + 8 * 4)];
+    for (int y = 0; y < 8; y++) {
+        raw[y * 33] = 0; // filter: none
+        for (int x = 0; x < 8; x++) {
+            unsigned char *px = &raw[y * 33 + 1 + 4 * x];
+            px[0] = px[1] = px[2] = 255;
+            px[3] = (x + y) % 2 == 0 ? 255 : 0;
+        }
+    }
+    unsigned char z[512];
+    uLongf zn = sizeof z;
+    if (compress2(z, &zn, raw, sizeof raw, 9) != Z_OK)
+        return false;
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return false;
+    static const unsigned char sig[8] = {137, 80, 78, 71, 13, 10, 26, 10};
+    fwrite(sig, 1, 8, f);
+    struct {
+        const char *type;
+        const unsigned char *data;
+        uint32_t n;
+    } chunks[3];
+    unsigned char ihdr[13] = {0};
+    be32(ihdr, 8), be32(ihdr + 4, 8);
+    ihdr[8] = 8, ihdr[9] = 6; // 8 bits, RGBA
+    chunks[0].type = "IHDR", chunks[0].data = ihdr, chunks[0].n = 13;
+    chunks[1].type = "IDAT", chunks[1].data = z, chunks[1].n = (uint32_t)zn;
+    chunks[2].type = "IEND", chunks[2].data = NULL, chunks[2].n = 0;
+    for (int c = 0; c < 3; c++) {
+        unsigned char len[4], crc[4];
+        be32(len, chunks[c].n);
+        fwrite(len, 1, 4, f);
+        fwrite(chunks[c].type, 1, 4, f);
+        if (chunks[c].n)
+            fwrite(chunks[c].data, 1, chunks[c].n, f);
+        uLong k = crc32(0, (const Bytef *)chunks[c].type, 4);
+        if (chunks[c].n)
+            k = crc32(k, chunks[c].data, chunks[c].n);
+        be32(crc, (uint32_t)k);
+        fwrite(crc, 1, 4, f);
+    }
+    return fclose(f) == 0;
+}
+
+static void b64(const unsigned char *d, size_t n, char *o)
+{
+    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)d[i] << 16 | (i + 1 < n ? (unsigned)d[i + 1] << 8 : 0) | (i + 2 < n ? d[i + 2] : 0);
+        *o++ = t[v >> 18 & 63], *o++ = t[v >> 12 & 63];
+        *o++ = i + 1 < n ? t[v >> 6 & 63] : '=';
+        *o++ = i + 2 < n ? t[v & 63] : '=';
+    }
+    *o = 0;
+}
+
+// The ground (material 0, opaque) and the masked quad (material 1, `mode`, the texture `image`).
+static const char *write_scene(const char *name, const char *mode, const char *image)
+{
+    // 8 positions, 8 uvs, 12 indices: ground corners, then the quad's.
+    const float pos[8][3] = {{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2},
+                             {-0.5f, 0.5f, -0.5f}, {0.5f, 0.5f, -0.5f}, {0.5f, 0.5f, 0.5f}, {-0.5f, 0.5f, 0.5f}};
+    const float uv[8][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    const uint16_t idx[12] = {0, 2, 1, 0, 3, 2, 4, 6, 5, 4, 7, 6}; // counter-clockwise from above
+    unsigned char bin[96 + 64 + 24];
+    memcpy(bin, pos, 96);
+    memcpy(bin + 96, uv, 64);
+    memcpy(bin + 160, idx, 24);
+    char data[400];
+    b64(bin, sizeof bin, data);
+    const char *path = pn_test_tmp(name);
+    FILE *f = fopen(path, "w");
+    if (!f)
+        return NULL;
+    fprintf(f,
+            "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+            "\"meshes\":[{\"primitives\":["
+            "{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"indices\":2,\"material\":0},"
+            "{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"indices\":3,\"material\":1}]}],"
+            "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.8,0.8,1]}},"
+            "{\"alphaMode\":\"%s\",\"alphaCutoff\":0.5,\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],"
+            "\"textures\":[{\"source\":0,\"sampler\":0}],\"samplers\":[{\"magFilter\":9728,\"minFilter\":9728}],"
+            "\"images\":[{\"uri\":\"%s\"}],"
+            "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":8,\"type\":\"VEC3\","
+            "\"min\":[-2,0,-2],\"max\":[2,0.5,2]},{\"bufferView\":1,\"componentType\":5126,\"count\":8,\"type\":\"VEC2\"},"
+            "{\"bufferView\":2,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"},"
+            "{\"bufferView\":2,\"byteOffset\":12,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"}],"
+            "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":96},{\"buffer\":0,\"byteOffset\":96,\"byteLength\":64},"
+            "{\"buffer\":0,\"byteOffset\":160,\"byteLength\":24}],"
+            "\"buffers\":[{\"byteLength\":184,\"uri\":\"data:application/octet-stream;base64,%s\"}]}",
+            mode, image, data);
+    fclose(f);
+    return path;
+}
+
+// 1 where the quad's texel at (u, v) is opaque, 0 cut out, -1 within `m` of a texel edge (in uv).
+static int texel(double u, double v, double m)
+{
+    double x = u * 8, y = v * 8;
+    if (fabs(x - round(x)) < 8 * m || fabs(y - round(y)) < 8 * m)
+        return -1;
+    return ((int)floor(x) + (int)floor(y)) % 2 == 0;
+}
+
+typedef struct counts {
+    int ground, under, quad, wrong, wrong_quad;
+} counts;
+
+static counts check_render(const char *gltf, const char *mode, const char *extra, const char *cam)
+{
+    counts c = {0};
+    const char *exr = pn_test_tmp("alpha.exr");
+    char args[2048];
+    snprintf(args, sizeof args,
+             "render %s --no-ground --size 240x180 %s --fov 40 --mode %s --spp 1 --filter none --aovs "
+             "--light omni:0,2,0:5 %s -o %s >/dev/null",
+             gltf, cam, mode, extra, exr);
+    pn_exr_image img;
+    if (pn_test_run(args) != 0 || pn_exr_read(exr, &img) != PN_OK) {
+        CHECK_MSG(false, "%s failed", args);
+        return c;
+    }
+    const float *v = pn_exr_image_channel(&img, "shadow.V"), *px = pn_exr_image_channel(&img, "P.X"),
+                *py = pn_exr_image_channel(&img, "P.Y"), *pz = pn_exr_image_channel(&img, "P.Z"),
+                *a = pn_exr_image_channel(&img, "A");
+    CHECK(v && px && py && pz && a);
+    for (int i = 0; v && px && py && pz && a && i < img.width * img.height; i++) {
+        if (a[i] <= 0)
+            continue;
+        double x = px[i], y = py[i], z = pz[i];
+        if (fabs(y - 0.5) < 1e-4) { // the quad itself: only its opaque texels are surfaces
+            int t = texel(x + 0.5, z + 0.5, 0.25 / 8);
+            c.quad++;
+            c.wrong_quad += t == 0;
+            continue;
+        }
+        if (fabs(y) > 1e-4)
+            continue;
+        c.ground++;
+        double cx = 0.75 * x, cz = 0.75 * z;
+        int expect = 1;
+        if (fabs(cx) < 0.5 && fabs(cz) < 0.5) {
+            int t = texel(cx + 0.5, cz + 0.5, 1e-4);
+            if (t < 0)
+                continue;
+            c.under++;
+            expect = t ? 0 : 1;
+        } else if (fabs(fabs(cx) - 0.5) < 1e-4 || fabs(fabs(cz) - 0.5) < 1e-4) {
+            continue;
+        }
+        c.wrong += v[i] != (float)expect;
+    }
+    pn_exr_image_free(&img);
+    printf("%s %s %s: %d ground pixels (%d under the quad), %d with V off the checkerboard; %d quad pixels, %d on "
+           "cut-out texels\n",
+           gltf, mode, extra, c.ground, c.under, c.wrong, c.quad, c.wrong_quad);
+    return c;
+}
+
+int main(void)
+{
+    const char *png = pn_test_tmp("checker.png");
+    CHECK(write_checker_png(png));
+    // pn_test_tmp's names are reused after a few calls: the scenes' paths are copied.
+    char gltf[1024], blend[1024];
+    const char *g = write_scene("alpha.gltf", "MASK", "checker.png");
+    snprintf(gltf, sizeof gltf, "%s", g ? g : "");
+    const char *b = write_scene("alpha_blend.gltf", "BLEND", "checker.png");
+    snprintf(blend, sizeof blend, "%s", b ? b : "");
+    CHECK(g && b);
+    if (!g || !b)
+        return pn_test_result();
+    // From the side and low, the ground under the quad shows through its cut-out texels.
+    const char *side = "--camera-pos 2.2,1.2,1.6 --camera-target 0,0,0";
+    const char *runs[4][2] = {{"exact", ""}, {"exact", "--traversal ray"}, {"exact-ls", ""}, {"exact-ls", "--traversal packet"}};
+    for (int r = 0; r < 4; r++) {
+        counts c = check_render(gltf, runs[r][0], runs[r][1], side);
+        CHECK_MSG(c.under > 500 && c.wrong == 0, "%s %s: %d of %d ground pixels off the checkerboard's shadow",
+                  runs[r][0], runs[r][1], c.wrong, c.ground);
+        CHECK_MSG(c.quad > 200 && c.wrong_quad == 0, "%s: %d quad pixels on cut-out texels", runs[r][0], c.wrong_quad);
+    }
+    counts c = check_render(blend, "exact", "", side);
+    CHECK_MSG(c.under > 500 && c.wrong == 0, "BLEND as MASK at 0.5: %d pixels off", c.wrong);
+
+    // The modes that cannot test texels refuse the scene, naming it and the masked triangles.
+    const char *refuse[4] = {"linespace", "hybrid", "ls-plane", "rayquery"};
+    for (int m = 0; m < 4; m++) {
+        char args[2048];
+        snprintf(args, sizeof args, "render %s --size 32x32 --mode %s -o %s 2>%s >/dev/null", gltf, refuse[m],
+                 pn_test_tmp("refused.exr"), pn_test_tmp("refused.txt"));
+        remove(pn_test_tmp("refused.exr"));
+        int rc = pn_test_run(args);
+        char msg[1024] = "";
+        FILE *f = fopen(pn_test_tmp("refused.txt"), "r");
+        size_t n = f ? fread(msg, 1, sizeof msg - 1, f) : 0;
+        msg[n] = 0;
+        if (f)
+            fclose(f);
+        FILE *out = fopen(pn_test_tmp("refused.exr"), "rb");
+        CHECK_MSG(rc != 0 && strstr(msg, "2 alpha-masked triangles") && !out, "--mode %s: exit %d, '%s'", refuse[m], rc,
+                  msg);
+        if (out)
+            fclose(out);
+    }
+
+    // A mask whose texture cannot be read: warned, skipped (the quad casts as an opaque one).
+    char broken[1024];
+    snprintf(broken, sizeof broken, "%s", write_scene("alpha_broken.gltf", "MASK", "missing.png"));
+    char args[2048];
+    snprintf(args, sizeof args, "render %s --size 32x32 -o %s 2>%s >/dev/null", broken, pn_test_tmp("broken.exr"),
+             pn_test_tmp("broken.txt"));
+    int rc = pn_test_run(args);
+    char msg[2048] = "";
+    FILE *f = fopen(pn_test_tmp("broken.txt"), "r");
+    size_t n = f ? fread(msg, 1, sizeof msg - 1, f) : 0;
+    msg[n] = 0;
+    if (f)
+        fclose(f);
+    CHECK_MSG(rc == 0 && strstr(msg, "the mask is skipped"), "unreadable alpha texture: exit %d, '%s'", rc, msg);
+    return pn_test_result();
+}
