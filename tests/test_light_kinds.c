@@ -18,6 +18,8 @@
 //  - Every mode under a sun, a spot, a sphere and a disk (builtin:default): exact-ls V bit for bit.
 //  - Each kind at the extremes: the same edge and its oracles scaled by 1e-4 and 1e6, and moved by
 //    1e4 and (at scale 1e3) 1e7 from the origin (check_extremes).
+// Over 500 lines because each kind's oracle (an integral, a closed form) is written here, apart
+// from the code it checks.
 #include <math.h>
 #include <stdint.h>
 #include <string.h>

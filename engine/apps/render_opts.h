@@ -73,6 +73,9 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err);
 // Prints the help of the camera, light, scene and shadow options (the sections both commands share).
 void pn_render_opts_print_help(void);
 
+// Parses one --light group into o->lights (apps/light_opts.c); logs the problem and returns false.
+bool pn_parse_light_group(const char *v, pn_render_opts *o);
+
 // Camera and lights from the scene's bounds (and camera), overridden by the options: the --light
 // groups, else one light (the default above the scene, changed by --light-*). Call before the
 // ground plane is added: the defaults frame the scene itself. Logs and returns false for a

@@ -1,5 +1,6 @@
 // The demo's controls: one table of key bindings drives the keyboard, scripts, --help and the H
-// overlay; camera, light and object moves shared by mouse, keys and scripts.
+// overlay; camera, light and object moves shared by mouse, keys and scripts. Over 500 lines
+// because the table and the moves it names are kept in one place.
 //
 // Over 500 lines because the one table of keys is most of it, each key's action beside
 // its entry.
