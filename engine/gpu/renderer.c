@@ -8,6 +8,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "accel/alpha.h"
 #include "core/log.h"
 
 // Timestamps: the frame's start, the G-buffer's end, then per light the ends of its shadow, filter
@@ -171,7 +172,8 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r == PN_OK)
         r = create_targets(out);
     if (r == PN_OK)
-        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene), &out->shadow);
+        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene),
+                                  pn_alpha_masked_triangles(scene) > 0, &out->shadow);
     if (r == PN_OK)
         r = pn_filter_pass_create(dev, desc->width, desc->height, pn_filter_tile(desc->tile_w),
                                   pn_filter_tile(desc->tile_h), &out->p, &out->n, &out->v_raw, &out->shadow.counts,

@@ -55,13 +55,15 @@ void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
 }
 
 // The shadow shaders' specialisation (interface.h), in pn_shadow_pass.spec_data.
-static const VkSpecializationMapEntry SPEC_ENTRIES[4] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
+static const VkSpecializationMapEntry SPEC_ENTRIES[5] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
                                                          {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
                                                          {.constantID = PN_SPEC_COUNT_WORK, .offset = 8, .size = 4},
-                                                         {.constantID = PN_SPEC_PACKET_RAYS, .offset = 12, .size = 4}};
+                                                         {.constantID = PN_SPEC_PACKET_RAYS, .offset = 12, .size = 4},
+                                                         {.constantID = PN_SPEC_ALPHA, .offset = 16, .size = 4}};
 
 pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, pn_shadow_pass *out)
+                                const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, bool alpha_masks,
+                                pn_shadow_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->mode = pn_shadow_mode_get(desc->mode);
@@ -94,9 +96,10 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
     int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal);
     out->sized_rays = out->mode->packet_rays && traversal == PN_TRAVERSAL_PACKET_ID;
-    memcpy(out->spec_data, (int32_t[4]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK},
+    memcpy(out->spec_data,
+           (int32_t[5]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK, alpha_masks ? 1 : 0},
            sizeof out->spec_data);
-    VkSpecializationInfo spec = {.mapEntryCount = 4, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof out->spec_data,
+    VkSpecializationInfo spec = {.mapEntryCount = 5, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof out->spec_data,
                                  .pData = out->spec_data};
     const VkBufferUsageFlags ADDRESSED = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     uint64_t px = (uint64_t)desc->width * desc->height;
@@ -251,10 +254,10 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         uint32_t k = rays_size(rounds[i] < s->chunk ? rounds[i] : s->chunk);
         if ((1u << k) >= PN_MAX_CHUNK || s->by_rays[k])
             continue; // compute.pipeline's, or made already
-        int32_t data[4];
+        int32_t data[5];
         memcpy(data, s->spec_data, sizeof data);
         data[3] = (int32_t)(1u << k);
-        VkSpecializationInfo spec = {.mapEntryCount = 4, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
+        VkSpecializationInfo spec = {.mapEntryCount = 5, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
         PN_TRY(pn_gpu_compute_pipeline(dev, s->compute.layout, s->mode->spirv, s->mode->spirv_size, &spec, &s->by_rays[k]));
     }
     return PN_OK;

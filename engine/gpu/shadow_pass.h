@@ -18,7 +18,7 @@ typedef struct pn_shadow_pass {
     // rays of a pixel per dispatch, made when a frame first needs it (pn_shadow_pass_prepare);
     // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits.
     VkPipeline by_rays[PN_PACKET_RAY_SIZES];
-    int32_t spec_data[4];
+    int32_t spec_data[5];
     bool sized_rays;
     pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
     pn_gpu_buffer status;   // llvmpipe: host-visible flag, a dispatch ran out of the loop budget
@@ -67,8 +67,10 @@ void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v);
 
 // Creates the mode's pipeline and buffers; p, n (read) and v (written) are the frame's images.
 // scene_mag: the largest |coordinate| of the scene's bounds, which bounds every vertex's (shadow_origin).
+// alpha_masks: the scene has alpha-masked casters (the pipeline's alpha tests, PN_SPEC_ALPHA).
 pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
-                                const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, pn_shadow_pass *out);
+                                const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, bool alpha_masks,
+                                pn_shadow_pass *out);
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
 
 // Writes the frame's parameters (its 1..PN_MAX_LIGHTS lights, samples, pools); the queue must be idle.

@@ -71,7 +71,7 @@ bool tri_hit(WRay r, uint tri, float t_min, float t_max)
     vec4 a = params.tris.v[3u * tri];
     bool hit = wt_hit(r, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz, t_min, t_max,
                       t_frac, uvw);
-    uint rec = floatBitsToUint(a.w); // alpha_record: a masked triangle's hit may be on a cut-out texel
+    uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // alpha_record: a masked triangle's hit may be on a cut-out texel
     if (hit && rec != 0u)
         hit = !alpha_cut(rec, uvw / t_frac.y);
     hit_frac = hit ? t_frac : hit_frac;
@@ -223,8 +223,8 @@ Frustum frustum_make(vec3 o, vec2 st_lo, vec2 st_hi)
 // would disagree. Otherwise each ray is tested.
 uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
 {
-    PacketTri t = packet_tri(o, params.tris.v[3u * tri].xyz, params.tris.v[3u * tri + 1u].xyz,
-                             params.tris.v[3u * tri + 2u].xyz);
+    vec4 a = params.tris.v[3u * tri]; // w: the triangle's alpha record (alpha.glsl), 0 if opaque
+    PacketTri t = packet_tri(o, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz);
     if (COUNT_WORK)
         work.z++;
     float slack = f.delta + 8.0 * ulp_bound(f.dmax);
@@ -237,7 +237,7 @@ uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
         hi = max(hi, e);
     }
     float adet = abs(t.det);
-    uint rec = alpha_record(tri); // masked: every ray's hit is tested against its texel
+    uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // masked: every ray's hit is tested against its texel
     bool misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
     bool covers = !misses && rec == 0u && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
     uint hits = covers ? live : 0u;

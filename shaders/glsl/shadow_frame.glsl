@@ -55,6 +55,9 @@ void blocker_at(uint i, float t) { blocker_t[i] = min(blocker_t[i], max(t, 0.0))
 // counts per pixel the nodes visited (N-tree or BVH), line-space lookups, triangle tests and the
 // deepest stack reached, over all its rays. Off, the increments compile away.
 layout(constant_id = PN_SPEC_COUNT_WORK) const bool COUNT_WORK = false;
+// The scene has alpha-masked casters (alpha.glsl): an opaque scene's pipeline has no alpha tests
+// at all (they cost the dragon 2.5% at 16 spp when only a branch).
+layout(constant_id = PN_SPEC_ALPHA) const bool ALPHA = false;
 uvec4 work = uvec4(0u); // nodes, lookups, triangle tests, stack depth (max)
 
 // Surface offsets against self-shadowing.
@@ -236,12 +239,14 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
     horizon_box(o, nrm, box_lo, box_hi);
     if (any(greaterThan(box_lo, box_hi)))
         box_lo = vec2(0.0), box_hi = vec2(1.0); // none of the light is above: every ray is invalid
+    // An OMNI light emits every way; the others from one side; none reaches inside a sphere.
+    bool every_way = LIGHT_KIND == PN_LIGHT_OMNI_ID, none = patch_none;
+    vec3 nl = patch_normal;
     for (i = 0u; i < count; i++) {
         vec2 st = light_warp(box_lo + light_sample(pixel_begin + i, pixel) * (box_hi - box_lo));
         vec3 d = light_point(st) - o;
         float dn = dot(d, nrm);
-        // An OMNI light emits every way; the others from one side; none reaches inside a sphere.
-        bool valid = dn > 0.0 && !patch_none && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(patch_normal, -d) > 0.0);
+        bool valid = dn > 0.0 && !none && (every_way || dot(nl, -d) > 0.0);
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
@@ -261,17 +266,26 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
 // costs (filter.comp). The receiver's own tilt only widens the penumbra along the surface and is
 // left out: the bound errs on the sharp side. PN_PENUMBRA_NONE without a blocker (V has no edge
 // here); 0 for a point light (hard shadows).
-float penumbra_width(vec3 o, float t)
+float penumbra_width_of(vec3 c0, vec3 c1, vec3 c2, vec3 c3, vec3 normal, vec3 o, float t)
 {
-    vec3 c0 = patch_corners[0], c1 = patch_corners[1], c3 = patch_corners[3];
-    vec3 d = 0.25 * (c0 + c1 + patch_corners[2] + c3) - o;
+    vec3 d = 0.25 * (c0 + c1 + c2 + c3) - o;
     // The cosine from d scaled to a max norm of 1: its square neither overflows nor underflows at
     // any scale positions take (pn_scene_validate).
     float m = max(max(abs(d.x), abs(d.y)), abs(d.z));
     vec3 u = m > 0.0 ? d / m : vec3(0.0);
-    float cos_l = m > 0.0 ? max(dot(patch_normal, -u), 0.0) / length(u) : 0.0;
+    float cos_l = m > 0.0 ? max(dot(normal, -u), 0.0) / length(u) : 0.0;
     float side = min(distance(c1, c0), distance(c3, c0)) * cos_l;
     return t < 1.0 ? side * (t / (1.0 - t)) : PN_PENUMBRA_NONE;
+}
+
+// The light's own corners where they are the patch (all but a sphere), as light_point reads them.
+float penumbra_width(vec3 o, float t)
+{
+    if (LIGHT_KIND == PN_LIGHT_SPHERE_ID)
+        return penumbra_width_of(patch_corners[0], patch_corners[1], patch_corners[2], patch_corners[3], patch_normal,
+                                 o, t);
+    return penumbra_width_of(LIGHT.corners[0].xyz, LIGHT.corners[1].xyz, LIGHT.corners[2].xyz, LIGHT.corners[3].xyz,
+                             LIGHT.normal.xyz, o, t);
 }
 
 // V from the pixel's (visible, valid) counts: 1 without a valid ray (the light does not reach it,
