@@ -225,8 +225,6 @@ vec2 light_warp(vec2 st)
 vec3 light_point(vec2 st)
 {
     // Corners 0..3 at (s,t) = (0,0), (1,0), (1,1), (0,1): bilinear = exact point on the parallelogram.
-    // The light's own corners are read where they are the patch (all but a sphere): llvmpipe keeps
-    // the uniform block's values scalar, the private copies per lane.
     vec3 a = mix(patch_corners[0], patch_corners[1], st.x);
     vec3 b = mix(patch_corners[3], patch_corners[2], st.x);
     return mix(a, b, st.y);

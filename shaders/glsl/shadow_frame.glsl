@@ -278,7 +278,8 @@ float penumbra_width_of(vec3 c0, vec3 c1, vec3 c2, vec3 c3, vec3 normal, vec3 o,
     return t < 1.0 ? side * (t / (1.0 - t)) : PN_PENUMBRA_NONE;
 }
 
-// The light's own corners where they are the patch (all but a sphere), as light_point reads them.
+// A sphere's patch, else the light's own corners and normal (the patch's values, read from the
+// uniform block as before the patch existed).
 float penumbra_width(vec3 o, float t)
 {
     if (LIGHT_KIND == PN_LIGHT_SPHERE_ID)
