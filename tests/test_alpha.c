@@ -65,18 +65,6 @@ static bool write_checker_png(const char *path)
     return fclose(f) == 0;
 }
 
-static void b64(const unsigned char *d, size_t n, char *o)
-{
-    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    for (size_t i = 0; i < n; i += 3) {
-        unsigned v = (unsigned)d[i] << 16 | (i + 1 < n ? (unsigned)d[i + 1] << 8 : 0) | (i + 2 < n ? d[i + 2] : 0);
-        *o++ = t[v >> 18 & 63], *o++ = t[v >> 12 & 63];
-        *o++ = i + 1 < n ? t[v >> 6 & 63] : '=';
-        *o++ = i + 2 < n ? t[v & 63] : '=';
-    }
-    *o = 0;
-}
-
 // The ground (material 0, opaque) and the masked quad (material 1, `mode`, the texture `image`).
 static const char *write_scene(const char *name, const char *mode, const char *image)
 {
@@ -90,7 +78,7 @@ static const char *write_scene(const char *name, const char *mode, const char *i
     memcpy(bin + 96, uv, 64);
     memcpy(bin + 160, idx, 24);
     char data[400];
-    b64(bin, sizeof bin, data);
+    pn_test_base64(bin, sizeof bin, data);
     const char *path = pn_test_tmp(name);
     FILE *f = fopen(path, "w");
     if (!f)
@@ -114,6 +102,16 @@ static const char *write_scene(const char *name, const char *mode, const char *i
             mode, image, data);
     fclose(f);
     return path;
+}
+
+// The start of a text file (what a command wrote to stderr), "" if there is none.
+static void read_text(const char *path, char *out, size_t cap)
+{
+    FILE *f = fopen(path, "r");
+    size_t n = f ? fread(out, 1, cap - 1, f) : 0;
+    out[n] = 0;
+    if (f)
+        fclose(f);
 }
 
 // 1 where the quad's texel at (u, v) is opaque, 0 cut out, -1 within `m` of a texel edge (in uv).
@@ -213,12 +211,8 @@ int main(void)
                  pn_test_tmp("refused.exr"), pn_test_tmp("refused.txt"));
         remove(pn_test_tmp("refused.exr"));
         int rc = pn_test_run(args);
-        char msg[1024] = "";
-        FILE *f = fopen(pn_test_tmp("refused.txt"), "r");
-        size_t n = f ? fread(msg, 1, sizeof msg - 1, f) : 0;
-        msg[n] = 0;
-        if (f)
-            fclose(f);
+        char msg[1024];
+        read_text(pn_test_tmp("refused.txt"), msg, sizeof msg);
         FILE *out = fopen(pn_test_tmp("refused.exr"), "rb");
         CHECK_MSG(rc != 0 && strstr(msg, "2 alpha-masked triangles") && !out, "--mode %s: exit %d, '%s'", refuse[m], rc,
                   msg);
@@ -233,12 +227,8 @@ int main(void)
     snprintf(args, sizeof args, "render %s --size 32x32 -o %s 2>%s >/dev/null", broken, pn_test_tmp("broken.exr"),
              pn_test_tmp("broken.txt"));
     int rc = pn_test_run(args);
-    char msg[2048] = "";
-    FILE *f = fopen(pn_test_tmp("broken.txt"), "r");
-    size_t n = f ? fread(msg, 1, sizeof msg - 1, f) : 0;
-    msg[n] = 0;
-    if (f)
-        fclose(f);
+    char msg[2048];
+    read_text(pn_test_tmp("broken.txt"), msg, sizeof msg);
     CHECK_MSG(rc == 0 && strstr(msg, "the mask is skipped"), "unreadable alpha texture: exit %d, '%s'", rc, msg);
     return pn_test_result();
 }

@@ -233,18 +233,6 @@ static double sun_edge_error(const frame *f, double diameter_deg, int *pixels)
 // the sphere's (to O(theta^2)), the omni light's hard edge; a pixel's side of the omni edge is
 // certain 8 ulps of the magnitude (over s) away from it.
 
-static void b64(const unsigned char *d, size_t n, char *o)
-{
-    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    for (size_t i = 0; i < n; i += 3) {
-        unsigned v = (unsigned)d[i] << 16 | (i + 1 < n ? (unsigned)d[i + 1] << 8 : 0) | (i + 2 < n ? d[i + 2] : 0);
-        *o++ = t[v >> 18 & 63], *o++ = t[v >> 12 & 63];
-        *o++ = i + 1 < n ? t[v >> 6 & 63] : '=';
-        *o++ = i + 2 < n ? t[v & 63] : '=';
-    }
-    *o = 0;
-}
-
 static const char *write_penumbra_gltf(const char *name, double s, double t)
 {
     // 8 positions (two quads facing +y), then 12 uint16 indices.
@@ -255,7 +243,7 @@ static const char *write_penumbra_gltf(const char *name, double s, double t)
     memcpy(bin, pos, 96);
     memcpy(bin + 96, idx, 24);
     char data[200];
-    b64(bin, sizeof bin, data);
+    pn_test_base64(bin, sizeof bin, data);
     const char *path = pn_test_tmp(name);
     FILE *f = fopen(path, "w");
     if (!f)

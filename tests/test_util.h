@@ -74,6 +74,19 @@ static inline void pn_test_scene(char *out, size_t n, const char *asset)
         snprintf(out, n, "builtin:default");
 }
 
+// Base64 of n bytes into o (4 * ceil(n / 3) + 1 chars): glTF data: URIs written by the tests.
+static inline void pn_test_base64(const unsigned char *d, size_t n, char *o)
+{
+    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)d[i] << 16 | (i + 1 < n ? (unsigned)d[i + 1] << 8 : 0) | (i + 2 < n ? d[i + 2] : 0);
+        *o++ = t[v >> 18 & 63], *o++ = t[v >> 12 & 63];
+        *o++ = i + 1 < n ? t[v >> 6 & 63] : '=';
+        *o++ = i + 2 < n ? t[v & 63] : '=';
+    }
+    *o = 0;
+}
+
 // Runs "$PN_BIN <args>" through the shell; returns the exit status (or -1).
 static inline int pn_test_run(const char *args)
 {
