@@ -3,12 +3,15 @@
 // Oracle, in double: a ground point g's ray to the light crosses y = 0.5 at 0.75 g; inside the
 // quad its uv is (0.75 g.x + 0.5, 0.75 g.z + 0.5) and the nearest texel decides: V = 0 under an
 // opaque texel, 1 under a cut-out one or beside the quad (pixels within 1e-4 of a texel's edge in
-// uv are left out). Checked for exact and exact-ls, with both traversals; the G-buffer shows no
-// surface where the quad is cut out (seen from above, every quad pixel is an opaque texel's);
-// the line-space modes and rayquery refuse the scene, naming the masked triangles; BLEND casts as
-// MASK at 0.5; a mask whose texture cannot be read is skipped with a warning and renders opaque.
+// uv are left out). Checked for every mode that takes the scene (the line-space modes test the
+// leaves holding masked triangles exactly), with both traversals; the G-buffer shows no surface
+// where the quad is cut out (seen from above, every quad pixel is an opaque texel's). Under an area
+// light the line-space modes give exact's V pixel for pixel (the quad is the only caster). rayquery
+// refuses the scene, naming the masked triangles; BLEND casts as MASK at 0.5; a mask whose texture
+// cannot be read is skipped with a warning and renders opaque.
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
 
@@ -178,6 +181,28 @@ static counts check_render(const char *gltf, const char *mode, const char *extra
     return c;
 }
 
+// Renders `gltf` under a 2 x 2 rectangle at (0, 2, 0) facing down, 16 spp, and returns its shadow.V
+// (width x height floats, to free) or NULL.
+static float *area_v(const char *gltf, const char *mode, int *count)
+{
+    const char *exr = pn_test_tmp("alpha_area.exr");
+    char args[2048];
+    snprintf(args, sizeof args,
+             "render %s --no-ground --size 160x120 --camera-pos 2.2,1.2,1.6 --camera-target 0,0,0 --fov 40 --mode %s "
+             "--spp 16 --filter none --aovs --light rect:0,2,0:0,-1,0:0,0,1:2,2:1 -o %s >/dev/null",
+             gltf, mode, exr);
+    pn_exr_image img;
+    if (pn_test_run(args) != 0 || pn_exr_read(exr, &img) != PN_OK)
+        return NULL;
+    const float *v = pn_exr_image_channel(&img, "shadow.V");
+    *count = img.width * img.height;
+    float *out = v ? malloc((size_t)*count * sizeof *out) : NULL;
+    if (out)
+        memcpy(out, v, (size_t)*count * sizeof *out);
+    pn_exr_image_free(&img);
+    return out;
+}
+
 int main(void)
 {
     const char *png = pn_test_tmp("checker.png");
@@ -193,19 +218,52 @@ int main(void)
         return pn_test_result();
     // From the side and low, the ground under the quad shows through its cut-out texels.
     const char *side = "--camera-pos 2.2,1.2,1.6 --camera-target 0,0,0";
-    const char *runs[4][2] = {{"exact", ""}, {"exact", "--traversal ray"}, {"exact-ls", ""}, {"exact-ls", "--traversal packet"}};
-    for (int r = 0; r < 4; r++) {
+    // Every mode that takes the scene: the line-space modes test the quad's leaves exactly (they
+    // hold its masked triangles), so they too draw the checkerboard without a pixel off; the
+    // ground's own leaves are where rays start, culled or skipped, so nothing else blocks.
+    const char *runs[][2] = {{"exact", ""},           {"exact", "--traversal ray"},
+                             {"exact-ls", ""},        {"exact-ls", "--traversal packet"},
+                             {"linespace", ""},       {"linespace", "--traversal packet"},
+                             {"ls-leaf", ""},         {"ls-plane", "--traversal packet"},
+                             {"hybrid", ""},          {"linespace", "--tree 4,2"}};
+    for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++) {
         counts c = check_render(gltf, runs[r][0], runs[r][1], side);
         CHECK_MSG(c.under > 500 && c.wrong == 0, "%s %s: %d of %d ground pixels off the checkerboard's shadow",
                   runs[r][0], runs[r][1], c.wrong, c.ground);
         CHECK_MSG(c.quad > 200 && c.wrong_quad == 0, "%s: %d quad pixels on cut-out texels", runs[r][0], c.wrong_quad);
     }
+    // Under an area light, penumbrae cross the pattern. The masked quad is the scene's only caster,
+    // so every answer of the line-space modes that could block a ray comes from the exact test of
+    // its leaves: the same V as exact's, pixel for pixel, and the ground under the quad is neither
+    // fully lit nor fully shadowed (half its texels are open).
+    int np = 0, ne = 0;
+    float *ve = area_v(gltf, "exact", &ne);
+    CHECK(ve != NULL);
+    int dark = 0, partial = 0;
+    for (int i = 0; ve && i < ne; i++) {
+        dark += ve[i] < 0.25f;
+        partial += ve[i] > 0.25f && ve[i] < 0.75f;
+    }
+    printf("area light, exact: %d pixels with V in (0.25, 0.75), %d below 0.25\n", partial, dark);
+    CHECK_MSG(partial > 1000, "the pattern's penumbrae: %d pixels with V in (0.25, 0.75)", partial);
+    const char *area_modes[] = {"linespace", "ls-leaf", "ls-plane", "hybrid", "exact-ls"};
+    for (size_t m = 0; ve && m < sizeof area_modes / sizeof area_modes[0]; m++) {
+        float *vm = area_v(gltf, area_modes[m], &np);
+        int differ = 0;
+        for (int i = 0; vm && np == ne && i < ne; i++)
+            differ += vm[i] != ve[i];
+        printf("area light, %s: %d of %d pixels differ from exact\n", area_modes[m], differ, ne);
+        CHECK_MSG(vm && np == ne && differ == 0, "%s under an area light: %d pixels differ from exact", area_modes[m], differ);
+        free(vm);
+    }
+    free(ve);
+
     counts c = check_render(blend, "exact", "", side);
     CHECK_MSG(c.under > 500 && c.wrong == 0, "BLEND as MASK at 0.5: %d pixels off", c.wrong);
 
     // The modes that cannot test texels refuse the scene, naming it and the masked triangles.
-    const char *refuse[4] = {"linespace", "hybrid", "ls-plane", "rayquery"};
-    for (int m = 0; m < 4; m++) {
+    const char *refuse[] = {"rayquery"};
+    for (size_t m = 0; m < sizeof refuse / sizeof refuse[0]; m++) {
         char args[2048];
         snprintf(args, sizeof args, "render %s --size 32x32 --mode %s -o %s 2>%s >/dev/null", gltf, refuse[m],
                  pn_test_tmp("refused.exr"), pn_test_tmp("refused.txt"));

@@ -19,6 +19,23 @@ uint64_t pn_alpha_masked_triangles(const pn_scene *s)
     return n;
 }
 
+pn_result pn_alpha_triangle_flags(const pn_scene *s, uint8_t **out)
+{
+    *out = NULL;
+    if (pn_alpha_masked_triangles(s) == 0)
+        return PN_OK;
+    uint8_t *f = calloc(pn_scene_triangle_count(s) ? pn_scene_triangle_count(s) : 1, 1);
+    if (!f)
+        return PN_ERR_MEMORY;
+    for (uint32_t d = 0; d < s->draw_count; d++)
+        for (uint32_t k = s->draws[d].first_index; masked(s, s->draws[d].material) &&
+                                                   k + 2 < s->draws[d].first_index + s->draws[d].index_count;
+             k += 3)
+            f[k / 3] = 1;
+    *out = f;
+    return PN_OK;
+}
+
 // The texture a masked material's alpha comes from, or NULL.
 static const pn_texture *alpha_texture(const pn_scene *s, uint32_t material)
 {

@@ -10,6 +10,10 @@
 // Triangles whose draw's material is alpha-masked.
 uint64_t pn_alpha_masked_triangles(const pn_scene *s);
 
+// Per triangle of s (pn_scene_triangle_count), 1 if it is alpha-masked, in *out (to free); NULL
+// when none is.
+pn_result pn_alpha_triangle_flags(const pn_scene *s, uint8_t **out);
+
 // vec4s the masks of s take after its n = pn_scene_triangle_count triangles' 3 n.
 uint64_t pn_alpha_pool_vec4s(const pn_scene *s);
 

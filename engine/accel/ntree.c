@@ -291,13 +291,40 @@ static void free_lists(uint32_t **lists, uint32_t count)
     free(lists);
 }
 
+// Does leaf c's list (of a last-level node's per-child lists) hold an alpha-masked triangle?
+static bool leaf_masked(const uint32_t *list, uint64_t n3, uint64_t c, const uint8_t *masked)
+{
+    const uint32_t *off = list, *ids = list + n3 + 1;
+    bool any = false;
+    for (uint32_t k = off[c]; masked && k < off[c + 1] && !any; k++)
+        any = masked[ids[k]] != 0;
+    return any;
+}
+
 // The triangle lists of the leaves of the last-level nodes (this level's nodes, whose per-child
-// lists the gather has just built), in node and child order.
-static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t lcount, uint32_t **lists)
+// lists the gather has just built), in node and child order: every leaf's (keep_candidates), or
+// only those of the leaves holding an alpha-masked triangle (desc.masked), whose bits it sets.
+static pn_result keep_candidates(pn_ntree *t, const pn_ntree_desc *desc, uint32_t lcount, uint32_t **lists)
 {
     uint64_t n3 = (uint64_t)t->n * t->n * t->n, entries = (uint64_t)lcount * n3 + 1, total = 0;
+    bool all = desc->keep_candidates;
+    uint64_t bits = (uint64_t)lcount * (n3 + 1);
+    if (desc->masked) {
+        t->alpha_words = (uint32_t)((bits + 31) / 32);
+        if (bits > UINT32_MAX || !(t->alpha_bits = calloc(t->alpha_words ? t->alpha_words : 1, sizeof *t->alpha_bits)))
+            return PN_ERR_MEMORY;
+    }
     for (uint32_t i = 0; i < lcount; i++)
-        total += lists[i][n3];
+        for (uint64_t c = 0; c < n3; c++) {
+            bool m = leaf_masked(lists[i], n3, c, desc->masked);
+            if (m) {
+                uint64_t node_bit = i * (n3 + 1), leaf_bit = node_bit + 1 + c;
+                t->alpha_bits[node_bit / 32] |= 1u << (node_bit % 32);
+                t->alpha_bits[leaf_bit / 32] |= 1u << (leaf_bit % 32);
+                t->masked_leaves++;
+            }
+            total += all || m ? lists[i][c + 1] - lists[i][c] : 0;
+        }
     if (total > UINT32_MAX || entries > UINT32_MAX)
         return PN_ERR_MEMORY;
     t->cand_offsets = (uint32_t)entries;
@@ -309,10 +336,13 @@ static pn_result keep_candidates(pn_ntree *t, const level_node *lnodes, uint32_t
     for (uint32_t i = 0; i < lcount; i++) {
         // Nodes of one level are numbered consecutively, in the order of lnodes.
         const uint32_t *off = lists[i], *ids = lists[i] + n3 + 1;
-        for (uint64_t c = 0; c < n3; c++)
-            t->cand_offset[i * n3 + c] = at + off[c];
-        memcpy(t->cand_tris + at, ids, off[n3] * sizeof(uint32_t));
-        at += off[n3];
+        for (uint64_t c = 0; c < n3; c++) {
+            t->cand_offset[i * n3 + c] = at;
+            if (all || leaf_masked(lists[i], n3, c, desc->masked)) {
+                memcpy(t->cand_tris + at, ids + off[c], (off[c + 1] - off[c]) * sizeof(uint32_t));
+                at += off[c + 1] - off[c];
+            }
+        }
     }
     t->cand_offset[entries - 1] = at;
     t->cand_count = total;
@@ -451,7 +481,7 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
         }
         build_ctx b = {.t = t, .tri = (const float(*)[9])tri, .box = (const float(*)[6])box, .lnodes = lnodes,
                        .chunks = chunks, .level = level,
-                       .need_lists = level + 1 < t->d || desc->keep_candidates || desc->leaf_planes, .child_lists = lists};
+                       .need_lists = level + 1 < t->d || desc->keep_candidates || desc->masked || desc->leaf_planes, .child_lists = lists};
         atomic_init(&b.failed, false);
         pn_parallel_for(nchunks, 1, split_chunks, &b);
         gather_ctx g = {&b, nc};
@@ -465,7 +495,7 @@ static pn_result build_occupancy(const pn_scene *s, const pn_ntree_desc *desc, p
             r = PN_ERR_MEMORY;
             break;
         }
-        if (desc->keep_candidates && level + 1 == t->d && (r = keep_candidates(t, lnodes, lcount, lists)) != PN_OK) {
+        if ((desc->keep_candidates || desc->masked) && level + 1 == t->d && (r = keep_candidates(t, desc, lcount, lists)) != PN_OK) {
             free_lists(lists, lcount);
             break;
         }
@@ -620,5 +650,6 @@ void pn_ntree_destroy(pn_ntree *t)
     free(t->cand_offset);
     free(t->cand_tris);
     free(t->planes);
+    free(t->alpha_bits);
     memset(t, 0, sizeof *t);
 }

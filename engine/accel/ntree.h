@@ -31,6 +31,11 @@ typedef struct pn_ntree_desc {
     bool keep_candidates;
     // Fit a plane to every filled leaf of the last-level nodes (ls-plane): `planes` below.
     bool leaf_planes;
+    // Per scene triangle, nonzero if it is alpha-masked (accel/alpha.h); NULL: none is. Marks the
+    // leaves holding one (`alpha_bits` below), and without keep_candidates keeps the candidate
+    // lists of those leaves only: the line-space modes test them exactly, as a line space (a
+    // filled leaf) cannot tell a cut-out texel from a solid one.
+    const uint8_t *masked;
 } pn_ntree_desc;
 
 typedef struct pn_ntree_node {
@@ -71,6 +76,11 @@ typedef struct pn_ntree {
     // (i - cand_first_node) * n^3 + c (accel/leaf_plane.h).
     uint32_t *planes;
     uint64_t plane_count;
+    // With desc.masked: per last-level node i, n^3 + 1 bits from bit (i - cand_first_node) (n^3 + 1):
+    // the first set if any of its leaves holds an alpha-masked triangle, then one per leaf c.
+    uint32_t *alpha_bits;
+    uint32_t alpha_words;
+    uint64_t masked_leaves;
     double occupancy_ms, masks_ms, linespace_ms, build_ms;
 } pn_ntree;
 

@@ -1,5 +1,5 @@
 // The exact triangle tests' pools on the GPU: triangles, BVH nodes and the N-tree's candidate
-// lists.
+// lists, and which of its leaves hold alpha-masked triangles.
 #include "gpu/exact_pools.h"
 
 #include <stdlib.h>
@@ -42,6 +42,10 @@ pn_result pn_gpu_exact_pools_create(pn_gpu_device *dev, const pn_scene *scene, c
                    &out->cand_offset, &out->bytes);
     if (r == PN_OK)
         r = upload(dev, "candidate list pool", cands ? tree->cand_tris : NULL, cands ? tree->cand_count * 4 : 0, &out->cand_tris, &out->bytes);
+    bool alpha = tree && tree->alpha_bits;
+    if (r == PN_OK)
+        r = upload(dev, "alpha-masked leaf bits", alpha ? tree->alpha_bits : NULL, alpha ? (uint64_t)tree->alpha_words * 4 : 0,
+                   &out->alpha_bits, &out->bytes);
     if (r != PN_OK)
         pn_gpu_exact_pools_destroy(dev, out);
     return r;
@@ -49,8 +53,8 @@ pn_result pn_gpu_exact_pools_create(pn_gpu_device *dev, const pn_scene *scene, c
 
 void pn_gpu_exact_pools_destroy(pn_gpu_device *dev, pn_gpu_exact_pools *p)
 {
-    pn_gpu_buffer *b[5] = {&p->tris, &p->bvh_nodes, &p->bvh_tris, &p->cand_offset, &p->cand_tris};
-    for (int i = 0; i < 5; i++)
+    pn_gpu_buffer *b[6] = {&p->tris, &p->bvh_nodes, &p->bvh_tris, &p->cand_offset, &p->cand_tris, &p->alpha_bits};
+    for (int i = 0; i < 6; i++)
         pn_gpu_buffer_destroy(dev, b[i]);
     memset(p, 0, sizeof *p);
 }

@@ -150,6 +150,12 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the triangle pools of the exact tests", mode->name);
         return PN_ERR_INVALID;
     }
+    if (mode->needs.tree && pn_alpha_masked_triangles(scene) && (desc->objects || !desc->exact)) {
+        pn_error("%s shadows of alpha-masked casters need one scene-wide tree with its masked leaves and the triangle "
+                 "pool (pn_shadow_accel_build makes them)",
+                 mode->name);
+        return PN_ERR_INVALID;
+    }
     if ((unsigned)desc->filter > PN_FILTER_INTERLEAVED ||
         pn_filter_tile(desc->tile_w) > PN_FILTER_MAX_TILE || pn_filter_tile(desc->tile_h) > PN_FILTER_MAX_TILE) {
         pn_error("filter %d with tile %ux%u: the tile's edges must be 1..%d", (int)desc->filter, desc->tile_w,

@@ -69,9 +69,10 @@ typedef struct pn_shadow_mode_info {
     // Its shader's packet walk unrolls its per-ray loops to the most rays a pixel has in a dispatch
     // (PN_SPEC_PACKET_RAYS): the shadow pass makes a pipeline per size (exact).
     bool packet_rays;
-    // Tests the texels of alpha-masked casters (pn_material.alpha_cutoff) where rays hit them. The
-    // others answer rays from line spaces (a cell holding a masked triangle is filled) or from
-    // the device's opaque geometry, so they refuse scenes with masked casters.
+    // Tests the texels of alpha-masked casters (pn_material.alpha_cutoff) where rays hit them: the
+    // exact modes at every hit, the line-space modes in the leaves holding a masked triangle
+    // (their tree marks them and keeps their triangles: linespace_leaf.glsl). A mode without it
+    // refuses scenes with masked casters.
     bool alpha_masks;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)

@@ -218,6 +218,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
         sp.bvh_tris = e->bvh_tris.address;
         sp.cand_offset = e->cand_offset.address;
         sp.cand_tris = e->cand_tris.address;
+        sp.alpha_bits = e->alpha_bits.address;
     }
     sp.dump = s->ray_dump.address;
     sp.cand_first = desc->cand_first_node;

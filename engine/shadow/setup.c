@@ -3,8 +3,10 @@
 #include "shadow/setup.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
+#include "accel/alpha.h"
 #include "core/log.h"
 
 pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_desc *desc, pn_shadow_accel *out)
@@ -19,6 +21,19 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
     for (uint32_t i = 0; desc->needs.tree && i < lights && i < PN_MAX_LIGHTS; i++)
         pn_light_reach(&desc->light[i], &corners[8 * i]);
     uint32_t light_corners = 8 * (lights < PN_MAX_LIGHTS ? lights : PN_MAX_LIGHTS);
+    // Alpha-masked casters: the tree marks the leaves holding them and keeps their triangles, which
+    // the line-space modes test exactly (with their texels) against the triangle pool.
+    uint8_t *masked = NULL;
+    if (desc->needs.tree && (r = pn_alpha_triangle_flags(scene, &masked)) != PN_OK)
+        return r;
+    if (masked && desc->per_object) {
+        pn_error("%s: %llu alpha-masked triangles: per-object trees (--trees object) keep no triangles to test their "
+                 "texels; use one scene-wide tree (--trees scene)",
+                 scene->name, (unsigned long long)pn_alpha_masked_triangles(scene));
+        free(masked);
+        return PN_ERR_UNSUPPORTED;
+    }
+    out->desc.needs.exact_pools |= masked != NULL;
     if (desc->needs.tree && desc->per_object) {
         // Line spaces only: no candidate lists or leaf planes; the renderer binds per-object trees
         // for linespace alone.
@@ -37,13 +52,15 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
                             .cull_light_corners = light_corners,
                             .keep_box = desc->keep_box,
                             .keep_candidates = desc->needs.candidates,
-                            .leaf_planes = desc->needs.planes};
+                            .leaf_planes = desc->needs.planes,
+                            .masked = masked};
         r = pn_ntree_build(scene, &td, &out->tree);
         if (r == PN_OK) {
             out->build_ms += out->tree.build_ms;
             r = pn_pools_pack(&out->tree, &out->pools);
         }
     }
+    free(masked);
     if (r == PN_OK && desc->needs.bvh && desc->reuse_bvh) {
         out->exact_bvh = desc->reuse_bvh;
     } else if (r == PN_OK && desc->needs.bvh) {

@@ -2,11 +2,22 @@
 // each MODE, ls-plane's slab test and the leaf test every walk calls (leaf_blocks). Part of
 // shadow_linespace.comp (uses its MODE constants); included after linespace_trace.glsl.
 
-// A last-level verdict per mode. LS_BLOCKED blocks in linespace and hybrid; in the other modes the
-// ray walks the node's leaves instead. LS_INSIDE is skipped by the paper's rule, and walked in the
-// others. A walked last-level node decides each filled leaf the ray crosses (leaf_blocks).
-bool ls_blocks(int c) { return c == LS_BLOCKED && (LINESPACE || HYBRID); }
-bool ls_walks(int c) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) || (c == LS_BLOCKED && !ls_blocks(c)); }
+// Alpha-masked casters (ALPHA): a line space, and a filled leaf, cannot tell a cut-out texel from a
+// solid one. So a last-level node with a leaf holding a masked triangle is walked, never blocked
+// by its line space, and such a leaf is tested exactly, texels and all (leaf_blocked); the other
+// leaves keep their mode's rule. Bit b of params.alpha_bits (pn_ntree.alpha_bits): per last-level
+// node n^3 + 1 bits, the node's first, then one per leaf.
+bool alpha_bit(uint b) { return ((params.alpha_bits.ids[b >> 5u] >> (b & 31u)) & 1u) != 0u; }
+bool alpha_node(uint node, uint n3) { return ALPHA && alpha_bit((node - params.cand_first) * (n3 + 1u)); }
+bool alpha_leaf(uint node, uint cell, uint n3) { return ALPHA && alpha_bit((node - params.cand_first) * (n3 + 1u) + 1u + cell); }
+
+// A last-level verdict per mode. LS_BLOCKED blocks in linespace and hybrid (unless the node holds an
+// alpha-masked leaf); in the other modes the ray walks the node's leaves instead. LS_INSIDE is
+// skipped by the paper's rule, and walked in the others. A walked last-level node decides each
+// filled leaf the ray crosses (leaf_blocks). `node`: the classified node (last-level if c is
+// LS_BLOCKED); blocks: ls_blocks' answer.
+bool ls_blocks(int c, uint node, uint n3) { return c == LS_BLOCKED && (LINESPACE || HYBRID) && !alpha_node(node, n3); }
+bool ls_walks(int c, bool blocks) { return c == LS_DESCEND || (!LINESPACE && c == LS_INSIDE) || (c == LS_BLOCKED && !blocks); }
 
 // ls-plane: does filled leaf `cell` of last-level node `node` block the ray? lo: the ray's origin
 // in the node's local frame (the node spans [0, N]^3, a leaf is 1), ld its direction there, eps
@@ -68,13 +79,17 @@ float leaf_t_fall(vec3 d)
     return 1.0 - RISE_LEAVES * params.leaf_size * (abs(nl.x) + abs(nl.y) + abs(nl.z)) / dot(nl, -d);
 }
 
+// Is filled leaf `cell` of last-level node `node` tested against its triangles? In hybrid and
+// exact-ls every walked leaf is; in the other modes a leaf holding an alpha-masked triangle.
+bool leaf_exact(uint node, uint cell, uint n3) { return HYBRID || EXACT_LS || alpha_leaf(node, cell, n3); }
+
 // Does filled leaf `cell` of walked last-level node `node` block ray (o, d)? See MODE.
 bool leaf_blocks(uint node, uint cell, uint n3, vec3 o, vec3 d, vec3 lo, vec3 ld, float eps, float t_in, float t_out)
 {
     bool blocks = LINESPACE || (LEAF && t_in < leaf_t_fall(d));
-    if (PLANE)
-        blocks = leaf_plane_blocks(node, cell, n3, lo, ld, eps, t_in, t_out);
-    else if (HYBRID || EXACT_LS)
+    if (leaf_exact(node, cell, n3))
         blocks = leaf_blocked(node, cell, n3, wray(o, d), 0.0, 1.0);
+    else if (PLANE)
+        blocks = leaf_plane_blocks(node, cell, n3, lo, ld, eps, t_in, t_out);
     return blocks;
 }

@@ -69,15 +69,17 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
     // The root, classified ray by ray.
     Node root = t.node_pool.nodes[0];
     uint descend = 0u;
+    uint n3 = t.n * t.n * t.n;
     // llvmpipe: loops over rays visit the set bits only, as every iteration counts against the
     // loop budget there.
     for (uint left = rays; left != 0u; left &= left - 1u) {
         uint i = uint(findLSB(left));
         int r = ls_classify(t, root, o, dir[i], ray_start(i), ray_trust(i));
-        if (ls_blocks(r))
+        bool blocks = ls_blocks(r, 0u, n3);
+        if (blocks)
             blocker_at(i, ray_start(i)); // a root without children: the blocker lies beyond the start
-        blocked |= ls_blocks(r) ? (1u << i) : 0u;
-        descend |= ls_walks(r) ? (1u << i) : 0u;
+        blocked |= blocks ? (1u << i) : 0u;
+        descend |= ls_walks(r, blocks) ? (1u << i) : 0u;
     }
     // The top frame lives in registers, its ancestors in p<i> for depth i: separate variables with
     // constant indices, updated by selects.
@@ -87,7 +89,6 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
     PacketFrame f = PacketFrame(0u, descend, 0, 0, 0, 0, 0, 0, 0, 0, 0);
     PacketFrame p0 = f, p1 = f, p2 = f, p3 = f, p4 = f;
     NodeBoxes boxes = NodeBoxes(t.node_pool);
-    uint n3 = t.n * t.n * t.n;
     bool fresh = true; // the top frame has not set up its slices yet
     while (depth >= 0 && (rays & ~blocked) != 0u) {
         // Of the node only its box is loaded (see rays_blocked); its children group is at index * N^3.
@@ -150,7 +151,7 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     uint ci = uint((cell.z * n + cell.y) * n + cell.x);
                     hit = hit && leaf_blocks(f.node, ci, n3, o, dir[i], l.o + vec3(cell), l.d, l.eps, t_in, t_out);
                     if (hit)
-                        blocker_at(i, HYBRID || EXACT_LS ? last_hit_t() : max(t_in, ray_start(i)));
+                        blocker_at(i, leaf_exact(f.node, ci, n3) ? last_hit_t() : max(t_in, ray_start(i)));
                     blocked |= hit ? (1u << i) : 0u;
                 }
             } else if (entry != CELL_EMPTY && live != 0u) {
@@ -168,10 +169,11 @@ uint packet_blocked(TreeInfo t, vec3 o, vec3 corners[4], uint count, uint rays)
                     // The child's level is depth + 1, its line space at index * ls_words (pools.h).
                     int r = ls_classify_local(t, uint(depth + 1), child_index * t.ls_words, l, hit, t_in, t_out,
                                               ray_start(i), ray_trust(i));
-                    if (ls_blocks(r))
+                    bool blocks = ls_blocks(r, child_index, n3);
+                    if (blocks)
                         blocker_at(i, max(t_in, ray_start(i)));
-                    blocked |= ls_blocks(r) ? (1u << i) : 0u;
-                    down |= ls_walks(r) ? (1u << i) : 0u;
+                    blocked |= blocks ? (1u << i) : 0u;
+                    down |= ls_walks(r, blocks) ? (1u << i) : 0u;
                 }
                 if (down != 0u && depth + 1 < MAX_DEPTH) {
                     p0 = depth == 0 ? f : p0;

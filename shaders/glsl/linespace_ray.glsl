@@ -112,7 +112,7 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             if (entry == CELL_FILLED)
                 blocked = leaf_blocks(f.node, child, n3, o, d, leaf_l.o, leaf_l.d, leaf_l.eps, t_in, t_out);
             if (blocked)
-                blocker_at(ray, HYBRID || EXACT_LS ? last_hit_t() : max(t_in, t_start));
+                blocker_at(ray, leaf_exact(f.node, child, n3) ? last_hit_t() : max(t_in, t_start));
             visit = entry > CELL_FILLED;
             next = entry - 2u;
         }
@@ -125,10 +125,11 @@ uint rays_blocked(TreeInfo t, vec3 o, uint rays)
             float t_in, t_out;
             bool hit = ls_slabs(l, fn, t_in, t_out);
             int c = ls_classify_local(t, uint(depth + 1), next * t.ls_words, l, hit, t_in, t_out, t_start, t_trust);
-            if (ls_blocks(c))
+            bool blocks = ls_blocks(c, next, n3);
+            if (blocks)
                 blocker_at(ray, max(t_in, t_start));
-            blocked = blocked || ls_blocks(c);
-            if (ls_walks(c) && depth + 1 < MAX_DEPTH) {
+            blocked = blocked || blocks;
+            if (ls_walks(c, blocks) && depth + 1 < MAX_DEPTH) {
                 s0 = depth == 0 ? f : s0;
                 s1 = depth == 1 ? f : s1;
                 s2 = depth == 2 ? f : s2;

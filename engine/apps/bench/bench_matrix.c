@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "apps/args.h"
+#include "accel/alpha.h"
 #include "apps/bench/bench.h"
 #include "shadow/metrics.h"
 #include "apps/quality.h"
@@ -377,6 +378,12 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
                 if (per_object && !info->objects) {
                     if (si == 0)
                         pn_warn("bench: %s has no per-object trees (they serve linespace alone)", info->name);
+                    continue;
+                }
+                if (per_object && pn_alpha_masked_triangles(&scene)) {
+                    if (si == 0)
+                        pn_warn("bench: %s: skipped per-object trees: they keep no triangles to test alpha masks",
+                                scene.name);
                     continue;
                 }
                 for (int ti = 0; ti < o->tree_count && rc == PN_EXIT_OK; ti++)
