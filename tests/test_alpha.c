@@ -261,8 +261,9 @@ int main(void)
     counts c = check_render(blend, "exact", "", side);
     CHECK_MSG(c.under > 500 && c.wrong == 0, "BLEND as MASK at 0.5: %d pixels off", c.wrong);
 
-    // The modes that cannot test texels refuse the scene, naming it and the masked triangles.
-    const char *refuse[] = {"rayquery"};
+    // What cannot test texels (rayquery, per-object trees) refuses the scene, naming it and the masked
+    // triangles.
+    const char *refuse[] = {"rayquery", "linespace --trees object"};
     for (size_t m = 0; m < sizeof refuse / sizeof refuse[0]; m++) {
         char args[2048];
         snprintf(args, sizeof args, "render %s --size 32x32 --mode %s -o %s 2>%s >/dev/null", gltf, refuse[m],
