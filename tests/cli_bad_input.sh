@@ -102,6 +102,12 @@ expect 2 "--light radiance: must not be negative" -- "${R[@]}" --light 0,4,0:0,-
 expect 2 "--light 2: the normal and up must not be zero, nor parallel" -- "${R[@]}" --light "$L" \
   --light 0,4,0:0,-1,0:0,3,0:1,1:10
 expect 2 "--light 1's position .* beyond 1e\+18" -- "${R[@]}" --light 0,1e19,0:0,-1,0:0,0,1:1,1:10
+# the kinds by name (scene/light.h)
+expect 2 "--light: unknown kind 'lamp'" -- "${R[@]}" --light lamp:0,4,0:5
+expect 2 "--light range: expected a number in \\[0" -- "${R[@]}" --light omni:0,4,0:5:-1
+expect 2 "--light: expected omni:position:intensity\\[:range\\]" -- "${R[@]}" --light omni:0,4,0:5:4:9
+expect 2 "--light sphere radius: must be positive" -- "${R[@]}" --light sphere:0,4,0:0:5
+expect 2 "--light spot cone: inner and outer angles need 0 <= inner < outer <= 90" -- "${R[@]}" --light spot:0,4,0:0,-1,0:30,20:5
 expect 2 "--light and --light-pos" -- "${R[@]}" --light "$L" --light-size 2,2
 expect 2 "--light: at most 16 lights" -- "${R[@]}" $(for i in $(seq 17); do echo --light "$L"; done)
 expect 2 "camera position and target coincide" -- "${R[@]}" --camera-pos 1,1,1 --camera-target 1,1,1

@@ -572,9 +572,10 @@ static void test_camera(void)
 
 // KHR_lights_punctual as exporters write it: a directional light (node 1, turned to shine down,
 // colour and an angular_diameter in extras), a point light (node 2, under a parent at (1,0,0)), a
-// spot (node 3, shining down, its cones), a point with a radius (node 10: a sphere); then lights that must be skipped with a warning: an
-// unknown type, a negative radius, a diameter that is not a number, an index past the list, and a
-// node whose scale is 0 (no direction). The file lists the extension as required: it is read, not
+// spot (node 3, shining down, its cones), a point with a radius (node 10: a sphere), the point and the
+// sphere with a range; then lights that must be skipped with a warning: an unknown type, a negative
+// radius, a diameter that is not a number, an index past the list, a node whose scale is 0 (no
+// direction) and a negative range. The file lists the extension as required: it is read, not
 // refused. The lights come out as the kinds of scene/light.h with colour x intensity; render draws
 // the scene with them (one V per light in the EXR).
 static void test_punctual(void)
@@ -582,7 +583,7 @@ static void test_punctual(void)
     unsigned char bin[CUBE_BIN_LEN];
     cube_bin(bin);
     parts p = {
-        .scenes = "[{\"nodes\":[0,1,8,3,4,5,6,7,10]}]",
+        .scenes = "[{\"nodes\":[0,1,8,3,4,5,6,7,10,11]}]",
         .nodes = "[{\"mesh\":0},"
                  "{\"rotation\":[-" Q45 ",0,0," Q45 "],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
                  "{\"translation\":[0,2,3],\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}},"
@@ -594,16 +595,18 @@ static void test_punctual(void)
                  "{\"children\":[9],\"extensions\":{\"KHR_lights_punctual\":{\"light\":9}}},"
                  "{\"translation\":[1,0,0],\"children\":[2]},"
                  "{\"scale\":[0,0,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}},"
-                 "{\"translation\":[0,3,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":6}}}]",
+                 "{\"translation\":[0,3,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":6}}},"
+                 "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":7}}}]",
         .extra = "\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensionsRequired\":[\"KHR_lights_punctual\"],"
                  "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
                  "{\"type\":\"directional\",\"color\":[1,0.5,0.25],\"intensity\":4,\"extras\":{\"angular_diameter\":2}},"
-                 "{\"type\":\"point\",\"intensity\":20,\"name\":\"bulb\"},"
+                 "{\"type\":\"point\",\"intensity\":20,\"name\":\"bulb\",\"range\":8},"
                  "{\"type\":\"spot\",\"intensity\":50,\"spot\":{\"innerConeAngle\":0.2,\"outerConeAngle\":0.6}},"
                  "{\"type\":\"area\",\"intensity\":1},"
                  "{\"type\":\"point\",\"intensity\":1,\"extras\":{\"radius\":-1}},"
                  "{\"type\":\"directional\",\"intensity\":1,\"extras\":{\"angular_diameter\":\"wide\"}},"
-                 "{\"type\":\"point\",\"intensity\":10,\"extras\":{\"radius\":0.5}}]}},",
+                 "{\"type\":\"point\",\"intensity\":10,\"range\":12,\"extras\":{\"radius\":0.5}},"
+                 "{\"type\":\"point\",\"intensity\":1,\"range\":-2}]}},",
         .bin = bin,
         .bin_len = sizeof bin};
     pn_scene s;
@@ -614,7 +617,7 @@ static void test_punctual(void)
     if (s.light_count == 4) {
         // A point with a radius: a sphere of the same intensity, I = pi r^2 L.
         const pn_light *ball = &s.lights[3];
-        CHECK(ball->kind == PN_LIGHT_SPHERE && ball->radius == 0.5f && ball->pos[1] == 3.0f);
+        CHECK(ball->kind == PN_LIGHT_SPHERE && ball->radius == 0.5f && ball->pos[1] == 3.0f && ball->range == 12.0f);
         CHECK_MSG(fabsf(ball->radiance[0] - (float)(10 / (3.14159265358979 * 0.25))) < 1e-5f, "sphere radiance %g",
                   ball->radiance[0]);
         const pn_light *sun = &s.lights[0], *pt = &s.lights[1], *spot = &s.lights[2];
@@ -624,7 +627,7 @@ static void test_punctual(void)
         CHECK(sun->radiance[0] == 4.0f && sun->radiance[1] == 2.0f && sun->radiance[2] == 1.0f);
         CHECK_MSG(fabsf(sun->angle - 2.0f * 3.14159265f / 180) < 1e-7f, "sun diameter %g rad", sun->angle);
         CHECK(pt->pos[0] == 1.0f && pt->pos[1] == 2.0f && pt->pos[2] == 3.0f && pt->radiance[1] == 20.0f);
-        CHECK(pt->cone[1] == 0.0f && pt->size[0] == 0.0f);
+        CHECK(pt->cone[1] == 0.0f && pt->size[0] == 0.0f && pt->range == 8.0f && spot->range == 0.0f && sun->range == 0.0f);
         CHECK(spot->pos[1] == 5.0f && fabsf(spot->normal[1] + 1) < 1e-6f && spot->radiance[2] == 50.0f);
         CHECK(spot->cone[0] == 0.2f && spot->cone[1] == 0.6f);
     }

@@ -9,7 +9,8 @@
 //    so the penumbra is as wide as the angular diameter makes it; the same render with twice the
 //    diameter must not pass (the oracle tells them apart). An omni light and a spot: V exactly 0 or
 //    1 on either side of the occluder's projected edge (x = 0.25 h / (h - 0.5)), and the radiance
-//    where V = 1 equal to albedo / pi x I cos / r^2 (times the spot's falloff), in double here.
+//    where V = 1 equal to albedo / pi x I cos / r^2 (times the spot's falloff, or the window of
+//    KHR_lights_punctual's range), in double here.
 //  - A sphere light over the edge: V against the chord of the cap it shows (to O(theta^2)), and its
 //    radiance against the closed form; its irradiance against the integral over its cone, the cone
 //    above, across and below the horizon (Snyder's form), as a sun's across the horizon.
@@ -476,9 +477,12 @@ int main(void)
 
     // Omni at height 2 over the centre: the occluder's edge x = 0.25 at y = 0.5 projects to 1/3.
     const double h = 2.0, edge = 0.25 * h / (h - 0.5), I = 5.0;
-    const char *lights[2] = {"omni:0,2,0:5", "spot:0,2,0:0,-1,0:20,35:5"};
-    for (int s = 0; s < 2; s++) {
-        if (!render(lights[s], s ? "kinds_spot.exr" : "kinds_omni.exr", 1, &f))
+    // The third: the omni light with KHR_lights_punctual's range 3, which the receiver's far corners
+    // (3.46 away) lie beyond: the extension's recommended window max(min(1 - (d / range)^4, 1), 0)
+    // on the inverse square, written out here.
+    const char *lights[3] = {"omni:0,2,0:5", "spot:0,2,0:0,-1,0:20,35:5", "omni:0,2,0:5:3"};
+    for (int s = 0; s < 3; s++) {
+        if (!render(lights[s], s == 1 ? "kinds_spot.exr" : "kinds_omni.exr", 1, &f))
             continue;
         pn_light spot = {.kind = PN_LIGHT_OMNI, .normal = {0, -1, 0}, .cone = {(float)(20 * PI / 180), (float)(35 * PI / 180)}};
         int wrong_v = 0, lit = 0;
@@ -493,7 +497,11 @@ int main(void)
                 wrong_v++;
             if (outside && f.v[i] == 1.0f) {
                 double d2 = x * x + h * h + z * z, cosr = h / sqrt(d2);
-                double falloff = s ? pn_light_spot(&spot, cosr) : 1.0; // the axis is straight down
+                double falloff = s == 1 ? pn_light_spot(&spot, cosr) : 1.0; // the axis is straight down
+                if (s == 2) {
+                    double q = d2 / 9; // (d / range)^2
+                    falloff = fmax(fmin(1 - q * q, 1), 0);
+                }
                 double expect = f.alb[i] / PI * I * cosr / d2 * falloff;
                 worst = fmax(worst, fabs(f.r[i] - expect) / fmax(expect, 1e-3 * f.alb[i] / PI * I / (h * h)));
                 lit++;

@@ -20,7 +20,14 @@ static void light_any_up(pn_light *l)
 }
 
 // --light omni:POS:I, spot:POS:DIR:INNER,OUTER:I (degrees), sphere:POS:RADIUS:L, sun:DIR:DIAMETER:E
-// (degrees), rect:P:N:U:S:R.
+// (degrees), rect:P:N:U:S:R; omni, spot and sphere take a range last (KHR_lights_punctual's: the
+// light fades out there).
+static bool parse_range(char **part, int parts, int need, pn_light *l)
+{
+    l->range = 0;
+    return parts == need || pn_parse_float_range("--light range", part[need], 0.0f, FLT_MAX, &l->range);
+}
+
 static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int parts, const char *v, pn_render_opts *o)
 {
     pn_light *l = &o->lights[o->light_count];
@@ -37,13 +44,15 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
                      part[3]);
             ok = false;
         }
-    } else if (kind == PN_LIGHT_OMNI && !spot && parts == 2) {
+    } else if (kind == PN_LIGHT_OMNI && !spot && (parts == 2 || parts == 3)) {
         l->normal[1] = -1;
         ok = pn_parse_floats("--light position", part[0], l->pos, 3) &&
-             pn_parse_rgb("--light intensity", part[1], l->radiance);
-    } else if (kind == PN_LIGHT_OMNI && spot && parts == 4) {
-        float cone[2];
-        ok = pn_parse_floats("--light position", part[0], l->pos, 3) &&
+             pn_parse_rgb("--light intensity", part[1], l->radiance) && parse_range(part, parts, 2, l);
+        value = part[1];
+    } else if (kind == PN_LIGHT_OMNI && spot && (parts == 4 || parts == 5)) {
+        float cone[2] = {0, 0};
+        value = part[3];
+        ok = parse_range(part, parts, 4, l) && pn_parse_floats("--light position", part[0], l->pos, 3) &&
              pn_parse_floats("--light direction", part[1], l->normal, 3) &&
              pn_parse_floats("--light cone", part[2], cone, 2) && pn_parse_rgb("--light intensity", part[3], l->radiance);
         // glTF's rule: 0 <= inner < outer <= 90 degrees.
@@ -52,11 +61,12 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
             ok = false;
         }
         l->cone[0] = cone[0] * 3.14159265f / 180, l->cone[1] = cone[1] * 3.14159265f / 180;
-    } else if (kind == PN_LIGHT_SPHERE && parts == 3) {
+    } else if (kind == PN_LIGHT_SPHERE && (parts == 3 || parts == 4)) {
         l->normal[1] = -1;
+        value = part[2];
         ok = pn_parse_floats("--light position", part[0], l->pos, 3) &&
              pn_parse_float_range("--light radius", part[1], 0.0f, FLT_MAX, &l->radius) &&
-             pn_parse_rgb("--light radiance", part[2], l->radiance);
+             pn_parse_rgb("--light radiance", part[2], l->radiance) && parse_range(part, parts, 3, l);
         if (ok && !(l->radius > 0)) {
             pn_error("--light sphere radius: must be positive (omni:position:intensity is a point), got '%s'", part[1]);
             ok = false;
@@ -79,8 +89,8 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
              pn_parse_rgb("--light irradiance", part[2], l->radiance);
         l->angle = deg * 3.14159265f / 180;
     } else {
-        pn_error("--light: expected omni:position:intensity, spot:position:direction:inner,outer:intensity, "
-                 "sphere:position:radius:radiance, disk:position:normal:up:radius:radiance, "
+        pn_error("--light: expected omni:position:intensity[:range], "
+                 "spot:position:direction:inner,outer:intensity[:range], sphere:position:radius:radiance[:range], disk:position:normal:up:radius:radiance, "
                  "sun:direction:diameter:irradiance or "
                  "rect:position:normal:up:size:radiance, got '%s'",
                  v);

@@ -189,6 +189,8 @@ void pn_render_opts_print_help(void)
            "                        disk:P:N:U:R:L  a one-sided disk of radius R facing N\n"
            "                        sun:DIR:DIAMETER:E  light travelling along DIR from a disk DIAMETER\n"
            "                        degrees across (0.53 is the sun's), E the irradiance facing it\n"
+           "                        omni, spot and sphere take a RANGE last: glTF's, the light fading\n"
+           "                        out to nothing there\n"
            "scene:\n"
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
            "  --move-object I:DX,DY,DZ   move object I (the file's I-th node with a mesh, in the\n"

@@ -137,6 +137,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         V3("penumbra.light.radiance", light->radiance),
         {.name = "penumbra.light.kind", .type = PN_EXR_ATTR_STRING, .s = pn_light_kind_get(light->kind)->name},
         F1("penumbra.light.angle", light->angle * 180.0f / 3.14159265f), // a sun's diameter, degrees
+        F1("penumbra.light.range", light->range), // an omni's or sphere's range (KHR_lights_punctual); 0: none
         {.name = "penumbra.light.cone", .type = PN_EXR_ATTR_V3F, // a spot's inner and outer angles, degrees
          .f = {light->cone[0] * 180.0f / 3.14159265f, light->cone[1] * 180.0f / 3.14159265f, 0}},
         F1("penumbra.gpu_ms.gbuffer", t->gbuffer_ms),

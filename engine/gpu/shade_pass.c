@@ -29,6 +29,8 @@ pn_light_gpu pn_light_to_gpu(const pn_light *l)
     }
     if (l->kind == PN_LIGHT_SPHERE)
         g.corners[1][3] = l->radius;
+    if (l->kind == PN_LIGHT_OMNI || l->kind == PN_LIGHT_SPHERE) // its range window (light.glsl); 0: none
+        g.corners[3][3] = l->range > 0 ? l->range : 0.0f;
     if (l->kind == PN_LIGHT_OMNI) { // the spot's cone as cosines; none: every cosine is inside
         bool cone = l->cone[1] > 0;
         g.corners[1][3] = cone ? cosf(l->cone[1]) : -2.0f;

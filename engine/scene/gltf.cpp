@@ -350,7 +350,6 @@ private:
     std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
     std::vector<uint8_t> camera_warned_;
     bool warned_skin_ = false;
-    bool warned_range_ = false;
 
     // What was skipped, to say why a scene ends up without triangles.
     uint64_t mesh_instances_ = 0, skipped_points_lines_ = 0, skipped_no_position_ = 0,
@@ -852,8 +851,8 @@ void Loader::visit_light(int node, const Mat4 &w)
 // light's extras: "angular_diameter" in degrees for a directional light (default 0.53, the sun's;
 // 0 is a hard directional light), "radius" for a point (0, the default, is a point; above 0 a sphere
 // of that radius and the same intensity; a spot's radius is warned about and not drawn). A spot's
-// cones shade with the extension's falloff; its "range" is not applied (warned once). A malformed
-// light is reported and skipped.
+// cones shade with the extension's falloff, and a point's or spot's "range" with its window
+// (pn_light_range_window). A malformed light is reported and skipped.
 void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
 {
     const tinygltf::Value &index = ext.Get("light");
@@ -908,6 +907,8 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
         problem = "extras.angular_diameter is not a number of degrees in [0, 10]";
     else if (l.kind == PN_LIGHT_OMNI && !extra("radius", 0, &radius))
         problem = "extras.radius is not a finite non-negative number";
+    else if (!(std::isfinite(src.range) && src.range >= 0))
+        problem = "its range is not a positive number";
     else if (src.type == "spot" && !(src.spot.innerConeAngle >= 0 && src.spot.innerConeAngle < src.spot.outerConeAngle &&
                                      src.spot.outerConeAngle <= kPi / 2))
         problem = "its spot cones are not 0 <= innerConeAngle < outerConeAngle <= pi/2";
@@ -927,10 +928,8 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
         warn("node %d: spot %d has radius %g: a spot with a size is not drawn yet; drawn as a point spot", node,
              (int)li, radius);
     }
-    if (src.range > 0 && !warned_range_) {
-        warned_range_ = true;
-        warn("KHR_lights_punctual range is not applied: lights reach without a cutoff");
-    }
+    if (src.type != "directional" && src.range > 0)
+        l.range = (float)src.range;
     for (int k = 0; k < 3; k++) {
         l.pos[k] = (float)pos[k];
         l.normal[k] = (float)dir[k];

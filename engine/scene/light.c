@@ -152,6 +152,14 @@ double pn_light_spot(const pn_light *l, double c)
     return a * a;
 }
 
+double pn_light_range_window(const pn_light *l, double d)
+{
+    if (!(l->range > 0) || (l->kind != PN_LIGHT_OMNI && l->kind != PN_LIGHT_SPHERE))
+        return 1.0;
+    double x = d / l->range;
+    return fmin(fmax(1 - x * x * x * x, 0.0), 1.0);
+}
+
 double pn_light_irradiance(const pn_light *l, const double p[3], const double n[3])
 {
     if (l->kind == PN_LIGHT_SUN) { // per unit E: the sphere's form over its projected solid angle
@@ -166,7 +174,7 @@ double pn_light_irradiance(const pn_light *l, const double p[3], const double n[
         double d2 = d3_dot(a, a), r2 = (double)l->radius * l->radius;
         if (!(d2 > r2))
             return 0; // inside the light
-        return pn_light_sphere_irradiance(d3_dot(n, a) / sqrt(d2), r2 / d2);
+        return pn_light_sphere_irradiance(d3_dot(n, a) / sqrt(d2), r2 / d2) * pn_light_range_window(l, sqrt(d2));
     }
     if (l->kind == PN_LIGHT_OMNI) { // I cos(receiver) / r^2 times the spot's falloff, per unit I
         double to_p[3] = {p[0] - l->pos[0], p[1] - l->pos[1], p[2] - l->pos[2]};
@@ -178,7 +186,7 @@ double pn_light_irradiance(const pn_light *l, const double p[3], const double n[
         double axis_cos = ln > 0 ? (to_p[0] * l->normal[0] + to_p[1] * l->normal[1] + to_p[2] * l->normal[2]) /
                                        (ln * sqrt(r2))
                                  : 1.0;
-        return cr / (r2 * sqrt(r2)) * pn_light_spot(l, axis_cos);
+        return cr / (r2 * sqrt(r2)) * pn_light_spot(l, axis_cos) * pn_light_range_window(l, sqrt(r2));
     }
     float qf[4][3];
     pn_light_corners(l, qf);

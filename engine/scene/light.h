@@ -60,6 +60,12 @@ bool pn_light_place_sun(pn_light *l, const float lo[3], const float hi[3]);
 // radiance: pn_light_sphere_irradiance (exact, the part below the horizon cut off).
 double pn_light_irradiance(const pn_light *l, const double p[3], const double n[3]);
 
+// KHR_lights_punctual's range window at distance d from the light's centre (the extension's
+// recommended falloff, which the inverse square is multiplied by): clamp(1 - (d / range)^4, 0, 1),
+// so the light fades to nothing at `range`. 1 without a range (0) and for the kinds that
+// have none (only OMNI and SPHERE take one).
+double pn_light_range_window(const pn_light *l, double d);
+
 // A spot's falloff at the cosine c of the angle from its axis, as KHR_lights_punctual's reference
 // has it: 1 inside the inner cone, 0 outside the outer, between them the square of the ramp linear
 // in the cosine (its scale at most 1000). 1 without a cone.

@@ -62,6 +62,8 @@ typedef struct pn_light {
     float angle;   // SUN: angular diameter, radians (0.53 degrees is the sun's)
     float cone[2]; // OMNI: a spot's inner and outer cone half-angles, radians; 0, 0: no cone
     float radius;  // SPHERE, DISK: the radius (pos the centre; a disk's size is the square round it)
+    float range;   // OMNI, SPHERE: KHR_lights_punctual's range, where the light fades out (its
+                   // window, pn_light_range_window); 0: it reaches everywhere
 } pn_light;
 
 // A mesh in its own frame, as a scene file's nodes instance it: the triangles' positions as a soup

@@ -70,6 +70,14 @@ float disk_irradiance(Light l, vec3 p, vec3 n)
     return 0.5 * abs(sum);
 }
 
+// KHR_lights_punctual's range window at distance d from an OMNI or SPHERE light's centre
+// (pn_light_range_window): clamp(1 - (d / range)^4, 0, 1); range in corners[3].w, 0 for none.
+float light_range_window(Light l, float d)
+{
+    float range = l.corners[3].w, x = d / range;
+    return range > 0.0 ? clamp(1.0 - (x * x) * (x * x), 0.0, 1.0) : 1.0;
+}
+
 // Unshadowed irradiance at p with unit normal n, per unit of the light's radiance (rgb), as
 // pn_light_irradiance on the CPU in float: RECT exact (Lambert's edge sum over the polygon clipped to
 // the receiver's upper hemisphere; zero behind the light), a RECT point cos(light) cos(receiver) /
@@ -88,7 +96,7 @@ float light_irradiance(Light l, vec3 p, vec3 n)
         if (!(len > r))
             return 0.0; // inside the light
         float s = r / len;
-        return sphere_irradiance(dot(n, a) / len, s * s);
+        return sphere_irradiance(dot(n, a) / len, s * s) * light_range_window(l, len);
     }
     if (kind == PN_LIGHT_OMNI_ID) {
         vec3 d = p - l.corners[0].xyz;
@@ -98,7 +106,7 @@ float light_irradiance(Light l, vec3 p, vec3 n)
             return 0.0;
         vec3 u = normalize(d / m);
         float r2 = dot(d, d); // below FLT_MAX: positions are within 1e18 (pn_scene_validate)
-        return max(-dot(n, u), 0.0) / r2 * light_spot(l, dot(l.normal.xyz, u));
+        return max(-dot(n, u), 0.0) / r2 * light_spot(l, dot(l.normal.xyz, u)) * light_range_window(l, sqrt(r2));
     }
     vec3 centre = 0.25 * (l.corners[0].xyz + l.corners[1].xyz + l.corners[2].xyz + l.corners[3].xyz);
     if (dot(l.normal.xyz, p - centre) <= 0.0)
