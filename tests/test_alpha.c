@@ -13,59 +13,20 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#include <zlib.h>
 
 #include "io/exr.h"
+#include "test_png.h"
 #include "test_util.h"
-
-static void be32(unsigned char *p, uint32_t v) { p[0] = v >> 24, p[1] = v >> 16 & 255, p[2] = v >> 8 & 255, p[3] = v & 255; }
 
 // Writes an 8 x 8 RGBA PNG, white, alpha 255 on texels with (x + y) even, else 0.
 static bool write_checker_png(const char *path)
 {
-    unsigned char raw[8 * (1 + 8 * 4)];
-    for (int y = 0; y < 8; y++) {
-        raw[y * 33] = 0; // filter: none
-        for (int x = 0; x < 8; x++) {
-            unsigned char *px = &raw[y * 33 + 1 + 4 * x];
-            px[0] = px[1] = px[2] = 255;
-            px[3] = (x + y) % 2 == 0 ? 255 : 0;
-        }
+    unsigned char rgba[8 * 8 * 4];
+    for (int i = 0; i < 64; i++) {
+        rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = 255;
+        rgba[4 * i + 3] = (i % 8 + i / 8) % 2 == 0 ? 255 : 0;
     }
-    unsigned char z[512];
-    uLongf zn = sizeof z;
-    if (compress2(z, &zn, raw, sizeof raw, 9) != Z_OK)
-        return false;
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return false;
-    static const unsigned char sig[8] = {137, 80, 78, 71, 13, 10, 26, 10};
-    fwrite(sig, 1, 8, f);
-    struct {
-        const char *type;
-        const unsigned char *data;
-        uint32_t n;
-    } chunks[3];
-    unsigned char ihdr[13] = {0};
-    be32(ihdr, 8), be32(ihdr + 4, 8);
-    ihdr[8] = 8, ihdr[9] = 6; // 8 bits, RGBA
-    chunks[0].type = "IHDR", chunks[0].data = ihdr, chunks[0].n = 13;
-    chunks[1].type = "IDAT", chunks[1].data = z, chunks[1].n = (uint32_t)zn;
-    chunks[2].type = "IEND", chunks[2].data = NULL, chunks[2].n = 0;
-    for (int c = 0; c < 3; c++) {
-        unsigned char len[4], crc[4];
-        be32(len, chunks[c].n);
-        fwrite(len, 1, 4, f);
-        fwrite(chunks[c].type, 1, 4, f);
-        if (chunks[c].n)
-            fwrite(chunks[c].data, 1, chunks[c].n, f);
-        uLong k = crc32(0, (const Bytef *)chunks[c].type, 4);
-        if (chunks[c].n)
-            k = crc32(k, chunks[c].data, chunks[c].n);
-        be32(crc, (uint32_t)k);
-        fwrite(crc, 1, 4, f);
-    }
-    return fclose(f) == 0;
+    return pn_test_write_png(path, 8, 8, rgba);
 }
 
 // The ground (material 0, opaque) and the masked quad (material 1, `mode`, the texture `image`).

@@ -1,5 +1,6 @@
 // Embree 3 as an independent exact tracer of penumbra's own shadow rays: the bench's CPU peer
-// (bench_peer.c times it) and the tests' oracle (test_exact_oracle.c checks exact ray for ray).
+// (bench_peer.c times it) and the tests' oracle (test_exact_oracle.c checks exact ray for ray,
+// test_alpha_oracle.c exact and exact-ls over alpha-masked casters).
 // The only header that stands for Embree; the rest sees opaque handles.
 #pragma once
 #include <stdbool.h>
@@ -14,9 +15,20 @@ typedef struct pn_embree_scene pn_embree_scene; // Embree's BVH of one pn_scene
 pn_embree *pn_embree_create(void);
 void pn_embree_destroy(pn_embree *e);
 
-// Builds Embree's BVH (high quality) over the scene's triangles, sharing its buffers: the scene must
-// outlive it. NULL on failure.
+// What pn_embree_scene_create_desc builds; zero is the default.
+typedef struct pn_embree_scene_desc {
+    // Every triangle blocks, alpha masks or not: what a tracer without masks answers (the tests'
+    // control that a mask changes the answer).
+    bool opaque;
+} pn_embree_scene_desc;
+
+// Builds Embree's BVH (high quality) over the scene's triangles, sharing its buffers and reading
+// its materials and textures while it traces: the scene must outlive it and stay unchanged. A hit
+// on an alpha-masked triangle (pn_material.alpha_cutoff > 0) whose texel is cut out does not block
+// (an occlusion filter, with its own reading of glTF's rule: the nearest texel, repeating); a scene
+// without masks builds as it did before filters. NULL on failure.
 pn_embree_scene *pn_embree_scene_create(pn_embree *e, const pn_scene *scene);
+pn_embree_scene *pn_embree_scene_create_desc(pn_embree *e, const pn_scene *scene, const pn_embree_scene_desc *desc);
 void pn_embree_scene_destroy(pn_embree_scene *s);
 double pn_embree_scene_build_ms(const pn_embree_scene *s);
 
