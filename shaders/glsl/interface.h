@@ -245,7 +245,7 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
     PN_UINT(pad2)
 } PN_END(GBufferPush, pn_gbuffer_push)
 
-// The shadow pass's uniform block (std140). 224 + 96 PN_MAX_LIGHTS bytes.
+// The shadow pass's uniform block (std140). 240 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
     PN_UINT(spp)           // rays per pixel = grid_u * grid_v
@@ -279,6 +279,10 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_FLOAT(pixel_error)           // adaptive: a pixel stops once its V's standard error is below this
     PN_UINT(tiles_across)           // work groups across the image (its PN_WORKGROUP-square tiles)
     PN_UINT(tile_total)             // and in all: a pixel list holds this many groups' pixels
+    PN_ADDR(IndexPool, masked_tris) // rayquery, alpha-masked casters: the triangle id (scene order) of each
+                                    // primitive of the acceleration structure's masked geometry (gpu/tlas.h)
+    PN_UINT(pad0)
+    PN_UINT(pad1)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
