@@ -19,6 +19,17 @@ uint64_t pn_alpha_masked_triangles(const pn_scene *s)
     return n;
 }
 
+void pn_alpha_mark(const pn_scene *s, uint8_t *out)
+{
+    memset(out, 0, pn_scene_triangle_count(s));
+    for (uint32_t d = 0; d < s->draw_count; d++) {
+        const pn_draw *dr = &s->draws[d];
+        if (masked(s, dr->material)) // the triangles pn_alpha_pool_fill gives a record
+            for (uint32_t k = dr->first_index; k + 2 < dr->first_index + dr->index_count; k += 3)
+                out[k / 3] = 1;
+    }
+}
+
 // The texture a masked material's alpha comes from, or NULL.
 static const pn_texture *alpha_texture(const pn_scene *s, uint32_t material)
 {

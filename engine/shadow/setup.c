@@ -85,7 +85,7 @@ void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
     rd->leaf_size = tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : a->objects.leaf_size;
     rd->exact = a->desc.needs.exact_pools ? &a->exact : NULL;
     rd->cand_first_node = a->tree.cand_first_node;
-    rd->tlas = a->desc.needs.tlas ? a->tlas.tlas : VK_NULL_HANDLE;
+    rd->tlas = a->desc.needs.tlas ? &a->tlas : NULL;
 }
 
 uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a)
