@@ -146,7 +146,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the N-tree's leaf planes", mode->name);
         return PN_ERR_INVALID;
     }
-    if (mode->needs.exact_pools && !desc->exact) {
+    if (pn_shadow_needs_for_scene(mode->needs, scene).exact_pools && !desc->exact) {
         pn_error("%s shadows need the triangle pools of the exact tests", mode->name);
         return PN_ERR_INVALID;
     }

@@ -51,6 +51,9 @@ typedef struct pn_shadow_needs {
     bool exact_pools; // triangles, BVH and candidate lists on the GPU, for exact triangle tests
     bool planes;      // the tree's leaf planes (ls-plane)
     bool tlas;        // a device-built acceleration structure (gpu/tlas.h); needs ray queries
+    // exact_pools, but only on a scene with alpha-masked casters: the triangle pool holds their
+    // texels (accel/alpha.h), which rayquery tests; an opaque scene's rays never read it.
+    bool exact_pools_if_masked;
 } pn_shadow_needs;
 
 typedef struct pn_shadow_mode_info {
@@ -70,8 +73,8 @@ typedef struct pn_shadow_mode_info {
     // (PN_SPEC_PACKET_RAYS): the shadow pass makes a pipeline per size (exact).
     bool packet_rays;
     // Tests the texels of alpha-masked casters (pn_material.alpha_cutoff) where rays hit them. The
-    // others answer rays from line spaces (a cell holding a masked triangle is filled) or from
-    // the device's opaque geometry, so they refuse scenes with masked casters.
+    // others answer rays from line spaces (a cell holding a masked triangle is filled), so they
+    // refuse scenes with masked casters.
     bool alpha_masks;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)
@@ -82,6 +85,10 @@ const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m);
 
 // The mode called `name`; -1, with a message naming `opt` and listing the modes, for no mode.
 int pn_shadow_mode_parse(const char *opt, const char *name);
+
+// `needs` as they apply to `scene`: with exact_pools_if_masked, exact_pools on a scene with
+// alpha-masked casters (shadow/setup.c builds, and the renderer asks for, what this returns).
+pn_shadow_needs pn_shadow_needs_for_scene(pn_shadow_needs needs, const pn_scene *scene);
 
 // Every mode's needs together, of the modes `dev` can run: a set-up from which any of them can
 // render (the demo switches modes without rebuilding).

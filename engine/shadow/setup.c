@@ -11,6 +11,7 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
 {
     memset(out, 0, sizeof *out);
     out->desc = *desc;
+    out->desc.needs = pn_shadow_needs_for_scene(desc->needs, scene); // what upload and bind read
     pn_result r = PN_OK;
     // Every light's reach (the points whose hull holds every end of its rays, scene/light.h): a
     // triangle stays if it can block a ray to any of them.
