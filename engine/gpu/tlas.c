@@ -212,10 +212,12 @@ static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t,
                                            .dstStageMask = VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
                                            .dstAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR},
                        0, NULL);
+    // Opacity is the bottom level's (and the instance's) to say; the top level claims it only for
+    // an opaque scene, as it always did, lest a driver that reads it hide the masked geometry.
     VkAccelerationStructureGeometryKHR insts = {
         .sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR,
         .geometryType = VK_GEOMETRY_TYPE_INSTANCES_KHR,
-        .flags = VK_GEOMETRY_OPAQUE_BIT_KHR,
+        .flags = t->masked ? 0 : VK_GEOMETRY_OPAQUE_BIT_KHR,
         .geometry.instances = {.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR,
                                .data.deviceAddress = t->instances.address},
     };
