@@ -24,16 +24,23 @@ pn_result pn_alpha_triangle_flags(const pn_scene *s, uint8_t **out)
     *out = NULL;
     if (pn_alpha_masked_triangles(s) == 0)
         return PN_OK;
-    uint8_t *f = calloc(pn_scene_triangle_count(s) ? pn_scene_triangle_count(s) : 1, 1);
+    uint8_t *f = malloc(pn_scene_triangle_count(s) ? pn_scene_triangle_count(s) : 1);
     if (!f)
         return PN_ERR_MEMORY;
-    for (uint32_t d = 0; d < s->draw_count; d++)
-        for (uint32_t k = s->draws[d].first_index; masked(s, s->draws[d].material) &&
-                                                   k + 2 < s->draws[d].first_index + s->draws[d].index_count;
-             k += 3)
-            f[k / 3] = 1;
+    pn_alpha_mark(s, f);
     *out = f;
     return PN_OK;
+}
+
+void pn_alpha_mark(const pn_scene *s, uint8_t *out)
+{
+    memset(out, 0, pn_scene_triangle_count(s));
+    for (uint32_t d = 0; d < s->draw_count; d++) {
+        const pn_draw *dr = &s->draws[d];
+        if (masked(s, dr->material)) // the triangles pn_alpha_pool_fill gives a record
+            for (uint32_t k = dr->first_index; k + 2 < dr->first_index + dr->index_count; k += 3)
+                out[k / 3] = 1;
+    }
 }
 
 // The texture a masked material's alpha comes from, or NULL.

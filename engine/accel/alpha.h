@@ -10,8 +10,12 @@
 // Triangles whose draw's material is alpha-masked.
 uint64_t pn_alpha_masked_triangles(const pn_scene *s);
 
-// Per triangle of s (pn_scene_triangle_count), 1 if it is alpha-masked, in *out (to free); NULL
-// when none is.
+// masked[t] = 1 for each triangle t (scene order) that pn_alpha_masked_triangles counts, else 0;
+// masked holds pn_scene_triangle_count(s) bytes. The triangles whose records pn_alpha_pool_fill
+// writes: those whose first vertex's w is not 0 in the pool.
+void pn_alpha_mark(const pn_scene *s, uint8_t *masked);
+
+// The same in a new array, *out (to free); NULL when no triangle is masked.
 pn_result pn_alpha_triangle_flags(const pn_scene *s, uint8_t **out);
 
 // vec4s the masks of s take after its n = pn_scene_triangle_count triangles' 3 n.

@@ -4,6 +4,7 @@
 #include "gpu/exact_pools.h"
 #include "gpu/pools.h"
 #include "gpu/shadow_modes.h"
+#include "gpu/tlas.h"
 
 // What follows the shadow pass. none: V is the pixel's own samples' visible fraction. interleaved:
 // the pixels of each tile_w x tile_h tile share the light's strata (each traces spp of the tile's
@@ -42,9 +43,10 @@ typedef struct pn_renderer_desc {
     const struct pn_gpu_objects *objects; // or the per-object trees (gpu/pools.h), for needs.tree
     double leaf_size;          // edge of a leaf cell of that tree, world units (per-object trees:
                                // the finest tree's leaf extent along a world axis, pn_objects.leaf_size)
-    const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools
+    const pn_gpu_exact_pools *exact; // triangles, BVH and candidate lists, for needs.exact_pools (as
+                                     // pn_shadow_needs_for_scene gives them)
     uint32_t cand_first_node;        // pn_ntree.cand_first_node of the tree behind `pools`
-    VkAccelerationStructureKHR tlas; // the device-built structure, for needs.tlas (gpu/tlas.h)
+    const pn_gpu_tlas *tlas;         // the device-built structure, for needs.tlas (gpu/tlas.h)
     bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
     bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
 } pn_renderer_desc;

@@ -58,6 +58,7 @@ AT(pn_shadow_params, top_ids, 192);
 AT(pn_shadow_params, budget, 204);
 AT(pn_shadow_params, spp_min, 208);
 AT(pn_shadow_params, alpha_bits, 224);
+AT(pn_shadow_params, masked_tris, 232);
 AT(pn_shadow_params, lights, 240); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
 SIZE(pn_shadow_params, 240 + 96 * PN_MAX_LIGHTS);
 AT(pn_gpu_object, tree, 0);

@@ -146,13 +146,13 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("%s shadows need the N-tree's leaf planes", mode->name);
         return PN_ERR_INVALID;
     }
-    if (mode->needs.exact_pools && !desc->exact) {
+    if (pn_shadow_needs_for_scene(mode->needs, scene).exact_pools && !desc->exact) {
         pn_error("%s shadows need the triangle pools of the exact tests", mode->name);
         return PN_ERR_INVALID;
     }
-    if (mode->needs.tree && pn_alpha_masked_triangles(scene) && (desc->objects || !desc->exact)) {
-        pn_error("%s shadows of alpha-masked casters need one scene-wide tree with its masked leaves and the triangle "
-                 "pool (pn_shadow_accel_build makes them)",
+    if (desc->objects && pn_alpha_masked_triangles(scene)) {
+        pn_error("%s shadows of alpha-masked casters need one scene-wide tree with its masked leaves (per-object trees "
+                 "keep no triangles to test)",
                  mode->name);
         return PN_ERR_INVALID;
     }

@@ -23,7 +23,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                              .help = "line-space visibility, the paper's method",
                              SHADER(shadow_linespace_comp),
                              .variant = PN_VARIANT_LINESPACE,
-                             .needs = {.tree = true},
+                             .needs = {.tree = true, .exact_pools_if_masked = true},
                              .traces = true,
                              .objects = true,
                              .alpha_masks = true,
@@ -32,7 +32,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                         .help = "line spaces down to the leaves: a filled leaf a ray crosses blocks it",
                         SHADER(shadow_linespace_comp),
                         .variant = PN_VARIANT_LEAF,
-                        .needs = {.tree = true},
+                        .needs = {.tree = true, .exact_pools_if_masked = true},
                         .traces = true,
                         .alpha_masks = true,
                         .auto_trees = 1},
@@ -40,7 +40,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                          .help = "line spaces down to the leaves: a ray crossing a filled leaf's plane slab is blocked",
                          SHADER(shadow_linespace_comp),
                          .variant = PN_VARIANT_PLANE,
-                         .needs = {.tree = true, .planes = true},
+                         .needs = {.tree = true, .planes = true, .exact_pools_if_masked = true},
                          .traces = true,
                          .alpha_masks = true,
                          .auto_trees = 1},
@@ -70,11 +70,14 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                          .exact = true,
                          .packet_rays = true,
                          .auto_trees = 1},
+    // Alpha-masked casters in a geometry of their own, not opaque: the shader tests each hit's
+    // texel in the triangle pool (gpu/tlas.h); opaque scenes build no pool.
     [PN_SHADOW_RAYQUERY] = {.name = "rayquery",
                             .help = "the device's ray queries (VK_KHR_ray_query; Mesa 25 lavapipe, RTX, RDNA2+, Arc)",
                             SHADER(shadow_rayquery_comp),
-                            .needs = {.tlas = true},
+                            .needs = {.tlas = true, .exact_pools_if_masked = true},
                             .traces = true,
+                            .alpha_masks = true,
                             .exact = true,
                             .auto_trees = 1},
 };
@@ -114,12 +117,17 @@ bool pn_shadow_mode_takes_scene(pn_shadow_mode m, const pn_scene *scene, char *w
 {
     const pn_shadow_mode_info *mode = pn_shadow_mode_get(m);
     uint64_t masked = mode && mode->traces && !mode->alpha_masks ? pn_alpha_masked_triangles(scene) : 0;
-    if (masked && why)
+    if (masked && why) {
+        char takers[128] = ""; // the modes that test texels, from the table
+        for (int i = 0; i < PN_SHADOW_MODE_COUNT; i++)
+            if (MODES[i].alpha_masks)
+                snprintf(takers + strlen(takers), sizeof takers - strlen(takers), "%s%s", takers[0] ? ", " : "",
+                         MODES[i].name);
         snprintf(why, n,
                  "%s: %llu alpha-masked triangles: mode %s would shadow their cut-out texels (it answers rays from "
-                 "%s); exact and exact-ls test the texels",
-                 scene->name, (unsigned long long)masked, mode->name,
-                 m == PN_SHADOW_RAYQUERY ? "the device's opaque geometry" : "line spaces, a cell holding one being filled");
+                 "line spaces, a cell holding one being filled); %s test the texels",
+                 scene->name, (unsigned long long)masked, mode->name, takers);
+    }
     return masked == 0;
 }
 
@@ -130,6 +138,12 @@ bool pn_shadow_mode_available(const pn_gpu_device *dev, pn_shadow_mode m, const 
     if (why)
         *why = lack;
     return lack == NULL;
+}
+
+pn_shadow_needs pn_shadow_needs_for_scene(pn_shadow_needs needs, const pn_scene *scene)
+{
+    needs.exact_pools |= needs.exact_pools_if_masked && pn_alpha_masked_triangles(scene) > 0;
+    return needs;
 }
 
 pn_shadow_needs pn_shadow_needs_all(const pn_gpu_device *dev)
@@ -143,6 +157,7 @@ pn_shadow_needs pn_shadow_needs_all(const pn_gpu_device *dev)
         all.bvh |= MODES[i].needs.bvh;
         all.exact_pools |= MODES[i].needs.exact_pools;
         all.tlas |= MODES[i].needs.tlas;
+        all.exact_pools_if_masked |= MODES[i].needs.exact_pools_if_masked;
         all.planes |= MODES[i].needs.planes;
     }
     return all;

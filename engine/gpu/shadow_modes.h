@@ -51,6 +51,10 @@ typedef struct pn_shadow_needs {
     bool exact_pools; // triangles, BVH and candidate lists on the GPU, for exact triangle tests
     bool planes;      // the tree's leaf planes (ls-plane)
     bool tlas;        // a device-built acceleration structure (gpu/tlas.h); needs ray queries
+    // exact_pools, but only on a scene with alpha-masked casters: the triangle pool holds their
+    // texels (accel/alpha.h), which rayquery tests at its hits and the line-space modes in the
+    // leaves holding them (with those leaves' candidate lists); an opaque scene's rays never read it.
+    bool exact_pools_if_masked;
 } pn_shadow_needs;
 
 typedef struct pn_shadow_mode_info {
@@ -83,6 +87,10 @@ const pn_shadow_mode_info *pn_shadow_mode_get(pn_shadow_mode m);
 
 // The mode called `name`; -1, with a message naming `opt` and listing the modes, for no mode.
 int pn_shadow_mode_parse(const char *opt, const char *name);
+
+// `needs` as they apply to `scene`: with exact_pools_if_masked, exact_pools on a scene with
+// alpha-masked casters (shadow/setup.c builds, and the renderer asks for, what this returns).
+pn_shadow_needs pn_shadow_needs_for_scene(pn_shadow_needs needs, const pn_scene *scene);
 
 // Every mode's needs together, of the modes `dev` can run: a set-up from which any of them can
 // render (the demo switches modes without rebuilding).

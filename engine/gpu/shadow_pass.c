@@ -166,7 +166,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_RAYS, out->rays.view);
     pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_LISTS, out->lists.buffer);
     if (tlas)
-        pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas);
+        pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas->tlas);
     return PN_OK;
 }
 
@@ -220,6 +220,8 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
         sp.cand_tris = e->cand_tris.address;
         sp.alpha_bits = e->alpha_bits.address;
     }
+    if (desc->tlas) // rayquery: its masked geometry's triangle ids (0 for an opaque scene)
+        sp.masked_tris = desc->tlas->masked_tris.address;
     sp.dump = s->ray_dump.address;
     sp.cand_first = desc->cand_first_node;
     sp.dump_rays = desc->dump_rays;

@@ -1,6 +1,9 @@
 // The scene's triangles in a device-built acceleration structure (VK_KHR_acceleration_structure):
 // one bottom level over every triangle in Morton order (accel/morton.h), one top-level instance.
 // Traced by the rayquery shadow mode through VK_KHR_ray_query. Needs pn_gpu_device.ray_query.
+// An opaque scene's bottom level is one opaque geometry. With alpha-masked triangles (accel/alpha.h)
+// it has two, each in Morton order: the opaque triangles (still opaque: the query commits their
+// hits itself) and the masked ones, not opaque, whose hits the shader tests against their texels.
 #pragma once
 #include "gpu/resources.h"
 #include "scene/scene.h"
@@ -8,6 +11,10 @@
 typedef struct pn_gpu_tlas {
     VkAccelerationStructureKHR blas, tlas;
     pn_gpu_buffer vertices, blas_buffer, instances, tlas_buffer;
+    // With masked triangles: the scene's index (the triangle pool's) of each primitive of the
+    // masked geometry, one uint each, reached by address (ShadowParams.masked_tris); else empty.
+    pn_gpu_buffer masked_tris;
+    uint32_t masked; // primitives of the masked geometry (0: an opaque scene)
     uint64_t bytes;  // the structures' and their inputs' buffers
     double build_ms; // Morton sort and device build, wall clock
     double sort_ms;  // of which the Morton sort

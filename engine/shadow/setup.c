@@ -13,6 +13,7 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
 {
     memset(out, 0, sizeof *out);
     out->desc = *desc;
+    out->desc.needs = pn_shadow_needs_for_scene(desc->needs, scene); // what upload and bind read
     pn_result r = PN_OK;
     // Every light's reach (the points whose hull holds every end of its rays, scene/light.h): a
     // triangle stays if it can block a ray to any of them.
@@ -33,7 +34,6 @@ pn_result pn_shadow_accel_build(const pn_scene *scene, const pn_shadow_accel_des
         free(masked);
         return PN_ERR_UNSUPPORTED;
     }
-    out->desc.needs.exact_pools |= masked != NULL;
     if (desc->needs.tree && desc->per_object) {
         // Line spaces only: no candidate lists or leaf planes; the renderer binds per-object trees
         // for linespace alone.
@@ -102,7 +102,7 @@ void pn_shadow_accel_bind(const pn_shadow_accel *a, pn_renderer_desc *rd)
     rd->leaf_size = tree ? pn_ntree_cell_size(&a->tree, a->tree.d) : a->objects.leaf_size;
     rd->exact = a->desc.needs.exact_pools ? &a->exact : NULL;
     rd->cand_first_node = a->tree.cand_first_node;
-    rd->tlas = a->desc.needs.tlas ? a->tlas.tlas : VK_NULL_HANDLE;
+    rd->tlas = a->desc.needs.tlas ? &a->tlas : NULL;
 }
 
 uint64_t pn_shadow_accel_gpu_bytes(const pn_shadow_accel *a)

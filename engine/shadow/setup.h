@@ -32,7 +32,7 @@ typedef struct pn_shadow_accel_desc {
 } pn_shadow_accel_desc;
 
 typedef struct pn_shadow_accel {
-    pn_shadow_accel_desc desc;
+    pn_shadow_accel_desc desc; // its needs as they apply to the scene (pn_shadow_needs_for_scene)
     pn_ntree tree;             // zero without needs.tree, and with per_object
     pn_pools pools;
     pn_objects objects;        // with needs.tree and per_object

@@ -281,8 +281,8 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(tile_total)             // and in all: a pixel list holds this many groups' pixels
     PN_ADDR(IndexPool, alpha_bits)  // with alpha-masked casters: which leaves of the last-level nodes
                                     // hold one (pn_ntree.alpha_bits), tested exactly in every mode
-    PN_UINT(pad0)
-    PN_UINT(pad1)
+    PN_ADDR(IndexPool, masked_tris) // rayquery, alpha-masked casters: the triangle id (scene order) of each
+                                    // primitive of the acceleration structure's masked geometry (gpu/tlas.h)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
