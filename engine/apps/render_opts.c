@@ -129,6 +129,10 @@ bool pn_render_opts_parse(pn_args *a, pn_render_opts *o, bool *err)
         o->mode = o->per_object && !o->has_mode ? PN_SHADOW_LINESPACE : o->mode; // their only mode
     } else if (pn_args_value(a, "--move-object", &v, err)) {
         ok = v && parse_move(v, o);
+    } else if (pn_args_value(a, "--time", &v, err)) {
+        ok = v && pn_parse_time(v, o);
+    } else if (pn_args_value(a, "--node-transform", &v, err)) {
+        ok = v && pn_parse_node_transform(v, o);
     } else if (pn_args_value(a, "--max-memory", &v, err)) {
         ok = v && pn_parse_bytes("--max-memory", v, &o->max_bytes);
     } else if (pn_args_value(a, "--mode", &v, err)) {
@@ -195,6 +199,11 @@ void pn_render_opts_print_help(void)
            "  --ground, --no-ground add or omit a receiver plane under the scene (default: on)\n"
            "  --move-object I:DX,DY,DZ   move object I (the file's I-th node with a mesh, in the\n"
            "                        order of its scene's hierarchy) by DX,DY,DZ; repeatable\n"
+           "  --time SECONDS        an animated glTF at that time (its animations' keys; before the\n"
+           "                        first key the first, after the last the last); the default camera,\n"
+           "                        light and ground are framed on its rest pose\n"
+           "  --node-transform N:TX,TY,TZ:QX,QY,QZ,QW:SX,SY,SZ   glTF node N (one an animation\n"
+           "                        reaches) at this translation, rotation and scale; repeatable\n"
            "  --seed S              fixes every random choice (default 1)\n"
            "shadows:\n");
     // The modes from their table (gpu/shadow_modes.c), the tracing ones first, then none.
@@ -284,15 +293,18 @@ static bool light_flags_given(const pn_render_opts *o)
     return o->has_light_pos || o->has_light_normal || o->has_light_up || o->has_light_size || o->has_light_radiance;
 }
 
+static bool default_light(const pn_render_opts *o, const pn_scene *s, const pn_interior *interior, pn_light *lights,
+                          uint32_t *light_count);
+
 bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *lights,
                           uint32_t *light_count)
 {
     // A scene that encloses its centre (an atrium, a room) is seen from inside, by the camera and
     // the light its interior gives (scene/interior.h), unless the file or the options place them.
     bool frame = !(s->has_camera && !o->has_cam_pos && !o->has_cam_target);
-    bool default_light = o->light_count == 0 && (s->light_count == 0 || light_flags_given(o));
+    bool default_one = o->light_count == 0 && (s->light_count == 0 || light_flags_given(o));
     pn_interior interior = {0};
-    if (frame || default_light)
+    if (frame || default_one)
         pn_interior_find(s, o->fov, &interior);
     if (!frame)
         *cam = s->camera;
@@ -300,6 +312,40 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
         *cam = interior.camera;
     else
         pn_camera_frame(s->bounds_min, s->bounds_max, o->fov, cam);
+    if (!pn_render_finish_camera(o, cam))
+        return false;
+
+    bool light_flags = light_flags_given(o);
+    if (o->light_count > 0 && light_flags) {
+        pn_error("--light and --light-pos/-normal/-up/-size/-radiance: give each light as one --light group, or "
+                 "change the one default light with the others");
+        return false;
+    }
+    // The --light groups, else the scene file's lights unless --light-* asks for the default one.
+    const pn_light *given = o->light_count ? o->lights : s->lights;
+    uint32_t count = o->light_count ? o->light_count : light_flags ? 0 : s->light_count;
+    if (count > PN_MAX_LIGHTS) {
+        pn_error("%s: %u lights; a frame takes at most %d", s->name, count, PN_MAX_LIGHTS);
+        return false;
+    }
+    if (count > 0) {
+        for (uint32_t i = 0; i < count; i++) {
+            char what[300];
+            if (o->light_count)
+                snprintf(what, sizeof what, "--light %u", i + 1);
+            else
+                snprintf(what, sizeof what, "%s: light %u", s->name, i);
+            if (!pn_render_finish_light(what, &given[i], s->bounds_min, s->bounds_max, &lights[i]))
+                return false;
+        }
+        *light_count = count;
+        return true;
+    }
+    return default_light(o, s, &interior, lights, light_count);
+}
+
+bool pn_render_finish_camera(const pn_render_opts *o, pn_camera *cam)
+{
     if (o->has_fov)
         cam->yfov_deg = o->fov;
     if (o->has_cam_pos)
@@ -319,48 +365,32 @@ bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera 
     }
     if (!(fabsf(d[0]) + fabsf(d[2]) > 1e-6f * dl)) // looking straight up or down: an up vector not parallel to the view
         cam->up[0] = 0, cam->up[1] = 0, cam->up[2] = -1;
+    return true;
+}
 
-    bool light_flags = light_flags_given(o);
-    if (o->light_count > 0 && light_flags) {
-        pn_error("--light and --light-pos/-normal/-up/-size/-radiance: give each light as one --light group, or "
-                 "change the one default light with the others");
+bool pn_render_finish_light(const char *what, const pn_light *given, const float lo[3], const float hi[3], pn_light *l)
+{
+    *l = *given;
+    float t[3], b[3];
+    if (!v3_unit(given->normal, l->normal) || !v3_unit(given->up, l->up) || !pn_light_frame(l, t, b)) {
+        pn_error("%s: the normal and up must not be zero, nor parallel to each other", what);
         return false;
     }
-    // The --light groups, else the scene file's lights unless --light-* asks for the default one.
-    const pn_light *given = o->light_count ? o->lights : s->lights;
-    uint32_t count = o->light_count ? o->light_count : light_flags ? 0 : s->light_count;
-    if (count > PN_MAX_LIGHTS) {
-        pn_error("%s: %u lights; a frame takes at most %d", s->name, count, PN_MAX_LIGHTS);
+    if (l->kind == PN_LIGHT_SUN && !pn_light_place_sun(l, lo, hi)) {
+        pn_error("%s: a sun needs the scene within 1e12 of its size from the origin", what);
         return false;
     }
-    if (count > 0) {
-        for (uint32_t i = 0; i < count; i++) {
-            pn_light *l = &lights[i];
-            *l = given[i];
-            char what[300];
-            if (o->light_count)
-                snprintf(what, sizeof what, "--light %u", i + 1);
-            else
-                snprintf(what, sizeof what, "%s: light %u", s->name, i);
-            float t[3], b[3];
-            if (!v3_unit(given[i].normal, l->normal) || !v3_unit(given[i].up, l->up) || !pn_light_frame(l, t, b)) {
-                pn_error("%s: the normal and up must not be zero, nor parallel to each other", what);
-                return false;
-            }
-            if (l->kind == PN_LIGHT_SUN && !pn_light_place_sun(l, s->bounds_min, s->bounds_max)) {
-                pn_error("%s: a sun needs the scene within 1e12 of its size from the origin", what);
-                return false;
-            }
-            if (!light_in_range(what, l))
-                return false;
-        }
-        *light_count = count;
-        return true;
-    }
+    return light_in_range(what, l);
+}
+
+// The one light framed on the scene (or its interior), changed by --light-*.
+static bool default_light(const pn_render_opts *o, const pn_scene *s, const pn_interior *interior, pn_light *lights,
+                          uint32_t *light_count)
+{
     *light_count = 1;
     pn_light *light = &lights[0];
-    if (interior.is_interior)
-        *light = interior.light;
+    if (interior->is_interior)
+        *light = interior->light;
     else
         pn_light_default(s->bounds_min, s->bounds_max, light);
     if (o->has_light_pos)
@@ -439,6 +469,15 @@ int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_s
     if (pn_scene_load(source, &out->scene) != PN_OK)
         return PN_EXIT_FAILURE;
     out->load_ms = pn_ms_since(t0);
+    for (uint32_t i = 0; i < o->node_transform_count; i++) {
+        const pn_node_transform *x = &o->node_transforms[i];
+        if (pn_scene_set_node_transform(&out->scene, x->node, x->t, x->r, x->s) != PN_OK) {
+            pn_scene_destroy(&out->scene);
+            return PN_EXIT_USAGE;
+        }
+    }
+    out->file_camera = out->scene.has_camera && !o->has_cam_pos && !o->has_cam_target;
+    out->file_lights = o->light_count == 0 && !light_flags_given(o) && out->scene.light_count > 0;
     for (uint32_t i = 0; i < o->move_count; i++)
         if (pn_scene_move_object(&out->scene, o->moves[i].object, o->moves[i].delta) != PN_OK) {
             pn_scene_destroy(&out->scene);
@@ -459,6 +498,13 @@ int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_s
         pn_error("%s: out of memory adding the ground plane", out->scene.name);
         pn_scene_destroy(&out->scene);
         return PN_EXIT_FAILURE;
+    }
+    if (o->has_time || o->node_transform_count) {
+        int rc = pn_render_pose(o, out, o->has_time ? o->time : NAN);
+        if (rc != PN_EXIT_OK) {
+            pn_scene_destroy(&out->scene);
+            return rc;
+        }
     }
     return PN_EXIT_OK;
 }

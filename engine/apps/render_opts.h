@@ -7,6 +7,7 @@
 #include "apps/args.h"
 #include "shadow/setup.h"
 #include "gpu/shadow_modes.h"
+#include "scene/anim.h"
 #include "scene/view.h"
 
 // --pixel-error's default: adaptive sampling's target standard error of a pixel's V.
@@ -19,6 +20,12 @@ enum { PN_MAX_MOVES = 16 };
 // corners, the shading integral): beyond this distance from the origin those squares overflow.
 // The same limit pn_scene_validate puts on the scene's positions (and the demo on moved objects).
 #define PN_MAX_COORD 1e18f
+
+// --node-transform: glTF node `node`'s translation, rotation (x,y,z,w) and scale.
+typedef struct pn_node_transform {
+    uint32_t node;
+    double t[3], r[4], s[3];
+} pn_node_transform;
 
 // The parameters of one render. The has_* flags mark what the command line set explicitly; the
 // rest comes from the scene (pn_render_setup_view).
@@ -55,6 +62,12 @@ typedef struct pn_render_opts {
     } moves[PN_MAX_MOVES];
     uint64_t max_bytes; // 0: half the device's largest heap
     float exposure;     // of the tone-mapped PNG
+    // Animated scenes (scene/anim.h, apps/anim_opts.c): --time SECONDS poses the scene at that
+    // time; --node-transform gives a node the file animates its translation, rotation and scale.
+    bool has_time;
+    double time;
+    uint32_t node_transform_count;
+    pn_node_transform node_transforms[PN_MAX_MOVES];
 } pn_render_opts;
 
 // The defaults render documents: 1280x720, exact, auto traversal, stratified, 4 spp (with the
@@ -83,6 +96,13 @@ bool pn_parse_light_group(const char *v, pn_render_opts *o);
 bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *lights,
                           uint32_t *light_count);
 
+// The camera as the options finish it (--fov, --camera-pos, --camera-target over `cam`, an up
+// vector that is not along the view), and a light the scene or --light gives as the frame takes it
+// (unit normal and up, a sun placed for the bounds lo..hi); both log what is wrong (`what` names
+// the light) and return false.
+bool pn_render_finish_camera(const pn_render_opts *o, pn_camera *cam);
+bool pn_render_finish_light(const char *what, const pn_light *given, const float lo[3], const float hi[3], pn_light *l);
+
 // The one translation of the options into a set-up: frame size, mode, traversal, sampler, samples,
 // seed, tree and memory limit. The caller adds what is its own (view culling, ray dumps).
 pn_setup_desc pn_render_opts_setup(const pn_render_opts *o);
@@ -96,8 +116,24 @@ typedef struct pn_prepared_scene {
     uint32_t light_count;
     float object_min[3], object_max[3]; // the scene's bounds before the ground plane
     double load_ms;
+    // Animated scenes: the framing (camera and light by default, the ground) is the rest pose's;
+    // the file's camera and lights, where in use, follow their nodes (pn_render_pose).
+    bool file_camera, file_lights;
+    pn_pose_report pose; // the last pose
 } pn_prepared_scene;
 
 // Logs what went wrong and returns PN_EXIT_FAILURE (unreadable scene, out of memory) or
 // PN_EXIT_USAGE (a camera or light the options make degenerate); *out holds nothing then.
+// An animated scene is framed at its rest pose and then posed at --time (or with
+// --node-transform's alone): pn_render_pose.
 int pn_render_prepare(const pn_render_opts *o, const char *source, pn_prepared_scene *out);
+
+// --time SECONDS (apps/anim_opts.c).
+bool pn_parse_time(const char *v, pn_render_opts *o);
+// --node-transform NODE:TX,TY,TZ:QX,QY,QZ,QW:SX,SY,SZ.
+bool pn_parse_node_transform(const char *v, pn_render_opts *o);
+
+// Poses the prepared scene at `time` (NAN: the rest, with --node-transform's): its objects, and
+// the file's camera and lights where the frame uses them (else the framing stays). Returns
+// PN_EXIT_OK, or logs and returns PN_EXIT_USAGE (a pose out of range).
+int pn_render_pose(const pn_render_opts *o, pn_prepared_scene *p, double time);

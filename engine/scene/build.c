@@ -154,6 +154,62 @@ static void repair_normals(pn_vertex *vout, const uint32_t *tri, uint64_t ntri, 
     }
 }
 
+pn_result pn_scene_build_place(const pn_scene_build_prim *p, const pn_scene_xform *xf, pn_vertex *vout,
+                               uint64_t *bad_vertex)
+{
+    const uint64_t n = p->vertex_count, ntri = p->triangle_count;
+    if (p->normals) {
+        uint8_t *bad = calloc(n ? n : 1, 1);
+        if (!bad)
+            return PN_ERR_MEMORY;
+        bool any_bad = false;
+        for (uint64_t i = 0; i < n; i++) {
+            pn_vertex *v = &vout[i];
+            if (!world_pos(xf, p->positions, i, v->pos)) {
+                free(bad);
+                *bad_vertex = i;
+                return PN_ERR_FORMAT;
+            }
+            const float *q = &p->normals[i * 3];
+            double nw[3];
+            for (int r = 0; r < 3; r++)
+                nw[r] = xf->normal[r][0] * q[0] + xf->normal[r][1] * q[1] + xf->normal[r][2] * q[2];
+            if (normalize3(nw)) {
+                set_normal(v, nw);
+            } else {
+                bad[i] = 1;
+                any_bad = true;
+                set_up_normal(v);
+            }
+            set_uv(v, p->uvs, i);
+        }
+        if (any_bad)
+            repair_normals(vout, p->triangles, ntri, bad);
+        free(bad);
+        return PN_OK;
+    }
+    // No normals: flat shading, three vertices of their own per triangle.
+    for (uint64_t t = 0; t < ntri; t++) {
+        pn_vertex *v = vout + 3 * t;
+        for (int j = 0; j < 3; j++) {
+            uint32_t src = p->triangles[3 * t + (uint64_t)j];
+            if (!world_pos(xf, p->positions, src, v[j].pos)) {
+                *bad_vertex = src;
+                return PN_ERR_FORMAT;
+            }
+            set_uv(&v[j], p->uvs, src);
+        }
+        double fn[3];
+        for (int j = 0; j < 3; j++) {
+            if (face_normal(v[0].pos, v[1].pos, v[2].pos, fn))
+                set_normal(&v[j], fn);
+            else
+                set_up_normal(&v[j]);
+        }
+    }
+    return PN_OK;
+}
+
 pn_result pn_scene_build_add_prim(pn_scene_build *b, const pn_scene_build_prim *p, const pn_scene_xform *xf,
                                   uint64_t *bad_vertex)
 {
@@ -180,63 +236,14 @@ pn_result pn_scene_build_add_prim(pn_scene_build *b, const pn_scene_build_prim *
         !grow((void **)&s->indices, &b->index_cap, s->index_count + ntri * 3, sizeof *s->indices) ||
         !grow((void **)&s->draws, &b->draw_cap, (size_t)s->draw_count + 1, sizeof *s->draws))
         return PN_ERR_MEMORY;
-    uint8_t *bad = NULL;
-    if (p->normals && !(bad = calloc(n ? n : 1, 1)))
-        return PN_ERR_MEMORY;
-
     const uint32_t base = s->vertex_count, ibase = s->index_count;
-    pn_vertex *vout = s->vertices + base;
+    pn_result r = pn_scene_build_place(p, xf, s->vertices + base, bad_vertex);
+    if (r != PN_OK)
+        return r;
     uint32_t *iout = s->indices + ibase;
-    if (p->normals) {
-        bool any_bad = false;
-        for (uint64_t i = 0; i < n; i++) {
-            pn_vertex *v = &vout[i];
-            if (!world_pos(xf, p->positions, i, v->pos)) {
-                free(bad);
-                *bad_vertex = i;
-                return PN_ERR_FORMAT;
-            }
-            const float *q = &p->normals[i * 3];
-            double nw[3];
-            for (int r = 0; r < 3; r++)
-                nw[r] = xf->normal[r][0] * q[0] + xf->normal[r][1] * q[1] + xf->normal[r][2] * q[2];
-            if (normalize3(nw)) {
-                set_normal(v, nw);
-            } else {
-                bad[i] = 1;
-                any_bad = true;
-                set_up_normal(v);
-            }
-            set_uv(v, p->uvs, i);
-        }
-        for (uint64_t k = 0; k < ntri * 3; k++)
-            iout[k] = base + p->triangles[k];
-        if (any_bad)
-            repair_normals(vout, p->triangles, ntri, bad);
-        free(bad);
-    } else {
-        // No normals: flat shading, three vertices of their own per triangle.
-        for (uint64_t t = 0; t < ntri; t++) {
-            pn_vertex *v = vout + 3 * t;
-            for (int j = 0; j < 3; j++) {
-                uint32_t src = p->triangles[3 * t + (uint64_t)j];
-                if (!world_pos(xf, p->positions, src, v[j].pos)) {
-                    *bad_vertex = src;
-                    return PN_ERR_FORMAT;
-                }
-                set_uv(&v[j], p->uvs, src);
-            }
-            double fn[3];
-            for (int j = 0; j < 3; j++) {
-                if (face_normal(v[0].pos, v[1].pos, v[2].pos, fn))
-                    set_normal(&v[j], fn);
-                else
-                    set_up_normal(&v[j]);
-            }
-            for (int j = 0; j < 3; j++)
-                iout[3 * t + (uint64_t)j] = (uint32_t)(base + 3 * t + (uint64_t)j);
-        }
-    }
+    // The primitive's own numbering; flat shading: three vertices of their own per triangle.
+    for (uint64_t k = 0; k < ntri * 3; k++)
+        iout[k] = (uint32_t)(base + (p->normals ? p->triangles[k] : k));
     s->vertex_count += (uint32_t)out_verts;
     s->index_count += (uint32_t)(ntri * 3);
     s->draws[s->draw_count++] = (pn_draw){ibase, (uint32_t)(ntri * 3), p->material};

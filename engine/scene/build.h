@@ -51,6 +51,14 @@ typedef struct pn_scene_build_prim {
 pn_result pn_scene_build_add_prim(pn_scene_build *b, const pn_scene_build_prim *p, const pn_scene_xform *xf,
                                    uint64_t *bad_vertex);
 
+// The primitive's world vertices under `xf` into vout (vertex_count of them, or 3 per triangle
+// without normals): positions, normals by the inverse-transpose (zero or NaN ones repaired from a
+// triangle using the vertex), flat normals without, uvs. The triangles as given (their winding
+// already the world's). What add_prim writes, and pn_scene_pose again at another transform.
+// PN_ERR_FORMAT (the vertex in *bad_vertex) when a position is not finite, PN_ERR_MEMORY.
+pn_result pn_scene_build_place(const pn_scene_build_prim *p, const pn_scene_xform *xf, pn_vertex *vout,
+                               uint64_t *bad_vertex);
+
 // Appends an empty mesh (pn_scene.meshes) whose triangles the next primitives capture.
 pn_result pn_scene_build_add_mesh(pn_scene_build *b, uint32_t *index);
 

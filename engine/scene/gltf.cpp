@@ -29,6 +29,7 @@
 
 extern "C" {
 #include "core/log.h"
+#include "scene/anim.h"
 #include "scene/build.h"
 #include "scene/scene.h"
 }
@@ -73,13 +74,7 @@ Mat4 mat_identity()
 Mat4 mat_mul(const Mat4 &a, const Mat4 &b)
 {
     Mat4 r{};
-    for (int c = 0; c < 4; c++)
-        for (int row = 0; row < 4; row++) {
-            double s = 0.0;
-            for (int k = 0; k < 4; k++)
-                s += a.m[k * 4 + row] * b.m[c * 4 + k];
-            r.m[c * 4 + row] = s;
-        }
+    pn_mat4_mul(a.m, b.m, r.m); // scene/anim.c: pn_scene_pose multiplies the same way
     return r;
 }
 
@@ -305,7 +300,11 @@ struct Access {
 class Loader {
 public:
     Loader(const char *path, const tinygltf::Model &model) : path_(path), m_(model) {}
-    ~Loader() { pn_scene_build_destroy(&b_); }
+    ~Loader()
+    {
+        pn_scene_build_destroy(&b_);
+        pn_scene_anim_destroy(anim_);
+    }
     Loader(const Loader &) = delete;
     Loader &operator=(const Loader &) = delete;
 
@@ -325,6 +324,9 @@ private:
     template <typename Fn> void apply_sparse(const Access &a, Fn write);
 
     Mat4 local_transform(int node);
+    void read_animations();
+    void keep_local(const pn_scene_build_prim &p, uint32_t first_vertex, bool mirrored);
+    void finish_animations();
     void traverse();
     void visit_camera(int node, const Mat4 &world);
     void visit_light(int node, const Mat4 &world);
@@ -350,6 +352,25 @@ private:
     std::vector<uint8_t> mesh_warned_; // bit flags per mesh, so instancing does not repeat them
     std::vector<uint8_t> camera_warned_;
     bool warned_skin_ = false;
+
+    // Animations (scene/anim.h): with any, anim_ holds the nodes' rest transforms and parents, the
+    // lights' and the camera's nodes; channels_ and prims_ (their arrays owned here until emitted)
+    // what the animations move. targeted_: per node, an animation targets it.
+    pn_scene_anim *anim_ = nullptr;
+    struct KeptChannel {
+        pn_anim_channel channel; // its arrays pointed at when emitted
+        std::vector<float> times, values;
+    };
+    struct KeptPrim {
+        pn_anim_prim prim; // likewise
+        std::vector<float> pos, nrm, uv;
+        std::vector<uint32_t> tri;
+    };
+    std::vector<KeptChannel> channels_;
+    std::vector<KeptPrim> prims_;
+    std::vector<uint8_t> targeted_;
+    int cur_node_ = -1;     // the node whose mesh is being instanced
+    bool cur_posed_ = false; // and whether an animation reaches it
 
     // What was skipped, to say why a scene ends up without triangles.
     uint64_t mesh_instances_ = 0, skipped_points_lines_ = 0, skipped_no_position_ = 0,
@@ -587,27 +608,165 @@ Mat4 Loader::local_transform(int index)
             q[i] = n.rotation[(size_t)i];
         for (int i = 0; i < 3 && !n.scale.empty(); i++)
             s[i] = n.scale[(size_t)i];
-        // glTF requires a unit quaternion; exporters round, so renormalise rather than shear.
-        double ql = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-        if (!(ql > 0.0) || !std::isfinite(ql))
+        // glTF requires a unit quaternion; exporters round, so renormalise rather than shear
+        // (pn_trs_matrix, which pn_scene_pose uses too).
+        if (!pn_trs_matrix(t, q, s, r.m))
             fail(PN_ERR_FORMAT, "node %d: rotation quaternion is zero or not finite", index);
-        double x = q[0] / ql, y = q[1] / ql, z = q[2] / ql, w = q[3] / ql;
-        double rot[3][3] = {
-            {1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-            {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-            {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)},
-        };
-        // T * R * S: column c of the 3x3 is R's column c scaled by s[c].
-        for (int c = 0; c < 3; c++)
-            for (int row = 0; row < 3; row++)
-                r.m[c * 4 + row] = rot[row][c] * s[c];
-        for (int row = 0; row < 3; row++)
-            r.m[12 + row] = t[row];
+        if (anim_) {
+            pn_anim_node &an = anim_->nodes[(size_t)index];
+            std::memcpy(an.t, t, sizeof an.t), std::memcpy(an.r, q, sizeof an.r), std::memcpy(an.s, s, sizeof an.s);
+        }
+    }
+    if (anim_ && !n.matrix.empty()) {
+        anim_->nodes[(size_t)index].matrix = true;
+        std::memcpy(anim_->nodes[(size_t)index].m, r.m, sizeof r.m);
     }
     for (double v : r.m)
         if (!std::isfinite(v))
             fail(PN_ERR_FORMAT, "node %d: transform is not finite", index);
     return r;
+}
+
+// glTF animations: every channel that moves a node's translation, rotation or scale, checked
+// (the sampler and node exist, the node is not given as a matrix, key times finite and strictly
+// increasing, as many values as keys, every value finite, no zero rotation) and kept with its keys.
+// A file with animations also keeps its nodes (anim_) so that the scene can be posed again.
+// Morph-target weights are not drawn: their channels are skipped with a warning.
+void Loader::read_animations()
+{
+    if (m_.animations.empty())
+        return;
+    anim_ = (pn_scene_anim *)std::calloc(1, sizeof *anim_);
+    const size_t nn = m_.nodes.size();
+    if (!anim_ || !(anim_->nodes = (pn_anim_node *)std::calloc(nn ? nn : 1, sizeof *anim_->nodes)) ||
+        !(anim_->order = (uint32_t *)std::calloc(nn ? nn : 1, sizeof *anim_->order)))
+        throw std::bad_alloc();
+    anim_->node_count = (uint32_t)nn;
+    for (size_t i = 0; i < nn; i++) {
+        pn_anim_node &n = anim_->nodes[i];
+        n.parent = -1;
+        n.r[3] = 1, n.s[0] = n.s[1] = n.s[2] = 1;
+    }
+    for (int &l : anim_->light_node)
+        l = -1;
+    anim_->camera_node = -1;
+    targeted_.assign(nn, 0);
+    bool warned_weights = false;
+    for (size_t ai = 0; ai < m_.animations.size(); ai++) {
+        const tinygltf::Animation &an = m_.animations[ai];
+        for (size_t ci = 0; ci < an.channels.size(); ci++) {
+            const tinygltf::AnimationChannel &ch = an.channels[ci];
+            char where[96];
+            std::snprintf(where, sizeof where, "animation %zu channel %zu", ai, ci);
+            if (ch.sampler < 0 || (size_t)ch.sampler >= an.samplers.size())
+                fail(PN_ERR_FORMAT, "%s: sampler %d does not exist (%zu samplers)", where, ch.sampler,
+                     an.samplers.size());
+            if (ch.target_node < 0 || (size_t)ch.target_node >= nn)
+                fail(PN_ERR_FORMAT, "%s: target node %d does not exist (%zu nodes)", where, ch.target_node, nn);
+            pn_anim_path path;
+            if (ch.target_path == "translation")
+                path = PN_ANIM_TRANSLATION;
+            else if (ch.target_path == "rotation")
+                path = PN_ANIM_ROTATION;
+            else if (ch.target_path == "scale")
+                path = PN_ANIM_SCALE;
+            else if (ch.target_path == "weights") {
+                if (!warned_weights)
+                    warn("%s: morph target weights are not animated (morph targets are not drawn); skipped", where);
+                warned_weights = true;
+                continue;
+            } else
+                fail(PN_ERR_FORMAT, "%s: target path \"%.32s\" is not translation, rotation, scale or weights", where,
+                     ch.target_path.c_str());
+            if (!m_.nodes[(size_t)ch.target_node].matrix.empty())
+                fail(PN_ERR_FORMAT, "%s: node %d is given as a matrix, which glTF does not let an animation target",
+                     where, ch.target_node);
+            const tinygltf::AnimationSampler &sm = an.samplers[(size_t)ch.sampler];
+            KeptChannel k{};
+            k.channel.node = (uint32_t)ch.target_node;
+            k.channel.path = path;
+            if (sm.interpolation == "LINEAR" || sm.interpolation.empty())
+                k.channel.interp = PN_ANIM_LINEAR;
+            else if (sm.interpolation == "STEP")
+                k.channel.interp = PN_ANIM_STEP;
+            else if (sm.interpolation == "CUBICSPLINE")
+                k.channel.interp = PN_ANIM_CUBICSPLINE;
+            else
+                fail(PN_ERR_FORMAT, "%s: sampler %d: interpolation \"%.32s\" is not LINEAR, STEP or CUBICSPLINE", where,
+                     ch.sampler, sm.interpolation.c_str());
+            decode_floats(access(sm.input, "animation input", TINYGLTF_TYPE_SCALAR, {kF32}), k.times);
+            if (k.times.empty())
+                fail(PN_ERR_FORMAT, "%s: sampler %d has no keys", where, ch.sampler);
+            for (size_t i = 0; i < k.times.size(); i++) {
+                if (!std::isfinite(k.times[i]))
+                    fail(PN_ERR_FORMAT, "%s: sampler %d: key time %zu is not finite", where, ch.sampler, i);
+                if (i && !(k.times[i] > k.times[i - 1]))
+                    fail(PN_ERR_FORMAT, "%s: sampler %d: key times are not strictly increasing (key %zu at %g after %g)",
+                         where, ch.sampler, i, (double)k.times[i], (double)k.times[i - 1]);
+            }
+            bool rot = path == PN_ANIM_ROTATION;
+            const char *role = rot ? "animation rotation" : "animation output";
+            if (rot)
+                decode_floats(access(sm.output, role, TINYGLTF_TYPE_VEC4, {kF32, kI8, kU8, kI16, kU16}), k.values);
+            else
+                decode_floats(access(sm.output, role, TINYGLTF_TYPE_VEC3, {kF32}), k.values);
+            const size_t w = rot ? 4 : 3, per_key = k.channel.interp == PN_ANIM_CUBICSPLINE ? 3 : 1;
+            if (k.values.size() != k.times.size() * w * per_key)
+                fail(PN_ERR_FORMAT, "%s: sampler %d: %zu values for %zu keys (%s needs %zu per key)", where,
+                     ch.sampler, k.values.size() / w, k.times.size(), sm.interpolation.c_str(), per_key);
+            for (size_t i = 0; i < k.values.size(); i++)
+                if (!std::isfinite(k.values[i]))
+                    fail(PN_ERR_FORMAT, "%s: sampler %d: value %zu is not finite", where, ch.sampler, i / w);
+            for (size_t i = 0; rot && i < k.times.size(); i++) {
+                const float *q = &k.values[(i * per_key + (per_key == 3 ? 1 : 0)) * 4];
+                if (!(std::fabs(q[0]) + std::fabs(q[1]) + std::fabs(q[2]) + std::fabs(q[3]) > 0))
+                    fail(PN_ERR_FORMAT, "%s: sampler %d: rotation key %zu is zero", where, ch.sampler, i);
+            }
+            k.channel.keys = (uint32_t)k.times.size();
+            targeted_[(size_t)ch.target_node] = 1;
+            channels_.push_back(std::move(k));
+        }
+    }
+}
+
+// Hands the kept channels and primitives to anim_ as the C arrays pn_scene_anim_destroy frees.
+void Loader::finish_animations()
+{
+    if (!anim_)
+        return;
+    auto copy = [](const void *src, size_t bytes) {
+        void *p = std::malloc(bytes ? bytes : 1);
+        if (!p)
+            throw std::bad_alloc();
+        if (bytes)
+            std::memcpy(p, src, bytes);
+        return p;
+    };
+    anim_->channels = (pn_anim_channel *)std::calloc(channels_.size() ? channels_.size() : 1, sizeof *anim_->channels);
+    anim_->prims = (pn_anim_prim *)std::calloc(prims_.size() ? prims_.size() : 1, sizeof *anim_->prims);
+    if (!anim_->channels || !anim_->prims)
+        throw std::bad_alloc();
+    anim_->start = INFINITY, anim_->end = -INFINITY;
+    for (KeptChannel &k : channels_) {
+        pn_anim_channel &c = anim_->channels[anim_->channel_count++];
+        c = k.channel;
+        c.times = (float *)copy(k.times.data(), k.times.size() * sizeof(float));
+        c.values = (float *)copy(k.values.data(), k.values.size() * sizeof(float));
+        anim_->start = std::fmin(anim_->start, (double)k.times.front());
+        anim_->end = std::fmax(anim_->end, (double)k.times.back());
+    }
+    if (!anim_->channel_count)
+        anim_->start = anim_->end = 0;
+    for (KeptPrim &k : prims_) {
+        pn_anim_prim &p = anim_->prims[anim_->prim_count++];
+        p = k.prim;
+        p.positions = (float *)copy(k.pos.data(), k.pos.size() * sizeof(float));
+        p.normals = k.nrm.empty() ? nullptr : (float *)copy(k.nrm.data(), k.nrm.size() * sizeof(float));
+        p.uvs = k.uv.empty() ? nullptr : (float *)copy(k.uv.data(), k.uv.size() * sizeof(float));
+        p.triangles = (uint32_t *)copy(k.tri.data(), k.tri.size() * sizeof(uint32_t));
+    }
+    channels_.clear();
+    prims_.clear();
 }
 
 void Loader::run()
@@ -630,7 +789,9 @@ void Loader::run()
     camera_warned_.assign(m_.cameras.size(), 0);
     image_texture_.assign(m_.images.size(), -2);
     build_materials();
+    read_animations();
     traverse();
+    finish_animations();
     if (b_.scene.index_count == 0) {
         std::string why;
         if (m_.meshes.empty()) {
@@ -681,11 +842,13 @@ void Loader::traverse()
         int node;
         uint32_t depth;
         Mat4 parent;
+        int parent_node; // -1 for a root
+        bool posed;      // an animation reaches the parent
     };
     std::vector<uint8_t> visited(nn, 0);
     std::vector<Item> stack;
     for (size_t i = roots.size(); i-- > 0;)
-        stack.push_back(Item{roots[i], 0, mat_identity()});
+        stack.push_back(Item{roots[i], 0, mat_identity(), -1, false});
     while (!stack.empty()) {
         Item it = stack.back();
         stack.pop_back();
@@ -699,6 +862,14 @@ void Loader::traverse()
             fail(PN_ERR_FORMAT, "node hierarchy deeper than %u levels", kMaxDepth);
         const tinygltf::Node &n = m_.nodes[(size_t)it.node];
         Mat4 world = mat_mul(it.parent, local_transform(it.node));
+        bool posed = it.posed || (anim_ && targeted_[(size_t)it.node]);
+        if (anim_) {
+            anim_->nodes[(size_t)it.node].parent = it.parent_node;
+            anim_->nodes[(size_t)it.node].posed = posed;
+            anim_->order[anim_->order_count++] = (uint32_t)it.node;
+        }
+        cur_node_ = it.node;
+        cur_posed_ = posed;
         if (n.camera != -1)
             visit_camera(it.node, world);
         if (n.extras.IsObject() && n.extras.Has("penumbra_light"))
@@ -733,7 +904,7 @@ void Loader::traverse()
             }
         }
         for (size_t i = n.children.size(); i-- > 0;)
-            stack.push_back(Item{n.children[i], it.depth + 1, world});
+            stack.push_back(Item{n.children[i], it.depth + 1, world, it.node, posed});
     }
 }
 
@@ -755,9 +926,8 @@ void Loader::visit_camera(int node, const Mat4 &w)
         return;
     }
     double yfov = cam.perspective.yfov;
-    double pos[3] = {w.m[12], w.m[13], w.m[14]};
-    double fwd[3] = {-w.m[8], -w.m[9], -w.m[10]}; // the node's -Z axis
-    double up[3] = {w.m[4], w.m[5], w.m[6]};      // the node's +Y axis
+    double pos[3], fwd[3], up[3]; // the node's origin, -Z axis and +Y axis (as pn_scene_pose has them)
+    bool frame = pn_node_frame(w.m, pos, fwd, up);
     const char *problem = nullptr;
     if (!(yfov > 0.0 && yfov < kPi))
         problem = "yfov is not in (0, pi)";
@@ -766,7 +936,7 @@ void Loader::visit_camera(int node, const Mat4 &w)
     // Stored as floats and used like scene positions: the same 1e18 limit (pn_scene_validate).
     else if (std::fabs(pos[0]) > 1e18 || std::fabs(pos[1]) > 1e18 || std::fabs(pos[2]) > 1e18)
         problem = "position is beyond 1e18 from the origin";
-    else if (!normalize3(fwd) || !normalize3(up))
+    else if (!frame)
         problem = "its node's transform is degenerate";
     if (problem) {
         if (!camera_warned_[(size_t)ci]) {
@@ -777,6 +947,8 @@ void Loader::visit_camera(int node, const Mat4 &w)
     }
     pn_camera &camera = b_.scene.camera;
     b_.scene.has_camera = true;
+    if (anim_)
+        anim_->camera_node = node;
     for (int i = 0; i < 3; i++) {
         camera.pos[i] = (float)pos[i];
         camera.target[i] = (float)(pos[i] + fwd[i]);
@@ -867,9 +1039,8 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
     }
     const tinygltf::Light &src = m_.lights[(size_t)li];
     pn_light l{};
-    double pos[3] = {w.m[12], w.m[13], w.m[14]};
-    double dir[3] = {-w.m[8], -w.m[9], -w.m[10]}; // the node's -Z axis
-    double up[3] = {w.m[4], w.m[5], w.m[6]};      // and its +Y
+    double pos[3], dir[3], up[3]; // the node's origin, -Z axis and +Y (as pn_scene_pose has them)
+    bool frame = pn_node_frame(w.m, pos, dir, up);
     double color[3] = {1, 1, 1};
     const char *problem = nullptr;
     auto extra = [&](const char *key, double fallback, double *out) {
@@ -901,7 +1072,7 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
         problem = "its intensity is not a finite non-negative number";
     else if (!finite3(pos) || std::fabs(pos[0]) > 1e18 || std::fabs(pos[1]) > 1e18 || std::fabs(pos[2]) > 1e18)
         problem = "its position is not finite or beyond 1e18 from the origin";
-    else if (!normalize3(dir) || !normalize3(up))
+    else if (!frame)
         problem = "its node's transform is degenerate (no direction)";
     else if (l.kind == PN_LIGHT_SUN && !(extra("angular_diameter", 0.53, &diameter) && diameter <= 10))
         problem = "extras.angular_diameter is not a number of degrees in [0, 10]";
@@ -941,6 +1112,8 @@ void Loader::visit_punctual(int node, const tinygltf::Value &ext, const Mat4 &w)
         l.cone[0] = (float)src.spot.innerConeAngle;
         l.cone[1] = (float)src.spot.outerConeAngle;
     }
+    if (anim_)
+        anim_->light_node[b_.scene.light_count] = node;
     b_.scene.lights[b_.scene.light_count++] = l;
 }
 
@@ -1087,11 +1260,34 @@ void Loader::instance_primitive(int mesh, int prim, const pn_scene_xform &xf)
     p.material = material_for(mesh, pr.material);
     p.capture_mesh = capture_;
     uint64_t bad_vertex = 0;
+    const uint32_t first_vertex = b_.scene.vertex_count;
     pn_result r = pn_scene_build_add_prim(&b_, &p, &xf, &bad_vertex);
     if (r == PN_ERR_FORMAT)
         fail(PN_ERR_FORMAT, "%s primitive %d: vertex %llu is not finite after the node transform",
              mesh_tag(mesh).c_str(), prim, (unsigned long long)bad_vertex);
     built(r);
+    if (cur_posed_)
+        keep_local(p, first_vertex, xf.det < 0.0);
+}
+
+// A primitive under an animated node, kept in its node's frame for pn_scene_pose: its local
+// positions, normals, uvs and triangles (wound as the scene has them).
+void Loader::keep_local(const pn_scene_build_prim &p, uint32_t first_vertex, bool mirrored)
+{
+    KeptPrim k{};
+    k.prim.node = (uint32_t)cur_node_;
+    k.prim.object = b_.scene.object_count; // the object traverse() adds after this mesh's primitives
+    k.prim.first_vertex = first_vertex;
+    k.prim.vertex_count = (uint32_t)p.vertex_count;
+    k.prim.triangle_count = (uint32_t)p.triangle_count;
+    k.prim.mirrored = mirrored;
+    k.pos.assign(p.positions, p.positions + p.vertex_count * 3);
+    if (p.normals)
+        k.nrm.assign(p.normals, p.normals + p.vertex_count * 3);
+    if (p.uvs)
+        k.uv.assign(p.uvs, p.uvs + p.vertex_count * 2);
+    k.tri.assign(p.triangles, p.triangles + p.triangle_count * 3);
+    prims_.push_back(std::move(k));
 }
 
 uint32_t Loader::material_for(int mesh, int material)
@@ -1197,6 +1393,8 @@ void Loader::emit(pn_scene *out)
     }
     std::snprintf(b_.scene.name, sizeof b_.scene.name, "%s", path_);
     pn_scene_build_finish(&b_, out);
+    out->anim = anim_; // NULL without animations
+    anim_ = nullptr;
 }
 
 // --- reading files: the scene and the buffers and images it references. tinygltf's own reader

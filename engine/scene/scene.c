@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "scene/anim.h"
 
 void pn_scene_destroy(pn_scene *s)
 {
@@ -21,6 +22,8 @@ void pn_scene_destroy(pn_scene *s)
         free(s->meshes[i].tris);
     free(s->meshes);
     free(s->objects);
+    if (s->anim)
+        pn_scene_anim_destroy(s->anim);
     memset(s, 0, sizeof *s);
 }
 

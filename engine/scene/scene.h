@@ -87,6 +87,9 @@ typedef struct pn_scene_object {
 // Lights a scene file may carry (glTF node extras, scene/gltf.cpp); a frame has at most as many.
 enum { PN_SCENE_MAX_LIGHTS = 16 };
 
+// A scene file's node hierarchy and animations (scene/anim.h).
+typedef struct pn_scene_anim pn_scene_anim;
+
 typedef struct pn_scene {
     char name[256]; // the file path or "builtin:NAME"
     pn_vertex *vertices;
@@ -112,6 +115,9 @@ typedef struct pn_scene {
     uint32_t mesh_count;
     pn_scene_object *objects;
     uint32_t object_count;
+    // With glTF animations: the nodes, channels and what they move, kept in the nodes' frames
+    // (scene/anim.h, pn_scene_pose); NULL without.
+    pn_scene_anim *anim;
 } pn_scene;
 
 // Loads `source`: a path ending in .gltf or .glb, or "builtin:NAME". On failure logs one message
