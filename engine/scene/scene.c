@@ -105,6 +105,19 @@ pn_result pn_scene_add_material(pn_scene *s, const float base_color[4], uint32_t
     return PN_OK;
 }
 
+pn_result pn_scene_add_texture(pn_scene *s, uint32_t width, uint32_t height, uint8_t *rgba, int32_t *index)
+{
+    pn_texture *t = s->texture_count < INT32_MAX ? realloc(s->textures, (s->texture_count + 1) * sizeof *t) : NULL;
+    if (!t) {
+        free(rgba);
+        return PN_ERR_MEMORY;
+    }
+    s->textures = t;
+    t[s->texture_count] = (pn_texture){.width = width, .height = height, .rgba = rgba};
+    *index = (int32_t)s->texture_count++;
+    return PN_OK;
+}
+
 pn_result pn_scene_add_mesh(pn_scene *s, const pn_vertex *v, uint32_t vn, const uint32_t *idx,
                             uint32_t in, uint32_t material)
 {

@@ -129,8 +129,9 @@ pn_result pn_gltf_load(const char *path, pn_scene *out);
 
 // Built-in scenes generated in code: "default" (the showcase), "plane" (one 2x2 quad at y=0 on
 // the XZ plane, centred at the origin, normal +Y; a receiver for tests), "penumbra" (a 4x4
-// receiver at y=0 under a 0.5x0.5 occluder at y=0.5, both centred on the y axis). Returns PN_ERR_INVALID for
-// an unknown name.
+// receiver at y=0 under a 0.5x0.5 occluder at y=0.5, both centred on the y axis), "canopy" (a
+// pergola under alpha-masked leaf quads on a 6x6 ground at y=0, in metres: opaque and masked casters
+// together, one 256x256 texture). Returns PN_ERR_INVALID for an unknown name.
 pn_result pn_builtin_load(const char *name, pn_scene *out);
 
 // Lists the built-in scene names, NULL-terminated.
@@ -145,6 +146,10 @@ void pn_scene_update_bounds(pn_scene *scene);
 
 // Appends a material and returns its index. PN_ERR_MEMORY on allocation failure.
 pn_result pn_scene_add_material(pn_scene *scene, const float base_color[4], uint32_t *index);
+
+// Appends a texture of width x height RGBA8 texels (sRGB, as pn_texture) and returns its index for
+// pn_material.texture. Takes rgba (malloc'd): the scene frees it, and so does a failure (PN_ERR_MEMORY).
+pn_result pn_scene_add_texture(pn_scene *scene, uint32_t width, uint32_t height, uint8_t *rgba, int32_t *index);
 
 // Appends triangles (positions and normals given per vertex, already in world space) as one draw.
 pn_result pn_scene_add_mesh(pn_scene *scene, const pn_vertex *vertices, uint32_t vertex_count,

@@ -34,8 +34,8 @@ extern const char *const pn_bench_tree_kind_names[]; // "scene", "object", NULL
 // A standard view (bench_views.c): camera and light in units of the object's bounding-sphere radius
 // r, from its centre.
 typedef struct pn_bench_view_spec {
-    const char *name; // bunny, dragon, buddha, sponza
-    const char *file; // in the assets folder (pn_bench_assets_dir)
+    const char *name; // bunny, dragon, buddha, sponza, ...
+    const char *file; // in the assets folder (pn_bench_assets_dir), or builtin:NAME
     float camera[3], target[3], fov;
     float light[3], aim[3]; // the light's centre and the point its normal faces
     float light_size;       // width = height

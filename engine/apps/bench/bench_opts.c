@@ -121,7 +121,8 @@ static bool add_view_arg(bench_opts *o, const char *name)
     }
     const pn_bench_view_spec *spec = pn_bench_view_spec_find(name);
     if (!spec) {
-        pn_error("--views: no standard view '%s' (have: bunny, dragon, buddha, sponza, bunny-sun, bunny-sphere, all)",
+        pn_error("--views: no standard view '%s' (have: bunny, dragon, buddha, sponza, bunny-sun, bunny-sphere, "
+                 "canopy, all)",
                  name);
         return false;
     }
@@ -148,8 +149,9 @@ void pn_print_bench_help(void)
            "  bench.json, time_to_error.md (per mode the fastest cell reaching each error level) and a\n"
            "  log-log plot of reference error vs shadow time per view and size with the Pareto front.\n"
            "  --views V,...        standard views: bunny, dragon, buddha, sponza, bunny-sun, bunny-sphere (the\n"
-           "                       bunny's under a sun and a sphere light) or all (default: all whose\n"
-           "                       mesh is in $PN_ASSETS, else ../shared/assets)\n"
+           "                       bunny's under a sun and a sphere light), canopy (builtin:canopy, alpha-\n"
+           "                       masked leaves) or all (default: all whose mesh is in $PN_ASSETS, else\n"
+           "                       ../shared/assets, and canopy)\n"
            "  --scenes A,B,...     other scenes (files, builtin:NAME, folders of .glb), framed as render does\n"
            "  --modes M,...        of the modes that trace (default: all the device can run)\n"
            "  --trees N,d:N,d:...  trees for the line-space modes (default 6,3:7,3:8,3)\n"
@@ -384,8 +386,10 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         if (!o->tree_count)
             o->trees[0][0] = 6, o->trees[0][1] = 3, o->trees[1][0] = 7, o->trees[1][1] = 3, o->tree_count = 2;
     }
-    // The standard views unless scenes or views were named; builtin:default when none is here.
-    if (!scenes_buf[0] && !views_buf[0])
+    // The standard views unless scenes or views were named; builtin:default when none of their
+    // meshes is here (the built-in views, always here, are not a bench of meshes).
+    bool defaulted = !scenes_buf[0] && !views_buf[0];
+    if (defaulted)
         snprintf(views_buf, sizeof views_buf, "all");
     for (char *tok = strtok(views_buf, ","); tok; tok = strtok(NULL, ","))
         if (!add_view_arg(o, tok))
@@ -393,7 +397,10 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
     for (char *tok = strtok(scenes_buf, ","); tok; tok = strtok(NULL, ","))
         if (!add_scene_arg(o, tok))
             return PN_EXIT_USAGE;
-    if (!o->view_count) {
+    bool meshes = false;
+    for (int i = 0; i < o->view_count; i++)
+        meshes = meshes || strncmp(o->views[i].source, "builtin:", 8) != 0;
+    if (!o->view_count || (defaulted && !meshes)) {
         pn_warn("bench: none of the standard views' meshes is in %s: measuring builtin:default",
                 pn_bench_assets_dir());
         if (!add_scene_arg(o, "builtin:default"))

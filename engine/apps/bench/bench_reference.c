@@ -5,7 +5,8 @@
 // The cache file is <out>/reference/<view>_<W>x<H>_<S>spp_<key>.exr with the channels shadow.V
 // and A. The key hashes what changes the image: the exact shader's SPIR-V (ray origins, sampler,
 // traversal) and the G-buffer's (P and N), the device and driver (its rasterizer places P), the
-// scene's vertices and indices, camera, light, size, samples, seed and an external G-buffer. Host
+// scene's vertices and indices (and its alpha masks, if it has any), camera, light, size, samples,
+// seed and an external G-buffer. Host
 // code that turns these into GPU parameters (pn_light_to_gpu, pn_sample_grid, the G-buffer camera)
 // is not hashed: a change there that alters images must bump the version string below. A file
 // whose key matches is reused; one that cannot be read is rendered anew (with a warning).
@@ -48,6 +49,21 @@ static uint64_t reference_key(const bench_opts *o, const pn_gpu_device *dev, con
     k = fnv(k, dev->driver.driverInfo, strlen(dev->driver.driverInfo));
     k = fnv(k, scene->vertices, (size_t)scene->vertex_count * sizeof *scene->vertices);
     k = fnv(k, scene->indices, (size_t)scene->index_count * sizeof *scene->indices);
+    // Alpha masks cut shadows: which triangles are masked (the draws), by what cutoff and alpha. An
+    // opaque scene hashes nothing more, so that its cached references keep their keys.
+    bool masked = false;
+    for (uint32_t i = 0; i < scene->material_count; i++)
+        masked = masked || scene->materials[i].alpha_cutoff > 0;
+    if (masked) {
+        k = fnv(k, scene->draws, (size_t)scene->draw_count * sizeof *scene->draws);
+        k = fnv(k, scene->materials, (size_t)scene->material_count * sizeof *scene->materials);
+        for (uint32_t i = 0; i < scene->texture_count; i++) {
+            const pn_texture *t = &scene->textures[i];
+            uint32_t size[2] = {t->width, t->height};
+            k = fnv(k, size, sizeof size);
+            k = fnv(k, t->rgba, (size_t)t->width * t->height * 4);
+        }
+    }
     k = fnv(k, cam, sizeof *cam);
     k = fnv(k, light, sizeof *light);
     uint32_t params[4] = {w, h, o->reference_spp, PN_REFERENCE_SEED};

@@ -1,5 +1,6 @@
 // penumbra bench's views: the standard set every default run measures, and the scenes of --scenes
-// with render's default framing. A standard view places camera and light relative to the object's
+// with render's default framing. A standard view's scene is a mesh of the shared assets or a
+// built-in scene (builtin:NAME, needing no assets). A standard view places camera and light relative to the object's
 // bounding sphere (centre c, radius r), so it frames the mesh the same way whatever its units.
 #include <math.h>
 #include <stdio.h>
@@ -29,6 +30,12 @@ static const pn_bench_view_spec SPECS[] = {
      {-1.3f, 1.6f, 0.5f}, {0.0f, 0.0f, 0.0f}, 0.5f, true, PN_LIGHT_SUN, 0.53f},
     {"bunny-sphere", "stanford-bunny-69k.glb", {0.2f, 1.1f, 2.3f}, {0.4f, -0.3f, 0.0f}, 45.0f,
      {-1.3f, 1.6f, 0.5f}, {0.0f, 0.0f, 0.0f}, 0.5f, true, PN_LIGHT_SPHERE, 0},
+    // Alpha-masked casters (builtin:canopy, r = 4.5 m with its own ground): from above a corner,
+    // the pergola and its leaves in the far half of the frame, the ground in front, where a light
+    // high on the far side (about 18 cm wide, a little wider than a leaf is long) throws the
+    // leaves' dappling and the posts' shadows towards the camera.
+    {"canopy", "builtin:canopy", {0.93f, 1.05f, 1.15f}, {0.07f, -0.23f, 0.09f}, 50.0f,
+     {-0.66f, 1.31f, -0.44f}, {0.07f, -0.35f, 0.07f}, 0.04f, false},
 };
 enum { SPEC_COUNT = sizeof SPECS / sizeof SPECS[0] };
 
@@ -53,6 +60,10 @@ bool pn_bench_view_standard(bench_view *v, const pn_bench_view_spec *spec)
     memset(v, 0, sizeof *v);
     v->spec = spec;
     snprintf(v->name, sizeof v->name, "%s", spec->name);
+    if (strncmp(spec->file, "builtin:", 8) == 0) { // generated in code: always there
+        snprintf(v->source, sizeof v->source, "%s", spec->file);
+        return true;
+    }
     snprintf(v->source, sizeof v->source, "%s/%s", pn_bench_assets_dir(), spec->file);
     struct stat st;
     return stat(v->source, &st) == 0;
