@@ -10,6 +10,7 @@
 #include "apps/quality.h"
 #include "apps/render_opts.h"
 #include "apps/render_output.h"
+#include "apps/render_sequence.h"
 #include "shadow/setup.h"
 #include "core/log.h"
 #include "core/timer.h"
@@ -38,6 +39,14 @@ void pn_print_render_help(void)
            "  --ray-dump FILE       every shadow ray (origin, light sample, valid, blocked) as binary,\n"
            "                        for checks against an independent tracer; format in\n"
            "                        engine/apps/cmd_render.c\n"
+           "sequences (animated glTF):\n"
+           "  --frames A:B[:STEP]   frames A, A+STEP, ... B, frame f at time f / fps, one EXR each: -o\n"
+           "                        names them with the frame number as %%d or %%0Nd (shot.%%04d.exr); the\n"
+           "                        shadow structure is built once (per-object trees: their top level\n"
+           "                        follows the animation) with a line per frame and the time left\n"
+           "  --fps F               frames per second of --frames (default 24)\n"
+           "  --shard K/N           render every N-th frame from the K-th (1 <= K <= N): N jobs under a\n"
+           "                        runner (GNU parallel, a Slurm array) render the sequence between them\n"
            "quality:\n"
            "  --quality auto|manual auto: choose --mode, --tree and --spp from pilot renders (the same\n"
            "                        framing at about 128x128) against a converged exact reference (1024\n"
@@ -53,9 +62,58 @@ void pn_print_render_help(void)
     pn_render_opts_print_help();
 }
 
+// --frames A:B[:STEP]: integers within 1e9, A <= B, STEP >= 1.
+static bool parse_frames(const char *v, pn_sequence *q)
+{
+    long long x[3] = {0, 0, 1};
+    int n = 0;
+    char buf[128];
+    snprintf(buf, sizeof buf, "%s", v);
+    bool ok = strlen(v) < sizeof buf;
+    for (char *p = buf, *colon; ok && p && n < 3; p = colon ? colon + 1 : NULL) {
+        colon = strchr(p, ':');
+        if (colon)
+            *colon = '\0';
+        ok = pn_parse_int_range("--frames", p, n == 2 ? 1 : -1000000000, 1000000000, &x[n]);
+        n++;
+        if (colon && n == 3)
+            ok = false;
+    }
+    if (!ok || n < 2 || x[0] > x[1]) {
+        if (ok)
+            pn_error("--frames: expected FIRST:LAST[:STEP] with FIRST <= LAST, got '%s'", v);
+        return false;
+    }
+    q->on = true;
+    q->first = x[0], q->last = x[1], q->step = x[2];
+    return true;
+}
+
+// --shard K/N: 1 <= K <= N.
+static bool parse_shard(const char *v, pn_sequence *q)
+{
+    long long k, n;
+    char buf[64];
+    const char *slash = strchr(v, '/');
+    if (!slash || (size_t)(slash - v) >= sizeof buf) {
+        pn_error("--shard: expected K/N (shard K of N, 1 <= K <= N), got '%s'", v);
+        return false;
+    }
+    snprintf(buf, sizeof buf, "%.*s", (int)(slash - v), v);
+    if (!pn_parse_int_range("--shard K", buf, 0, 1000000, &k) || !pn_parse_int_range("--shard N", slash + 1, 0, 1000000, &n))
+        return false;
+    if (!(n >= 1 && k >= 1 && k <= n)) {
+        pn_error("--shard %s: shard K of N needs 1 <= K <= N", v);
+        return false;
+    }
+    q->shard_k = (int)k, q->shard_n = (int)n;
+    return true;
+}
+
 int pn_render_parse(int argc, char **argv, render_opts *o)
 {
-    *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01, .view_cull = true};
+    *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01, .view_cull = true,
+                       .seq = {.fps = 24, .shard_k = 1, .shard_n = 1}};
     pn_args a = {argc, argv, 0};
     while (a.i < argc) {
         const char *v = NULL;
@@ -86,6 +144,17 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
             o->max_error = e;
         } else if (pn_args_flag(&a, "--json")) {
             o->json = true;
+        } else if (pn_args_value(&a, "--frames", &v, &err)) {
+            if (!v || !parse_frames(v, &o->seq))
+                return PN_EXIT_USAGE;
+        } else if (pn_args_value(&a, "--fps", &v, &err)) {
+            float fps;
+            if (!v || !pn_parse_float_range("--fps", v, 1e-3f, 1e4f, &fps))
+                return PN_EXIT_USAGE;
+            o->seq.fps = fps;
+        } else if (pn_args_value(&a, "--shard", &v, &err)) {
+            if (!v || !parse_shard(v, &o->seq))
+                return PN_EXIT_USAGE;
         } else if (pn_render_opts_parse(&a, &o->r, &err)) {
             // a shared option
         } else if (arg[0] == '-' && arg[1] != '\0') {
@@ -103,6 +172,24 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
+    if (o->seq.shard_n > 1 && !o->seq.on) {
+        pn_error("--shard: shares out the frames of --frames, which is not given");
+        return PN_EXIT_USAGE;
+    }
+    if (o->seq.on) {
+        const char *clash = o->r.has_time ? "--time" : o->preview ? "--preview" : o->ray_dump ? "--ray-dump"
+                          : o->auto_quality ? "--quality auto" : NULL;
+        if (clash) {
+            pn_error("--frames: %s is for one frame", clash);
+            return PN_EXIT_USAGE;
+        }
+        if (!o->output) {
+            pn_error("--frames: give -o with the frame number, e.g. -o shot.%%04d.exr");
+            return PN_EXIT_USAGE;
+        }
+        if (!pn_frame_pattern_ok("-o", o->output))
+            return PN_EXIT_USAGE;
+    }
     if (o->ray_dump && !pn_shadow_mode_get(o->r.mode)->traces) {
         pn_error("--ray-dump: mode %s traces no rays", pn_shadow_mode_get(o->r.mode)->name);
         return PN_EXIT_USAGE;
@@ -320,9 +407,12 @@ int pn_cmd_render(int argc, char **argv)
     int rc = pn_render_parse(argc, argv, &o);
     if (rc != PN_EXIT_OK)
         return rc < 0 ? PN_EXIT_OK : rc;
-    char default_out[1024];
+    char default_out[4096];
     const char *output = o.output;
-    if (!output) {
+    if (o.seq.on) { // the first frame's name stands for them all
+        pn_frame_name(o.output, o.seq.first, default_out, sizeof default_out);
+        output = default_out;
+    } else if (!output) {
         default_output(o.scene, default_out, sizeof default_out);
         output = default_out;
     }
@@ -381,13 +471,15 @@ int pn_cmd_render(int argc, char **argv)
         }
         st.quality_auto = o.auto_quality;
         st.quality = choice;
-        if (exit_code == PN_EXIT_OK)
+        if (exit_code == PN_EXIT_OK && o.seq.on)
+            exit_code = pn_render_sequence(&o, &prep, &dev);
+        else if (exit_code == PN_EXIT_OK)
             exit_code = render_frame(&o, output, &dev, &scene, &cam, prep.lights, prep.light_count, &st);
         pn_gpu_device_destroy(&dev);
     }
-    if (exit_code == PN_EXIT_OK)
+    if (exit_code == PN_EXIT_OK && !o.seq.on)
         print_summary(&o, output, &scene, &st, load_ms, dev.validation_messages);
-    pn_scene_destroy(&scene);
+    pn_scene_destroy(o.seq.on ? &prep.scene : &scene);
     if (dev.validation_messages) {
         pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);
         return PN_EXIT_VALIDATION;

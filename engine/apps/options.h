@@ -9,6 +9,15 @@
 
 #include "apps/render_opts.h"
 
+// render --frames A:B[:STEP] --fps F [--shard K/N]: a sequence of frames A, A + STEP, ... B at
+// time frame / fps, the share of shard K of N (every N-th from the K-th, counted from 1).
+typedef struct pn_sequence {
+    bool on;
+    long long first, last, step;
+    double fps;
+    int shard_k, shard_n;
+} pn_sequence;
+
 // penumbra render: the options render shares with demo, plus its scene and outputs.
 typedef struct pn_render_cmd_opts {
     pn_render_opts r;
@@ -17,6 +26,7 @@ typedef struct pn_render_cmd_opts {
     bool view_cull;    // the tree models only what the picture needs (off: --no-view-cull)
     bool auto_quality; // --quality auto
     double max_error;  // --max-error: its budget of MAE against exact
+    pn_sequence seq;
 } pn_render_cmd_opts;
 
 int pn_render_parse(int argc, char **argv, pn_render_cmd_opts *o);

@@ -201,6 +201,8 @@ pn_result pn_renderer_update_vertices(pn_renderer *r, const pn_scene *scene, uin
     return PN_OK;
 }
 
+void pn_renderer_set_leaf_size(pn_renderer *r, double leaf_size) { r->desc.leaf_size = leaf_size; }
+
 void pn_renderer_destroy(pn_renderer *r)
 {
     pn_gpu_device *dev = r->dev;

@@ -50,6 +50,10 @@ void pn_renderer_destroy(pn_renderer *r);
 // the caller's to update (per-object trees: pn_objects_update, pn_gpu_objects_update).
 pn_result pn_renderer_update_vertices(pn_renderer *r, const pn_scene *scene, uint32_t first, uint32_t count);
 
+// The leaf extent the shadow rays rise by (pn_renderer_desc.leaf_size) from the next frame on: per-
+// object trees whose instances turned or scaled (pn_objects_update's leaf_size).
+void pn_renderer_set_leaf_size(pn_renderer *r, double leaf_size);
+
 // Records, submits and waits for one frame; fills `times` and leaves the images readable through
 // pn_renderer_images until the next call.
 pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_light *light, pn_frame_times *times);
