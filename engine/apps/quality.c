@@ -2,12 +2,14 @@
 #include "apps/quality.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "shadow/metrics.h"
 #include "shadow/setup.h"
 #include "core/log.h"
+#include "core/timer.h"
 #include "scene/view.h"
 
 // The standard trees, coarse to fine; a mode tries the first pn_shadow_mode_info.auto_trees of
@@ -369,6 +371,17 @@ static bool climb_ends(const climb *c, const pn_shadow_mode_info *info, bool wit
     return within || (c->out->within && ms >= c->out->pilot_ms) || (!info->exact && mae > 0.9 * prev_mae);
 }
 
+// How many of its standard trees --quality auto climbs for mode m (1 for a mode without a tree), 0
+// when m is no candidate for the scene on this device.
+static int candidate_trees(const pn_gpu_device *dev, const pn_scene *scene, pn_shadow_mode m)
+{
+    const pn_shadow_mode_info *info = pn_shadow_mode_get(m);
+    if (!info->traces || !pn_shadow_mode_available(dev, m, NULL) || !pn_shadow_mode_takes_scene(m, scene, NULL, 0))
+        return 0;
+    int most = (int)(sizeof TREES / sizeof TREES[0]);
+    return info->auto_trees < most ? info->auto_trees : most;
+}
+
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
                             pn_quality_choice *out)
@@ -382,6 +395,9 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
         r = pilot_size_init(&big, frame, fmin(1.0, 2.0 * scale), max_bytes, reference_spp, cam);
     if (r == PN_OK)
         r = pilot_reference(dev, scene, cam, light, &pilot);
+    if (r == PN_OK)
+        fprintf(stderr, "quality auto: the converged reference, %u spp at %ux%u, in %.1f s\n", reference_spp,
+                pilot.sd.frame.width, pilot.sd.frame.height, pilot.reference_ms * 1e-3);
     out->pilot_width = pilot.sd.frame.width;
     out->pilot_height = pilot.sd.frame.height;
     out->reference_ms = pilot.reference_ms;
@@ -393,13 +409,14 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                     max_error > 0 && !pn_light_is_point(light);
     pn_setup_desc sd = pilot.sd;
     pn_setup s;
+    // The configurations to climb, for the progress lines: a mode's trees, or the mode once.
+    int total = 0, done = 0;
+    uint64_t t_start = pn_time_ns();
+    for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
+        total += candidate_trees(dev, scene, (pn_shadow_mode)m);
     for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
         const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
-        if (!info->traces || !pn_shadow_mode_available(dev, (pn_shadow_mode)m, NULL) ||
-            !pn_shadow_mode_takes_scene((pn_shadow_mode)m, scene, NULL, 0))
-            continue; // e.g. rayquery without ray queries, line space over alpha masks: not a candidate here
-        int trees = info->auto_trees < (int)(sizeof TREES / sizeof TREES[0]) ? info->auto_trees
-                                                                             : (int)(sizeof TREES / sizeof TREES[0]);
+        int trees = candidate_trees(dev, scene, (pn_shadow_mode)m); // 0: not a candidate here (rayquery without ray queries)
         for (int t = 0; r == PN_OK && t < trees; t++) {
             sd.frame.mode = (pn_shadow_mode)m;
             sd.frame.spp = 1;
@@ -440,6 +457,13 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 prev_mae = mae;
             }
             pn_setup_destroy(dev, &s);
+            done++;
+            double elapsed = pn_ms_since(t_start) * 1e-3;
+            fprintf(stderr, "quality auto: %d/%d %s", done, total, info->name);
+            if (info->needs.tree)
+                fprintf(stderr, " LS(%d,%d)", sd.tree_n, sd.tree_d);
+            fprintf(stderr, ": MAE %.4f at the last step; %.1f s elapsed, about %.1f s left\n", mae, elapsed,
+                    elapsed / done * (total - done));
         }
     }
     if (r == PN_OK && !c.have) {
