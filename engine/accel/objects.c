@@ -10,6 +10,7 @@
 
 #include "core/log.h"
 #include "core/timer.h"
+#include "scene/anim.h"
 
 // A transform whose columns span less than this fraction of the volume of the box they would span
 // if they were orthogonal is not inverted: float local coordinates of a ray carry a relative error
@@ -17,6 +18,15 @@
 // tenth of the object's size. Such an instance is flattened to nearly a plane and can block only
 // rays that run nearly within that plane: it is left out of the top level (and counted).
 #define FLAT_VOLUME 1e-6
+
+// Whether object o gets a tree of its own: every object of a scene without animation (any may be
+// moved: --move-object, the demo), only the animated ones of an animated scene. What stands still
+// joins the one world-space tree of the triangles of no object, so that a frame costs a top-level
+// rebuild and the still geometry one tree (objects.h).
+static bool own_tree(const pn_scene *s, uint32_t o)
+{
+    return !pn_scene_animated(s) || s->anim->nodes[s->objects[o].node].posed;
+}
 
 // Builds `tree` over the scene `s` (a mesh's soup or the rest) and packs its pools.
 static pn_result build_tree(const pn_scene *s, const pn_ntree_desc *desc, pn_ntree *tree, pn_pools *pools)
@@ -67,7 +77,7 @@ static pn_result rest_scene(const pn_scene *scene, pn_scene *out)
     }
     for (uint32_t o = 0; o < scene->object_count; o++) {
         const pn_scene_object *obj = &scene->objects[o];
-        for (uint32_t t = obj->first_index / 3; t < (obj->first_index + obj->index_count) / 3 && t < tris; t++)
+        for (uint32_t t = obj->first_index / 3; own_tree(scene, o) && t < (obj->first_index + obj->index_count) / 3 && t < tris; t++)
             held[t] = 1;
     }
     for (uint32_t t = 0; t < tris; t++)
@@ -94,20 +104,28 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
         pn_error("%s: out of memory building per-object trees", scene->name);
         return r;
     }
+    // A mesh gets a tree if an object with a tree of its own instances it.
+    uint8_t *used = calloc(scene->mesh_count ? scene->mesh_count : 1, 1);
+    uint32_t own = 0;
+    for (uint32_t o = 0; used && o < scene->object_count; o++)
+        if (own_tree(scene, o)) {
+            used[scene->objects[o].mesh] = 1;
+            own++;
+        }
     out->tree_count = scene->mesh_count + (rest.index_count ? 1 : 0);
     out->trees = calloc(out->tree_count, sizeof *out->trees);
     out->pools = calloc(out->tree_count, sizeof *out->pools);
-    out->instance_count = scene->object_count + (rest.index_count ? 1 : 0);
+    out->instance_count = own + (rest.index_count ? 1 : 0);
     out->instances = calloc(out->instance_count ? out->instance_count : 1, sizeof *out->instances);
-    if (!out->trees || !out->pools || !out->instances)
+    if (!used || !out->trees || !out->pools || !out->instances)
         r = PN_ERR_MEMORY;
     // The meshes' trees are not culled, the rest's by the lights (objects.h). The byte limit holds
     // for all trees together.
     pn_ntree_desc td = {.n = desc->n, .d = desc->d, .max_pool_bytes = desc->max_pool_bytes};
     for (uint32_t i = 0; r == PN_OK && i < out->tree_count; i++) {
         bool is_rest = i == scene->mesh_count;
-        if (!is_rest && scene->meshes[i].triangle_count == 0)
-            continue; // a mesh whose primitives gave no triangles has no object either
+        if (!is_rest && (scene->meshes[i].triangle_count == 0 || !used[i]))
+            continue; // a mesh whose primitives gave no triangles has no object either; one that stands still
         pn_scene mesh;
         if (!is_rest)
             r = mesh_scene(scene, i, &mesh);
@@ -137,6 +155,7 @@ pn_result pn_objects_build(const pn_scene *scene, const pn_ntree_desc *desc, pn_
         out->bytes.total += out->pools[i].bytes.total;
     }
     free(rest.indices);
+    free(used);
     memcpy(out->cull_box, scene->bounds_min, 3 * sizeof(float));
     memcpy(out->cull_box + 3, scene->bounds_max, 3 * sizeof(float));
     uint32_t corners = desc->cull_light ? (desc->cull_light_corners ? desc->cull_light_corners : 4) : 0;
@@ -203,8 +222,11 @@ pn_result pn_objects_update(const pn_scene *scene, pn_objects *o)
     uint64_t t0 = pn_time_ns();
     uint32_t count = 0, flat = 0;
     o->leaf_size = DBL_MAX;
-    for (uint32_t i = 0; i < o->instance_count; i++) {
-        bool is_rest = i == scene->object_count; // (only present when its tree is)
+    bool has_rest = o->tree_count > scene->mesh_count; // (present when its tree is)
+    for (uint32_t i = 0; i <= scene->object_count; i++) {
+        bool is_rest = i == scene->object_count;
+        if (is_rest ? !has_rest : !own_tree(scene, i))
+            continue;
         uint32_t tree = is_rest ? scene->mesh_count : scene->objects[i].mesh;
         double a[3][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}};
         if (!is_rest)

@@ -7,6 +7,11 @@
 //
 // The trees are not culled by light or view (the scene-wide tree's cull_light and keep_box): a
 // mesh's tree must serve every instance wherever it stands and whatever lights it.
+//
+// Model only what moves: in an animated scene (scene/anim.h) only the objects an animation moves
+// get trees of their own; the still ones join the triangles of no object in the one world-space
+// tree, so that a frame costs a top-level rebuild. In a scene without animation every object gets
+// one (any may be moved by hand).
 #pragma once
 #include <stdbool.h>
 #include <stdint.h>

@@ -280,7 +280,8 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     st->subdivided = s.accel.tree.node_count;
     for (uint32_t i = 0; i < s.accel.objects.tree_count; i++)
         st->subdivided += s.accel.objects.trees[i].node_count;
-    st->trees = s.accel.objects.tree_count;
+    for (uint32_t i = 0; i < s.accel.objects.tree_count; i++) // (a mesh no moving object instances has none)
+        st->trees += s.accel.objects.trees[i].node_count > 0;
     st->objects = s.accel.objects.placed;
     st->culled = s.accel.desc.per_object ? s.accel.objects.culled : s.accel.tree.culled;
     st->culled_box = s.accel.tree.culled_box;
