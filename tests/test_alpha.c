@@ -6,8 +6,9 @@
 // uv are left out). Checked for every mode that takes the scene, with both traversals (rayquery
 // where the device has ray queries; the line-space modes test the leaves holding masked triangles
 // exactly); the G-buffer shows no surface where the quad is cut out (seen from above, every quad
-// pixel is an opaque texel's). Under an area light the line-space modes give exact's V pixel for
-// pixel (the quad is the only caster). Per-object trees refuse the scene, naming the masked
+// pixel is an opaque texel's). Under an area light the mean V of the ground under the pattern is
+// its open share, computed exactly here (within 4 standard errors of the mean), and the line-space
+// modes give exact's V pixel for pixel (the quad is the only caster). Per-object trees refuse the scene, naming the masked
 // triangles; BLEND casts as MASK at 0.5; a mask whose texture cannot be read is skipped with a
 // warning and renders opaque.
 // rayquery's V must also equal exact's bit for bit on every pixel but those the oracle leaves out:
@@ -187,8 +188,9 @@ static void check_same_v(const char *what, const counts *x, const counts *r)
               "%s: rayquery's V differs from exact's on %d pixels away from every edge", what, off_edge);
 }
 
-// Renders `gltf` under a 2 x 2 rectangle at (0, 2, 0) facing down, 16 spp, and returns its shadow.V
-// (width x height floats, to free) or NULL.
+// Renders `gltf` under a 2 x 2 rectangle at (0, 2, 0) facing down, 16 spp, and returns per pixel
+// its shadow.V, P.X, P.Y, P.Z and A (5 x width x height floats, to free), or NULL.
+enum { AREA_V, AREA_X, AREA_Y, AREA_Z, AREA_A, AREA_FIELDS };
 static float *area_v(const char *gltf, const char *mode, int *count)
 {
     const char *exr = pn_test_tmp("alpha_area.exr");
@@ -200,13 +202,35 @@ static float *area_v(const char *gltf, const char *mode, int *count)
     pn_exr_image img;
     if (pn_test_run(args) != 0 || pn_exr_read(exr, &img) != PN_OK)
         return NULL;
-    const float *v = pn_exr_image_channel(&img, "shadow.V");
+    const float *ch[AREA_FIELDS] = {pn_exr_image_channel(&img, "shadow.V"), pn_exr_image_channel(&img, "P.X"),
+                                     pn_exr_image_channel(&img, "P.Y"), pn_exr_image_channel(&img, "P.Z"),
+                                     pn_exr_image_channel(&img, "A")};
     *count = img.width * img.height;
-    float *out = v ? malloc((size_t)*count * sizeof *out) : NULL;
-    if (out)
-        memcpy(out, v, (size_t)*count * sizeof *out);
+    bool all = ch[0] && ch[1] && ch[2] && ch[3] && ch[4];
+    float *out = all ? malloc((size_t)*count * AREA_FIELDS * sizeof *out) : NULL;
+    for (int i = 0; out && i < *count; i++)
+        for (int f = 0; f < AREA_FIELDS; f++)
+            out[AREA_FIELDS * i + f] = ch[f][i];
     pn_exr_image_free(&img);
     return out;
+}
+
+// The open share of the square of half-width 0.25 round (cx, cz) in the quad's plane: the
+// checkerboard's cut-out texels (texel(), (x + y) odd) and everything beside the quad, exactly,
+// summed over the texel columns and rows it overlaps.
+static double open_share(double cx, double cz)
+{
+    double blocked = 0;
+    for (int i = -5; i < 5; i++)
+        for (int j = -5; j < 5; j++) {
+            if (((i + 4) + (j + 4)) % 2 != 0) // texel (i + 4, j + 4) of the 8 x 8 grid is cut out
+                continue;
+            double x0 = fmax(i / 8.0, cx - 0.25), x1 = fmin((i + 1) / 8.0, cx + 0.25);
+            double z0 = fmax(j / 8.0, cz - 0.25), z1 = fmin((j + 1) / 8.0, cz + 0.25);
+            if (i >= -4 && i < 4 && j >= -4 && j < 4 && x1 > x0 && z1 > z0)
+                blocked += (x1 - x0) * (z1 - z0);
+        }
+    return 1 - blocked / 0.25;
 }
 
 int main(void)
@@ -273,19 +297,38 @@ int main(void)
     int np = 0, ne = 0;
     float *ve = area_v(gltf, "exact", &ne);
     CHECK(ve != NULL);
-    int dark = 0, partial = 0;
+    // The mean V over the ground is the open share of the light: a ground point g sees the light
+    // through the square of half-width 0.25 round 3 g / 4 in the quad's plane (the light is 2 wide at
+    // height 2, the quad at 0.5), a linear map, so V(g) is the square's open area share (open_share,
+    // exact). Per pixel the 16 stratified samples estimate it with a standard error of at most
+    // 0.5 / sqrt(16); over n pixels the mean's is at most 0.125 / sqrt(n): 4 of those bound the
+    // difference of the means.
+    int partial = 0, n = 0;
+    double sum_v = 0, sum_open = 0;
     for (int i = 0; ve && i < ne; i++) {
-        dark += ve[i] < 0.25f;
-        partial += ve[i] > 0.25f && ve[i] < 0.75f;
+        const float *q = &ve[AREA_FIELDS * i];
+        if (!(q[AREA_A] > 0) || fabs(q[AREA_Y]) > 1e-4)
+            continue;
+        partial += q[AREA_V] > 0.25f && q[AREA_V] < 0.75f;
+        double open = open_share(0.75 * q[AREA_X], 0.75 * q[AREA_Z]);
+        if (open >= 1) // beside the quad's shadow: no texel to judge
+            continue;
+        sum_v += q[AREA_V], sum_open += open;
+        n++;
     }
-    printf("area light, exact: %d pixels with V in (0.25, 0.75), %d below 0.25\n", partial, dark);
+    double bound = n ? 4 * 0.125 / sqrt(n) : 0;
+    printf("area light, exact: %d ground pixels under the pattern, mean V %.4f, mean open share %.4f (bound %.4f); "
+           "%d pixels with V in (0.25, 0.75)\n",
+           n, n ? sum_v / n : 0, n ? sum_open / n : 0, bound, partial);
+    CHECK_MSG(n > 2000 && fabs(sum_v - sum_open) / n < bound, "mean V %.4f against the open share %.4f over %d pixels",
+              n ? sum_v / n : 0, n ? sum_open / n : 0, n);
     CHECK_MSG(partial > 1000, "the pattern's penumbrae: %d pixels with V in (0.25, 0.75)", partial);
     const char *area_modes[] = {"linespace", "ls-leaf", "ls-plane", "hybrid", "exact-ls"};
     for (size_t m = 0; ve && m < sizeof area_modes / sizeof area_modes[0]; m++) {
         float *vm = area_v(gltf, area_modes[m], &np);
         int differ = 0;
         for (int i = 0; vm && np == ne && i < ne; i++)
-            differ += vm[i] != ve[i];
+            differ += vm[AREA_FIELDS * i + AREA_V] != ve[AREA_FIELDS * i + AREA_V];
         printf("area light, %s: %d of %d pixels differ from exact\n", area_modes[m], differ, ne);
         CHECK_MSG(vm && np == ne && differ == 0, "%s under an area light: %d pixels differ from exact", area_modes[m], differ);
         free(vm);
