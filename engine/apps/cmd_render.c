@@ -62,54 +62,6 @@ void pn_print_render_help(void)
     pn_render_opts_print_help();
 }
 
-// --frames A:B[:STEP]: integers within 1e9, A <= B, STEP >= 1.
-static bool parse_frames(const char *v, pn_sequence *q)
-{
-    long long x[3] = {0, 0, 1};
-    int n = 0;
-    char buf[128];
-    snprintf(buf, sizeof buf, "%s", v);
-    bool ok = strlen(v) < sizeof buf;
-    for (char *p = buf, *colon; ok && p && n < 3; p = colon ? colon + 1 : NULL) {
-        colon = strchr(p, ':');
-        if (colon)
-            *colon = '\0';
-        ok = pn_parse_int_range("--frames", p, n == 2 ? 1 : -1000000000, 1000000000, &x[n]);
-        n++;
-        if (colon && n == 3)
-            ok = false;
-    }
-    if (!ok || n < 2 || x[0] > x[1]) {
-        if (ok)
-            pn_error("--frames: expected FIRST:LAST[:STEP] with FIRST <= LAST, got '%s'", v);
-        return false;
-    }
-    q->on = true;
-    q->first = x[0], q->last = x[1], q->step = x[2];
-    return true;
-}
-
-// --shard K/N: 1 <= K <= N.
-static bool parse_shard(const char *v, pn_sequence *q)
-{
-    long long k, n;
-    char buf[64];
-    const char *slash = strchr(v, '/');
-    if (!slash || (size_t)(slash - v) >= sizeof buf) {
-        pn_error("--shard: expected K/N (shard K of N, 1 <= K <= N), got '%s'", v);
-        return false;
-    }
-    snprintf(buf, sizeof buf, "%.*s", (int)(slash - v), v);
-    if (!pn_parse_int_range("--shard K", buf, 0, 1000000, &k) || !pn_parse_int_range("--shard N", slash + 1, 0, 1000000, &n))
-        return false;
-    if (!(n >= 1 && k >= 1 && k <= n)) {
-        pn_error("--shard %s: shard K of N needs 1 <= K <= N", v);
-        return false;
-    }
-    q->shard_k = (int)k, q->shard_n = (int)n;
-    return true;
-}
-
 int pn_render_parse(int argc, char **argv, render_opts *o)
 {
     *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01, .view_cull = true,
@@ -145,7 +97,7 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
         } else if (pn_args_flag(&a, "--json")) {
             o->json = true;
         } else if (pn_args_value(&a, "--frames", &v, &err)) {
-            if (!v || !parse_frames(v, &o->seq))
+            if (!v || !pn_parse_frames(v, &o->seq))
                 return PN_EXIT_USAGE;
         } else if (pn_args_value(&a, "--fps", &v, &err)) {
             float fps;
@@ -153,7 +105,7 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
                 return PN_EXIT_USAGE;
             o->seq.fps = fps;
         } else if (pn_args_value(&a, "--shard", &v, &err)) {
-            if (!v || !parse_shard(v, &o->seq))
+            if (!v || !pn_parse_shard(v, &o->seq))
                 return PN_EXIT_USAGE;
         } else if (pn_render_opts_parse(&a, &o->r, &err)) {
             // a shared option

@@ -15,6 +15,52 @@
 #include "core/timer.h"
 #include "shadow/setup.h"
 
+bool pn_parse_frames(const char *v, pn_sequence *q)
+{
+    long long x[3] = {0, 0, 1};
+    int n = 0;
+    char buf[128];
+    snprintf(buf, sizeof buf, "%s", v);
+    bool ok = strlen(v) < sizeof buf;
+    for (char *p = buf, *colon; ok && p && n < 3; p = colon ? colon + 1 : NULL) {
+        colon = strchr(p, ':');
+        if (colon)
+            *colon = '\0';
+        ok = pn_parse_int_range("--frames", p, n == 2 ? 1 : -1000000000, 1000000000, &x[n]);
+        n++;
+        if (colon && n == 3)
+            ok = false;
+    }
+    if (!ok || n < 2 || x[0] > x[1]) {
+        if (ok)
+            pn_error("--frames: expected FIRST:LAST[:STEP] with FIRST <= LAST, got '%s'", v);
+        return false;
+    }
+    q->on = true;
+    q->first = x[0], q->last = x[1], q->step = x[2];
+    return true;
+}
+
+bool pn_parse_shard(const char *v, pn_sequence *q)
+{
+    long long k, n;
+    char buf[64];
+    const char *slash = strchr(v, '/');
+    if (!slash || (size_t)(slash - v) >= sizeof buf) {
+        pn_error("--shard: expected K/N (shard K of N, 1 <= K <= N), got '%s'", v);
+        return false;
+    }
+    snprintf(buf, sizeof buf, "%.*s", (int)(slash - v), v);
+    if (!pn_parse_int_range("--shard K", buf, 0, 1000000, &k) || !pn_parse_int_range("--shard N", slash + 1, 0, 1000000, &n))
+        return false;
+    if (!(n >= 1 && k >= 1 && k <= n)) {
+        pn_error("--shard %s: shard K of N needs 1 <= K <= N", v);
+        return false;
+    }
+    q->shard_k = (int)k, q->shard_n = (int)n;
+    return true;
+}
+
 bool pn_frame_pattern_ok(const char *opt, const char *pattern)
 {
     const char *p = strchr(pattern, '%');
