@@ -398,11 +398,20 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
     bool want_exact = wants_exact(o);
     // The run's count of cells held this view's upper bound until now: its own count instead.
     bench_cells *bc = &rows->cells;
-    bc->total += pn_bench_view_cells(o, dev, &scene) - pn_bench_view_cells(o, dev, NULL);
+    int view_cells = pn_bench_view_cells(o, dev, &scene);
+    bc->total += view_cells - pn_bench_view_cells(o, dev, NULL);
     bc->mine = pn_bench_share(o, bc->total) - bc->skip_count;
     for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++) {
         uint32_t w = o->sizes[si][0], h = o->sizes[si][1];
         size_t px = (size_t)w * h;
+        // A shard that has none of this size's cells needs neither its reference nor its exact.
+        int group_cells = view_cells / o->size_count, owned = 0;
+        for (int c = 0; o->shard_n && c < group_cells; c++)
+            owned += pn_bench_owns(o, bc->next + c);
+        if (o->shard_n && !owned) {
+            bc->next += group_cells;
+            continue;
+        }
         bench_group g = {.o = o, .dev = dev, .scene = &scene, .cam = &cam, .light = &light, .rtc = rs,
                    .frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler,
                              .seed = o->seed}};
