@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "apps/args.h"
 #include "apps/bench/bench.h"
@@ -40,6 +41,15 @@ int pn_cmd_bench(int argc, char **argv)
     }
     if (mkdir(o.out_dir, 0755) != 0 && errno != EEXIST) {
         pn_error("%s: cannot create the output folder: %s", o.out_dir, strerror(errno));
+        free_opts(&o);
+        return PN_EXIT_FAILURE;
+    }
+    // A shard's partial file from an earlier run in this folder goes first: a shard that fails now
+    // must not leave one behind that --merge would take for this run's share.
+    char partial[4096];
+    snprintf(partial, sizeof partial, "%s/%s", o.out_dir, PN_BENCH_PARTIAL);
+    if (o.shard_n && unlink(partial) != 0 && errno != ENOENT) {
+        pn_error("%s: cannot remove the previous partial file: %s", partial, strerror(errno));
         free_opts(&o);
         return PN_EXIT_FAILURE;
     }
