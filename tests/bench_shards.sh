@@ -96,9 +96,11 @@ for s in 4/3 0/0 1/0 x/2 1 2/; do
 done
 "$BIN" "${A[@]}" --lights 2 --shard 1/2 --out "$T/bad" > /dev/null 2> "$T/bad.err"
 [ $? = 2 ] && grep -q -- "--shard: not with --lights" "$T/bad.err" || { echo "FAIL: --shard with --lights"; fail=1; }
-# Another run's shard 3/3 (other samples).
+# Another run's shard 3/3: the same cells, another seed; and one of another matrix (other samples).
+"$BIN" "${A[@]}" --seed 2 --reference-cache "$RC" --shard 3/3 --out "$T/other" > /dev/null 2>&1 \
+  || { echo "FAIL: the other run's shard"; fail=1; }
 "$BIN" bench --scenes builtin:default --size 64x48,32x32 --spp 4 --trees 5,2 --repeat 1 --warmup 0 --no-embree \
-  --reference-cache "$RC" --shard 3/3 --out "$T/other" > /dev/null 2>&1 || { echo "FAIL: the other run's shard"; fail=1; }
+  --reference-cache "$RC" --shard 3/3 --out "$T/small" > /dev/null 2>&1 || { echo "FAIL: the small run's shard"; fail=1; }
 mkdir -p "$T/empty"
 bad_merge() { # expected message, then the folders
   local want=$1
@@ -110,7 +112,8 @@ bad_merge() { # expected message, then the folders
   [ -e "$T/bad" ] && { echo "FAIL: --merge $* wrote $T/bad"; rm -rf "$T/bad"; fail=1; }
 }
 bad_merge "shard 2/3 missing" "$T/s1" "$T/s3"
-bad_merge "shards of different runs\|not shards of one run" "$T/s1" "$T/s2" "$T/other"
+bad_merge "shards of different runs: 'opt seed 1' against 'opt seed 2'" "$T/s1" "$T/s2" "$T/other"
+bad_merge "is shard 3/3 of 28 cells, .* shard 1/3 of 56: not shards of one run" "$T/s1" "$T/s2" "$T/small"
 bad_merge "are both shard 1/3" "$T/s1" "$T/s1" "$T/s2" "$T/s3"
 bad_merge "no bench_partial.txt" "$T/s1" "$T/s2" "$T/empty"
 bad_merge "no shard folders"
