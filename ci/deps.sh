@@ -17,6 +17,7 @@ PACKAGES=(
   libopenexr-dev openexr
   libembree-dev
   xvfb xauth openimageio-tools gnuplot-nox
+  parallel
   assimp-testmodels
   python3
   clang-14 clang libclang-rt-14-dev llvm-14

@@ -11,6 +11,7 @@
 //   bench_peer.c    the CPU peer, Embree 3 (the only file of the bench that includes Embree)
 //   bench_report.c  console table, bench.csv, bench.json, time_to_error.md
 //   bench_plot.c    the gnuplot plots
+//   bench_shard.c   --shard K/N's partial file, and --merge of the shards' partial files
 #pragma once
 #include <stdbool.h>
 #include <stdio.h>
@@ -89,6 +90,9 @@ typedef struct bench_opts {
     const char *gbuffer; // --shader shadow --gbuffer FILE.exr: P and N from a render's AOVs
     float *gb_p, *gb_n;  // its P (w = A) and N as RGBA planes
     uint32_t gb_width, gb_height;
+    // --shard K/N: this run measures the cells whose index in one run's order is K-1 modulo N and
+    // writes a partial file for --merge (0/0: no --shard).
+    int shard_k, shard_n;
 } bench_opts;
 
 // One cell of the matrix.
@@ -180,6 +184,31 @@ typedef struct bench_light_row {
     double mae_rel, rmse_rel;
 } bench_light_row;
 
+// Whether this run measures the cell of that index (every cell without --shard).
+static inline bool pn_bench_owns(const bench_opts *o, int index)
+{
+    return o->shard_n <= 1 || index % o->shard_n == o->shard_k - 1;
+}
+
+// Of the cells 0 .. total-1, those this run measures.
+static inline int pn_bench_share(const bench_opts *o, int total)
+{
+    if (o->shard_n <= 1)
+        return total;
+    return total >= o->shard_k ? (total - o->shard_k) / o->shard_n + 1 : 0;
+}
+
+// Where the run is in the matrix: cells are numbered in the order one unsharded run visits them
+// (bench_matrix.c), and --shard keeps its share of them; the progress lines' counts and clock.
+typedef struct bench_cells {
+    int next;         // the index of the next cell of the matrix
+    int total;        // the cells of the run: an estimate until every view is loaded
+    int mine, done;   // of them, those this run measures (its shard's share), and those measured
+    int *skipped;     // this run's cells whose configuration could not be set up (indices)
+    int skip_count, skip_cap;
+    uint64_t t0;      // when the first cell started
+} bench_cells;
+
 typedef struct bench_rows {
     bench_row *rows;
     int count, cap;
@@ -187,7 +216,17 @@ typedef struct bench_rows {
     int quality_count, quality_cap;
     bench_light_row *lights;
     int light_count, light_cap;
+    int *index; // per row its cell's index in one run's order (bench_cells.next); rows.count of them
+    int index_cap;
+    bench_cells cells;
 } bench_rows;
+
+// What bench.json says of the machine: filled from the device (pn_bench_context_get) or read back
+// from a shard's partial file.
+typedef struct bench_context {
+    char device[256], driver[256], driver_info[256], cpu[256];
+    uint32_t driver_version, api_version, threads;
+} bench_context;
 
 // ---------------------------------------------------------------------------------------------
 // Options (bench_opts.c)
@@ -203,7 +242,12 @@ pn_result pn_bench_load_gbuffer(bench_opts *o);
 // The matrix (bench_matrix.c)
 
 
-// One view's matrix: appends (and prints) a row per cell; rtc may be NULL (no CPU peer). An exit code.
+// The cells the matrix has for the view (scene NULL: before it is loaded, an upper bound that
+// assumes every mode takes it).
+int pn_bench_view_cells(const bench_opts *o, const pn_gpu_device *dev, const pn_scene *scene);
+
+// One view's matrix: appends (and prints) a row per cell of this run's share (all without
+// --shard), numbering them in rows->cells; rtc may be NULL (no CPU peer). An exit code.
 int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const bench_view *view,
                   bench_rows *rows);
 
@@ -323,7 +367,10 @@ int pn_bench_group_end(const bench_rows *rows, int first);
 bool pn_bench_write_csv(const char *dir, const bench_rows *rows);
 
 // Writes dir/bench.json: the device, CPU and options, then the rows. False (logged) on failure.
-bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows);
+bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_context *ctx, const bench_rows *rows);
+
+// The device's and machine's names for bench.json.
+void pn_bench_context_get(const pn_gpu_device *dev, bench_context *ctx);
 
 // (bench_plot.c) Writes per view and size a gnuplot .dat and .gp (reference error vs shadow time, log-log: a curve
 // per mode and tree through its spp points, the Pareto front, Embree's time on exact's rays) and
@@ -339,3 +386,20 @@ enum { PN_BENCH_ERROR_LEVELS = 4 };
 // exact's; then Embree run plain (the rays of unfiltered exact at the least spp reaching the level)
 // and the fastest cell of any mode, spp and filter over that time. False (logged) on failure.
 bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows);
+
+// ---------------------------------------------------------------------------------------------
+// Shards (bench_shard.c)
+
+// The partial file of a --shard run, in its --out folder.
+#define PN_BENCH_PARTIAL "bench_partial.txt"
+
+// --shard K/N's value into o->shard_k and o->shard_n; false (logged) unless 1 <= K <= N.
+bool pn_bench_parse_shard(const char *v, bench_opts *o);
+
+// Writes dir/bench_partial.txt: the options that shape the results, the context, every field of
+// every row with its cell index, and the cells skipped. False (logged) on failure.
+bool pn_bench_write_partial(const char *dir, const bench_opts *o, const bench_context *ctx, const bench_rows *rows);
+
+// penumbra bench --merge DIR... [--out DIR]: the shards' partial files into one run's reports. An
+// exit code.
+int pn_bench_merge(int argc, char **argv);

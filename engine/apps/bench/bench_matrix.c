@@ -23,11 +23,28 @@ static pn_result time_frames(const bench_opts *o, pn_renderer *r, const pn_camer
     return pn_bench_time_frames(o, r, cam, light, 1, row);
 }
 
-static bool push_row(bench_rows *rows, const bench_row *r)
+static void cell_label(char *out, size_t n, const bench_row *r);
+
+// Appends the row of cell `index`, prints it, and a progress line on stderr: the cells done of
+// this run's, the time since the first, and what is left at the mean time per cell so far (which
+// includes the references and, in a shard, exact's cells measured for the others' bias).
+static bool push_row(bench_rows *rows, const bench_row *r, int index)
 {
+    int n = rows->count, cap = rows->index_cap;
+    if (!pn_bench_append((void **)&rows->index, &n, &cap, &index, sizeof index))
+        return false;
+    rows->index_cap = cap;
     if (!pn_bench_append((void **)&rows->rows, &rows->count, &rows->cap, r, sizeof *r))
         return false;
     pn_bench_print_row(r);
+    bench_cells *c = &rows->cells;
+    c->done++;
+    double s = pn_ms_since(c->t0) * 1e-3;
+    double left = c->mine > c->done ? s / c->done * (c->mine - c->done) : 0;
+    char label[512];
+    cell_label(label, sizeof label, r);
+    fprintf(stderr, "bench: cell %d/%d done (%s), %.1f s elapsed, about %.*f s left\n", c->done, c->mine, label, s,
+            left < 10 ? 1 : 0, left);
     return true;
 }
 
@@ -154,8 +171,9 @@ static bool measure_edges(const bench_group *g, const pn_frame_images *img, benc
 
 // One cell: the set-up `s` (its filter already set) at the fi-th filter and pi-th spp, timed, with
 // both errors and, filtered, the leak across edges. `sd` describes the set-up (for --work).
+// `first`: the first cell run over this set-up; `index`: its number when it is pushed.
 static int run_cell(bench_group *g, pn_setup *s, pn_setup_desc *sd, int fi, int pi, double pixel_angle, bench_rows *rows,
-                    bool push)
+                    bool push, bool first, int index)
 {
     const bench_opts *o = g->o;
     size_t px = (size_t)g->frame.width * g->frame.height;
@@ -168,7 +186,7 @@ static int run_cell(bench_group *g, pn_setup *s, pn_setup_desc *sd, int fi, int 
     // Adaptive cells trace no ray dump (each pixel its own count): the dump goes off first.
     if ((sd->frame.dump_rays && pn_renderer_set_dump_rays(&s->renderer, false) != PN_OK) ||
         pn_renderer_set_adaptive(&s->renderer, spp_min, spp, o->pixel_error) != PN_OK ||
-        (ci == 0 && o->gbuffer && pn_renderer_set_gbuffer(&s->renderer, o->gb_p, o->gb_n) != PN_OK))
+        (first && o->gbuffer && pn_renderer_set_gbuffer(&s->renderer, o->gb_p, o->gb_n) != PN_OK))
         return PN_EXIT_FAILURE;
     bench_row row = g->base;
     row.spp = spp;
@@ -235,7 +253,7 @@ static int run_cell(bench_group *g, pn_setup *s, pn_setup_desc *sd, int fi, int 
         return PN_EXIT_FAILURE;
     if (row.filter != PN_FILTER_NONE && !measure_edges(g, &img, &row, pixel_angle))
         return PN_EXIT_FAILURE;
-    if (push && !push_row(rows, &row))
+    if (push && !push_row(rows, &row, index))
         return PN_EXIT_FAILURE;
     if (o->work) {
         char label[512];
@@ -266,10 +284,20 @@ static pn_result time_move(bench_group *g, pn_setup *s, double *ms)
     return PN_OK;
 }
 
+// One configuration's cells, numbered from rows->cells.next when pushed. Exact runs every cell
+// whatever the shard, since the other modes' bias and time ratios are measured against it; another
+// mode only this run's share, and no set-up at all when the share holds none of its cells.
 static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool per_object, bench_rows *rows, bool push)
 {
     const bench_opts *o = g->o;
     bool exact = mode == PN_SHADOW_REFERENCE;
+    int cells = o->filter_count * o->spp_count, first_index = push ? rows->cells.next : -1, mine = 0;
+    if (push)
+        rows->cells.next += cells;
+    for (int c = 0; push && c < cells; c++)
+        mine += pn_bench_owns(o, first_index + c);
+    if (!exact && !mine)
+        return PN_EXIT_OK;
     pn_setup s;
     pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td, .per_object = per_object,
                         .view = o->gbuffer ? NULL : g->cam}; // the tree models what the picture needs
@@ -283,6 +311,14 @@ static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool 
         if (exact)
             return PN_EXIT_FAILURE;
         pn_warn("bench: %s%s skipped (see above)", MODE_NAME(mode), cell);
+        // Recorded for --merge, which would otherwise take them for a shard's missing cells.
+        bench_cells *bc = &rows->cells;
+        bc->mine -= mine;
+        for (int c = 0; c < cells; c++)
+            if (pn_bench_owns(o, first_index + c) &&
+                !pn_bench_append((void **)&bc->skipped, &bc->skip_count, &bc->skip_cap, &(int){first_index + c},
+                                 sizeof(int)))
+                return PN_EXIT_FAILURE;
         return PN_EXIT_OK;
     }
     int rc = PN_EXIT_OK;
@@ -293,6 +329,7 @@ static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool 
         pn_setup_destroy(g->dev, &s);
         return PN_EXIT_FAILURE;
     }
+    bool first = true;
     double pixel_angle = 2.0 * tan(0.5 * g->cam->yfov_deg * 3.14159265358979323846 / 180.0) / g->frame.height;
     for (int fi = 0; fi < o->filter_count && rc == PN_EXIT_OK; fi++) {
         pn_filter filter = o->filters[fi];
@@ -301,11 +338,47 @@ static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool 
             break;
         }
         sd.frame.filter = filter, sd.frame.tile_w = o->tile_w, sd.frame.tile_h = o->tile_h;
-        for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++)
-            rc = run_cell(g, &s, &sd, fi, pi, pixel_angle, rows, push);
+        for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
+            int index = first_index + fi * o->spp_count + pi;
+            bool own = push && pn_bench_owns(o, index);
+            if (!exact && !own)
+                continue;
+            rc = run_cell(g, &s, &sd, fi, pi, pixel_angle, rows, own, first, index);
+            first = false;
+        }
     }
     pn_setup_destroy(g->dev, &s);
     return rc;
+}
+
+static bool wants_exact(const bench_opts *o)
+{
+    for (int m = 0; m < o->mode_count; m++)
+        if (o->modes[m] == PN_SHADOW_REFERENCE)
+            return true;
+    return false;
+}
+
+// The same walk as pn_bench_view's over the configurations, counting their cells.
+int pn_bench_view_cells(const bench_opts *o, const pn_gpu_device *dev, const pn_scene *scene)
+{
+    int configs = wants_exact(o);
+    for (int m = 0; m < o->mode_count; m++) {
+        const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
+        const char *lack;
+        if (o->modes[m] == PN_SHADOW_REFERENCE || !pn_shadow_mode_available(dev, o->modes[m], &lack) ||
+            (scene && !pn_shadow_mode_takes_scene(o->modes[m], scene, NULL, 0)))
+            continue;
+        if (!info->needs.tree) {
+            configs++;
+            continue;
+        }
+        if (o->kinds[PN_TREE_KIND_SCENE])
+            configs += o->tree_count;
+        if (o->kinds[PN_TREE_KIND_OBJECT] && info->objects && !(scene && pn_alpha_masked_triangles(scene)))
+            configs += o->tree_count;
+    }
+    return o->size_count * configs * o->filter_count * o->spp_count;
 }
 
 // One view: per size its converged reference, exact at every spp (the bias reference, and Embree's
@@ -322,12 +395,23 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
     pn_light light = prep.lights[0];
     pn_embree_scene *rs = rtc ? pn_embree_scene_create(rtc, &scene) : NULL;
     int rc = PN_EXIT_OK;
-    bool want_exact = false;
-    for (int m = 0; m < o->mode_count; m++)
-        want_exact = want_exact || o->modes[m] == PN_SHADOW_REFERENCE;
+    bool want_exact = wants_exact(o);
+    // The run's count of cells held this view's upper bound until now: its own count instead.
+    bench_cells *bc = &rows->cells;
+    int view_cells = pn_bench_view_cells(o, dev, &scene);
+    bc->total += view_cells - pn_bench_view_cells(o, dev, NULL);
+    bc->mine = pn_bench_share(o, bc->total) - bc->skip_count;
     for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++) {
         uint32_t w = o->sizes[si][0], h = o->sizes[si][1];
         size_t px = (size_t)w * h;
+        // A shard that has none of this size's cells needs neither its reference nor its exact.
+        int group_cells = view_cells / o->size_count, owned = 0;
+        for (int c = 0; o->shard_n && c < group_cells; c++)
+            owned += pn_bench_owns(o, bc->next + c);
+        if (o->shard_n && !owned) {
+            bc->next += group_cells;
+            continue;
+        }
         bench_group g = {.o = o, .dev = dev, .scene = &scene, .cam = &cam, .light = &light, .rtc = rs,
                    .frame = {.width = w, .height = h, .traversal = o->traversal, .sampler = o->sampler,
                              .seed = o->seed}};

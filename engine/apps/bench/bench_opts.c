@@ -188,6 +188,14 @@ void pn_print_bench_help(void)
            "  --reference-cache DIR   cache the converged references here instead of OUT/reference (runs\n"
            "                       with other outputs share them; a file's name holds a hash of what it depends on)\n"
            "  --no-embree          skip the CPU peer\n"
+           "  --shard K/N          measure the cells whose number in one run's order is K-1 modulo N\n"
+           "                       (1 <= K <= N; exact's cells are rendered in every shard, the others'\n"
+           "                       bias reference) and write OUT/" PN_BENCH_PARTIAL " beside the usual\n"
+           "                       outputs; share the references with --reference-cache. Not with\n"
+           "                       --lights or --max-error\n"
+           "  --merge DIR... [--out DIR]\n"
+           "                       the partial files of the N shards' --out folders into the CSV, JSON,\n"
+           "                       time-to-error table, plots and console table one run would write\n"
            "  --shader shadow --gbuffer FILE.exr\n"
            "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"
            "                       (render --aovs of the same scene); the size is the EXR's\n"
@@ -364,6 +372,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             o->out_dir = v;
         } else if (pn_args_value(&a, "--reference-cache", &v, &err)) {
             o->reference_dir = v;
+        } else if (pn_args_value(&a, "--shard", &v, &err)) {
+            ok = v && pn_bench_parse_shard(v, o);
         } else {
             pn_error("bench: unknown option '%s' (see penumbra bench --help)", arg);
             return PN_EXIT_USAGE;
@@ -422,6 +432,12 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         o->sizes[0][0] = o->sizes[0][1] = 512, o->size_count = 1;
     if (!o->filter_count)
         o->filters[0] = PN_FILTER_NONE, o->filters[1] = PN_FILTER_INTERLEAVED, o->filter_count = 2;
+    // --lights and --max-error measure against the whole of a view's matrix, which no shard has.
+    if (o->shard_n && (o->light_count_count || o->max_error_count)) {
+        pn_error("--shard: not with %s (it needs the whole matrix of a view; run it unsharded)",
+                 o->light_count_count ? "--lights" : "--max-error");
+        return PN_EXIT_USAGE;
+    }
     if (o->gbuffer && o->view_count != 1) {
         pn_error("--gbuffer: name the one scene its G-buffer was rendered from (--scenes or --views)");
         return PN_EXIT_USAGE;

@@ -154,6 +154,9 @@ pn_result pn_bench_reference(const bench_opts *o, pn_gpu_device *dev, const pn_s
                                 {.name = "penumbra/spp", .type = PN_EXR_ATTR_STRING, .s = spp}};
         pn_exr_channel ch[2] = {{"A", a}, {"shadow.V", v}};
         // A cache that cannot be written costs the next run a render, not this one its result.
+        // Shards of one run (--shard) that miss the same reference render it at once: pn_exr_write
+        // writes a temporary name of its process and renames it, so each rename puts a whole file
+        // (the same image: the render is deterministic) and no reader sees a part of one.
         if (pn_exr_write(path, (int)w, (int)h, ch, 2, attrs, 3) != PN_OK)
             pn_warn("%s: the reference is not cached", path);
         fprintf(stderr, "bench: %s %ux%u: reference rendered in %.1f s (shadow pass %.1f ms)\n", view, w, h,

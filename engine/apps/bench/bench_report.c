@@ -272,29 +272,38 @@ static void json_tte_cell(FILE *f, const bench_row *r)
             r->spp, r->spp_min, r->mean_rays, r->shadow_ms, pn_bench_row_ms(r), r->ref.mae);
 }
 
-bool pn_bench_write_json(const char *dir, const bench_opts *o, const pn_gpu_device *dev, const bench_rows *rows)
+void pn_bench_context_get(const pn_gpu_device *dev, bench_context *ctx)
 {
-    char path[4096], tmp[4096], cpu[256];
+    *ctx = (bench_context){.driver_version = dev->props.driverVersion, .api_version = dev->props.apiVersion,
+                           .threads = pn_parallel_threads()};
+    snprintf(ctx->device, sizeof ctx->device, "%s", dev->props.deviceName);
+    snprintf(ctx->driver, sizeof ctx->driver, "%s", dev->driver.driverName);
+    snprintf(ctx->driver_info, sizeof ctx->driver_info, "%s", dev->driver.driverInfo);
+    cpu_name(ctx->cpu, sizeof ctx->cpu);
+}
+
+bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_context *ctx, const bench_rows *rows)
+{
+    char path[4096], tmp[4096];
     FILE *f = pn_bench_open_out(dir, "bench.json", path, tmp);
     if (!f)
         return false;
-    cpu_name(cpu, sizeof cpu);
     fprintf(f, "{\"context\": {\"device\": ");
-    pn_json_string(f, dev->props.deviceName);
+    pn_json_string(f, ctx->device);
     // The driver by name and version (e.g. llvmpipe, "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"), so that
     // figures from two drivers are never mixed.
     fprintf(f, ", \"driver\": ");
-    pn_json_string(f, dev->driver.driverName);
+    pn_json_string(f, ctx->driver);
     fprintf(f, ", \"driver_info\": ");
-    pn_json_string(f, dev->driver.driverInfo);
-    fprintf(f, ", \"driver_version\": %u, \"api_version\": \"%u.%u.%u\", \"cpu\": ", dev->props.driverVersion,
-            VK_API_VERSION_MAJOR(dev->props.apiVersion), VK_API_VERSION_MINOR(dev->props.apiVersion),
-            VK_API_VERSION_PATCH(dev->props.apiVersion));
-    pn_json_string(f, cpu);
+    pn_json_string(f, ctx->driver_info);
+    fprintf(f, ", \"driver_version\": %u, \"api_version\": \"%u.%u.%u\", \"cpu\": ", ctx->driver_version,
+            VK_API_VERSION_MAJOR(ctx->api_version), VK_API_VERSION_MINOR(ctx->api_version),
+            VK_API_VERSION_PATCH(ctx->api_version));
+    pn_json_string(f, ctx->cpu);
     fprintf(f, ", \"threads\": %u, \"repeat\": %d, \"warmup\": %d, \"traversal\": \"%s\", \"sampler\": \"%s\", "
                "\"seed\": %u, \"reference\": {\"mode\": \"%s\", \"spp\": %u, \"sampler\": \"stratified\", "
                "\"seed\": %u}, ",
-            pn_parallel_threads(), o->repeat, o->warmup, pn_traversal_names[o->traversal],
+            ctx->threads, o->repeat, o->warmup, pn_traversal_names[o->traversal],
             pn_sampler_names[o->sampler], o->seed, MODE_NAME(PN_SHADOW_REFERENCE), o->reference_spp, PN_REFERENCE_SEED);
     fprintf(f, "\"filters\": [");
     for (int i = 0; i < o->filter_count; i++)
