@@ -74,9 +74,10 @@ typedef struct pn_shadow_mode_info {
     // (PN_SPEC_PACKET_RAYS): the shadow pass makes a pipeline per size (exact).
     bool packet_rays;
     // Tests the texels of alpha-masked casters (pn_material.alpha_cutoff) where rays hit them: the
-    // exact modes at every hit, the line-space modes in the leaves holding a masked triangle
-    // (their tree marks them and keeps their triangles: linespace_leaf.glsl). A mode without it
-    // refuses scenes with masked casters.
+    // exact modes and rayquery at every hit, the line-space modes in the leaves holding a masked
+    // triangle (their tree marks them and keeps their triangles: linespace_leaf.glsl). Every
+    // tracing mode has it; a new one without it would refuse scenes with masked casters
+    // (pn_shadow_mode_takes_scene), as per-object trees do (shadow/setup.c).
     bool alpha_masks;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)
