@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -169,5 +170,28 @@ bool pn_parse_bytes(const char *opt, const char *s, uint64_t *out)
         return false;
     }
     *out = (uint64_t)(v * unit);
+    return true;
+}
+
+bool pn_parse_shard(const char *opt, const char *s, int *k, int *n)
+{
+    long long kk, nn;
+    char buf[64], what[64];
+    const char *slash = strchr(s, '/');
+    if (!slash || (size_t)(slash - s) >= sizeof buf) {
+        pn_error("%s: expected K/N (shard K of N, 1 <= K <= N), got '%s'", opt, s);
+        return false;
+    }
+    snprintf(buf, sizeof buf, "%.*s", (int)(slash - s), s);
+    snprintf(what, sizeof what, "%s K", opt);
+    bool ok = pn_parse_int_range(what, buf, 0, 1000000, &kk);
+    snprintf(what, sizeof what, "%s N", opt);
+    if (!ok || !pn_parse_int_range(what, slash + 1, 0, 1000000, &nn))
+        return false;
+    if (!(nn >= 1 && kk >= 1 && kk <= nn)) {
+        pn_error("%s %s: shard K of N needs 1 <= K <= N", opt, s);
+        return false;
+    }
+    *k = (int)kk, *n = (int)nn;
     return true;
 }

@@ -39,5 +39,7 @@ bool pn_parse_size(const char *opt, const char *s, uint32_t max, uint32_t *w, ui
 bool pn_parse_tree(const char *opt, const char *s, int *n, int *d);
 // Returns the index of `s` in the NULL-terminated `choices`, or logs the choices and returns -1.
 int pn_parse_choice(const char *opt, const char *s, const char *const *choices);
+// Parses "K/N", shard K of N with 1 <= K <= N <= 1e6 (render --shard, bench --shard).
+bool pn_parse_shard(const char *opt, const char *s, int *k, int *n);
 // Parses a memory size: a number of MiB, or a number with a K, M or G suffix (binary units).
 bool pn_parse_bytes(const char *opt, const char *s, uint64_t *out);

@@ -105,7 +105,7 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
                 return PN_EXIT_USAGE;
             o->seq.fps = fps;
         } else if (pn_args_value(&a, "--shard", &v, &err)) {
-            if (!v || !pn_parse_shard(v, &o->seq))
+            if (!v || !pn_parse_shard("--shard", v, &o->seq.shard_k, &o->seq.shard_n))
                 return PN_EXIT_USAGE;
         } else if (pn_render_opts_parse(&a, &o->r, &err)) {
             // a shared option

@@ -4,7 +4,6 @@
 // device's acceleration structure) built again. A line per frame says what moving cost, and
 // stderr a progress line with the time left. --shard K/N renders every N-th frame from the K-th,
 // so that N jobs under any runner render the sequence between them.
-#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -38,26 +37,6 @@ bool pn_parse_frames(const char *v, pn_sequence *q)
     }
     q->on = true;
     q->first = x[0], q->last = x[1], q->step = x[2];
-    return true;
-}
-
-bool pn_parse_shard(const char *v, pn_sequence *q)
-{
-    long long k, n;
-    char buf[64];
-    const char *slash = strchr(v, '/');
-    if (!slash || (size_t)(slash - v) >= sizeof buf) {
-        pn_error("--shard: expected K/N (shard K of N, 1 <= K <= N), got '%s'", v);
-        return false;
-    }
-    snprintf(buf, sizeof buf, "%.*s", (int)(slash - v), v);
-    if (!pn_parse_int_range("--shard K", buf, 0, 1000000, &k) || !pn_parse_int_range("--shard N", slash + 1, 0, 1000000, &n))
-        return false;
-    if (!(n >= 1 && k >= 1 && k <= n)) {
-        pn_error("--shard %s: shard K of N needs 1 <= K <= N", v);
-        return false;
-    }
-    q->shard_k = (int)k, q->shard_n = (int)n;
     return true;
 }
 

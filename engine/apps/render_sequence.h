@@ -5,10 +5,9 @@
 #include "apps/options.h"
 #include "gpu/device.h"
 
-// --frames A:B[:STEP] (integers within 1e9, A <= B, STEP >= 1) and --shard K/N (1 <= K <= N) into
-// *q; log the problem and return false.
+// --frames A:B[:STEP] (integers within 1e9, A <= B, STEP >= 1) into *q; logs the problem and
+// returns false.
 bool pn_parse_frames(const char *v, pn_sequence *q);
-bool pn_parse_shard(const char *v, pn_sequence *q);
 
 // Whether `pattern` (-o) holds the frame number as one %d or %0Nd; logs why not, naming `opt`.
 bool pn_frame_pattern_ok(const char *opt, const char *pattern);

@@ -45,15 +45,6 @@ void pn_mat4_mul(const double a[16], const double b[16], double out[16])
         }
 }
 
-static bool unit3(double v[3])
-{
-    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(len > 0.0) || !isfinite(len))
-        return false;
-    v[0] /= len, v[1] /= len, v[2] /= len;
-    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
-}
-
 bool pn_node_frame(const double w[16], double pos[3], double fwd[3], double up[3])
 {
     for (int k = 0; k < 3; k++) {
@@ -61,7 +52,7 @@ bool pn_node_frame(const double w[16], double pos[3], double fwd[3], double up[3
         fwd[k] = -w[8 + k]; // the node's -Z axis
         up[k] = w[4 + k];   // and its +Y
     }
-    return unit3(fwd) && unit3(up);
+    return pn_scene_unit3(fwd) && pn_scene_unit3(up);
 }
 
 // glTF's slerp (the specification's appendix): the shorter way round, linear where the keys are

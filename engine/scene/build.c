@@ -41,8 +41,7 @@ static bool finite3(const double v[3])
     return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
 }
 
-// Normalises v in place; false (v untouched) if it has no usable direction.
-static bool normalize3(double v[3])
+bool pn_scene_unit3(double v[3])
 {
     double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     if (!(len > 0.0) || !isfinite(len))
@@ -59,7 +58,7 @@ static bool face_normal(const float a[3], const float b[3], const float c[3], do
     n[0] = e1[1] * e2[2] - e1[2] * e2[1];
     n[1] = e1[2] * e2[0] - e1[0] * e2[2];
     n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-    return normalize3(n);
+    return pn_scene_unit3(n);
 }
 
 static void set_normal(pn_vertex *v, const double n[3])
@@ -174,7 +173,7 @@ pn_result pn_scene_build_place(const pn_scene_build_prim *p, const pn_scene_xfor
             double nw[3];
             for (int r = 0; r < 3; r++)
                 nw[r] = xf->normal[r][0] * q[0] + xf->normal[r][1] * q[1] + xf->normal[r][2] * q[2];
-            if (normalize3(nw)) {
+            if (pn_scene_unit3(nw)) {
                 set_normal(v, nw);
             } else {
                 bad[i] = 1;

@@ -21,6 +21,9 @@ typedef struct pn_scene_xform {
     double det;
 } pn_scene_xform;
 
+// Normalises v in place; false (v untouched) if it has no usable direction (zero, not finite).
+bool pn_scene_unit3(double v[3]);
+
 // From a column-major 4x4 matrix, m[col * 4 + row], as glTF stores node.matrix.
 pn_scene_xform pn_scene_xform_from_matrix(const double m[16]);
 

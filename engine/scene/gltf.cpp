@@ -83,16 +83,6 @@ inline bool finite3(const double v[3])
     return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
 }
 
-// Normalises v in place; false (v untouched) if it has no usable direction.
-inline bool normalize3(double v[3])
-{
-    double len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (!(len > 0.0) || !std::isfinite(len))
-        return false;
-    v[0] /= len, v[1] /= len, v[2] /= len;
-    return finite3(v);
-}
-
 uint64_t component_size(int type)
 {
     switch (type) {
@@ -996,7 +986,7 @@ void Loader::visit_light(int node, const Mat4 &w)
         problem = "radiance is not a non-negative number or [r, g, b]";
     else if (!finite3(pos) || std::fabs(pos[0]) > 1e18 || std::fabs(pos[1]) > 1e18 || std::fabs(pos[2]) > 1e18)
         problem = "its position is not finite or beyond 1e18 from the origin";
-    else if (!normalize3(nrm) || !normalize3(ay) || !(sx > 0 && std::isfinite(sx)) || !(sy > 0 && std::isfinite(sy)))
+    else if (!pn_scene_unit3(nrm) || !pn_scene_unit3(ay) || !(sx > 0 && std::isfinite(sx)) || !(sy > 0 && std::isfinite(sy)))
         problem = "its node's transform is degenerate";
     else if (b_.scene.light_count == PN_SCENE_MAX_LIGHTS)
         problem = "more lights than the 16 a frame takes";

@@ -393,9 +393,6 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows);
 // The partial file of a --shard run, in its --out folder.
 #define PN_BENCH_PARTIAL "bench_partial.txt"
 
-// --shard K/N's value into o->shard_k and o->shard_n; false (logged) unless 1 <= K <= N.
-bool pn_bench_parse_shard(const char *v, bench_opts *o);
-
 // Writes dir/bench_partial.txt: the options that shape the results, the context, every field of
 // every row with its cell index, and the cells skipped. False (logged) on failure.
 bool pn_bench_write_partial(const char *dir, const bench_opts *o, const bench_context *ctx, const bench_rows *rows);

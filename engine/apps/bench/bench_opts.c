@@ -373,7 +373,7 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         } else if (pn_args_value(&a, "--reference-cache", &v, &err)) {
             o->reference_dir = v;
         } else if (pn_args_value(&a, "--shard", &v, &err)) {
-            ok = v && pn_bench_parse_shard(v, o);
+            ok = v && pn_parse_shard("--shard", v, &o->shard_k, &o->shard_n);
         } else {
             pn_error("bench: unknown option '%s' (see penumbra bench --help)", arg);
             return PN_EXIT_USAGE;

@@ -29,26 +29,6 @@
 
 enum { PARTIAL_VERSION = 1, MAX_OPT_LINES = 64 + MAX_LIST };
 
-bool pn_bench_parse_shard(const char *v, bench_opts *o)
-{
-    long long k, n;
-    char buf[64];
-    const char *slash = strchr(v, '/');
-    if (!slash || (size_t)(slash - v) >= sizeof buf) {
-        pn_error("--shard: expected K/N (shard K of N, 1 <= K <= N), got '%s'", v);
-        return false;
-    }
-    snprintf(buf, sizeof buf, "%.*s", (int)(slash - v), v);
-    if (!pn_parse_int_range("--shard K", buf, 0, 1000000, &k) || !pn_parse_int_range("--shard N", slash + 1, 0, 1000000, &n))
-        return false;
-    if (!(n >= 1 && k >= 1 && k <= n)) {
-        pn_error("--shard %s: shard K of N needs 1 <= K <= N", v);
-        return false;
-    }
-    o->shard_k = (int)k, o->shard_n = (int)n;
-    return true;
-}
-
 static void put_str(FILE *f, const char *s)
 {
     fputc('=', f);
