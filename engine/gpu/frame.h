@@ -10,7 +10,10 @@
 // the pixels of each tile_w x tile_h tile share the light's strata (each traces spp of the tile's
 // spp * tile_w * tile_h samples), and a filter pass averages V over the tile around each pixel
 // across neighbours on the pixel's own surface (filter.comp); the pixel's own V is kept (v_raw).
-typedef enum pn_filter { PN_FILTER_NONE, PN_FILTER_INTERLEAVED } pn_filter;
+// penumbra: interleaved, then a separable Gaussian as wide as the penumbra the pixel's nearest
+// blocker casts, narrowing as samples grow (penumbra_filter.comp).
+typedef enum pn_filter { PN_FILTER_NONE, PN_FILTER_INTERLEAVED, PN_FILTER_PENUMBRA } pn_filter;
+#define PN_FILTER_LAST PN_FILTER_PENUMBRA
 extern const char *const pn_filter_names[];
 
 // How a pixel's rays are shared among the frame's lights. even: spp rays for every light.
@@ -79,6 +82,10 @@ typedef struct pn_frame_images {
     // light, mode none, or no spp_min).
     const uint32_t *rays;
     const float *radiance; // rgba: linear HDR outgoing radiance, alpha = coverage
+    // With the penumbra filter: per pixel (rg, of the frame's last light) V after the Gaussian's
+    // row pass and the footprint, its standard deviation in pixels (below 0.5: V is the
+    // interleaved filter's); NULL with another filter.
+    const float *footprint;
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are
     // light 0's.
     uint32_t light_count;

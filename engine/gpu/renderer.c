@@ -15,11 +15,12 @@
 // and shading passes (TS_LIGHT + 3 i + TS_*).
 enum { TS_START, TS_GBUFFER, TS_LIGHT, TS_SHADOW = 0, TS_FILTER = 1, TS_SHADE = 2, TS_COUNT = TS_LIGHT + 3 * PN_MAX_LIGHTS };
 
-// Floats per pixel of the frame's images in the readback buffer: P, N, albedo and radiance (rgba),
-// V and V_raw, the shadow pass's counts (rgba32ui); with several lights each light's V and V_raw
-// follow (pn_renderer_images).
-// P, N, albedo, radiance; V, V_raw; the shadow pass's counts and its adaptive rays image.
-#define PN_READBACK_FLOATS_PER_PIXEL (4 * 4 + 2 + 4 + 4)
+// The frame's images in the readback buffer, in floats per pixel: P, N, albedo and radiance (rgba),
+// V and V_raw, the shadow pass's counts and its adaptive rays image (rgba32ui), the penumbra
+// filter's footprint (rg); with several lights each light's V and V_raw follow
+// (pn_renderer_images).
+enum { PN_READBACK_COUNTS = 4 * 4 + 2, PN_READBACK_RAYS = PN_READBACK_COUNTS + 4,
+       PN_READBACK_FOOTPRINT = PN_READBACK_RAYS + 4, PN_READBACK_FLOATS_PER_PIXEL = PN_READBACK_FOOTPRINT + 2 };
 
 static pn_result reserve_readback(pn_renderer *r, uint32_t light_count);
 
@@ -156,7 +157,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
                  mode->name);
         return PN_ERR_INVALID;
     }
-    if ((unsigned)desc->filter > PN_FILTER_INTERLEAVED ||
+    if ((unsigned)desc->filter > PN_FILTER_LAST ||
         pn_filter_tile(desc->tile_w) > PN_FILTER_MAX_TILE || pn_filter_tile(desc->tile_h) > PN_FILTER_MAX_TILE) {
         pn_error("filter %d with tile %ux%u: the tile's edges must be 1..%d", (int)desc->filter, desc->tile_w,
                  desc->tile_h, PN_FILTER_MAX_TILE);
@@ -184,6 +185,9 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         r = pn_filter_pass_create(dev, desc->width, desc->height, pn_filter_tile(desc->tile_w),
                                   pn_filter_tile(desc->tile_h), &out->p, &out->n, &out->v_raw, &out->shadow.counts,
                                   &out->v, &out->filter);
+    if (r == PN_OK)
+        r = pn_penumbra_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->shadow.counts,
+                                    &out->shadow.blockers, &out->v, &out->penumbra);
     if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
@@ -218,6 +222,7 @@ void pn_renderer_destroy(pn_renderer *r)
         vkDestroyQueryPool(d, r->timestamps, NULL);
     pn_shade_pass_destroy(dev, &r->shade);
     pn_filter_pass_destroy(dev, &r->filter);
+    pn_penumbra_pass_destroy(dev, &r->penumbra);
     pn_shadow_pass_destroy(dev, &r->shadow);
     pn_gbuffer_upload_destroy(dev, &r->upload);
     pn_gbuffer_pass_destroy(dev, &r->gbuffer);
@@ -258,6 +263,17 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
     to_copy[count] = pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
     to_copy[count + 1] = pn_gpu_image_barrier(&r->shadow.rays, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
     pn_gpu_cmd_barrier(cmd, NULL, (uint32_t)count + 2, to_copy);
+    if (r->desc.filter == PN_FILTER_PENUMBRA) {
+        // The footprint (the last light's), left in SRC: the next frame's penumbra pass discards it.
+        VkImageMemoryBarrier2 b = pn_gpu_image_barrier(&r->penumbra.scratch, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &b);
+        VkBufferImageCopy copy = {
+            .bufferOffset = (VkDeviceSize)PN_READBACK_FOOTPRINT * 4 * r->width * r->height,
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageExtent = {r->width, r->height, 1},
+        };
+        vkCmdCopyImageToBuffer(cmd, r->penumbra.scratch.image, SRC, r->readback.buffer, 1, &copy);
+    }
     VkDeviceSize px = (VkDeviceSize)r->width * r->height, offset = 0;
     for (int i = 0; i < count; i++) {
         VkBufferImageCopy copy = {
@@ -273,7 +289,7 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
     const pn_gpu_image *shadow[2] = {&r->shadow.counts, &r->shadow.rays};
     for (int i = 0; i < 2; i++) {
         VkBufferImageCopy copy = {
-            .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL - 8 + 4 * i) * 4 * px,
+            .bufferOffset = (PN_READBACK_COUNTS + 4 * i) * 4 * px,
             .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
             .imageExtent = {r->width, r->height, 1},
         };
@@ -390,17 +406,23 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         }
         uint32_t ts = TS_LIGHT + 3 * i;
         pn_shadow_pass_record(cmd, &r->shadow, samples[i], i); // P, N -> V raw
-        VkImageMemoryBarrier2 raw_ready[2] = {
+        VkImageMemoryBarrier2 raw_ready[3] = {
             pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL),
             pn_gpu_image_barrier(&r->shadow.counts, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL), // the filter's
+            pn_gpu_image_barrier(&r->shadow.blockers, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL), // the penumbra's
         };
-        pn_gpu_cmd_barrier(cmd, NULL, 2, raw_ready);
+        pn_gpu_cmd_barrier(cmd, NULL, 3, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
             pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
                                   yfov_deg); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
+            if (r->desc.filter == PN_FILTER_PENUMBRA) {
+                pn_penumbra_pass_record(cmd, &r->penumbra, noise_samples[i],
+                                        pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg); // V -> V
+                pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
+            }
         }
         timestamp(r, cmd, ts + TS_FILTER);
         pn_shade_pass_record(cmd, &r->shade, &lights[i], i > 0); // P, N, albedo, V -> radiance
@@ -519,8 +541,9 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->v = out->albedo + 4 * px;
     out->radiance = out->v + px;
     out->v_raw = filtered(r) ? out->radiance + 4 * px : NULL;
-    out->counts = (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 8) * px);
-    out->rays = r->rays_written ? (const uint32_t *)(base + (PN_READBACK_FLOATS_PER_PIXEL - 4) * px) : NULL;
+    out->counts = (const uint32_t *)(base + PN_READBACK_COUNTS * px);
+    out->rays = r->rays_written ? (const uint32_t *)(base + PN_READBACK_RAYS * px) : NULL;
+    out->footprint = r->desc.filter == PN_FILTER_PENUMBRA ? base + PN_READBACK_FOOTPRINT * px : NULL;
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;
@@ -540,7 +563,7 @@ void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; 
 
 pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h)
 {
-    if ((unsigned)filter > PN_FILTER_INTERLEAVED || pn_filter_tile(tile_w) > PN_FILTER_MAX_TILE ||
+    if ((unsigned)filter > PN_FILTER_LAST || pn_filter_tile(tile_w) > PN_FILTER_MAX_TILE ||
         pn_filter_tile(tile_h) > PN_FILTER_MAX_TILE) {
         pn_error("filter %d with tile %ux%u: the tile's edges must be 1..%d", (int)filter, tile_w, tile_h,
                  PN_FILTER_MAX_TILE);

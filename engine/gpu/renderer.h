@@ -6,6 +6,7 @@
 #include "gpu/gbuffer_pass.h"
 #include "gpu/filter_pass.h"
 #include "gpu/gbuffer_upload.h"
+#include "gpu/penumbra_pass.h"
 #include "gpu/resources.h"
 #include "gpu/shade_pass.h"
 #include "gpu/shadow_pass.h"
@@ -24,6 +25,7 @@ typedef struct pn_renderer {
     pn_gbuffer_upload upload; // pn_renderer_set_gbuffer's P and N, replacing the G-buffer pass
     pn_shadow_pass shadow;
     pn_filter_pass filter;
+    pn_penumbra_pass penumbra; // the penumbra filter's stages after `filter` (filter penumbra)
     pn_shade_pass shade;
     VkQueryPool timestamps;
     VkCommandBuffer cmd;

@@ -91,7 +91,8 @@ pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t)
         return t;
     return mode == PN_SHADOW_EXACT ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY;
 }
-const char *const pn_filter_names[] = {[PN_FILTER_NONE] = "none", [PN_FILTER_INTERLEAVED] = "interleaved", NULL};
+const char *const pn_filter_names[] = {[PN_FILTER_NONE] = "none", [PN_FILTER_INTERLEAVED] = "interleaved",
+                                       [PN_FILTER_PENUMBRA] = "penumbra", NULL};
 const char *const pn_split_names[] = {[PN_SPLIT_EVEN] = "even", [PN_SPLIT_BUDGET] = "budget", NULL};
 const char *const pn_sampler_names[] = {[PN_SAMPLER_STRATIFIED] = "stratified", [PN_SAMPLER_GRID] = "grid", NULL};
 

@@ -91,6 +91,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         {.binding = PN_SHADOW_BINDING_ADAPT, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_RAYS, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_LISTS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+        {.binding = PN_SHADOW_BINDING_BLOCKERS, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
@@ -151,6 +152,14 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
                                                               VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
                                 &out->counts);
+    if (r == PN_OK)
+        r = pn_gpu_image_create(dev,
+                                &(pn_gpu_image_desc){.name = "shadow pass's blocker image",
+                                                     .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                     .width = desc->width,
+                                                     .height = desc->height,
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT},
+                                &out->blockers);
     if (r != PN_OK) {
         pn_shadow_pass_destroy(dev, out);
         return r;
@@ -165,6 +174,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_ADAPT, out->adapt.view);
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_RAYS, out->rays.view);
     pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_LISTS, out->lists.buffer);
+    pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_BLOCKERS, out->blockers.view);
     if (tlas)
         pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas->tlas);
     return PN_OK;
@@ -179,6 +189,7 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
     pn_gpu_image_destroy(dev, &s->counts);
     pn_gpu_image_destroy(dev, &s->adapt);
     pn_gpu_image_destroy(dev, &s->rays);
+    pn_gpu_image_destroy(dev, &s->blockers);
     pn_gpu_buffer_destroy(dev, &s->params);
     pn_gpu_buffer_destroy(dev, &s->status);
     pn_gpu_buffer_destroy(dev, &s->lists);
@@ -355,14 +366,14 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     bool resume = s->resume_from != 0; // the renderer sets it only for an adaptive frame with more samples
     // The counts and the adaptive images are rewritten from the first chunk on: discard what the
     // previous frame (or light) left; resumed, keep it, after all of that frame's work on them.
-    VkImageMemoryBarrier2 fresh[3];
-    const pn_gpu_image *images[3] = {&s->counts, &s->adapt, &s->rays};
-    for (int i = 0; i < 3; i++)
+    VkImageMemoryBarrier2 fresh[4];
+    const pn_gpu_image *images[4] = {&s->counts, &s->adapt, &s->rays, &s->blockers};
+    for (int i = 0; i < 4; i++)
         fresh[i] = pn_gpu_image_barrier(images[i], VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
                                         COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                         resume ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED,
                                         VK_IMAGE_LAYOUT_GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 3, fresh);
+    pn_gpu_cmd_barrier(cmd, NULL, 4, fresh);
     if (!pn_shadow_adaptive(s, spp)) {
         record_samples(cmd, s, 0, spp, 0, light);
         return;

@@ -22,6 +22,7 @@
 // sliver is mostly blocked, which the convention's 1 contradicts. Where the light cannot reach it,
 // it keeps the convention: V carries no light there.
 #include "interface.h"
+#include "filter_common.glsl"
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
@@ -38,24 +39,6 @@ layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // push constants and 9.0 ms specialised.
 layout(constant_id = PN_SPEC_TILE_W) const int TILE_W = 3;
 layout(constant_id = PN_SPEC_TILE_H) const int TILE_H = 3;
-
-// Upper bound of the spacing of floats near |x| (one ulp).
-float ulp_bound(float x) { return max(abs(x), 1e-30) * 1.1920929e-7; }
-
-// How far q leaves the tangent plane of the surface at p, in units of the distance the pixels
-// between them span at p's depth (the footprint, view depth x pixel angle, times the pixel
-// distance): a dimensionless ratio, the same at every scale. On p's plane it is 0 at any view
-// angle, grazing included; on a surface of radius R it is about footprint / (2R) per pixel; across
-// a crease of angle a it is about sin a; across a depth step it is the step over the footprint.
-// The positions carry rounding of a few ulps of their magnitude (the rasterizer interpolates them,
-// shadow_frame.glsl), which is taken off first: far from the origin a pixel's footprint can be
-// below that, and rounding alone would then split one plane into edges.
-float plane_offset(vec3 p, vec3 n, float footprint, vec3 q)
-{
-    float mag = max(max(max(abs(p.x), abs(p.y)), abs(p.z)), max(max(abs(q.x), abs(q.y)), abs(q.z)));
-    float off = max(abs(dot(n, q - p)) - 8.0 * ulp_bound(mag), 0.0);
-    return off / max(footprint, 1e-30);
-}
 
 // How much of a neighbour q the pixel p may take, from how far V can differ between them on one
 // surface: V runs from 0 to 1 across a penumbra's width (the narrower of the two pixels', from
@@ -116,17 +99,8 @@ void main()
             // Inside the image, not background, and with an estimate of V (a valid ray).
             bool usable = qx == px + ivec2(dx, dy) && q.w > 0.0 && counts_q.y > 0u;
             float pixels = float(max(abs(dx), abs(dy)));
-            // Both tangent planes, so that the weight is symmetric: a point on a wall next to a floor
-            // lies in the floor's plane only along their line of contact.
-            float rho = max(plane_offset(p.xyz, n.xyz, footprint_p * pixels, q.xyz),
-                            plane_offset(q.xyz, m.xyz, m.w * pc.pixel_angle * pixels, p.xyz));
-            // 1 on the pixel's plane, falling to 0 once q is a footprint per pixel off it: beyond
-            // that the surface turns by more than 45 degrees within a pixel, or steps in depth, which
-            // is an edge of geometry by any definition. The normals' cosine, squared, does the same
-            // for two sheets that touch (the two sides of a thin wall: rho is 0, the normals oppose)
-            // and weights a crease by how far it turns.
-            float c = max(dot(n.xyz, m.xyz), 0.0);
-            float w = max(1.0 - rho * rho, 0.0) * c * c;
+            // On the pixel's own surface (filter_common.glsl).
+            float w = surface_weight(p.xyz, n.xyz, footprint_p, q.xyz, m.xyz, m.w * pc.pixel_angle, pixels);
             // A pixel without an estimate of its own takes its neighbours' V however steep: any of
             // it is nearer than the convention's 1.
             if (!unknown)

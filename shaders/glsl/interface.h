@@ -74,8 +74,11 @@
 #define PN_SHADOW_BINDING_RAYS 7    // rgba32ui: adaptive sampling's target samples for the pixel, the standard
                                     // error of its V (float bits), whether it stopped (adaptive_decide)
 #define PN_SHADOW_BINDING_LISTS 8   // storage buffer: adaptive sampling's two lists of pixels (below)
-#define PN_SHADOW_BINDING_COUNT 9
-#define PN_SHADOW_BINDING_TLAS 9    // acceleration structure: only the modes whose needs.tlas is set
+#define PN_SHADOW_BINDING_BLOCKERS 9 // rgba32f: the blocked rays' nearest and farthest blocker as segment
+                                     // parameters t (1, 0 without one), and after a pixel's last chunk the
+                                     // penumbra widths at them, world units (shadow_finish; the wide filter's)
+#define PN_SHADOW_BINDING_COUNT 10
+#define PN_SHADOW_BINDING_TLAS 10   // acceleration structure: only the modes whose needs.tlas is set
 #define PN_SHADE_BINDING_P 0
 #define PN_SHADE_BINDING_N 1
 #define PN_SHADE_BINDING_ALBEDO 2
@@ -88,6 +91,23 @@
 #define PN_FILTER_BINDING_V 3     // r32f: filtered V out
 #define PN_FILTER_BINDING_COUNTS 4 // rgba32ui: the shadow pass's (visible, valid, reaches) per pixel
 #define PN_FILTER_BINDING_COUNT 5
+// The penumbra filter (--filter penumbra, penumbra_filter.comp): after the interleaved filter, a
+// separable Gaussian as wide as the penumbra.
+#define PN_PENUMBRA_BINDING_P 0        // rgba32f: world position, w = 1 where geometry is
+#define PN_PENUMBRA_BINDING_N 1        // rgba32f: normal, w = view depth
+#define PN_PENUMBRA_BINDING_COUNTS 2   // rgba32ui: the shadow pass's (visible, valid, reaches, width)
+#define PN_PENUMBRA_BINDING_BLOCKERS 3 // rgba32f: the shadow pass's blocker bounds (PN_SHADOW_BINDING_BLOCKERS)
+#define PN_PENUMBRA_BINDING_V 4        // r32f: the interleaved filter's V in, the penumbra filter's out
+#define PN_PENUMBRA_BINDING_SIGMA 5    // rg32f: the pixel's own footprint (world units; -1 without a
+                                       // blocker), 1 where it lends its V (geometry and a valid ray)
+#define PN_PENUMBRA_BINDING_SCRATCH 6  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
+                                       // the camera: world units over view depth x pixel angle; the EXR's)
+#define PN_PENUMBRA_BINDING_COUNT 7
+// Its stages, one dispatch each (PenumbraPush.stage).
+#define PN_PENUMBRA_STAGE_FOOTPRINT 0 // each pixel's own footprint
+#define PN_PENUMBRA_STAGE_BLUR_X 1    // the Gaussian along rows, V -> scratch
+#define PN_PENUMBRA_STAGE_BLUR_Y 2    // and along columns, scratch -> V
+#define PN_PENUMBRA_STAGES 3
 // The largest tile edge (--tile): a window of 8 x 8 = 64 neighbours per pixel already costs the
 // filter pass more than a few light samples would (filter.comp loads three images per neighbour).
 #define PN_FILTER_MAX_TILE 8
@@ -296,6 +316,18 @@ PN_STRUCT(FilterPush, pn_filter_push) {
                           // noise of each pixel's V is that of its own valid rays
     PN_UINT(pad0)
 } PN_END(FilterPush, pn_filter_push)
+
+// The penumbra filter's push constants (penumbra_filter.comp). 32 bytes.
+PN_STRUCT(PenumbraPush, pn_penumbra_push) {
+    PN_UINT(stage)        // PN_PENUMBRA_STAGE_*
+    PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
+    PN_UINT(samples)      // light samples per pixel (FilterPush.samples); 0 for a point light
+    PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead (FilterPush.adaptive)
+    PN_FLOAT(width_scale) // the Gaussian's standard deviation at 1 sample, in penumbra widths
+    PN_UINT(max_radius)   // the most pixels a tap may lie from the pixel (the frame's budget)
+    PN_UINT(pad0)
+    PN_UINT(pad1)
+} PN_END(PenumbraPush, pn_penumbra_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive
 // sampling's decision between two rounds. 32 bytes.

@@ -73,7 +73,7 @@ typedef struct bench_opts {
     int repeat, warmup;
     pn_traversal traversal;
     pn_sampler sampler;
-    pn_filter filters[2]; // --filter: an axis of the matrix like spp (default none and interleaved)
+    pn_filter filters[PN_FILTER_LAST + 1]; // --filter: an axis of the matrix like spp (default none and interleaved)
     int filter_count;
     uint32_t tile_w, tile_h; // --tile: the interleaving tile and filter window of the filtered cells
     uint32_t reference_spp; // of the converged reference (PN_REFERENCE_SPP)
@@ -132,7 +132,10 @@ static inline double pn_bench_row_ms(const bench_row *r) { return r->shadow_ms +
 
 // A configuration's name in tables and plots: the mode, "+filter" for a filtered cell,
 // "+adaptive" for adaptive samples and "/objects" with per-object trees.
-static inline const char *pn_bench_filter_suffix(pn_filter f) { return f == PN_FILTER_NONE ? "" : "+filter"; }
+static inline const char *pn_bench_filter_suffix(pn_filter f)
+{
+    return f == PN_FILTER_NONE ? "" : f == PN_FILTER_INTERLEAVED ? "+filter" : "+penumbra";
+}
 static inline const char *pn_bench_kind_suffix(bool per_object) { return per_object ? "/objects" : ""; }
 static inline const char *pn_bench_adaptive_suffix(uint32_t spp_min) { return spp_min ? "+adaptive" : ""; }
 

@@ -48,7 +48,7 @@ static bool push_row(bench_rows *rows, const bench_row *r, int index)
     return true;
 }
 
-// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter][_LSn_d][_objects], with
+// A cell's name in file names and the console: view_WxH_Sspp_mode[_filter|_penumbra][_LSn_d][_objects], with
 // MIN-MAXspp for adaptive samples.
 static void cell_label(char *out, size_t n, const bench_row *r)
 {
@@ -58,7 +58,7 @@ static void cell_label(char *out, size_t n, const bench_row *r)
     else
         snprintf(spp, sizeof spp, "%u", r->spp);
     int len = snprintf(out, n, "%s_%ux%u_%sspp_%s%s", r->scene, r->width, r->height, spp, MODE_NAME(r->mode),
-                       r->filter != PN_FILTER_NONE ? "_filter" : "");
+                       r->filter == PN_FILTER_NONE ? "" : r->filter == PN_FILTER_INTERLEAVED ? "_filter" : "_penumbra");
     if (r->n && len > 0 && (size_t)len < n)
         snprintf(out + len, n - (size_t)len, "_LS%d_%d%s", r->n, r->d, r->per_object ? "_objects" : "");
 }

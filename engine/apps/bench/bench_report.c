@@ -219,7 +219,7 @@ static int group_modes(const bench_rows *rows, int first, int end, mode_filter *
     int n = 0;
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
         for (int k = 0; k < 2; k++)
-            for (int f = PN_FILTER_NONE; f <= PN_FILTER_INTERLEAVED; f++)
+            for (int f = PN_FILTER_NONE; f <= PN_FILTER_LAST; f++)
                 for (int a = 0; a < 2; a++) {
                     mode_filter c = {(pn_shadow_mode)m, (pn_filter)f, k == 1, a == 1};
                     for (int j = first; j < end; j++)
@@ -466,7 +466,8 @@ static void cell_words(char *out, size_t n, const bench_row *r)
         snprintf(tree, sizeof tree, " LS(%d,%d)%s", r->n, r->d, r->per_object ? " per object" : "");
     char spp[24];
     spp_text(spp, sizeof spp, r);
-    snprintf(out, n, "%s%s %s spp%s", MODE_NAME(r->mode), tree, spp, r->filter != PN_FILTER_NONE ? " filtered" : "");
+    snprintf(out, n, "%s%s %s spp%s", MODE_NAME(r->mode), tree, spp,
+             r->filter == PN_FILTER_NONE ? "" : r->filter == PN_FILTER_INTERLEAVED ? " filtered" : " penumbra-filtered");
 }
 
 bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)

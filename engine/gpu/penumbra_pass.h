@@ -1,0 +1,35 @@
+// The penumbra filter (--filter penumbra): after the interleaved filter, a separable Gaussian as
+// wide as the penumbra each pixel lies in, from the nearest blocker the shadow pass met
+// (shaders/glsl/penumbra_filter.comp). Three dispatches: the footprint, the Gaussian along rows
+// and along columns. Reads the G-buffer, the shadow pass's counts and blocker
+// bounds, and rewrites V (the interleaved filter's output) in place; leaves each pixel's footprint
+// (the Gaussian's standard deviation in pixels) in `scratch`'s second channel for the EXR.
+#pragma once
+#include "gpu/compute.h"
+#include "gpu/resources.h"
+#include "interface.h"
+
+typedef struct pn_penumbra_pass {
+    pn_gpu_compute compute;
+    uint32_t width, height;
+    pn_gpu_image sigma;   // rg32f: each pixel's own footprint (pixels) and whether it lends its V
+    pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
+} pn_penumbra_pass;
+
+pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
+                                  const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *blockers,
+                                  const pn_gpu_image *v, pn_penumbra_pass *out);
+void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f);
+
+// The Gaussian's standard deviation at one sample per pixel, in widths of the penumbra its nearest
+// blocker casts (penumbra_filter.comp); PN_PENUMBRA_WIDTH_SCALE overrides it (measurements).
+float pn_penumbra_width_scale(void);
+// The most pixels a tap lies from its pixel: the frame's budget, growing with the image's height
+// (a penumbra spans more pixels at a higher resolution) within [8, 32].
+uint32_t pn_penumbra_max_radius(uint32_t height);
+
+// Records the three dispatches with the barriers between them; V must be written (the interleaved
+// filter's) and visible to compute reads before, and is visible to compute reads after. samples,
+// adaptive, yfov_deg: as pn_filter_pass_record.
+void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
+                             float yfov_deg);

@@ -1,0 +1,163 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// The penumbra filter (--filter penumbra): after the interleaved filter's 3x3 window (filter.comp),
+// a Gaussian as wide as the penumbra the pixel lies in, so that a penumbra tens of pixels wide is
+// averaged over tens of pixels' samples instead of nine.
+//
+// The footprint. A blocker at segment parameter t casts a penumbra of width W = L t / (1 - t) on
+// the receiver (L the light's extent seen from it: penumbra_width_of in shadow_frame.glsl); V runs
+// across it from 0 to 1, so W bounds how fast V can vary at the pixel: the nearest of the pixel's
+// blockers casts the narrowest penumbra and sets the bound (as axis-aligned filtering, Mehta, Wang
+// and Ramamoorthi 2012, takes the largest of the blockers' slopes). In pixels, W over the pixel's
+// footprint (view depth x pixel angle). The Gaussian's standard deviation is a fixed share of it,
+// width_scale, shrinking as n^-1/4 with the pixel's n samples: the filter's bias grows with its
+// width (where V bends, at a penumbra's ends), its noise falls with the width squared times n, and
+// n^-1/4 balances the two (bias ~ sigma, variance ~ 1 / (sigma^2 n)), so that filtered and
+// unfiltered converge to the same V. A contact shadow, whose blocker touches the receiver, has
+// W -> 0 and stays sharp; a point light's V (samples 0) is exact and is left alone.
+//
+// Pixels whose rays met no blocker keep the interleaved filter's V. Giving them the widest
+// footprint of the pixels whose Gaussian reaches them (a dilation, so that a thin penumbra one
+// pixel's rays straddled by luck is still averaged) was measured and dropped: on the bench's Sponza
+// view (256 x 256, exact, against the converged reference) it doubled the MAE at 4 spp (0.0217
+// against 0.0067 without) and raised it at 1 spp (0.046 against 0.039), as lit pixels beside an
+// umbra whose nearest blocker casts a wide penumbra were pulled down; the bunny gained 5-9%.
+//
+// The Gaussian is separable, rows then columns, each tap weighted as the interleaved filter weighs
+// its window (the same surface: filter_common.glsl) and by V itself (a neighbour whose V differs
+// from the pixel's by more than its samples' noise allows lies across an edge the footprint did
+// not see). Its cost is linear in the radius, clamped to max_radius pixels (the frame's budget).
+// All weights are dimensionless: the same at every scale.
+#include "interface.h"
+#include "filter_common.glsl"
+
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+
+layout(set = 0, binding = PN_PENUMBRA_BINDING_P, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_N, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_BLOCKERS, rgba32f) uniform readonly image2D img_blockers;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_V, r32f) uniform image2D img_v;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_SIGMA, rg32f) uniform image2D img_sigma;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_SCRATCH, rg32f) uniform image2D img_scratch;
+
+layout(push_constant) uniform PenumbraPushBlock { PenumbraPush pc; };
+
+// The Gaussian's taps reach RADIUS_SIGMAS standard deviations (its weight there is exp(-3.1)).
+const float RADIUS_SIGMAS = 2.5;
+// Below half a pixel the Gaussian adds nothing to the interleaved filter's window.
+const float MIN_SIGMA = 0.5;
+// As filter.comp's range weight: a neighbour further than this many standard deviations of the
+// difference of two pixels' V lies across an edge.
+const float RANGE_SIGMAS = 2.5;
+
+int reach(float sigma) { return min(int(ceil(RADIUS_SIGMAS * sigma)), int(pc.max_radius)); }
+
+// The samples one pixel's V is the mean of (adaptive sampling: its own valid rays).
+float pixel_samples(ivec2 px) { return pc.adaptive != 0u ? float(max(imageLoad(img_counts, px).y, 1u)) : float(pc.samples); }
+
+// The pixel's own footprint (world units; -1 without a blocker), and whether it lends its V.
+void footprint(ivec2 px)
+{
+    vec4 p = imageLoad(img_p, px);
+    uvec4 counts = imageLoad(img_counts, px);
+    bool lends = p.w > 0.0 && counts.y > 0u;
+    float sigma = 0.0; // background, and a point light's: nothing to average
+    if (p.w > 0.0 && pc.samples > 0u) {
+        float width = imageLoad(img_blockers, px).z; // the nearest blocker's penumbra
+        float pixel = imageLoad(img_n, px).w * pc.pixel_angle;
+        // At most the budget's pixels (a pixel facing the camera, the most a world length spans),
+        // compared before multiplying so that nothing overflows. No blocker (PN_PENUMBRA_NONE):
+        // none of its own, -1.
+        float limit = float(pc.max_radius) / RADIUS_SIGMAS * pixel;
+        float s = pc.width_scale * pow(pixel_samples(px), -0.25);
+        sigma = width >= PN_PENUMBRA_NONE ? -1.0 : min(width, limit / s) * s;
+    }
+    imageStore(img_sigma, px, vec4(sigma, lends ? 1.0 : 0.0, 0.0, 0.0));
+}
+
+// A pixel's footprint (world units, 0 without a blocker of its own) and whether it lends its V.
+vec2 pixel_footprint(ivec2 px)
+{
+    vec2 s = imageLoad(img_sigma, px).xy;
+    return vec2(max(s.x, 0.0), s.y);
+}
+
+// The Gaussian along rows (img_v -> scratch, with the pixel's footprint) or columns (scratch ->
+// img_v), over world distance on the pixel's surface: a surface seen at a grazing angle packs more
+// of it into a pixel, and a Gaussian over pixels would reach across its penumbra.
+void blur(ivec2 px, ivec2 size, bool rows)
+{
+    vec4 p = imageLoad(img_p, px);
+    vec4 n = imageLoad(img_n, px);
+    float footprint_p = n.w * pc.pixel_angle;
+    // The row pass leaves the footprint in pixels facing the camera (the EXR's): back to world units.
+    vec2 sp = rows ? pixel_footprint(px) : vec2(imageLoad(img_scratch, px).y * footprint_p, 1.0);
+    float v_p = rows ? imageLoad(img_v, px).x : imageLoad(img_scratch, px).x;
+    // The world length of one pixel along the pass's direction: the nearer of the two neighbours
+    // (the other may lie across an edge), at least the footprint facing the camera.
+    ivec2 dir = rows ? ivec2(1, 0) : ivec2(0, 1);
+    ivec2 a = clamp(px - dir, ivec2(0), size - 1), b = clamp(px + dir, ivec2(0), size - 1);
+    float da = a == px ? 1e30 : distance(imageLoad(img_p, a).xyz, p.xyz);
+    float db = b == px ? 1e30 : distance(imageLoad(img_p, b).xyz, p.xyz);
+    float pixel = max(min(da, db), footprint_p);
+    float sigma_px = sp.x / max(pixel, 1e-30);
+    if (p.w <= 0.0 || sigma_px < MIN_SIGMA) {
+        if (rows)
+            imageStore(img_scratch, px, vec4(v_p, max(sp.x, 0.0) / max(footprint_p, 1e-30), 0.0, 0.0));
+        else
+            imageStore(img_v, px, vec4(v_p));
+        return;
+    }
+    // The noise of one pixel's V around the pixel's, at least that of V = 1 / n (so that a pixel
+    // whose few rays all agreed by luck still takes its neighbours): two pixels differ by up to
+    // RANGE_SIGMAS times sqrt 2 of it.
+    float samples = pixel_samples(px);
+    float spread = RANGE_SIGMAS * sqrt(2.0 * max(v_p * (1.0 - v_p), 1.0 / samples) / samples);
+    // Taps every `step` pixels, half a standard deviation apart or closer: enough for a Gaussian
+    // (its sum over such a lattice is its integral to a fraction of a percent) on a V the
+    // interleaved filter already smoothed over 3 pixels, and it keeps the taps at most
+    // 4 RADIUS_SIGMAS + 1 whatever the width, so the pass costs the same on any penumbra.
+    int step = max(int(0.5 * sigma_px), 1);
+    int r = reach(sigma_px) / step * step;
+    float sum = 0.0, weight = 0.0;
+    for (int k = -r; k <= r; k += step) {
+        ivec2 q = px + k * dir;
+        if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
+            continue;
+        // Along columns the row pass's output: its V and footprint (it lent, or its V is its own).
+        vec4 qp = imageLoad(img_p, q), m = imageLoad(img_n, q);
+        vec2 sq = rows ? pixel_footprint(q) : vec2(imageLoad(img_scratch, q).y * m.w * pc.pixel_angle, 1.0);
+        float v_q = rows ? imageLoad(img_v, q).x : imageLoad(img_scratch, q).x;
+        // The narrower of the two footprints: a pixel next to a contact shadow does not reach
+        // into it, nor the contact shadow's pixels into the wide penumbra beside them. Distances
+        // scaled by it before squaring, so that nothing overflows or underflows.
+        float sigma = sq.x > 0.0 ? min(sp.x, sq.x) : sp.x;
+        vec3 x = sigma > 0.0 ? (qp.xyz - p.xyz) / sigma : vec3(0.0);
+        float g = k == 0 ? 1.0 : (sigma > 0.0 ? exp(-0.5 * dot(x, x)) : 0.0);
+        float w = g * surface_weight(p.xyz, n.xyz, footprint_p, qp.xyz, m.xyz, m.w * pc.pixel_angle, float(abs(k)));
+        float d = abs(v_q - v_p) / spread;
+        w *= max(1.0 - d * d, 0.0);
+        w = qp.w > 0.0 && sq.y > 0.0 ? w : 0.0;
+        sum += w * v_q;
+        weight += w;
+    }
+    float v = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
+    if (rows)
+        imageStore(img_scratch, px, vec4(v, sp.x / max(footprint_p, 1e-30), 0.0, 0.0));
+    else
+        imageStore(img_v, px, vec4(v));
+}
+
+void main()
+{
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(img_v);
+    bool inside = all(lessThan(px, size));
+    if (!inside)
+        return;
+    if (pc.stage == PN_PENUMBRA_STAGE_FOOTPRINT)
+        footprint(px);
+    else
+        blur(px, size, pc.stage == PN_PENUMBRA_STAGE_BLUR_X);
+}
