@@ -63,7 +63,7 @@ float pn_penumbra_width_scale(void)
 {
     const char *e = getenv("PN_PENUMBRA_WIDTH_SCALE");
     float s = e ? strtof(e, NULL) : 0.0f;
-    return s > 0.0f && isfinite(s) ? s : 0.25f;
+    return s > 0.0f && isfinite(s) ? s : 0.35f;
 }
 
 uint32_t pn_penumbra_max_radius(uint32_t height)

@@ -70,7 +70,7 @@ void footprint(ivec2 px)
         // compared before multiplying so that nothing overflows. No blocker (PN_PENUMBRA_NONE):
         // none of its own, -1.
         float limit = float(pc.max_radius) / RADIUS_SIGMAS * pixel;
-        float s = pc.width_scale * pow(pixel_samples(px), -0.25);
+        float s = pc.width_scale * inversesqrt(pixel_samples(px));
         sigma = width >= PN_PENUMBRA_NONE ? -1.0 : min(width, limit / s) * s;
     }
     imageStore(img_sigma, px, vec4(sigma, lends ? 1.0 : 0.0, 0.0, 0.0));

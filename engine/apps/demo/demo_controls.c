@@ -334,7 +334,8 @@ static void toggle_sampler(pn_demo *d, float unused)
 
 static void toggle_filter(pn_demo *d, float unused)
 {
-    d->opts.filter = d->opts.filter == PN_FILTER_NONE ? PN_FILTER_INTERLEAVED : PN_FILTER_NONE;
+    // none -> interleaved -> penumbra -> none
+    d->opts.filter = d->opts.filter == PN_FILTER_LAST ? PN_FILTER_NONE : (pn_filter)(d->opts.filter + 1);
     if (d->opts.filter != PN_FILTER_NONE)
         d->opts.split = PN_SPLIT_EVEN; // interleaving shares one sample set per tile: no budgeted counts
     d->renderer_dirty = d->restart = true;
@@ -445,7 +446,7 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_8, 0, false, set_mode, 8},
     {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal ray / packet / auto"},
     {GLFW_KEY_G, 0, false, toggle_sampler, 0, "G", "sampler grid / stratified"},
-    {GLFW_KEY_F, 0, false, toggle_filter, 0, "F", "filter none / interleaved (tile --tile)"},
+    {GLFW_KEY_F, 0, false, toggle_filter, 0, "F", "filter none / interleaved / penumbra (tile --tile)"},
     {GLFW_KEY_MINUS, 0, true, step_spp, -1, "- =", "fewer, more shadow rays per pixel"},
     {GLFW_KEY_EQUAL, 0, true, step_spp, 1},
     {GLFW_KEY_N, 0, true, step_tree_n, 1, "N shift+N", "tree branching factor up, down"},

@@ -1,0 +1,156 @@
+// The penumbra filter (--filter penumbra) against the analytic penumbra (builtin:penumbra: a
+// 0.5x0.5 occluder at height 0.5 over a receiver at y = 0, under a parallel 0.5x0.5 light at
+// height 1.5), whose V at every receiver point is a closed-form area overlap: the occluder seen
+// from g = (x, 0, z) projects onto the light's plane as the square of half-edge 0.75 centred on
+// -2 (x, z) (similar triangles, a factor 1.5 / 0.5 = 3), and V is one minus its overlap with the
+// light over the light's area.
+//
+// Checked, over the receiver's pixels:
+//  - the footprint AOV (shadow.footprint) against its CPU oracle: every blocked ray meets the
+//    occluder at t = 1/3 of the way to the light, so the nearest blocker's penumbra is the light's
+//    side foreshortened (its cosine from the pixel to the light's centre) times t / (1 - t) = 1/2,
+//    and the footprint is the width scale x that x n^-1/2 over the pixel's footprint (view depth x
+//    pixel angle), at most max_radius / 2.5 pixels (penumbra_filter.comp); 0 where no ray is blocked;
+//  - the error against the closed form at 1 and 4 spp: below the interleaved filter's, which
+//    averages 3x3 pixels only;
+//  - convergence: at 256 spp the Gaussian adds nothing to the interleaved filter's error (within
+//    10%), as the footprint shrinks as n^-1/2. The interleaved filter's own 3x3 window does not
+//    narrow with the samples: here its 256-spp MAE is 0.00033 from unfiltered's V (0.00027 against
+//    the closed form, unfiltered 0.00019); that part is issue 44's to close, and printed, not
+//    asserted.
+#include <math.h>
+
+#include "io/exr.h"
+#include "test_util.h"
+
+enum { SIZE = 128 };
+
+// The closed form: V at receiver point (x, 0, z).
+static double v_closed(double x, double z)
+{
+    double cx = -2.0 * x, cz = -2.0 * z, h = 0.75, l = 0.25;
+    double ox = fmax(0.0, fmin(cx + h, l) - fmax(cx - h, -l));
+    double oz = fmax(0.0, fmin(cz + h, l) - fmax(cz - h, -l));
+    return 1.0 - ox * oz / (4.0 * l * l);
+}
+
+typedef struct frame {
+    pn_exr_image img;
+    const float *a, *v, *px, *py, *pz, *z, *fp;
+    bool ok;
+} frame;
+
+static frame render(const char *filter, int spp, int seed)
+{
+    frame f = {0};
+    char out[256], args[2048];
+    snprintf(out, sizeof out, "%s", pn_test_tmp("penumbra_filter.exr"));
+    snprintf(args, sizeof args,
+             "render builtin:penumbra --no-ground --size %dx%d --aovs --camera-pos 0,3,3 --camera-target 0,0,0 "
+             "--fov 40 --light-pos 0,1.5,0 --light-normal 0,-1,0 --light-up 0,0,-1 --light-size 0.5,0.5 --mode exact "
+             "--spp %d --seed %d --filter %s -o %s",
+             SIZE, SIZE, spp, seed, filter, out);
+    int rc = pn_test_run(args);
+    CHECK_MSG(rc == 0, "render (%s, %d spp) exited %d", filter, spp, rc);
+    if (rc != 0 || pn_exr_read(out, &f.img) != PN_OK)
+        return f;
+    f.a = pn_exr_image_channel(&f.img, "A");
+    f.v = pn_exr_image_channel(&f.img, "shadow.V");
+    f.px = pn_exr_image_channel(&f.img, "P.X");
+    f.py = pn_exr_image_channel(&f.img, "P.Y");
+    f.pz = pn_exr_image_channel(&f.img, "P.Z");
+    f.z = pn_exr_image_channel(&f.img, "Z");
+    f.fp = pn_exr_image_channel(&f.img, "shadow.footprint");
+    f.ok = f.a && f.v && f.px && f.py && f.pz && f.z;
+    CHECK_MSG(f.ok, "%s: a channel is missing", filter);
+    CHECK_MSG((f.fp != NULL) == (strcmp(filter, "penumbra") == 0), "%s: shadow.footprint %s", filter,
+              f.fp ? "present" : "missing");
+    return f;
+}
+
+// Receiver pixels: covered, on the plane y = 0 (the occluder lies at 0.5).
+static bool receiver(const frame *f, int i) { return f->a[i] == 1.0f && f->py[i] == 0.0f; }
+
+static double mae(const frame *f, int *count)
+{
+    double sum = 0.0;
+    int n = 0;
+    for (int i = 0; f->ok && i < SIZE * SIZE; i++) {
+        if (!receiver(f, i))
+            continue;
+        sum += fabs(f->v[i] - v_closed(f->px[i], f->pz[i]));
+        n++;
+    }
+    if (count)
+        *count = n;
+    return n ? sum / n : 1.0;
+}
+
+// The footprint's oracle at receiver pixel i with n samples (penumbra_filter.comp, footprint).
+static double footprint_oracle(const frame *f, int i, int n)
+{
+    const double pi = 3.14159265358979323846;
+    double pixel_angle = 2.0 * tan(0.5 * 40.0 * pi / 180.0) / SIZE;
+    double dx = -f->px[i], dy = 1.5, dz = -f->pz[i]; // to the light's centre
+    double cos_l = dy / sqrt(dx * dx + dy * dy + dz * dz);
+    double width = 0.5 * cos_l * 0.5; // the side, foreshortened, times t / (1 - t) at t = 1/3
+    double pixel = f->z[i] * pixel_angle;
+    double limit = 8.0 / 2.5; // pn_penumbra_max_radius(128) over RADIUS_SIGMAS, pixels
+    return fmin(0.35 / sqrt(n) * width / pixel, limit);
+}
+
+int main(void)
+{
+    // The footprint against its oracle, at 1 and 4 spp, where rays were blocked (the closed form
+    // says V < 1: some ray may be blocked; a pixel whose rays all passed has none of its own).
+    int spps[2] = {1, 4};
+    for (int k = 0; k < 2; k++) {
+        frame f = render("penumbra", spps[k], 1);
+        int checked = 0, off = 0, lit_zero = 0, lit = 0;
+        for (int i = 0; f.ok && f.fp && i < SIZE * SIZE; i++) {
+            if (!receiver(&f, i))
+                continue;
+            double vc = v_closed(f.px[i], f.pz[i]);
+            if (vc == 1.0) { // no ray can be blocked: no footprint
+                lit++;
+                lit_zero += f.fp[i] == 0.0f;
+                continue;
+            }
+            if (f.v[i] == 1.0f || vc == 0.0) // the filtered V tells nothing of its own rays here
+                continue;
+            double want = footprint_oracle(&f, i, spps[k]);
+            // Float arithmetic on the GPU against double here: a relative 1e-4.
+            if (f.fp[i] > 0.0f) {
+                checked++;
+                if (fabs(f.fp[i] - want) > 1e-4 * want && off++ < 5)
+                    fprintf(stderr, "  %d spp pixel %d: footprint %.6f, oracle %.6f\n", spps[k], i, f.fp[i], want);
+            }
+        }
+        fprintf(stderr, "footprint, %d spp: %d pixels against the oracle, %d off; %d of %d lit pixels 0\n", spps[k],
+                checked, off, lit_zero, lit);
+        CHECK_MSG(checked > 300, "%d spp: only %d penumbra pixels with a footprint", spps[k], checked);
+        CHECK_MSG(off == 0, "%d spp: %d footprints off their oracle", spps[k], off);
+        CHECK_MSG(lit > 1000 && lit_zero == lit, "%d spp: %d of %d lit pixels with a footprint", spps[k], lit - lit_zero,
+                  lit);
+        pn_exr_image_free(&f.img);
+    }
+
+    // Error against the closed form.
+    double e[3][3]; // [none, interleaved, penumbra][1, 4, 256 spp]
+    const char *filters[3] = {"none", "interleaved", "penumbra"};
+    int levels[3] = {1, 4, 256};
+    for (int fi = 0; fi < 3; fi++)
+        for (int li = 0; li < 3; li++) {
+            frame f = render(filters[fi], levels[li], 1);
+            int n = 0;
+            e[fi][li] = mae(&f, &n);
+            CHECK_MSG(n > 5000, "%s: %d receiver pixels", filters[fi], n);
+            fprintf(stderr, "MAE against the closed form, %s, %d spp: %.5f\n", filters[fi], levels[li], e[fi][li]);
+            pn_exr_image_free(&f.img);
+        }
+    for (int li = 0; li < 2; li++)
+        CHECK_MSG(e[2][li] < e[1][li], "%d spp: penumbra %.5f not below interleaved %.5f", levels[li], e[2][li],
+                  e[1][li]);
+    CHECK_MSG(e[2][2] <= 1.1 * e[1][2], "256 spp: penumbra %.5f above 1.1 x interleaved %.5f", e[2][2], e[1][2]);
+    return pn_test_result();
+}
