@@ -8,20 +8,25 @@
 // the receiver (L the light's extent seen from it: penumbra_width_of in shadow_frame.glsl); V runs
 // across it from 0 to 1, so W bounds how fast V can vary at the pixel: the nearest of the pixel's
 // blockers casts the narrowest penumbra and sets the bound (as axis-aligned filtering, Mehta, Wang
-// and Ramamoorthi 2012, takes the largest of the blockers' slopes). In pixels, W over the pixel's
-// footprint (view depth x pixel angle). The Gaussian's standard deviation is a fixed share of it,
-// width_scale, shrinking as n^-1/4 with the pixel's n samples: the filter's bias grows with its
-// width (where V bends, at a penumbra's ends), its noise falls with the width squared times n, and
-// n^-1/4 balances the two (bias ~ sigma, variance ~ 1 / (sigma^2 n)), so that filtered and
-// unfiltered converge to the same V. A contact shadow, whose blocker touches the receiver, has
-// W -> 0 and stays sharp; a point light's V (samples 0) is exact and is left alone.
+// and Ramamoorthi 2012, takes the largest of the blockers' slopes). The Gaussian's standard
+// deviation, in world units on the receiver, is a share of it, width_scale / sqrt(n) with the
+// pixel's n samples, at most max_radius / RADIUS_SIGMAS pixels. Its bias grows with its width
+// (where V bends, at a penumbra's ends), and it must fall at least as fast as the noise it removes
+// for filtered and unfiltered V to converge together: n^-1/4, the mean-square balance of a bend's
+// bias (~ sigma) against the noise (~ 1 / (sigma^2 n)), kept a bias at 256 spp on the analytic
+// penumbra (tests/test_penumbra_filter.c: 0.00035 against unfiltered's 0.00019), while n^-1/2
+// leaves the footprint below half a pixel there. A contact shadow, whose blocker touches the
+// receiver, has W -> 0 and stays sharp; a point light's V (samples 0) is exact and is left alone.
 //
-// Pixels whose rays met no blocker keep the interleaved filter's V. Giving them the widest
-// footprint of the pixels whose Gaussian reaches them (a dilation, so that a thin penumbra one
-// pixel's rays straddled by luck is still averaged) was measured and dropped: on the bench's Sponza
-// view (256 x 256, exact, against the converged reference) it doubled the MAE at 4 spp (0.0217
-// against 0.0067 without) and raised it at 1 spp (0.046 against 0.039), as lit pixels beside an
-// umbra whose nearest blocker casts a wide penumbra were pulled down; the bunny gained 5-9%.
+// Pixels whose rays met no blocker have no footprint of their own: they keep the interleaved
+// filter's V, and lend theirs to a penumbra pixel under that pixel's footprint. Giving them the
+// widest footprint of the pixels whose Gaussian reaches them (a dilation per 8 x 8 tile, so that
+// a thin penumbra one pixel's rays straddled by luck is still averaged) was measured and dropped
+// (bench, the five standard views at 256 x 256, exact, reference MAE): at 4 spp it helped the
+// bunny (0.0080 against 0.0089) and cost Sponza (0.0076 against 0.0062), at 1 spp it cost the
+// buddha (0.028 against 0.0175) and Sponza (0.044 against 0.029): lit pixels beside an umbra whose
+// nearest blocker casts a wide penumbra are pulled down, where one ray's noise leaves the range
+// weight nothing to refuse.
 //
 // The Gaussian is separable, rows then columns, each tap weighted as the interleaved filter weighs
 // its window (the same surface: filter_common.glsl) and by V itself (a neighbour whose V differs
@@ -50,6 +55,13 @@ const float MIN_SIGMA = 0.5;
 // As filter.comp's range weight: a neighbour further than this many standard deviations of the
 // difference of two pixels' V lies across an edge.
 const float RANGE_SIGMAS = 2.5;
+// The V this pass reads is the interleaved filter's, a weighted mean over up to 9 pixels' samples:
+// its noise is that of about WINDOW_SAMPLES times the pixel's own samples. Measured (bench, the
+// five standard views at 256 x 256, exact, 1 / 4 / 16 spp, reference MAE): 1 (one pixel's noise,
+// a looser range weight) 0.0272 / 0.0090 / 0.0036 on the bunny and 0.0297 / 0.0066 / 0.0028 on
+// Sponza; 3: 0.0269 / 0.0089 / 0.0035 and 0.0290 / 0.0062 / 0.0027, and lower on the dragon and
+// buddha too; 9 (the whole window) higher again on all five at 1 spp.
+const float WINDOW_SAMPLES = 3.0;
 
 int reach(float sigma) { return min(int(ceil(RADIUS_SIGMAS * sigma)), int(pc.max_radius)); }
 
@@ -112,7 +124,7 @@ void blur(ivec2 px, ivec2 size, bool rows)
     // The noise of one pixel's V around the pixel's, at least that of V = 1 / n (so that a pixel
     // whose few rays all agreed by luck still takes its neighbours): two pixels differ by up to
     // RANGE_SIGMAS times sqrt 2 of it.
-    float samples = pixel_samples(px);
+    float samples = pixel_samples(px) * WINDOW_SAMPLES;
     float spread = RANGE_SIGMAS * sqrt(2.0 * max(v_p * (1.0 - v_p), 1.0 / samples) / samples);
     // Taps every `step` pixels, half a standard deviation apart or closer: enough for a Gaussian
     // (its sum over such a lattice is its integral to a fraction of a percent) on a V the
