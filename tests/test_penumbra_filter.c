@@ -17,11 +17,10 @@
 //    platform): over the pixels of sharp penumbrae (the converged reference's V in (0.02, 0.98)
 //    and its penumbra narrower than 3 pixels) and those within 2 pixels of one, the error against
 //    that reference at 1 and 4 spp is no worse than unfiltered's at the same spp;
-//  - convergence: at 256 spp the Gaussian adds nothing to the interleaved filter's error (within
-//    10%), as the footprint shrinks as n^-1/2. The interleaved filter's own 3x3 window does not
-//    narrow with the samples: here its 256-spp MAE is 0.00033 from unfiltered's V (0.00027 against
-//    the closed form, unfiltered 0.00019); that part is issue 44's to close, and printed, not
-//    asserted.
+//  - convergence: at 256 spp the filtered error is within 10% of (or below) the unfiltered one's,
+//    as the Gaussian's footprint shrinks as n^-1/2 and the interleaved window's as n^-3/4 under
+//    this filter (the interleaved filter's fixed window stays at 0.000269 here against
+//    unfiltered's 0.000187: printed, not asserted).
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -239,12 +238,12 @@ int main(void)
             int n = 0;
             e[fi][li] = mae(&f, &n);
             CHECK_MSG(n > 5000, "%s: %d receiver pixels", filters[fi], n);
-            fprintf(stderr, "MAE against the closed form, %s, %d spp: %.5f\n", filters[fi], levels[li], e[fi][li]);
+            fprintf(stderr, "MAE against the closed form, %s, %d spp: %.6f\n", filters[fi], levels[li], e[fi][li]);
             pn_exr_image_free(&f.img);
         }
     for (int li = 0; li < 2; li++)
         CHECK_MSG(e[2][li] < e[1][li], "%d spp: penumbra %.5f not below interleaved %.5f", levels[li], e[2][li],
                   e[1][li]);
-    CHECK_MSG(e[2][2] <= 1.1 * e[1][2], "256 spp: penumbra %.5f above 1.1 x interleaved %.5f", e[2][2], e[1][2]);
+    CHECK_MSG(e[2][2] <= 1.1 * e[0][2], "256 spp: penumbra %.6f above 1.1 x unfiltered %.6f", e[2][2], e[0][2]);
     return pn_test_result();
 }

@@ -17,8 +17,8 @@ typedef struct pn_filter_pass {
 // tile_w, tile_h: 1..PN_FILTER_MAX_TILE.
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
-                                const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *v,
-                                pn_filter_pass *out);
+                                const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
+                                const pn_gpu_image *v, pn_filter_pass *out);
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
 // Another window: a pipeline specialised for it, made only when it changes. The device must be
 // idle with respect to f (the old pipeline is destroyed); f is unchanged on failure.
@@ -26,6 +26,8 @@ pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_
 
 // yfov_deg: the camera's vertical field of view, which with the height gives a pixel's footprint
 // per unit of depth; samples: the shadow pass's light samples per pixel, which set the noise one
-// pixel's V carries.
+// pixel's V carries; narrow: 0, or under the penumbra filter pn_penumbra_window_scale, with which the
+// window's weights fall as a Gaussian of the pixel's footprint (filter.comp), so that its 3 x 3
+// average narrows as the samples grow.
 void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, bool adaptive,
-                           float yfov_deg);
+                           float yfov_deg, float narrow);

@@ -66,6 +66,8 @@ float pn_penumbra_width_scale(void)
     return s > 0.0f && isfinite(s) ? s : 0.35f;
 }
 
+float pn_penumbra_window_scale(void) { return 2.0f; }
+
 uint32_t pn_penumbra_max_radius(uint32_t height)
 {
     uint32_t r = height / 32;

@@ -184,7 +184,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r == PN_OK)
         r = pn_filter_pass_create(dev, desc->width, desc->height, pn_filter_tile(desc->tile_w),
                                   pn_filter_tile(desc->tile_h), &out->p, &out->n, &out->v_raw, &out->shadow.counts,
-                                  &out->v, &out->filter);
+                                  &out->shadow.blockers, &out->v, &out->filter);
     if (r == PN_OK)
         r = pn_penumbra_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->shadow.counts,
                                     &out->shadow.blockers, &out->v, &out->penumbra);
@@ -414,11 +414,12 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_cmd_barrier(cmd, NULL, 3, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
+            bool penumbra = r->desc.filter == PN_FILTER_PENUMBRA;
             pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
-                                  yfov_deg); // P, N, V raw -> V
+                                  yfov_deg, penumbra ? pn_penumbra_window_scale() : 0.0f); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
-            if (r->desc.filter == PN_FILTER_PENUMBRA) {
+            if (penumbra) {
                 pn_penumbra_pass_record(cmd, &r->penumbra, noise_samples[i],
                                         pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg); // V -> V
                 pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);

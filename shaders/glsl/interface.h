@@ -90,7 +90,8 @@
 #define PN_FILTER_BINDING_V_RAW 2 // r32f: the shadow pass's V
 #define PN_FILTER_BINDING_V 3     // r32f: filtered V out
 #define PN_FILTER_BINDING_COUNTS 4 // rgba32ui: the shadow pass's (visible, valid, reaches) per pixel
-#define PN_FILTER_BINDING_COUNT 5
+#define PN_FILTER_BINDING_BLOCKERS 5 // rgba32f: the shadow pass's blocker bounds (with the penumbra filter)
+#define PN_FILTER_BINDING_COUNT 6
 // The penumbra filter (--filter penumbra, penumbra_filter.comp): after the interleaved filter, a
 // separable Gaussian as wide as the penumbra.
 #define PN_PENUMBRA_BINDING_P 0        // rgba32f: world position, w = 1 where geometry is
@@ -314,7 +315,8 @@ PN_STRUCT(FilterPush, pn_filter_push) {
                           // 0 for a point light, whose V has none
     PN_UINT(adaptive)     // 1: pixels took samples of their own number (adaptive sampling): the
                           // noise of each pixel's V is that of its own valid rays
-    PN_UINT(pad0)
+    PN_FLOAT(narrow)      // > 0 (the penumbra filter's width scale): the window's weights also fall as
+                          // a Gaussian of the penumbra filter's footprint, narrowing with the samples
 } PN_END(FilterPush, pn_filter_push)
 
 // The penumbra filter's push constants (penumbra_filter.comp). 32 bytes.
