@@ -75,7 +75,7 @@ uint32_t pn_penumbra_max_radius(uint32_t height)
 }
 
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
-                             float yfov_deg)
+                             float yfov_deg, float width_scale)
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
@@ -91,7 +91,7 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
         .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
         .samples = samples,
         .adaptive = adaptive,
-        .width_scale = pn_penumbra_width_scale(),
+        .width_scale = width_scale,
         .max_radius = pn_penumbra_max_radius(f->height),
     };
     const uint32_t G = PN_WORKGROUP;

@@ -42,6 +42,7 @@ uint32_t pn_penumbra_max_radius(uint32_t height);
 
 // Records the three dispatches with the barriers between them; V must be written (the interleaved
 // filter's) and visible to compute reads before, and is visible to compute reads after. samples,
-// adaptive, yfov_deg: as pn_filter_pass_record.
+// adaptive, yfov_deg: as pn_filter_pass_record; width_scale: pn_penumbra_width_scale, or less for a
+// picture that averages several frames (pn_renderer_set_accumulated).
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
-                             float yfov_deg);
+                             float yfov_deg, float width_scale);

@@ -414,14 +414,19 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_gpu_cmd_barrier(cmd, NULL, 3, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
         if (filtered(r)) {
+            // Under the penumbra filter the footprints narrow with the samples of the accumulated
+            // picture (pn_renderer_set_accumulated): the laws' factors for `frames` times as many.
             bool penumbra = r->desc.filter == PN_FILTER_PENUMBRA;
+            double frames = r->accumulated > 1 ? (double)r->accumulated : 1.0;
+            float narrow = penumbra ? (float)(pn_penumbra_window_scale() * pow(frames, -0.75)) : 0.0f;
             pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
-                                  yfov_deg, penumbra ? pn_penumbra_window_scale() : 0.0f); // P, N, V raw -> V
+                                  yfov_deg, narrow); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
             if (penumbra) {
                 pn_penumbra_pass_record(cmd, &r->penumbra, noise_samples[i],
-                                        pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg); // V -> V
+                                        pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg,
+                                        (float)(pn_penumbra_width_scale() / sqrt(frames))); // V -> V
                 pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
             }
         }
@@ -561,6 +566,8 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
 }
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
+
+void pn_renderer_set_accumulated(pn_renderer *r, uint32_t frames) { r->accumulated = frames; }
 
 pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h)
 {

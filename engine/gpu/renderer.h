@@ -35,6 +35,7 @@ typedef struct pn_renderer {
     // most samples a pixel of the last frame could take, where that frame can be continued (one
     // light, sampled adaptively), else 0, with its first round and seed (a frame with others is
     // one of its own); and whether the last frame did continue the one before.
+    uint32_t accumulated; // pn_renderer_set_accumulated (0 or 1: this frame alone)
     bool continue_next;
     uint32_t continuable_spp, continuable_spp_min, continuable_seed;
     bool resumed;
@@ -82,6 +83,11 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
 // Changes the stratified sampler's seed from the next pn_renderer_render on: the demo's progressive
 // refinement takes new light samples every frame without recreating the renderer.
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
+// The picture the next frame joins averages `frames` frames of independent samples (the demo's
+// accumulation, 1 otherwise): the penumbra filter's footprints narrow as for frames x spp samples
+// (its Gaussian as 1/sqrt, the interleaved window under it as n^-3/4), so that the accumulated
+// picture converges to the unfiltered one as its samples add up.
+void pn_renderer_set_accumulated(pn_renderer *r, uint32_t frames);
 
 // Changes the filter and its tile from the next pn_renderer_render on (the bench's filter axis
 // steps through them over one tree). tile_w, tile_h: 0 means 3; otherwise 1..PN_FILTER_MAX_TILE.

@@ -95,6 +95,9 @@ static pn_result render(pn_demo *d)
     // Refined adaptively, the same seed: the frame continues the same samples.
     uint32_t seed = (uint32_t)d->opts.seed + (refine ? 0 : d->image.frames);
     pn_renderer_set_seed(&d->renderer, seed);
+    // Accumulating new samples (not continuing adaptive ones, whose frame holds them all): the
+    // penumbra filter narrows as for the samples the averaged picture will hold.
+    pn_renderer_set_accumulated(&d->renderer, d->accumulate && !refine ? d->image.frames + 1 : 1);
     if (d->opts.spp_min) {
         uint32_t k = refine ? d->image.frames : 0;
         float error = d->opts.pixel_error * powf(0.5f, 0.5f * (float)k);
