@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "filter_comp.h"
+#include "gpu/penumbra_pass.h"
 
 // The pipeline specialised for a tile_w x tile_h window, its set pointed at f's images.
 static pn_result create_pipeline(pn_gpu_device *dev, const pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h,
@@ -23,7 +24,7 @@ static pn_result create_pipeline(pn_gpu_device *dev, const pn_filter_pass *f, ui
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
                                 const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                const pn_gpu_image *v, pn_filter_pass *out)
+                                const pn_gpu_image *sigma, const pn_gpu_image *v, pn_filter_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
@@ -33,6 +34,7 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
     out->images[PN_FILTER_BINDING_V] = v->view;
     out->images[PN_FILTER_BINDING_COUNTS] = counts->view;
     out->images[PN_FILTER_BINDING_BLOCKERS] = blockers->view;
+    out->images[PN_FILTER_BINDING_SIGMA] = sigma->view;
     PN_TRY(create_pipeline(dev, out, tile_w, tile_h, &out->compute));
     out->tile_w = tile_w, out->tile_h = tile_h;
     return PN_OK;
@@ -58,13 +60,15 @@ pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_
 }
 
 void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, bool adaptive,
-                           float yfov_deg, float narrow)
+                           float yfov_deg, float narrow, float width_scale)
 {
     pn_filter_push push = {
         .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
         .samples = samples,
         .adaptive = adaptive,
         .narrow = narrow,
+        .width_scale = width_scale,
+        .max_radius = pn_penumbra_max_radius(f->height),
     };
     uint32_t gx = (f->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (f->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, gx, gy, 1);

@@ -1,7 +1,8 @@
 // The filter pass (--filter interleaved): V averaged over the interleaved-sampling tile around each
 // pixel, across neighbours on the pixel's own surface only (shaders/glsl/filter.comp). Reads the
 // shadow pass's V (v_raw) and sample counts (which pixels have an estimate of V), writes the
-// filtered V the shading pass reads.
+// filtered V the shading pass reads. Under --filter penumbra it also reads the blocker bounds and
+// writes the penumbra filter's footprints (gpu/penumbra_pass.h).
 #pragma once
 #include "gpu/compute.h"
 #include "gpu/resources.h"
@@ -18,7 +19,7 @@ typedef struct pn_filter_pass {
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
                                 const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                const pn_gpu_image *v, pn_filter_pass *out);
+                                const pn_gpu_image *sigma, const pn_gpu_image *v, pn_filter_pass *out);
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
 // Another window: a pipeline specialised for it, made only when it changes. The device must be
 // idle with respect to f (the old pipeline is destroyed); f is unchanged on failure.
@@ -28,6 +29,8 @@ pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_
 // per unit of depth; samples: the shadow pass's light samples per pixel, which set the noise one
 // pixel's V carries; narrow: 0, or under the penumbra filter pn_penumbra_window_scale, with which the
 // window's weights fall as a Gaussian of the pixel's footprint (filter.comp), so that its 3 x 3
-// average narrows as the samples grow.
+// average narrows as the samples grow, and the pass writes the penumbra filter's footprints to
+// `sigma` (width_scale: its pn_penumbra_width_scale); sigma must then be in the GENERAL layout
+// (pn_penumbra_pass_begin), as it must be for any dispatch of the pass.
 void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_t samples, bool adaptive,
-                           float yfov_deg, float narrow);
+                           float yfov_deg, float narrow, float width_scale);

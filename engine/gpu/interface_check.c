@@ -73,5 +73,5 @@ AT(pn_shade_push, accumulate, 96);
 SIZE(pn_shade_push, 112);
 
 // FilterPush: std430 push constants.
-SIZE(pn_filter_push, 16);
+SIZE(pn_filter_push, 32);
 AT(pn_filter_push, samples, 4);

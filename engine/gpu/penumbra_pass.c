@@ -1,4 +1,4 @@
-// The penumbra filter (--filter penumbra): images, pipeline and its three dispatches.
+// The penumbra filter (--filter penumbra): images, pipeline and its two dispatches.
 #include "gpu/penumbra_pass.h"
 
 #include <math.h>
@@ -8,8 +8,8 @@
 #include "penumbra_filter_comp.h"
 
 pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
-                                  const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                  const pn_gpu_image *v, pn_penumbra_pass *out)
+                                  const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *v,
+                                  pn_penumbra_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
@@ -38,7 +38,6 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
         [PN_PENUMBRA_BINDING_P] = p->view,
         [PN_PENUMBRA_BINDING_N] = n->view,
         [PN_PENUMBRA_BINDING_COUNTS] = counts->view,
-        [PN_PENUMBRA_BINDING_BLOCKERS] = blockers->view,
         [PN_PENUMBRA_BINDING_V] = v->view,
         [PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view,
         [PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view,
@@ -74,36 +73,41 @@ uint32_t pn_penumbra_max_radius(uint32_t height)
     return r < 8 ? 8 : r > 32 ? 32 : r;
 }
 
-void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
-                             float yfov_deg, float width_scale)
+void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
 {
-    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     // Its images are rewritten: discard what an earlier light or frame left, after all of its work
     // on them (the readback's copy of the footprint among it).
+    const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     VkImageMemoryBarrier2 fresh[2];
     const pn_gpu_image *images[2] = {&f->sigma, &f->scratch};
     for (int i = 0; i < 2; i++)
         fresh[i] = pn_gpu_image_barrier(images[i], VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
-                                        COMPUTE, RW, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL);
+                                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, RW, VK_IMAGE_LAYOUT_UNDEFINED,
+                                        VK_IMAGE_LAYOUT_GENERAL);
     pn_gpu_cmd_barrier(cmd, NULL, 2, fresh);
+}
+
+void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
+                             float yfov_deg)
+{
+    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     pn_penumbra_push push = {
         .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
         .samples = samples,
         .adaptive = adaptive,
-        .width_scale = width_scale,
         .max_radius = pn_penumbra_max_radius(f->height),
     };
     const uint32_t G = PN_WORKGROUP;
     for (uint32_t stage = 0; stage < PN_PENUMBRA_STAGES; stage++) {
-        if (stage > 0) // each stage reads what the ones before wrote
-            pn_gpu_cmd_barrier(cmd,
-                               &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
-                                                   .srcStageMask = COMPUTE,
-                                                   .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                                   .dstStageMask = COMPUTE,
-                                                   .dstAccessMask = RW},
-                               0, NULL);
+        // Each stage reads what the ones before wrote (the first, the filter pass's footprints).
+        pn_gpu_cmd_barrier(cmd,
+                           &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                               .srcStageMask = COMPUTE,
+                                               .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                               .dstStageMask = COMPUTE,
+                                               .dstAccessMask = RW},
+                           0, NULL);
         push.stage = stage;
         pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, (f->width + G - 1) / G, (f->height + G - 1) / G, 1);
     }

@@ -1,8 +1,9 @@
 // The penumbra filter (--filter penumbra): after the interleaved filter, a separable Gaussian as
 // wide as the penumbra each pixel lies in, from the nearest blocker the shadow pass met
-// (shaders/glsl/penumbra_filter.comp). Three dispatches: the footprint, the Gaussian along rows
-// and along columns. Reads the G-buffer, the shadow pass's counts and blocker
-// bounds, and rewrites V (the interleaved filter's output) in place; leaves each pixel's footprint
+// (shaders/glsl/penumbra_filter.comp). The interleaved filter's pass writes each pixel's footprint
+// (filter.comp); then two dispatches: the Gaussian along rows and along columns. Reads the
+// G-buffer and the shadow pass's counts, and rewrites V (the interleaved filter's output) in
+// place; leaves each pixel's footprint
 // (the Gaussian's standard deviation in pixels) in `scratch`'s second channel for the EXR.
 #pragma once
 #include "gpu/compute.h"
@@ -12,13 +13,13 @@
 typedef struct pn_penumbra_pass {
     pn_gpu_compute compute;
     uint32_t width, height;
-    pn_gpu_image sigma;   // rg32f: each pixel's own footprint (pixels) and whether it lends its V
+    pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
 } pn_penumbra_pass;
 
 pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
-                                  const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                  const pn_gpu_image *v, pn_penumbra_pass *out);
+                                  const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *v,
+                                  pn_penumbra_pass *out);
 void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f);
 
 // The Gaussian's standard deviation at one sample per pixel, in widths of the penumbra its nearest
@@ -40,9 +41,11 @@ float pn_penumbra_window_scale(void);
 // (a penumbra spans more pixels at a higher resolution) within [8, 32].
 uint32_t pn_penumbra_max_radius(uint32_t height);
 
-// Records the three dispatches with the barriers between them; V must be written (the interleaved
-// filter's) and visible to compute reads before, and is visible to compute reads after. samples,
-// adaptive, yfov_deg: as pn_filter_pass_record; width_scale: pn_penumbra_width_scale, or less for a
-// picture that averages several frames (pn_renderer_set_accumulated).
+// Discards its images' contents and makes them GENERAL, before the filter pass writes the
+// footprints (every frame and light with a filter: the filter pass's set holds `sigma`).
+void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f);
+// Records the two dispatches with the barriers before and between them; V and the footprints
+// must be written (the filter pass's), and V is visible to compute reads after. samples, adaptive,
+// yfov_deg: as pn_filter_pass_record.
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
-                             float yfov_deg, float width_scale);
+                             float yfov_deg);

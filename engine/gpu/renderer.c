@@ -182,12 +182,12 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene),
                                   pn_alpha_masked_triangles(scene) > 0, &out->shadow);
     if (r == PN_OK)
+        r = pn_penumbra_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->shadow.counts, &out->v,
+                                    &out->penumbra);
+    if (r == PN_OK)
         r = pn_filter_pass_create(dev, desc->width, desc->height, pn_filter_tile(desc->tile_w),
                                   pn_filter_tile(desc->tile_h), &out->p, &out->n, &out->v_raw, &out->shadow.counts,
-                                  &out->shadow.blockers, &out->v, &out->filter);
-    if (r == PN_OK)
-        r = pn_penumbra_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->shadow.counts,
-                                    &out->shadow.blockers, &out->v, &out->penumbra);
+                                  &out->shadow.blockers, &out->penumbra.sigma, &out->v, &out->filter);
     if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
@@ -419,14 +419,14 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
             bool penumbra = r->desc.filter == PN_FILTER_PENUMBRA;
             double frames = r->accumulated > 1 ? (double)r->accumulated : 1.0;
             float narrow = penumbra ? (float)(pn_penumbra_window_scale() * pow(frames, -0.75)) : 0.0f;
+            pn_penumbra_pass_begin(cmd, &r->penumbra); // the filter pass's set holds its footprints
             pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
-                                  yfov_deg, narrow); // P, N, V raw -> V
+                                  yfov_deg, narrow, (float)(pn_penumbra_width_scale() / sqrt(frames))); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
             if (penumbra) {
                 pn_penumbra_pass_record(cmd, &r->penumbra, noise_samples[i],
-                                        pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg,
-                                        (float)(pn_penumbra_width_scale() / sqrt(frames))); // V -> V
+                                        pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg); // V -> V
                 pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
             }
         }

@@ -32,6 +32,10 @@ layout(set = 0, binding = PN_FILTER_BINDING_V_RAW, r32f) uniform readonly image2
 layout(set = 0, binding = PN_FILTER_BINDING_V, r32f) uniform writeonly image2D img_v;
 layout(set = 0, binding = PN_FILTER_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
 layout(set = 0, binding = PN_FILTER_BINDING_BLOCKERS, rgba32f) uniform readonly image2D img_blockers;
+// With the penumbra filter (pc.narrow > 0): its footprint and whether the pixel lends its V, for
+// its Gaussian (penumbra_filter.comp), written here where the pixel's counts and blockers are read
+// anyway: a dispatch of its own cost lavapipe about as much as one of the Gaussian's.
+layout(set = 0, binding = PN_FILTER_BINDING_SIGMA, rg32f) uniform writeonly image2D img_sigma;
 
 layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // The window, fixed per pipeline (filter_pass.c builds one for the tile in use): with constant
@@ -71,16 +75,26 @@ void main()
     vec4 p = imageLoad(img_p, px);
     if (p.w <= 0.0) {
         imageStore(img_v, px, vec4(0.0));
+        if (pc.narrow > 0.0)
+            imageStore(img_sigma, px, vec4(0.0));
         return;
     }
     uvec4 counts_p = imageLoad(img_counts, px);
     bool unknown = counts_p.y == 0u; // no valid ray: no estimate of V
+    vec4 n = imageLoad(img_n, px);
+    float footprint_p = n.w * pc.pixel_angle;
+    // The penumbra filter's: from the nearest blocker's penumbra (-1 without a blocker, and without
+    // a valid ray); a pixel lends its V where it has an estimate.
+    float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).z : PN_PENUMBRA_NONE;
+    float own_samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
+    if (pc.narrow > 0.0) {
+        float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);
+        imageStore(img_sigma, px, vec4(sigma, unknown ? 0.0 : 1.0, 0.0, 0.0));
+    }
     if (unknown && counts_p.z == 0u) {
         imageStore(img_v, px, imageLoad(img_v_raw, px));
         return;
     }
-    vec4 n = imageLoad(img_n, px);
-    float footprint_p = n.w * pc.pixel_angle;
     // Under the penumbra filter (pc.narrow > 0) the window's weights also fall as a Gaussian of
     // world distance: narrow x n^-3/4 of the nearest blocker's penumbra (pn_penumbra_window_scale).
     // At a few samples it is pixels wide and the window averages as before; as the samples grow
@@ -89,11 +103,8 @@ void main()
     // fixed window's MAE was 0.0037 against unfiltered's 0.0029, narrowing 0.0024). A pixel
     // without a blocker of its own (or with no estimate) keeps the window.
     float narrow = -1.0;
-    if (pc.narrow > 0.0 && pc.samples > 0u && !unknown) {
-        float width = imageLoad(img_blockers, px).z;
-        float samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
-        narrow = width >= PN_PENUMBRA_NONE ? -1.0 : pc.narrow * width * pow(samples, -0.75);
-    }
+    if (pc.narrow > 0.0 && pc.samples > 0u && !unknown)
+        narrow = width_near >= PN_PENUMBRA_NONE ? -1.0 : pc.narrow * width_near * pow(own_samples, -0.75);
     // The window's first offset: odd tiles are centred, even ones reach one pixel further right and
     // down. Scalars: the validation layer's folding of specialisation constants takes no vectors.
     const int LO_X = -(TILE_W - 1) / 2, LO_Y = -(TILE_H - 1) / 2;

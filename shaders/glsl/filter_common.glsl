@@ -32,3 +32,20 @@ float surface_weight(vec3 p, vec3 n, float fp, vec3 q, vec3 m, float fq, float p
     float c = max(dot(n, m), 0.0);
     return max(1.0 - rho * rho, 0.0) * c * c;
 }
+
+// The penumbra filter's footprint (penumbra_filter.comp): the standard deviation, in world units on
+// the receiver, of its Gaussian at a pixel whose nearest blocker casts a penumbra `width` wide,
+// `pixel` its footprint (view depth x pixel angle), `samples` its samples: width_scale x width /
+// sqrt(samples), at most max_radius / PN_PENUMBRA_RADIUS_SIGMAS pixels (a pixel facing the camera,
+// the most a world length spans), compared before multiplying so that nothing overflows. -1
+// without a blocker (PN_PENUMBRA_NONE); 0 for a point light's V (samples 0: exact, left alone).
+float penumbra_footprint(float width, float pixel, float samples, float width_scale, uint max_radius)
+{
+    if (!(samples > 0.0))
+        return 0.0;
+    if (width >= PN_PENUMBRA_NONE)
+        return -1.0;
+    float limit = float(max_radius) / PN_PENUMBRA_RADIUS_SIGMAS * pixel;
+    float s = width_scale * inversesqrt(samples);
+    return min(width, limit / s) * s;
+}

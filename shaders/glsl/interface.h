@@ -91,24 +91,27 @@
 #define PN_FILTER_BINDING_V 3     // r32f: filtered V out
 #define PN_FILTER_BINDING_COUNTS 4 // rgba32ui: the shadow pass's (visible, valid, reaches) per pixel
 #define PN_FILTER_BINDING_BLOCKERS 5 // rgba32f: the shadow pass's blocker bounds (with the penumbra filter)
-#define PN_FILTER_BINDING_COUNT 6
+#define PN_FILTER_BINDING_SIGMA 6    // rg32f: out, with the penumbra filter: its footprint per pixel
+                                     // (PN_PENUMBRA_BINDING_SIGMA)
+#define PN_FILTER_BINDING_COUNT 7
 // The penumbra filter (--filter penumbra, penumbra_filter.comp): after the interleaved filter, a
 // separable Gaussian as wide as the penumbra.
 #define PN_PENUMBRA_BINDING_P 0        // rgba32f: world position, w = 1 where geometry is
 #define PN_PENUMBRA_BINDING_N 1        // rgba32f: normal, w = view depth
 #define PN_PENUMBRA_BINDING_COUNTS 2   // rgba32ui: the shadow pass's (visible, valid, reaches, width)
-#define PN_PENUMBRA_BINDING_BLOCKERS 3 // rgba32f: the shadow pass's blocker bounds (PN_SHADOW_BINDING_BLOCKERS)
-#define PN_PENUMBRA_BINDING_V 4        // r32f: the interleaved filter's V in, the penumbra filter's out
-#define PN_PENUMBRA_BINDING_SIGMA 5    // rg32f: the pixel's own footprint (world units; -1 without a
-                                       // blocker), 1 where it lends its V (geometry and a valid ray)
-#define PN_PENUMBRA_BINDING_SCRATCH 6  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
+#define PN_PENUMBRA_BINDING_V 3        // r32f: the interleaved filter's V in, the penumbra filter's out
+#define PN_PENUMBRA_BINDING_SIGMA 4    // rg32f: the pixel's own footprint (world units; -1 without a
+                                       // blocker), 1 where it lends its V (geometry and a valid ray):
+                                       // the interleaved filter's pass writes it (filter.comp)
+#define PN_PENUMBRA_BINDING_SCRATCH 5  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
                                        // the camera: world units over view depth x pixel angle; the EXR's)
-#define PN_PENUMBRA_BINDING_COUNT 7
+#define PN_PENUMBRA_BINDING_COUNT 6
 // Its stages, one dispatch each (PenumbraPush.stage).
-#define PN_PENUMBRA_STAGE_FOOTPRINT 0 // each pixel's own footprint
-#define PN_PENUMBRA_STAGE_BLUR_X 1    // the Gaussian along rows, V -> scratch
-#define PN_PENUMBRA_STAGE_BLUR_Y 2    // and along columns, scratch -> V
-#define PN_PENUMBRA_STAGES 3
+#define PN_PENUMBRA_STAGE_BLUR_X 0    // the Gaussian along rows, V -> scratch
+#define PN_PENUMBRA_STAGE_BLUR_Y 1    // and along columns, scratch -> V
+#define PN_PENUMBRA_STAGES 2
+// The Gaussian's taps reach this many standard deviations (its weight there is exp(-3.1)).
+#define PN_PENUMBRA_RADIUS_SIGMAS 2.5
 // The largest tile edge (--tile): a window of 8 x 8 = 64 neighbours per pixel already costs the
 // filter pass more than a few light samples would (filter.comp loads three images per neighbour).
 #define PN_FILTER_MAX_TILE 8
@@ -307,7 +310,7 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
-// The filter pass's push constants (filter.comp). 16 bytes. Its window is specialised
+// The filter pass's push constants (filter.comp). 32 bytes. Its window is specialised
 // (PN_SPEC_TILE_W, PN_SPEC_TILE_H).
 PN_STRUCT(FilterPush, pn_filter_push) {
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
@@ -315,8 +318,13 @@ PN_STRUCT(FilterPush, pn_filter_push) {
                           // 0 for a point light, whose V has none
     PN_UINT(adaptive)     // 1: pixels took samples of their own number (adaptive sampling): the
                           // noise of each pixel's V is that of its own valid rays
-    PN_FLOAT(narrow)      // > 0 (the penumbra filter's width scale): the window's weights also fall as
-                          // a Gaussian of the penumbra filter's footprint, narrowing with the samples
+    PN_FLOAT(narrow)      // > 0 (the penumbra filter's window scale): the window's weights also fall as
+                          // a Gaussian of the nearest blocker's penumbra, narrowing with the samples;
+                          // and the pass writes the penumbra filter's footprints
+    PN_FLOAT(width_scale) // the penumbra filter's Gaussian at 1 sample, in penumbra widths (PenumbraPush)
+    PN_UINT(max_radius)   // the most pixels its taps may lie from the pixel
+    PN_UINT(pad0)
+    PN_UINT(pad1)
 } PN_END(FilterPush, pn_filter_push)
 
 // The penumbra filter's push constants (penumbra_filter.comp). 32 bytes.
@@ -325,10 +333,10 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
     PN_UINT(samples)      // light samples per pixel (FilterPush.samples); 0 for a point light
     PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead (FilterPush.adaptive)
-    PN_FLOAT(width_scale) // the Gaussian's standard deviation at 1 sample, in penumbra widths
     PN_UINT(max_radius)   // the most pixels a tap may lie from the pixel (the frame's budget)
     PN_UINT(pad0)
     PN_UINT(pad1)
+    PN_UINT(pad2)
 } PN_END(PenumbraPush, pn_penumbra_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive

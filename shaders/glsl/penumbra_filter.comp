@@ -41,15 +41,13 @@ layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_N, rgba32f) uniform readonly image2D img_n;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
-layout(set = 0, binding = PN_PENUMBRA_BINDING_BLOCKERS, rgba32f) uniform readonly image2D img_blockers;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_V, r32f) uniform image2D img_v;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SIGMA, rg32f) uniform image2D img_sigma;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SCRATCH, rg32f) uniform image2D img_scratch;
 
 layout(push_constant) uniform PenumbraPushBlock { PenumbraPush pc; };
 
-// The Gaussian's taps reach RADIUS_SIGMAS standard deviations (its weight there is exp(-3.1)).
-const float RADIUS_SIGMAS = 2.5;
+const float RADIUS_SIGMAS = PN_PENUMBRA_RADIUS_SIGMAS;
 // Below half a pixel the Gaussian adds nothing to the interleaved filter's window.
 const float MIN_SIGMA = 0.5;
 // As filter.comp's range weight: a neighbour further than this many standard deviations of the
@@ -67,26 +65,6 @@ int reach(float sigma) { return min(int(ceil(RADIUS_SIGMAS * sigma)), int(pc.max
 
 // The samples one pixel's V is the mean of (adaptive sampling: its own valid rays).
 float pixel_samples(ivec2 px) { return pc.adaptive != 0u ? float(max(imageLoad(img_counts, px).y, 1u)) : float(pc.samples); }
-
-// The pixel's own footprint (world units; -1 without a blocker), and whether it lends its V.
-void footprint(ivec2 px)
-{
-    vec4 p = imageLoad(img_p, px);
-    uvec4 counts = imageLoad(img_counts, px);
-    bool lends = p.w > 0.0 && counts.y > 0u;
-    float sigma = 0.0; // background, and a point light's: nothing to average
-    if (p.w > 0.0 && pc.samples > 0u) {
-        float width = imageLoad(img_blockers, px).z; // the nearest blocker's penumbra
-        float pixel = imageLoad(img_n, px).w * pc.pixel_angle;
-        // At most the budget's pixels (a pixel facing the camera, the most a world length spans),
-        // compared before multiplying so that nothing overflows. No blocker (PN_PENUMBRA_NONE):
-        // none of its own, -1.
-        float limit = float(pc.max_radius) / RADIUS_SIGMAS * pixel;
-        float s = pc.width_scale * inversesqrt(pixel_samples(px));
-        sigma = width >= PN_PENUMBRA_NONE ? -1.0 : min(width, limit / s) * s;
-    }
-    imageStore(img_sigma, px, vec4(sigma, lends ? 1.0 : 0.0, 0.0, 0.0));
-}
 
 // A pixel's footprint (world units, 0 without a blocker of its own) and whether it lends its V.
 vec2 pixel_footprint(ivec2 px)
@@ -107,13 +85,17 @@ void blur(ivec2 px, ivec2 size, bool rows)
     vec2 sp = rows ? pixel_footprint(px) : vec2(imageLoad(img_scratch, px).y * footprint_p, 1.0);
     float v_p = rows ? imageLoad(img_v, px).x : imageLoad(img_scratch, px).x;
     // The world length of one pixel along the pass's direction: the nearer of the two neighbours
-    // (the other may lie across an edge), at least the footprint facing the camera.
+    // (the other may lie across an edge), at least the footprint facing the camera; so the
+    // footprint over the latter bounds it in pixels, and most pixels (lit, umbra, contact) leave
+    // before loading a neighbour.
     ivec2 dir = rows ? ivec2(1, 0) : ivec2(0, 1);
-    ivec2 a = clamp(px - dir, ivec2(0), size - 1), b = clamp(px + dir, ivec2(0), size - 1);
-    float da = a == px ? 1e30 : distance(imageLoad(img_p, a).xyz, p.xyz);
-    float db = b == px ? 1e30 : distance(imageLoad(img_p, b).xyz, p.xyz);
-    float pixel = max(min(da, db), footprint_p);
-    float sigma_px = sp.x / max(pixel, 1e-30);
+    float sigma_px = sp.x / max(footprint_p, 1e-30);
+    if (p.w > 0.0 && sigma_px >= MIN_SIGMA) {
+        ivec2 a = clamp(px - dir, ivec2(0), size - 1), b = clamp(px + dir, ivec2(0), size - 1);
+        float da = a == px ? 1e30 : distance(imageLoad(img_p, a).xyz, p.xyz);
+        float db = b == px ? 1e30 : distance(imageLoad(img_p, b).xyz, p.xyz);
+        sigma_px = sp.x / max(max(min(da, db), footprint_p), 1e-30);
+    }
     if (p.w <= 0.0 || sigma_px < MIN_SIGMA) {
         if (rows)
             imageStore(img_scratch, px, vec4(v_p, max(sp.x, 0.0) / max(footprint_p, 1e-30), 0.0, 0.0));
@@ -166,10 +148,6 @@ void main()
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(img_v);
     bool inside = all(lessThan(px, size));
-    if (!inside)
-        return;
-    if (pc.stage == PN_PENUMBRA_STAGE_FOOTPRINT)
-        footprint(px);
-    else
+    if (inside)
         blur(px, size, pc.stage == PN_PENUMBRA_STAGE_BLUR_X);
 }
