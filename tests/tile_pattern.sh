@@ -2,7 +2,7 @@
 # The interleaving tile does not show as a pattern where the filter averages nothing (issue 33).
 #
 # Sponza (dabrovic-sponza-66k.glb) from outside as `render` framed it before it opened interiors from
-# inside (camera and light given: scene/view.c's framing of its bounds), 800x450, exact, 16 spp, the default
+# inside (camera and light given: scene/view.c's framing of its bounds), 800x450, exact, 16 spp,
 # --filter interleaved with its 3x3 tile: on the grazing-lit wall facing the camera (x 300-399,
 # y 150-249) the filter's weights decline (the blockers are close, so the penumbra weight is ~0)
 # and nearly every pixel keeps its unfiltered V. With one class-to-sub-cell map for every tile, the
@@ -33,7 +33,7 @@ SPONZA=${PN_ASSETS:-../shared/assets}/dabrovic-sponza-66k.glb
 view=("$SPONZA" --size 800x450 --mode exact --camera-pos 20.9382,32.9557,46.5148 --camera-target 0.0072403,7.37331,0.00148845
   --light-pos 10.4056,36.4501,6.24053 --light-normal -0.330064,-0.922951,-0.198039 --light-up 0,0,-1
   --light-size 10.3984,10.3984 --light-radiance 20.7522)
-"$BIN" render "${view[@]}" --spp 16 -o "$T/f.exr" >/dev/null || { echo "FAIL: filtered render"; exit 1; }
+"$BIN" render "${view[@]}" --spp 16 --filter interleaved -o "$T/f.exr" >/dev/null || { echo "FAIL: filtered render"; exit 1; }
 "$BIN" render "${view[@]}" --spp 16 --filter none -o "$T/n.exr" >/dev/null || { echo "FAIL: unfiltered render"; exit 1; }
 "$BIN" render "${view[@]}" --spp 64 --filter none --seed 7 -o "$T/ref.exr" >/dev/null \
   || { echo "FAIL: reference render"; exit 1; }
