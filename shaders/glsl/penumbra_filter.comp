@@ -18,15 +18,17 @@
 // leaves the footprint below half a pixel there. A contact shadow, whose blocker touches the
 // receiver, has W -> 0 and stays sharp; a point light's V (samples 0) is exact and is left alone.
 //
-// Pixels whose rays met no blocker have no footprint of their own: they keep the interleaved
-// filter's V, and lend theirs to a penumbra pixel under that pixel's footprint. Giving them the
-// widest footprint of the pixels whose Gaussian reaches them (a dilation per 8 x 8 tile, so that
-// a thin penumbra one pixel's rays straddled by luck is still averaged) was measured and dropped
-// (bench, the five standard views at 256 x 256, exact, reference MAE): at 4 spp it helped the
-// bunny (0.0080 against 0.0089) and cost Sponza (0.0076 against 0.0062), at 1 spp it cost the
-// buddha (0.028 against 0.0175) and Sponza (0.044 against 0.029): lit pixels beside an umbra whose
-// nearest blocker casts a wide penumbra are pulled down, where one ray's noise leaves the range
-// weight nothing to refuse.
+// Pixels whose rays met no blocker have no footprint of their own. At a penumbra's edge one
+// pixel's few rays all pass by luck, and left alone it shows as a lit speck: such a pixel whose
+// 3 x 3 neighbours (the interleaving window) include one with a blocker takes the widest of their
+// footprints; and it lends its V to a penumbra pixel under that pixel's footprint. Measured (bench,
+// the five standard views at 256 x 256, exact, reference MAE, 1 / 4 spp): against no dilation, the
+// bunny 0.0215 / 0.0079 (0.0269 / 0.0090), the dragon 0.0177 / 0.0073 (0.0217 / 0.0077), the canopy
+// 0.0431 / 0.0253 (0.0641 / 0.0255), Sponza 0.0270 / 0.0063 (0.0290 / 0.0060); a 5 x 5 ring lost
+// on Sponza and the buddha at 1 spp (0.0332, 0.0178), and giving every pixel the widest footprint
+// whose Gaussian reaches it (a dilation per 8 x 8 tile) more (at 1 spp the buddha 0.028 against
+// 0.0175, Sponza 0.044 against 0.029): lit pixels beside an umbra whose nearest blocker casts a
+// wide penumbra are pulled down, where one ray's noise leaves the range weight nothing to refuse.
 //
 // The Gaussian is separable, rows then columns, each tap weighted as the interleaved filter weighs
 // its window (the same surface: filter_common.glsl) and by V itself (a neighbour whose V differs
@@ -73,6 +75,23 @@ vec2 pixel_footprint(ivec2 px)
     return vec2(max(s.x, 0.0), s.y);
 }
 
+// The same for the pixel the Gaussian is centred on: without a blocker of its own, the widest
+// footprint among its 3 x 3 neighbours that have one. Its rays all passed, but a neighbour's were
+// blocked: it lies at a penumbra's edge, where one pixel's few rays all pass by luck.
+vec2 centre_footprint(ivec2 px, ivec2 size)
+{
+    vec2 s = imageLoad(img_sigma, px).xy;
+    if (s.x >= 0.0)
+        return s;
+    float widest = 0.0;
+    for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++) {
+            ivec2 q = clamp(px + ivec2(dx, dy), ivec2(0), size - 1);
+            widest = max(widest, imageLoad(img_sigma, q).x);
+        }
+    return vec2(widest, s.y);
+}
+
 // The Gaussian along rows (img_v -> scratch, with the pixel's footprint) or columns (scratch ->
 // img_v), over world distance on the pixel's surface: a surface seen at a grazing angle packs more
 // of it into a pixel, and a Gaussian over pixels would reach across its penumbra.
@@ -82,7 +101,7 @@ void blur(ivec2 px, ivec2 size, bool rows)
     vec4 n = imageLoad(img_n, px);
     float footprint_p = n.w * pc.pixel_angle;
     // The row pass leaves the footprint in pixels facing the camera (the EXR's): back to world units.
-    vec2 sp = rows ? pixel_footprint(px) : vec2(imageLoad(img_scratch, px).y * footprint_p, 1.0);
+    vec2 sp = rows ? centre_footprint(px, size) : vec2(imageLoad(img_scratch, px).y * footprint_p, 1.0);
     float v_p = rows ? imageLoad(img_v, px).x : imageLoad(img_scratch, px).x;
     // The world length of one pixel along the pass's direction: the nearer of the two neighbours
     // (the other may lie across an edge), at least the footprint facing the camera; so the
