@@ -12,7 +12,8 @@
 #    reason (within the budget, slower than the pick, or a biased mode's error no longer falling),
 #    and line space stops before 256 spp;
 #  - adaptive samples (4:256 down a ladder of pixel errors) are climbed by the configurations the
-#    rule names, and at 0.005 by exact at least;
+#    rule names, and at 0.005 by exact at least; with render's default filter (penumbra) every
+#    configuration climbs its uniform samples filtered too, and the render takes its pick's filter;
 #  - an unreachable budget (0) warns and takes the least error found.
 # Arguments: the budgets to try (default 0.05 0.02 0.005 0; the fast tier tries 0.05 alone).
 set -u
@@ -37,14 +38,20 @@ import quality_rule
 budget = float(sys.argv[1]); run = json.load(open(sys.argv[2])); d = json.load(open(sys.argv[3]))
 err = open(sys.argv[4]).read()
 q = run["quality"]
-print("budget %g: chose %s %s %s%d spp, pilot MAE %.5f, full MAE %.5f, %d pilots (%d adaptive)"
+print("budget %g: chose %s %s %s%d spp, filter %s, pilot MAE %.5f, full MAE %.5f, %d pilots (%d adaptive, %d filtered)"
       % (budget, run["mode"], run["tree"], "%d:" % run["spp_min"] if "spp_min" in run else "", run["spp"],
-         q["pilot_mae"], d["mae"], q["candidates"], sum(t["spp_min"] > 0 for t in q["tried"])))
+         run["filter"], q["pilot_mae"], d["mae"], q["candidates"], sum(t["spp_min"] > 0 for t in q["tried"]),
+         sum(t["filter"] != "none" for t in q["tried"])))
 assert q["pilot"] == [128, 96] and q["pilot_se"] == 0, q          # its own pilot
 assert abs(d["mae"] - q["pilot_mae"]) < 1e-6, (d["mae"], q["pilot_mae"])
 tried = q["tried"]
 configs = {(t["mode"], str(t["tree"])) for t in tried}
 assert ("exact", "None") in configs and any(m == "linespace" for m, _ in configs), configs
+# The frame's filter is render's default (penumbra): every configuration climbs it too, and the
+# render is filtered as its pick was (the rule below checks the pick's filter with the rest).
+if budget > 0:
+    assert any(t["filter"] == "penumbra" for t in tried) and any(t["filter"] == "none" for t in tried), tried
+assert run["filter"] == q["filter"], (run["filter"], q["filter"])
 # The pick is what the rule makes of the times this run reported (quality_rule.py), whichever
 # configuration those times happened to favour; every climb stopped for a reason.
 best = tried[quality_rule.check(tried, run, q["runoff"], q["candidates"], budget)]

@@ -26,11 +26,12 @@ def adaptive_error(budget, k):
 
 
 def key(t):
-    """A configuration: mode, tree, samples, and for adaptive samples their first round and pixel
-    error (to 6 digits: a render's JSON prints it so, the pilots' record to 9)."""
+    """A configuration: mode, tree, samples, for adaptive samples their first round and pixel
+    error (to 6 digits: a render's JSON prints it so, the pilots' record to 9), and the filter
+    (none or penumbra)."""
     spp_min = t.get("spp_min", 0)
     return (t["mode"], None if t["tree"] is None else tuple(t["tree"]), t["spp"], spp_min,
-            float("%.6g" % t["pixel_error"]) if spp_min else 0.0)
+            float("%.6g" % t["pixel_error"]) if spp_min else 0.0, t.get("filter", "none"))
 
 
 def replay(tried):
@@ -76,15 +77,20 @@ def check(tried, pick, runoff, candidates, budget, all_set_up=True, adaptive=Tru
     # (by 10% a doubling), or at the last spp.
     # Adaptive climbs (spp_min > 0) go from 4 up to 256 samples down the pixel errors 32, 16, 8, 4,
     # 2, 1 times the budget, after the same configuration's uniform climb, with the same reasons to end.
+    # A filtered climb (the penumbra filter) is uniform, after the same configuration's unfiltered one.
     configs = {}
     for i, t in enumerate(tried):
-        configs.setdefault((t["mode"], str(t["tree"]), t.get("spp_min", 0) > 0), []).append(i)
+        configs.setdefault((t["mode"], str(t["tree"]), t.get("spp_min", 0) > 0, t.get("filter", "none")), []).append(i)
     for c, idx in configs.items():
+        if c[3] != "none":
+            assert c[3] == "penumbra" and not c[2], c
+            unfiltered = configs.get((c[0], c[1], False, "none"), [])
+            assert unfiltered and unfiltered[-1] < idx[0], (c, idx)
         if c[2]:
             assert [tried[i]["spp_min"] for i in idx] == [ADAPTIVE_MIN] * len(idx), (c, idx)
             assert [tried[i]["spp"] for i in idx] == [MAX_SPP] * len(idx), (c, idx)
             assert [f32(tried[i]["pixel_error"]) for i in idx] == [adaptive_error(budget, k) for k in range(len(idx))], (c, idx)
-            uniform = configs.get((c[0], c[1], False), [])
+            uniform = configs.get((c[0], c[1], False, "none"), [])
             assert uniform and uniform[-1] < idx[0], (c, idx)   # after the uniform climb
         else:
             assert [tried[i]["spp"] for i in idx] == [1 << k for k in range(len(idx))], (c, idx)
@@ -96,10 +102,10 @@ def check(tried, pick, runoff, candidates, budget, all_set_up=True, adaptive=Tru
         assert last["within"] or slower or flat or at_end, (c, last)
     # Which configurations climb adaptive samples: those whose uniform climb went past 4 samples,
     # exact modes always, a biased mode only where its uniform climb met the budget.
-    for (mode, tree, is_adaptive), idx in configs.items():
-        if is_adaptive:
+    for (mode, tree, is_adaptive, filt), idx in configs.items():
+        if is_adaptive or filt != "none":
             continue
         met = any(tried[i]["within"] for i in idx)
         expected = adaptive and budget > 0 and tried[idx[-1]]["spp"] > ADAPTIVE_MIN and (mode in EXACT_MODES or met)
-        assert ((mode, tree, True) in configs) == expected, (mode, tree, expected)
+        assert ((mode, tree, True, "none") in configs) == expected, (mode, tree, expected)
     return best

@@ -310,9 +310,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
             const pn_quality_choice *q = &st->quality;
             printf("\"quality\": {\"max_error\": %.6g, \"within\": %s, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, "
                    "\"pilot_shadow_ms\": %.17g, \"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, "
-                   "\"runoff\": %d, \"pilot\": [%u, %u], \"tried\": ",
+                   "\"runoff\": %d, \"pilot\": [%u, %u], \"filter\": \"%s\", \"tried\": ",
                    o->max_error, q->within ? "true" : "false", q->pilot_mae, q->pilot_se, q->pilot_ms, q->reference_ms,
-                   PN_REFERENCE_SPP, q->candidates, q->runoff, q->pilot_width, q->pilot_height);
+                   PN_REFERENCE_SPP, q->candidates, q->runoff, q->pilot_width, q->pilot_height,
+                   pn_filter_names[q->filter]);
             pn_quality_write_tried(stdout, q);
             printf("}, ");
         }
@@ -392,15 +393,15 @@ int pn_cmd_render(int argc, char **argv)
             pn_error("--quality auto chooses for one light; this render has %u", prep.light_count);
             exit_code = PN_EXIT_USAGE;
         } else if (o.auto_quality) {
+            // The frame's filter says whether auto may choose one (--filter none: unfiltered only).
             pn_renderer_desc frame = pn_render_opts_setup(&o.r).frame;
-            frame.filter = PN_FILTER_NONE; // it chooses among unfiltered configurations
             if (pn_quality_choose(&dev, &scene, &cam, &prep.lights[0], &frame, o.max_error, o.r.max_bytes, 0, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
                 o.r.spp = choice.spp;
                 o.r.spp_min = choice.spp_min;
                 o.r.pixel_error = choice.spp_min ? choice.pixel_error : o.r.pixel_error;
-                // The pick's error was measured without a filter (quality.c): the frame is that one.
-                o.r.filter = PN_FILTER_NONE;
+                // The pick's error was measured with its filter (none or penumbra): the frame is that one.
+                o.r.filter = choice.filter;
                 if (choice.tree_n)
                     o.r.tree_n = choice.tree_n, o.r.tree_d = choice.tree_d;
                 if (!o.json) {
@@ -413,10 +414,11 @@ int pn_cmd_render(int argc, char **argv)
                                  (double)choice.pixel_error);
                     else
                         snprintf(spp, sizeof spp, "%u spp", choice.spp);
-                    printf("quality auto: %s%s at %s (pilot %ux%u, %d pilots: MAE %.4f against the converged "
-                           "reference, budget %.4f; shadow %.1f ms on the pilot)\n",
-                           pn_shadow_mode_get(choice.mode)->name, tree, spp, choice.pilot_width,
-                           choice.pilot_height, choice.candidates, choice.pilot_mae, o.max_error, choice.pilot_ms);
+                    printf("quality auto: %s%s at %s, filter %s (pilot %ux%u, %d pilots: MAE %.4f against the "
+                           "converged reference, budget %.4f; shadow and filter %.1f ms on the pilot)\n",
+                           pn_shadow_mode_get(choice.mode)->name, tree, spp, pn_filter_names[choice.filter],
+                           choice.pilot_width, choice.pilot_height, choice.candidates, choice.pilot_mae, o.max_error,
+                           choice.pilot_ms);
                 }
             } else {
                 exit_code = PN_EXIT_FAILURE;

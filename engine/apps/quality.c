@@ -54,7 +54,7 @@ static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *
     *ms = INFINITY;
     for (int i = 0; i < frames; i++) {
         PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
-        *ms = fmin(*ms, t.shadow_ms);
+        *ms = fmin(*ms, t.shadow_ms + t.filter_ms); // a filtered configuration pays for its filter
     }
     pn_frame_images img;
     pn_renderer_images(&s->renderer, &img);
@@ -90,6 +90,7 @@ static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, d
     p->sd.frame.count_work = false;
     p->sd.frame.spp_min = 0; // uniform unless a pilot says otherwise (and the references always)
     p->sd.frame.pixel_error = 0;
+    p->sd.frame.filter = PN_FILTER_NONE; // unfiltered unless a pilot says otherwise
     p->px = (size_t)p->sd.frame.width * p->sd.frame.height;
     p->reference_spp = reference_spp;
     p->ref = malloc(p->px * sizeof *p->ref);
@@ -157,6 +158,7 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     sd.frame.spp = cfg->frame.spp;
     sd.frame.spp_min = cfg->frame.spp_min;
     sd.frame.pixel_error = cfg->frame.pixel_error;
+    sd.frame.filter = cfg->frame.filter;
     sd.tree_n = cfg->tree_n;
     sd.tree_d = cfg->tree_d;
     pn_setup s;
@@ -188,7 +190,7 @@ pn_result pn_quality_time_side_by_side(pn_renderer *const *r, int count, int war
         for (int k = 0; k < count; k++) {
             PN_TRY(pn_renderer_render(r[k], cam, light, &t));
             if (round >= warmup)
-                least_ms[k] = fmin(least_ms[k], t.shadow_ms);
+                least_ms[k] = fmin(least_ms[k], t.shadow_ms + t.filter_ms);
         }
     return PN_OK;
 }
@@ -243,6 +245,7 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
         pn_setup_desc sd = {.frame = *frame, .max_bytes = max_bytes, .view = cam, .tree_n = t->tree_n, .tree_d = t->tree_d};
         sd.frame.mode = t->mode, sd.frame.spp = t->spp;
         sd.frame.spp_min = t->spp_min, sd.frame.pixel_error = t->pixel_error;
+        sd.frame.filter = t->filter;
         sd.frame.dump_rays = sd.frame.count_work = false;
         if (quiet_setup(dev, scene, light, &sd, &s[ready]) == PN_OK) {
             timed[ready] = &s[ready].renderer;
@@ -267,7 +270,7 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
             best = finalists[k];
     const pn_quality_tried *b = &out->tried[best];
     out->mode = b->mode, out->tree_n = b->tree_n, out->tree_d = b->tree_d, out->spp = b->spp;
-    out->spp_min = b->spp_min, out->pixel_error = b->pixel_error;
+    out->spp_min = b->spp_min, out->pixel_error = b->pixel_error, out->filter = b->filter;
     out->pilot_mae = b->pilot_mae, out->pilot_se = b->pilot_se, out->confirm_mae = b->confirm_mae;
     out->pilot_ms = b->pilot_ms;
     return PN_OK;
@@ -283,9 +286,9 @@ void pn_quality_write_tried(FILE *f, const pn_quality_choice *q)
             fprintf(f, "[%d, %d]", c->tree_n, c->tree_d);
         else
             fprintf(f, "null");
-        fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"pixel_error\": %.9g, \"mean_rays\": %.6g, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, \"confirm_mae\": %.17g, \"within\": %s, "
+        fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"pixel_error\": %.9g, \"filter\": \"%s\", \"mean_rays\": %.6g, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, \"confirm_mae\": %.17g, \"within\": %s, "
                    "\"pilot_shadow_ms\": %.17g, \"final_shadow_ms\": %.17g}",
-                c->spp, c->spp_min, (double)c->pixel_error, c->mean_rays, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms, c->final_ms);
+                c->spp, c->spp_min, (double)c->pixel_error, pn_filter_names[c->filter], c->mean_rays, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms, c->final_ms);
     }
     fputc(']', f);
 }
@@ -337,11 +340,11 @@ static pn_result climb_step(climb *c, pn_setup *s, const pn_setup_desc *sd, bool
     if (out->candidates < PN_QUALITY_MAX_TRIED)
         out->tried[out->candidates] = (pn_quality_tried){f->mode, sd->tree_n, sd->tree_d, f->spp, f->spp_min,
                                                          f->pixel_error, mean_rays, *mae, se, *ms, confirm_mae,
-                                                         *within, -1};
+                                                         *within, -1, f->filter};
     out->candidates++;
-    pn_debug("quality: %s LS(%d,%d) %u:%u spp (E %g, %.1f rays): pilot MAE %.4f +- %.4f in %.2f ms%s",
+    pn_debug("quality: %s LS(%d,%d) %u:%u spp (E %g, %.1f rays), filter %s: pilot MAE %.4f +- %.4f in %.2f ms%s",
              pn_shadow_mode_get(f->mode)->name, sd->tree_n, sd->tree_d, f->spp_min, f->spp, (double)f->pixel_error,
-             mean_rays, *mae, se, *ms, *within ? " (within)" : "");
+             mean_rays, pn_filter_names[f->filter], *mae, se, *ms, *within ? " (within)" : "");
     // Within the budget: the fastest such pilot wins. Until one is found, the least error.
     bool better = *within ? !out->within || *ms < out->pilot_ms : !out->within && (!c->have || *mae < out->pilot_mae);
     if (better) {
@@ -351,6 +354,7 @@ static pn_result climb_step(climb *c, pn_setup *s, const pn_setup_desc *sd, bool
         out->spp = f->spp;
         out->spp_min = f->spp_min;
         out->pixel_error = f->pixel_error;
+        out->filter = f->filter;
         out->pilot_mae = *mae;
         out->pilot_se = se;
         out->confirm_mae = confirm_mae;
@@ -407,6 +411,11 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     // met by nothing.
     bool adaptive = frame->sampler == PN_SAMPLER_STRATIFIED && frame->split == PN_SPLIT_EVEN && !frame->dump_rays &&
                     max_error > 0 && !pn_light_is_point(light);
+    // The penumbra filter, likewise: the frame must ask for a filter (render's default; --filter
+    // none keeps auto to unfiltered configurations) and allow one (pn_renderer_check_split), and a
+    // point light's V, exact at one ray, has nothing to filter.
+    bool filtered = frame->filter != PN_FILTER_NONE && frame->split == PN_SPLIT_EVEN && !pn_light_is_point(light) &&
+                    max_error > 0;
     pn_setup_desc sd = pilot.sd;
     pn_setup s;
     // The configurations to climb, for the progress lines: a mode's trees, or the mode once.
@@ -439,6 +448,26 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 if (climb_ends(&c, info, within, ms, mae, prev_mae))
                     break;
                 prev_mae = mae;
+            }
+            // The same climb with the penumbra filter, on the same set-up (the filter is the
+            // renderer's to switch), then back to none for the adaptive climb: adaptive samples
+            // already spend their rays where V is uncertain, and their pixels draw samples of their
+            // own number, which interleaving cannot share.
+            if (r == PN_OK && filtered) {
+                r = pn_renderer_set_filter(&s.renderer, PN_FILTER_PENUMBRA, frame->tile_w, frame->tile_h);
+                sd.frame.filter = PN_FILTER_PENUMBRA;
+                double fprev = INFINITY, fmae = INFINITY, fms = INFINITY;
+                bool fwithin = false;
+                for (uint32_t spp = 1; r == PN_OK && spp <= PN_QUALITY_MAX_SPP; spp *= 2) {
+                    sd.frame.spp = spp;
+                    r = climb_step(&c, &s, &sd, spp == 1, &fmae, &fms, &fwithin); // warm: the filter's first
+                    if (r != PN_OK || climb_ends(&c, info, fwithin, fms, fmae, fprev))
+                        break;
+                    fprev = fmae;
+                }
+                sd.frame.filter = PN_FILTER_NONE;
+                if (r == PN_OK)
+                    r = pn_renderer_set_filter(&s.renderer, PN_FILTER_NONE, frame->tile_w, frame->tile_h);
             }
             // Adaptive samples trace at least their first round's in every pixel: where the uniform
             // climb ended at as few samples (within the budget, or already slower than a pick

@@ -11,7 +11,8 @@
 // PN_QUALITY_ADAPTIVE_MIN up to PN_QUALITY_MAX_SPP samples at PN_QUALITY_ADAPTIVE_STEPS pixel
 // errors, so that none is left out of the record or the run-off.
 enum { PN_QUALITY_MAX_SPP = 256, PN_QUALITY_MAX_TREES = 4, PN_QUALITY_ADAPTIVE_MIN = 4, PN_QUALITY_ADAPTIVE_STEPS = 6 };
-enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES * (9 + PN_QUALITY_ADAPTIVE_STEPS) };
+// And every uniform step once more with the penumbra filter.
+enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES * (2 * 9 + PN_QUALITY_ADAPTIVE_STEPS) };
 
 // One configuration a pilot rendered.
 typedef struct pn_quality_tried {
@@ -25,6 +26,7 @@ typedef struct pn_quality_tried {
     double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
     bool within;        // judged within the budget
     double final_ms;    // its shadow pass at the frame's size in the run-off, or -1 if not a finalist
+    pn_filter filter;   // none, or penumbra (uniform samples only); its times include the filter pass
 } pn_quality_tried;
 
 typedef struct pn_quality_choice {
@@ -33,6 +35,7 @@ typedef struct pn_quality_choice {
     uint32_t spp;
     uint32_t spp_min;     // adaptive samples, spp_min:spp at pixel_error; 0: uniform
     float pixel_error;
+    pn_filter filter;     // none or penumbra: the frame renders the pick with it
     bool within;          // the pick's pilot error is within the budget (else: the least error found)
     double pilot_mae;     // mean |V - V_ref| over the pilot's pixels with geometry
     double pilot_se;      // its standard error (0 when the frame is its own pilot)
@@ -59,8 +62,12 @@ typedef struct pn_quality_choice {
 // samples, the sampler is stratified, the light has an area, and the mode is exact or its uniform
 // climb met the budget (adaptive samples cut noise, not a floor), it climbs adaptive samples,
 // PN_QUALITY_ADAPTIVE_MIN up to PN_QUALITY_MAX_SPP, down the pixel errors 32, 16, 8, 4, 2 and 1
-// times the budget, with the same three reasons to stop (quality.c, adaptive_error). When nothing
-// meets the budget, the least error found (within = false).
+// times the budget, with the same three reasons to stop (quality.c, adaptive_error). And where the
+// frame has a filter (frame->filter, not none) and allows one (the even split) and the light has
+// an area, each
+// configuration climbs its uniform samples once more with the penumbra filter (its times include
+// the filter pass): the filter is a choice like the samples. When nothing meets the budget, the
+// least error found (within = false).
 // Pilots within the budget and within 1.5x of the fastest one's time (at most 4) are then timed at
 // the frame's size side by side, and the fastest there is the pick (final_ms; quality.c, runoff).
 // reference_spp: the reference's samples (0: PN_REFERENCE_SPP).

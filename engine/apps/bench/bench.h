@@ -147,16 +147,18 @@ typedef struct bench_quality {
     pn_shadow_mode mode;     // the pick
     int n, d;
     uint32_t spp, spp_min;   // spp_min: adaptive samples spp_min:spp at choice.pixel_error, 0: uniform
+    pn_filter filter;        // none or penumbra
     double pilot_mae;        // its pilot's estimate of the reference error
     pn_error_metrics ref;    // the pick rendered at full size, against the converged reference
-    double shadow_ms;        // the pick's shadow pass at full size
+    double shadow_ms;        // the pick's shadow pass at full size (and its filter pass, filtered)
     double choose_ms;        // the pilots' wall time
     pn_quality_choice choice; // all of --quality auto's pilots
     bool has_best;           // the matrix has a cell within the budget:
     pn_shadow_mode best_mode; // the fastest such cell
     int best_n, best_d;
     uint32_t best_spp, best_spp_min; // best_spp_min: an adaptive cell at the bench's --pixel-error
-    double best_ms, best_mae;
+    pn_filter best_filter;
+    double best_ms, best_mae; // best_ms: its shadow and filter passes
     // The pick and that cell timed in alternation at full size, the least of several frames each
     // (both the pick's cell time when it is that cell): the ratio the bench reports as vs_front.
     double pair_pick_ms, pair_front_ms;
@@ -291,7 +293,7 @@ void pn_bench_tree_label(char *out, size_t n, int tn, int td, bool per_object);
 // Sets up one configuration of the matrix at full size for timing beside another.
 pn_result pn_bench_setup_config(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                                 const pn_renderer_desc *frame, pn_shadow_mode mode, int n, int d, uint32_t spp,
-                                uint32_t spp_min, float pixel_error, pn_setup *s);
+                                uint32_t spp_min, float pixel_error, pn_filter filter, pn_setup *s);
 
 // ---------------------------------------------------------------------------------------------
 // Several lights (bench_lights.c)

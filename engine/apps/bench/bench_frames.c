@@ -57,10 +57,11 @@ void pn_bench_tree_label(char *out, size_t n, int tn, int td, bool per_object)
 
 pn_result pn_bench_setup_config(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                                 const pn_renderer_desc *frame, pn_shadow_mode mode, int n, int d, uint32_t spp,
-                                uint32_t spp_min, float pixel_error, pn_setup *s)
+                                uint32_t spp_min, float pixel_error, pn_filter filter, pn_setup *s)
 {
     pn_setup_desc sd = {.frame = *frame, .tree_n = n, .tree_d = d, .view = cam};
     sd.frame.mode = mode;
+    sd.frame.filter = filter;
     sd.frame.spp = spp;
     sd.frame.spp_min = spp_min;
     sd.frame.pixel_error = spp_min ? pixel_error : frame->pixel_error;

@@ -432,8 +432,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_conte
         fprintf(f, ", \"width\": %u, \"height\": %u, \"budget\": %g, \"pick\": {\"mode\": \"%s\", \"tree\": ", q->width,
                 q->height, q->budget, MODE_NAME(q->mode));
         json_tree(f, q->n, q->d);
-        fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"pixel_error\": %.9g, \"pilot_mae\": %.17g, \"shadow_ms\": %.4f, ",
-                q->spp, q->spp_min, q->spp_min ? (double)q->choice.pixel_error : 0.0, q->pilot_mae, q->shadow_ms);
+        fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"pixel_error\": %.9g, \"filter\": \"%s\", \"pilot_mae\": %.17g, \"shadow_ms\": %.4f, ",
+                q->spp, q->spp_min, q->spp_min ? (double)q->choice.pixel_error : 0.0, pn_filter_names[q->filter],
+                q->pilot_mae, q->shadow_ms);
         json_metrics(f, "reference", &q->ref);
         fprintf(f,
                 "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], "
@@ -445,9 +446,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_conte
         if (q->has_best && q->best_ms > 0) {
             fprintf(f, "{\"mode\": \"%s\", \"tree\": ", MODE_NAME(q->best_mode));
             json_tree(f, q->best_n, q->best_d);
-            fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"shadow_ms\": %.4f, \"mae\": %.6g}, \"side_by_side_ms\": [%.4f, %.4f], "
+            fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"filter\": \"%s\", \"shadow_ms\": %.4f, \"mae\": %.6g}, \"side_by_side_ms\": [%.4f, %.4f], "
                        "\"vs_front\": %.4f}",
-                    q->best_spp, q->best_spp_min, q->best_ms, q->best_mae, q->pair_pick_ms, q->pair_front_ms,
+                    q->best_spp, q->best_spp_min, pn_filter_names[q->best_filter], q->best_ms, q->best_mae, q->pair_pick_ms, q->pair_front_ms,
                     q->pair_front_ms > 0 ? q->pair_pick_ms / q->pair_front_ms : 0.0);
         } else {
             fprintf(f, "null, \"vs_front\": null}");
