@@ -7,10 +7,11 @@
 #include "io/exr.h"
 #include "test_util.h"
 
-// The default render filters (--filter interleaved), so its unfiltered V is there too.
+// The default render filters (--filter penumbra), so its unfiltered V is there too, and the
+// penumbra filter's footprint.
 static const char *const CHANNELS[] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                        "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z", "shadow.V_raw",
-                                       "shadow.valid", "shadow.penumbra"};
+                                       "shadow.valid", "shadow.penumbra", "shadow.footprint"};
 static const char *const ATTRS[] = {"penumbra.scene", "penumbra.mode", "penumbra.triangles",
                                     "penumbra.camera.pos", "penumbra.camera.target", "penumbra.camera.fov",
                                     "penumbra.light.pos", "penumbra.light.normal", "penumbra.light.up",
@@ -101,6 +102,9 @@ int main(void)
         float width = ch[17][i];
         CHECK_MSG(a == 1.0f ? width >= 0 && (width == FLT_MAX) == (valid == 0 || ch[15][i] == 1.0f) : width == 0,
                   "shadow.penumbra = %g with V_raw %g of %g valid rays at %d", width, ch[15][i], valid, i);
+        // shadow.footprint: the penumbra filter's deviation in pixels, >= 0, 0 on the background
+        float fp = ch[18][i];
+        CHECK_MSG(fp >= 0 && (a == 1.0f || fp == 0), "shadow.footprint = %g at %d", fp, i);
         if (a == 1.0f) {
             covered++;
             double nl = sqrt(ch[8][i] * ch[8][i] + ch[9][i] * ch[9][i] + ch[10][i] * ch[10][i]);
