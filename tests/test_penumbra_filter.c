@@ -151,6 +151,12 @@ static band sharp_band(const pn_exr_image *ref, double yfov_deg)
     int n = b.w * b.h;
     unsigned char *sharp = calloc((size_t)n, 1);
     b.in = calloc((size_t)n, 1);
+    CHECK(sharp && b.in);
+    if (!sharp || !b.in) {
+        free(sharp), free(b.in);
+        b.in = NULL;
+        return b;
+    }
     double pixel_angle = 2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / b.h;
     for (int i = 0; i < n; i++)
         sharp[i] = a[i] == 1.0f && v[i] > 0.02f && v[i] < 0.98f && width[i] < 3.0 * z[i] * pixel_angle;

@@ -25,7 +25,7 @@ typedef struct pn_quality_tried {
     double pilot_mae, pilot_se, pilot_ms; // se: standard error of the MAE as an estimate of the picture's
     double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
     bool within;        // judged within the budget
-    double final_ms;    // its shadow pass at the frame's size in the run-off, or -1 if not a finalist
+    double final_ms;    // its shadow (and filter) pass at the frame's size in the run-off, or -1 if not a finalist
     pn_filter filter;   // none, or penumbra (uniform samples only); its times include the filter pass
 } pn_quality_tried;
 
@@ -40,7 +40,7 @@ typedef struct pn_quality_choice {
     double pilot_mae;     // mean |V - V_ref| over the pilot's pixels with geometry
     double pilot_se;      // its standard error (0 when the frame is its own pilot)
     double confirm_mae;   // its MAE at the confirming size, or -1 when the pilot decided
-    double pilot_ms;      // its shadow pass
+    double pilot_ms;      // its shadow pass, and its filter pass when filtered (the JSON's pilot_shadow_ms)
     double reference_ms;  // the pilot reference's shadow pass
     int candidates;       // pilots rendered
     int runoff;           // finalists timed at the frame's size (0 or 1: the pilots decided)
@@ -63,8 +63,8 @@ typedef struct pn_quality_choice {
 // climb met the budget (adaptive samples cut noise, not a floor), it climbs adaptive samples,
 // PN_QUALITY_ADAPTIVE_MIN up to PN_QUALITY_MAX_SPP, down the pixel errors 32, 16, 8, 4, 2 and 1
 // times the budget, with the same three reasons to stop (quality.c, adaptive_error). And where the
-// frame has a filter (frame->filter, not none) and allows one (the even split) and the light has
-// an area, each
+// frame has a filter (frame->filter, not none: it chooses between none and penumbra, whichever
+// filter the frame named) and allows one (the even split) and the light has an area, each
 // configuration climbs its uniform samples once more with the penumbra filter (its times include
 // the filter pass): the filter is a choice like the samples. When nothing meets the budget, the
 // least error found (within = false).

@@ -118,7 +118,8 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         ch[count++] = (pn_exr_channel){"shadow.V_stderr", pl[18]};
     }
     // The penumbra filter's footprint: the standard deviation, in pixels, of the Gaussian it
-    // averaged V over at each pixel (0: the interleaved filter's window alone); the last light's.
+    // averaged V over at each pixel (below 0.5: the interleaved filter's window alone; 0 where no
+    // pixel of its 3x3 had a blocker); the last light's.
     if (aovs && img->footprint && lights == 1)
         ch[count++] = (pn_exr_channel){"shadow.footprint", pl[19]};
     bool tree = pn_shadow_mode_get(o->mode)->needs.tree;

@@ -74,4 +74,5 @@ SIZE(pn_shade_push, 112);
 
 // FilterPush: std430 push constants.
 SIZE(pn_filter_push, 32);
+SIZE(pn_penumbra_push, 32);
 AT(pn_filter_push, samples, 4);

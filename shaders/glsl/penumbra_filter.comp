@@ -129,8 +129,9 @@ void blur(ivec2 px, ivec2 size, bool rows)
     float spread = RANGE_SIGMAS * sqrt(2.0 * max(v_p * (1.0 - v_p), 1.0 / samples) / samples);
     // Taps every `step` pixels, half a standard deviation apart or closer: enough for a Gaussian
     // (its sum over such a lattice is its integral to a fraction of a percent) on a V the
-    // interleaved filter already smoothed over 3 pixels, and it keeps the taps at most
-    // 4 RADIUS_SIGMAS + 1 whatever the width, so the pass costs the same on any penumbra.
+    // interleaved filter already smoothed over 3 pixels, and it keeps the taps about
+    // 4 RADIUS_SIGMAS + 1 whatever the width (21 at most, just below a step of 2), so the pass
+    // costs the same on any penumbra.
     int step = max(int(0.5 * sigma_px), 1);
     int r = reach(sigma_px) / step * step;
     float sum = 0.0, weight = 0.0;

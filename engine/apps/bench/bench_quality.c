@@ -43,7 +43,8 @@ int pn_bench_check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_sce
     qframe.tile_w = o->tile_w, qframe.tile_h = o->tile_h;
     for (int i = first_row; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
-        bool choosable = r->filter == PN_FILTER_NONE || (penumbra && r->filter == PN_FILTER_PENUMBRA);
+        // Auto climbs adaptive samples unfiltered only (quality.c).
+        bool choosable = r->filter == PN_FILTER_NONE || (penumbra && r->filter == PN_FILTER_PENUMBRA && !r->spp_min);
         double ms = r->shadow_ms + r->filter_ms;
         if (choosable && !r->per_object && r->ref.mae <= budget && (!bq.has_best || ms < bq.best_ms)) {
             bq.has_best = true;

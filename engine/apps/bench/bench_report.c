@@ -210,7 +210,8 @@ static const bench_row *fastest_within(const bench_rows *rows, int first, int en
     return best;
 }
 
-enum { MAX_COLUMNS = 8 * PN_SHADOW_MODE_COUNT };
+// Per mode: two tree kinds, every filter, uniform and adaptive samples (group_modes).
+enum { MAX_COLUMNS = 2 * (PN_FILTER_LAST + 1) * 2 * PN_SHADOW_MODE_COUNT };
 
 // The columns present in rows [first, end), in the order of the mode table, each mode over the
 // scene-wide tree first, unfiltered first, uniform samples first.

@@ -299,7 +299,7 @@ static bool read_opt(char **tok, int nt, bench_opts *o)
         o->filter_count = 0;
         for (int i = 2; i < nt; i++) {
             int f = choice(tok[i], pn_filter_names);
-            if (f < 0 || o->filter_count == 2)
+            if (f < 0 || o->filter_count == PN_FILTER_LAST + 1)
                 return false;
             o->filters[o->filter_count++] = (pn_filter)f;
         }
