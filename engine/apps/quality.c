@@ -375,6 +375,27 @@ static bool climb_ends(const climb *c, const pn_shadow_mode_info *info, bool wit
     return within || (c->out->within && ms >= c->out->pilot_ms) || (!info->exact && mae > 0.9 * prev_mae);
 }
 
+// One configuration's uniform climb, 1, 2, 4, ... PN_QUALITY_MAX_SPP samples with sd's filter, until
+// climb_ends; *met: some step was within the budget; *last_spp and *mae: the samples it ended at
+// and their error.
+static pn_result uniform_climb(climb *c, pn_setup *s, pn_setup_desc *sd, const pn_shadow_mode_info *info, bool *met,
+                               uint32_t *last_spp, double *mae)
+{
+    double prev_mae = INFINITY, ms;
+    bool within;
+    *met = false, *last_spp = 0;
+    for (uint32_t spp = 1; spp <= PN_QUALITY_MAX_SPP; spp *= 2) {
+        sd->frame.spp = spp;
+        PN_TRY(climb_step(c, s, sd, spp == 1, mae, &ms, &within)); // warm: the set-up's (or filter's) first
+        *met = *met || within;
+        *last_spp = spp;
+        if (climb_ends(c, info, within, ms, *mae, prev_mae))
+            break;
+        prev_mae = *mae;
+    }
+    return PN_OK;
+}
+
 // How many of its standard trees --quality auto climbs for mode m (1 for a mode without a tree), 0
 // when m is no candidate for the scene on this device.
 static int candidate_trees(const pn_gpu_device *dev, const pn_scene *scene, pn_shadow_mode m)
@@ -438,33 +459,19 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
             double prev_mae = INFINITY, mae = INFINITY, ms = INFINITY;
             bool within = false, met = false;
             uint32_t last_spp = 0;
-            for (uint32_t spp = 1; r == PN_OK && spp <= PN_QUALITY_MAX_SPP; spp *= 2) {
-                sd.frame.spp = spp;
-                r = climb_step(&c, &s, &sd, spp == 1, &mae, &ms, &within); // warm: the set-up's first
-                if (r != PN_OK)
-                    break;
-                met = met || within;
-                last_spp = spp;
-                if (climb_ends(&c, info, within, ms, mae, prev_mae))
-                    break;
-                prev_mae = mae;
-            }
+            r = uniform_climb(&c, &s, &sd, info, &met, &last_spp, &mae);
             // The same climb with the penumbra filter, on the same set-up (the filter is the
             // renderer's to switch), then back to none for the adaptive climb: adaptive samples
             // already spend their rays where V is uncertain, and their pixels draw samples of their
             // own number, which interleaving cannot share.
             if (r == PN_OK && filtered) {
+                bool fmet;
+                uint32_t flast;
+                double fmae;
                 r = pn_renderer_set_filter(&s.renderer, PN_FILTER_PENUMBRA, frame->tile_w, frame->tile_h);
                 sd.frame.filter = PN_FILTER_PENUMBRA;
-                double fprev = INFINITY, fmae = INFINITY, fms = INFINITY;
-                bool fwithin = false;
-                for (uint32_t spp = 1; r == PN_OK && spp <= PN_QUALITY_MAX_SPP; spp *= 2) {
-                    sd.frame.spp = spp;
-                    r = climb_step(&c, &s, &sd, spp == 1, &fmae, &fms, &fwithin); // warm: the filter's first
-                    if (r != PN_OK || climb_ends(&c, info, fwithin, fms, fmae, fprev))
-                        break;
-                    fprev = fmae;
-                }
+                if (r == PN_OK)
+                    r = uniform_climb(&c, &s, &sd, info, &fmet, &flast, &fmae);
                 sd.frame.filter = PN_FILTER_NONE;
                 if (r == PN_OK)
                     r = pn_renderer_set_filter(&s.renderer, PN_FILTER_NONE, frame->tile_w, frame->tile_h);

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "filter_comp.h"
+#include "gpu/frame.h"
 #include "gpu/penumbra_pass.h"
 
 // The pipeline specialised for a tile_w x tile_h window, its set pointed at f's images.
@@ -63,7 +64,7 @@ void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_
                            float yfov_deg, float narrow, float width_scale)
 {
     pn_filter_push push = {
-        .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
+        .pixel_angle = (float)pn_pixel_angle(yfov_deg, f->height),
         .samples = samples,
         .adaptive = adaptive,
         .narrow = narrow,

@@ -1,6 +1,7 @@
 // What describes one frame, shared by the renderer and its passes: size, shadow configuration and
 // the acceleration structures the mode reads; and what a frame gives back.
 #pragma once
+#include <math.h>
 #include "gpu/exact_pools.h"
 #include "gpu/pools.h"
 #include "gpu/shadow_modes.h"
@@ -56,6 +57,13 @@ typedef struct pn_renderer_desc {
 
 // A tile edge as the passes use it: 0 (unset) means 3, the thesis' 3 x 3.
 static inline uint32_t pn_filter_tile(uint32_t edge) { return edge ? edge : 3; }
+
+// A pixel's footprint per unit of view depth, 2 tan(yfov / 2) / height: what the filters take a
+// pixel's world size to be (FilterPush.pixel_angle).
+static inline double pn_pixel_angle(double yfov_deg, uint32_t height)
+{
+    return 2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / height;
+}
 
 typedef struct pn_frame_times {
     double gbuffer_ms, shadow_ms, filter_ms, shade_ms; // GPU time per pass, from timestamp queries (filter

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gpu/frame.h"
 #include "penumbra_filter_comp.h"
 
 pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
@@ -13,27 +14,19 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
-    struct {
-        pn_gpu_image *img;
-        uint32_t w, h;
-        VkImageUsageFlags usage;
-        const char *name;
-        VkFormat format;
-    } t[] = {
-        {&out->sigma, width, height, 0, "penumbra filter's footprint image", VK_FORMAT_R32G32_SFLOAT},
-        // read back with the frame (pn_frame_images.footprint)
-        {&out->scratch, width, height, VK_IMAGE_USAGE_TRANSFER_SRC_BIT, "penumbra filter's scratch image",
-         VK_FORMAT_R32G32_SFLOAT},
-    };
+    // Both rg32f; the scratch image is read back with the frame (pn_frame_images.footprint).
+    pn_gpu_image *imgs[2] = {&out->sigma, &out->scratch};
+    const char *names[2] = {"penumbra filter's footprint image", "penumbra filter's scratch image"};
     pn_result r = PN_OK;
-    for (size_t i = 0; i < sizeof t / sizeof t[0] && r == PN_OK; i++)
+    for (int i = 0; i < 2 && r == PN_OK; i++)
         r = pn_gpu_image_create(dev,
-                                &(pn_gpu_image_desc){.name = t[i].name,
-                                                     .format = t[i].format,
-                                                     .width = t[i].w,
-                                                     .height = t[i].h,
-                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT | t[i].usage},
-                                t[i].img);
+                                &(pn_gpu_image_desc){.name = names[i],
+                                                     .format = VK_FORMAT_R32G32_SFLOAT,
+                                                     .width = width,
+                                                     .height = height,
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT |
+                                                              (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0)},
+                                imgs[i]);
     VkImageView views[PN_PENUMBRA_BINDING_COUNT] = {
         [PN_PENUMBRA_BINDING_P] = p->view,
         [PN_PENUMBRA_BINDING_N] = n->view,
@@ -93,7 +86,7 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     pn_penumbra_push push = {
-        .pixel_angle = (float)(2.0 * tan(0.5 * yfov_deg * 3.14159265358979323846 / 180.0) / f->height),
+        .pixel_angle = (float)pn_pixel_angle(yfov_deg, f->height),
         .samples = samples,
         .adaptive = adaptive,
         .max_radius = pn_penumbra_max_radius(f->height),

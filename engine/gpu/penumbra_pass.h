@@ -3,8 +3,8 @@
 // (shaders/glsl/penumbra_filter.comp). The interleaved filter's pass writes each pixel's footprint
 // (filter.comp); then two dispatches: the Gaussian along rows and along columns. Reads the
 // G-buffer and the shadow pass's counts, and rewrites V (the interleaved filter's output) in
-// place; leaves each pixel's footprint
-// (the Gaussian's standard deviation in pixels) in `scratch`'s second channel for the EXR.
+// place; leaves each pixel's footprint (the Gaussian's standard deviation in pixels) in
+// `scratch`'s second channel for the EXR.
 #pragma once
 #include "gpu/compute.h"
 #include "gpu/resources.h"

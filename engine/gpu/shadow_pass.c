@@ -155,7 +155,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     if (r == PN_OK)
         r = pn_gpu_image_create(dev,
                                 &(pn_gpu_image_desc){.name = "shadow pass's blocker image",
-                                                     .format = VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                     .format = VK_FORMAT_R32G32_SFLOAT,
                                                      .width = desc->width,
                                                      .height = desc->height,
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT},

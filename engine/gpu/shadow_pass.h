@@ -30,8 +30,8 @@ typedef struct pn_shadow_pass {
     pn_gpu_image adapt;     // per pixel: the counts over the first half of its samples, the blocked
                             // rays' summed t, its samples so far (PN_SHADOW_BINDING_ADAPT)
     pn_gpu_image rays;      // adaptive sampling: per pixel its samples and V's standard error
-    pn_gpu_image blockers;  // per pixel: the nearest and farthest blocker (t), then the penumbra widths at
-                            // them (PN_SHADOW_BINDING_BLOCKERS; the penumbra filter reads them)
+    pn_gpu_image blockers;  // per pixel: the nearest blocker (t), then the penumbra width it casts
+                            // (PN_SHADOW_BINDING_BLOCKERS; the penumbra filter reads it)
     pn_gpu_buffer lists;    // adaptive sampling: the pixel lists of its rounds (PN_SHADOW_BINDING_LISTS)
     uint32_t tiles_across, tile_total; // PN_WORKGROUP-square tiles across the image, and in all
     uint32_t width, height;

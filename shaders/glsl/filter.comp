@@ -31,7 +31,7 @@ layout(set = 0, binding = PN_FILTER_BINDING_N, rgba32f) uniform readonly image2D
 layout(set = 0, binding = PN_FILTER_BINDING_V_RAW, r32f) uniform readonly image2D img_v_raw;
 layout(set = 0, binding = PN_FILTER_BINDING_V, r32f) uniform writeonly image2D img_v;
 layout(set = 0, binding = PN_FILTER_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
-layout(set = 0, binding = PN_FILTER_BINDING_BLOCKERS, rgba32f) uniform readonly image2D img_blockers;
+layout(set = 0, binding = PN_FILTER_BINDING_BLOCKERS, rg32f) uniform readonly image2D img_blockers;
 // With the penumbra filter (pc.narrow > 0): its footprint and whether the pixel lends its V, for
 // its Gaussian (penumbra_filter.comp), written here where the pixel's counts and blockers are read
 // anyway: a dispatch of its own cost lavapipe about as much as one of the Gaussian's.
@@ -85,7 +85,7 @@ void main()
     float footprint_p = n.w * pc.pixel_angle;
     // The penumbra filter's: from the nearest blocker's penumbra (-1 without a blocker, and without
     // a valid ray); a pixel lends its V where it has an estimate.
-    float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).z : PN_PENUMBRA_NONE;
+    float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).y : PN_PENUMBRA_NONE;
     float own_samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
     if (pc.narrow > 0.0) {
         float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);

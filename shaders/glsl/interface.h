@@ -74,9 +74,9 @@
 #define PN_SHADOW_BINDING_RAYS 7    // rgba32ui: adaptive sampling's target samples for the pixel, the standard
                                     // error of its V (float bits), whether it stopped (adaptive_decide)
 #define PN_SHADOW_BINDING_LISTS 8   // storage buffer: adaptive sampling's two lists of pixels (below)
-#define PN_SHADOW_BINDING_BLOCKERS 9 // rgba32f: the blocked rays' nearest and farthest blocker as segment
-                                     // parameters t (1, 0 without one), and after a pixel's last chunk the
-                                     // penumbra widths at them, world units (shadow_finish; the wide filter's)
+#define PN_SHADOW_BINDING_BLOCKERS 9 // rg32f: the blocked rays' nearest blocker as segment parameter t
+                                     // (1 without one), and after a pixel's last chunk the penumbra
+                                     // width it casts, world units (shadow_finish; the penumbra filter's)
 #define PN_SHADOW_BINDING_COUNT 10
 #define PN_SHADOW_BINDING_TLAS 10   // acceleration structure: only the modes whose needs.tlas is set
 #define PN_SHADE_BINDING_P 0
@@ -90,7 +90,7 @@
 #define PN_FILTER_BINDING_V_RAW 2 // r32f: the shadow pass's V
 #define PN_FILTER_BINDING_V 3     // r32f: filtered V out
 #define PN_FILTER_BINDING_COUNTS 4 // rgba32ui: the shadow pass's (visible, valid, reaches) per pixel
-#define PN_FILTER_BINDING_BLOCKERS 5 // rgba32f: the shadow pass's blocker bounds (with the penumbra filter)
+#define PN_FILTER_BINDING_BLOCKERS 5 // rg32f: the shadow pass's nearest blocker (with the penumbra filter)
 #define PN_FILTER_BINDING_SIGMA 6    // rg32f: out, with the penumbra filter: its footprint per pixel
                                      // (PN_PENUMBRA_BINDING_SIGMA)
 #define PN_FILTER_BINDING_COUNT 7

@@ -7,7 +7,7 @@ layout(set = 0, binding = PN_SHADOW_BINDING_V, r32f) uniform writeonly image2D i
 layout(set = 0, binding = PN_SHADOW_BINDING_ADAPT, rgba32ui) uniform uimage2D img_adapt;
 layout(set = 0, binding = PN_SHADOW_BINDING_RAYS, rgba32ui) uniform uimage2D img_rays;
 layout(std430, set = 0, binding = PN_SHADOW_BINDING_LISTS) buffer PixelLists { uint words[]; } pixel_lists;
-layout(set = 0, binding = PN_SHADOW_BINDING_BLOCKERS, rgba32f) uniform image2D img_blockers;
+layout(set = 0, binding = PN_SHADOW_BINDING_BLOCKERS, rg32f) uniform image2D img_blockers;
 
 // This pixel's samples in this dispatch, [pixel_begin, pixel_end) (set by shadow_pixel): the chunk's,
 // or in adaptive sampling's later rounds the part of the chunk between the samples the pixel has
@@ -348,22 +348,16 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
         imageStore(img_adapt, px, uvec4(half_counts, floatBitsToUint(t_sum), pixel_begin + count));
     float w = pixel_last ? penumbra_width(o, blocked_rays > 0u ? t_sum / float(blocked_rays) : 1.0) : t_sum;
     imageStore(img_counts, px, uvec4(counts, reaches, floatBitsToUint(w)));
-    // The nearest and farthest blocker of the blocked rays, over every chunk and round (t = 1 and 0
-    // while none is blocked), and after the pixel's last chunk the penumbra widths they cast: the
-    // nearest the narrowest, which bounds how fast V can change at the pixel (the penumbra filter's
-    // footprint, penumbra_filter.comp), the farthest the widest.
-    vec4 bounds = chunk.first != 0u ? vec4(1.0, 0.0, PN_PENUMBRA_NONE, PN_PENUMBRA_NONE) : imageLoad(img_blockers, px);
-    for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u) {
-        float t = blocker_t[findLSB(b)];
-        bounds.x = min(bounds.x, t);
-        bounds.y = max(bounds.y, t);
-    }
-    if (pixel_last) {
-        bool any_blocked = bounds.x < 1.0;
-        bounds.z = any_blocked ? penumbra_width(o, bounds.x) : PN_PENUMBRA_NONE;
-        bounds.w = any_blocked ? penumbra_width(o, bounds.y) : PN_PENUMBRA_NONE;
-    }
-    imageStore(img_blockers, px, bounds);
+    // The nearest blocker of the blocked rays, over every chunk and round (t = 1 while none is
+    // blocked), and after the pixel's last chunk the penumbra width it casts: the narrowest of the
+    // pixel's, which bounds how fast V can change there (the penumbra filter's footprint,
+    // filter.comp). The farthest is not kept: no filter reads it.
+    vec2 nearest = chunk.first != 0u ? vec2(1.0, PN_PENUMBRA_NONE) : imageLoad(img_blockers, px).xy;
+    for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u)
+        nearest.x = min(nearest.x, blocker_t[findLSB(b)]);
+    if (pixel_last)
+        nearest.y = nearest.x < 1.0 ? penumbra_width(o, nearest.x) : PN_PENUMBRA_NONE;
+    imageStore(img_blockers, px, vec4(nearest, 0.0, 0.0));
     if (pixel_last)
         imageStore(img_v, px, vec4(counts_v(counts)));
 }
@@ -484,7 +478,7 @@ bool shadow_pixel(ivec2 px, out vec3 p, out vec3 nrm)
     if (inside && pw.w <= 0.0 && chunk.last != 0u) {
         imageStore(img_v, px, vec4(0.0));
         imageStore(img_counts, px, uvec4(0u)); // no rays (pn_frame_images.counts)
-        imageStore(img_blockers, px, vec4(1.0, 0.0, PN_PENUMBRA_NONE, PN_PENUMBRA_NONE));
+        imageStore(img_blockers, px, vec4(1.0, PN_PENUMBRA_NONE, 0.0, 0.0));
     }
     return inside && pw.w > 0.0;
 }

@@ -330,7 +330,7 @@ static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool 
         return PN_EXIT_FAILURE;
     }
     bool first = true;
-    double pixel_angle = 2.0 * tan(0.5 * g->cam->yfov_deg * 3.14159265358979323846 / 180.0) / g->frame.height;
+    double pixel_angle = pn_pixel_angle(g->cam->yfov_deg, g->frame.height);
     for (int fi = 0; fi < o->filter_count && rc == PN_EXIT_OK; fi++) {
         pn_filter filter = o->filters[fi];
         if (pn_renderer_set_filter(&s.renderer, filter, o->tile_w, o->tile_h) != PN_OK) {
