@@ -148,7 +148,7 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
     }
     pn_renderer_desc frame = pn_render_opts_setup(&o->r).frame;
     frame.dump_rays = o->ray_dump != NULL;
-    if (pn_renderer_check_split(&frame) != PN_OK || pn_shadow_check_adaptive(&frame) != PN_OK)
+    if (pn_renderer_check_split(&frame) != PN_OK || pn_shadow_check_samples(&frame) != PN_OK)
         return PN_EXIT_USAGE;
     return PN_EXIT_OK;
 }

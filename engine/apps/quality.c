@@ -428,7 +428,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     out->reference_ms = pilot.reference_ms;
     climb c = {dev, scene, cam, light, max_error, &pilot, &big, out, false};
     // Adaptive samples need the stratified sampler's Sobol' draws, the even split and no ray dump
-    // (pn_shadow_check_adaptive: the frame's own options must allow the pick), and a budget of 0 is
+    // (pn_shadow_check_samples: the frame's own options must allow the pick), and a budget of 0 is
     // met by nothing.
     bool adaptive = frame->sampler == PN_SAMPLER_STRATIFIED && frame->split == PN_SPLIT_EVEN && !frame->dump_rays &&
                     max_error > 0 && !pn_light_is_point(light);

@@ -59,8 +59,9 @@ AT(pn_shadow_params, budget, 204);
 AT(pn_shadow_params, spp_min, 208);
 AT(pn_shadow_params, alpha_bits, 224);
 AT(pn_shadow_params, masked_tris, 232);
-AT(pn_shadow_params, lights, 240); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
-SIZE(pn_shadow_params, 240 + 96 * PN_MAX_LIGHTS);
+AT(pn_shadow_params, project_budget, 240);
+AT(pn_shadow_params, lights, 256); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
+SIZE(pn_shadow_params, 256 + 96 * PN_MAX_LIGHTS);
 AT(pn_gpu_object, tree, 0);
 AT(pn_gpu_object, to_local, 64);
 AT(pn_gpu_object, rise_scale, 112);

@@ -164,7 +164,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         return PN_ERR_INVALID;
     }
     PN_TRY(pn_renderer_check_split(desc));
-    PN_TRY(pn_shadow_check_adaptive(desc));
+    PN_TRY(pn_shadow_check_samples(desc));
     if (desc->spp == 0 && mode->traces) {
         pn_error("spp must be at least 1");
         return PN_ERR_INVALID;
@@ -604,7 +604,7 @@ pn_result pn_renderer_set_adaptive(pn_renderer *r, uint32_t spp_min, uint32_t sp
 {
     pn_renderer_desc d = r->desc;
     d.spp_min = spp_min, d.spp = spp, d.pixel_error = pixel_error;
-    PN_TRY(pn_shadow_check_adaptive(&d));
+    PN_TRY(pn_shadow_check_samples(&d));
     r->desc = d;
     return PN_OK;
 }
@@ -620,7 +620,7 @@ pn_result pn_renderer_set_dump_rays(pn_renderer *r, bool on)
     pn_renderer_desc d = r->desc;
     d.dump_rays = on;
     PN_TRY(pn_renderer_check_split(&d));
-    PN_TRY(pn_shadow_check_adaptive(&d));
+    PN_TRY(pn_shadow_check_samples(&d));
     r->desc.dump_rays = on;
     return PN_OK;
 }
@@ -630,7 +630,7 @@ pn_result pn_renderer_set_split(pn_renderer *r, pn_split split)
     pn_renderer_desc d = r->desc;
     d.split = split;
     PN_TRY(pn_renderer_check_split(&d));
-    PN_TRY(pn_shadow_check_adaptive(&d));
+    PN_TRY(pn_shadow_check_samples(&d));
     r->desc.split = split;
     return PN_OK;
 }

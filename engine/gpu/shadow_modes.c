@@ -83,7 +83,8 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
 };
 
 const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet",
-                                          [PN_TRAVERSAL_AUTO] = "auto", NULL};
+                                          [PN_TRAVERSAL_AUTO] = "auto",
+                                          [PN_TRAVERSAL_PROJECT] = "project", NULL};
 
 pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t)
 {

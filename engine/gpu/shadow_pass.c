@@ -3,6 +3,7 @@
 #include "gpu/shadow_pass.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/log.h"
@@ -19,8 +20,22 @@ double pn_shadow_rays_per_s(uint64_t covered_pixels, uint32_t spp, const pn_ligh
 
 bool pn_shadow_adaptive(const pn_shadow_pass *s, uint32_t samples) { return s->spp_min && samples > s->spp_min; }
 
-pn_result pn_shadow_check_adaptive(const pn_renderer_desc *d)
+pn_result pn_shadow_check_samples(const pn_renderer_desc *d)
 {
+    if (d->traversal == PN_TRAVERSAL_PROJECT) {
+        // The projection walk answers one pixel's samples together: exact's triangles, and every
+        // pixel's uniform samples (adaptive rounds would walk the pyramid again for each).
+        if (d->mode != PN_SHADOW_EXACT) {
+            pn_error("--traversal project is exact's: it projects the triangles of exact's BVH (got --mode %s)",
+                     pn_shadow_mode_get(d->mode)->name);
+            return PN_ERR_INVALID;
+        }
+        if (d->spp_min) {
+            pn_error("--traversal project answers all of a pixel's samples in one walk: it takes uniform samples, "
+                     "not adaptive ones (--spp %u:%u)", d->spp_min, d->spp);
+            return PN_ERR_INVALID;
+        }
+    }
     if (!d->spp_min)
         return PN_OK;
     uint32_t ratio = d->spp_min <= d->spp && d->spp % d->spp_min == 0 ? d->spp / d->spp_min : 0;
@@ -40,6 +55,15 @@ pn_result pn_shadow_check_adaptive(const pn_renderer_desc *d)
         return PN_ERR_INVALID;
     }
     return PN_OK;
+}
+
+float pn_project_budget(void)
+{
+    // Measured (engine/gpu/README.md, the projection traversal): PN_PROJECT_BUDGET sets it for
+    // such measurements.
+    const char *env = getenv("PN_PROJECT_BUDGET");
+    float b = env ? strtof(env, NULL) : 0.0f;
+    return b > 0.0f ? b : PN_PROJECT_BUDGET_DEFAULT;
 }
 
 uint32_t pn_shadow_budget(uint32_t spp, uint32_t light_count) { return (spp ? spp : 1) * (light_count ? light_count : 1); }
@@ -78,6 +102,11 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     // There the per-ray walk balances its 8 lanes better the more rays each has, and the packet
     // walk does fewer walks, so the chunk starts at the maximum.
     out->chunk = PN_MAX_CHUNK;
+    int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal);
+    // The projection walk answers up to PN_PROJECT_MAX_SAMPLES samples of a pixel in one dispatch
+    // (its bit masks); its rays after the budget run 32 at a time within it.
+    if (traversal == PN_TRAVERSAL_PROJECT_ID)
+        out->chunk = PN_PROJECT_MAX_SAMPLES;
     const VkDescriptorType IMAGE = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status;
     // the modes that trace the device's acceleration structure also see it.
@@ -95,7 +124,6 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
-    int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal);
     out->sized_rays = out->mode->packet_rays && traversal == PN_TRAVERSAL_PACKET_ID;
     memcpy(out->spec_data,
            (int32_t[5]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK, alpha_masks ? 1 : 0},
@@ -221,6 +249,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.seed = desc->seed;
     sp.leaf_size = (float)desc->leaf_size;
     sp.scene_mag = s->scene_mag;
+    sp.project_budget = pn_project_budget();
     sp.canary = 2; // llvmpipe: the loop-budget canary's iteration count (shadow_common.glsl)
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;

@@ -87,9 +87,15 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
 // rounds from desc.spp_min up to `samples` (a point light's single sample never is).
 bool pn_shadow_adaptive(const pn_shadow_pass *s, uint32_t samples);
 
-// Checks desc's adaptive sampling: spp_min 0, or spp = spp_min x 2^k with the even split, no
-// ray dump, the stratified sampler, and pixel_error >= 0 (logs and returns PN_ERR_INVALID otherwise).
-pn_result pn_shadow_check_adaptive(const pn_renderer_desc *desc);
+// Checks desc's samples: adaptive sampling with spp_min 0, or spp = spp_min x 2^k with the even
+// split, no ray dump, the stratified sampler, and pixel_error >= 0; the projection traversal only
+// for exact and uniform samples (logs and returns PN_ERR_INVALID otherwise).
+pn_result pn_shadow_check_samples(const pn_renderer_desc *desc);
+
+// --traversal project: the triangles a pixel's walk may test per sample before its remaining
+// samples are traced as rays (ShadowParams.project_budget; env PN_PROJECT_BUDGET overrides it).
+#define PN_PROJECT_BUDGET_DEFAULT 1.0f
+float pn_project_budget(void);
 
 // Records the dispatches of `samples` samples per pixel (pn_shadow_samples) of light `light` (an
 // index into the lights of pn_shadow_pass_update) after P and N are ready; V is written when the

@@ -30,7 +30,13 @@
 #define PN_SPEC_TRAVERSAL 0 // shadow shaders: how a pixel's rays walk the N-tree
 #define PN_TRAVERSAL_RAY_ID 0    // each ray alone (3D-DDA per level)
 #define PN_TRAVERSAL_PACKET_ID 1 // the pixel's rays together (line space: slice by slice; exact: one BVH walk)
-#define PN_TRAVERSAL_AUTO_ID 2   // host only: the faster of the two for the mode (pn_traversal_resolve)
+#define PN_TRAVERSAL_AUTO_ID 2   // host only: the faster for the mode (pn_traversal_resolve)
+#define PN_TRAVERSAL_PROJECT_ID 3 // exact: the pixel's triangles projected onto the light, all samples at once (project.glsl)
+// Samples of one pixel in one dispatch of the projection traversal (its bit masks: 32 words).
+#define PN_PROJECT_MAX_SAMPLES 64
+// Work counters' w (the deepest stack) with this bit: the projection traversal's budget ran out at
+// the pixel, whose remaining samples were traced as rays.
+#define PN_WORK_FALLBACK 0x80000000u
 #define PN_SPEC_VARIANT 1 // shadow_linespace.comp: which line-space mode
 #define PN_VARIANT_LINESPACE 0 // the paper's method
 #define PN_VARIANT_HYBRID 1    // exact triangles where the ray starts and ends
@@ -307,6 +313,11 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
                                     // hold one (pn_ntree.alpha_bits), tested exactly in every mode
     PN_ADDR(IndexPool, masked_tris) // rayquery, alpha-masked casters: the triangle id (scene order) of each
                                     // primitive of the acceleration structure's masked geometry (gpu/tlas.h)
+    PN_FLOAT(project_budget)        // --traversal project: triangles a pixel may test per sample before its
+                                    // remaining samples are traced as rays (project.glsl)
+    PN_UINT(pad0)
+    PN_UINT(pad1)
+    PN_UINT(pad2)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 

@@ -226,6 +226,28 @@ void horizon_box(vec3 o, vec3 nrm, out vec2 lo, out vec2 hi)
     }
 }
 
+// Sets the pixel's light patch (light_patch) and the box of the light's (s, t) its samples are
+// drawn in: the part above its horizon (horizon_box), the whole light if none is.
+void light_box(vec3 o, vec3 nrm, out vec2 box_lo, out vec2 box_hi)
+{
+    light_patch(o);
+    horizon_box(o, nrm, box_lo, box_hi);
+    if (any(greaterThan(box_lo, box_hi)))
+        box_lo = vec2(0.0), box_hi = vec2(1.0); // none of the light is above: every ray is invalid
+}
+
+// Light sample k of the pixel: its (s, t) on the patch, the ray's direction d (it ends at o + d) and
+// d's height over the receiver's plane; returns whether the ray carries light (above the receiver's
+// horizon, in front of a one-sided light: an OMNI light emits every way, none reaches inside a
+// sphere).
+bool light_ray(uint k, uvec2 pixel, vec3 o, vec3 nrm, vec2 box_lo, vec2 box_hi, out vec2 st, out vec3 d, out float dn)
+{
+    st = light_warp(box_lo + light_sample(k, pixel) * (box_hi - box_lo));
+    d = light_point(st) - o;
+    dn = dot(d, nrm);
+    return dn > 0.0 && !patch_none && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(patch_normal, -d) > 0.0);
+}
+
 // Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry
 // light: above the receiver's horizon and in front of the one-sided light). `i` ends at the ray
 // count (llvmpipe: unless the loop budget ran out). st_lo, st_hi: the box, in the light's (s, t),
@@ -236,18 +258,12 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
     st_lo = vec2(1.0);
     st_hi = vec2(0.0);
     vec2 box_lo, box_hi;
-    light_patch(o);
-    horizon_box(o, nrm, box_lo, box_hi);
-    if (any(greaterThan(box_lo, box_hi)))
-        box_lo = vec2(0.0), box_hi = vec2(1.0); // none of the light is above: every ray is invalid
-    // An OMNI light emits every way; the others from one side; none reaches inside a sphere.
-    bool every_way = LIGHT_KIND == PN_LIGHT_OMNI_ID, none = patch_none;
-    vec3 nl = patch_normal;
+    light_box(o, nrm, box_lo, box_hi);
     for (i = 0u; i < count; i++) {
-        vec2 st = light_warp(box_lo + light_sample(pixel_begin + i, pixel) * (box_hi - box_lo));
-        vec3 d = light_point(st) - o;
-        float dn = dot(d, nrm);
-        bool valid = dn > 0.0 && !none && (every_way || dot(nl, -d) > 0.0);
+        vec2 st;
+        vec3 d;
+        float dn;
+        bool valid = light_ray(pixel_begin + i, pixel, o, nrm, box_lo, box_hi, st, d, dn);
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
@@ -294,15 +310,11 @@ float penumbra_width(vec3 o, float t)
 // or its rays missed the sliver that does; shadow_finish tells the two apart for the filter).
 float counts_v(uvec2 counts) { return counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0; }
 
+void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float t_add, float nearest_t, bool cut_short);
+
 // Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid.
 void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
 {
-    if (COUNT_WORK) {
-        ivec2 size = imageSize(img_v);
-        uint pixel = uint(px.y * size.x + px.x);
-        uvec4 before = chunk.first != 0u ? uvec4(0u) : params.work.v[pixel];
-        params.work.v[pixel] = uvec4(before.xyz + work.xyz, max(before.w, work.w));
-    }
     if (params.dump_rays != 0u) {
         ivec2 size = imageSize(img_v);
         uint pixel = uint(px.y * size.x + px.x), pixels = uint(size.x * size.y);
@@ -312,11 +324,37 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
             params.dump.v[pixels + pixel * params.spp + pixel_begin + i] = vec4(o + dir[i], uintBitsToFloat(flags));
         }
     }
+    // Adaptive sampling's error estimate compares the two halves of a pixel's target samples
+    // (adaptive_decide): the counts over its first pixel_target / 2, taken as they pass. Up to there
+    // every earlier sample lies in the first half (a target is at least twice the samples the
+    // pixel had when it was set), so those counts are the earlier ones plus this chunk's part;
+    // beyond, they are what the chunk that reached the half kept (shadow_store).
+    uint half_n = params.spp_min != 0u ? pixel_target / 2u : 0u;
+    uint below = half_n - min(half_n, pixel_begin); // this chunk's rays in the first half
+    uint first_half = valid_rays & (below >= 32u ? ~0u : (1u << below) - 1u);
+    float t_add = 0.0, nearest = 1.0;
+    for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u) {
+        t_add += blocker_t[findLSB(b)];
+        nearest = min(nearest, blocker_t[findLSB(b)]);
+    }
+    shadow_store(px, o, count, uvec2(bitCount(valid_rays & ~blocked), bitCount(valid_rays)),
+                 uvec2(bitCount(first_half & ~blocked), bitCount(first_half)), t_add, nearest, cut_short);
+}
+
+// Adds a dispatch's outcome at the pixel to its counts: `add` (visible, valid) rays, `half_add` of
+// them in the first half of its target samples (adaptive sampling), the blocked rays' summed t and
+// their nearest t; after the pixel's last chunk writes V = visible / valid.
+void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float t_add, float nearest_t, bool cut_short)
+{
+    if (COUNT_WORK) {
+        ivec2 size = imageSize(img_v);
+        uint pixel = uint(px.y * size.x + px.x);
+        uvec4 before = chunk.first != 0u ? uvec4(0u) : params.work.v[pixel];
+        params.work.v[pixel] = uvec4(before.xyz + work.xyz, max(before.w, work.w));
+    }
     uvec4 earlier = chunk.first != 0u ? uvec4(0u) : imageLoad(img_counts, px); // the earlier chunks' counts
     uvec4 adapt = chunk.first != 0u ? uvec4(0u) : imageLoad(img_adapt, px);
-    uvec2 counts = earlier.xy; // (visible, valid)
-    counts.x += uint(bitCount(valid_rays & ~blocked));
-    counts.y += uint(bitCount(valid_rays));
+    uvec2 counts = earlier.xy + add; // (visible, valid)
     if (cut_short || truncated || budget_spent())
         atomicOr(status.truncated, 1u);
     // The last chunk leaves the counts for the filter, with whether any of the light lies above the
@@ -329,20 +367,10 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     // And the penumbra width at the pixel's mean blocker (as PCSS estimates it), as float bits: from
     // the sum of the blocked rays' t (kept in img_adapt, across adaptive sampling's rounds too),
     // which counts.y - counts.x of them are.
-    float t_sum = uintBitsToFloat(adapt.z);
-    for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u)
-        t_sum += blocker_t[findLSB(b)];
+    float t_sum = uintBitsToFloat(adapt.z) + t_add;
     uint blocked_rays = counts.y - counts.x;
-    // Adaptive sampling's error estimate compares the two halves of a pixel's target samples
-    // (adaptive_decide): the counts over its first pixel_target / 2, taken as they pass. Up to there
-    // every earlier sample lies in the first half (a target is at least twice the samples the
-    // pixel had when it was set), so those counts are the earlier ones plus this chunk's part;
-    // beyond, they are what the chunk that reached the half kept.
     uint half_n = params.spp_min != 0u ? pixel_target / 2u : 0u;
-    uvec2 half_counts = pixel_begin <= half_n ? earlier.xy : adapt.xy;
-    uint below = half_n - min(half_n, pixel_begin); // this chunk's rays in the first half
-    uint first_half = valid_rays & (below >= 32u ? ~0u : (1u << below) - 1u);
-    half_counts += uvec2(bitCount(first_half & ~blocked), bitCount(first_half));
+    uvec2 half_counts = (pixel_begin <= half_n ? earlier.xy : adapt.xy) + half_add;
     // Uniform samples' last chunk carries nothing on: no store.
     if (params.spp_min != 0u || !pixel_last)
         imageStore(img_adapt, px, uvec4(half_counts, floatBitsToUint(t_sum), pixel_begin + count));
@@ -353,8 +381,7 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     // pixel's, which bounds how fast V can change there (the penumbra filter's footprint,
     // filter.comp). The farthest is not kept: no filter reads it.
     vec2 nearest = chunk.first != 0u ? vec2(1.0, PN_PENUMBRA_NONE) : imageLoad(img_blockers, px).xy;
-    for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u)
-        nearest.x = min(nearest.x, blocker_t[findLSB(b)]);
+    nearest.x = min(nearest.x, nearest_t);
     if (pixel_last)
         nearest.y = nearest.x < 1.0 ? penumbra_width(o, nearest.x) : PN_PENUMBRA_NONE;
     imageStore(img_blockers, px, vec4(nearest, 0.0, 0.0));

@@ -119,7 +119,7 @@ int pn_demo_parse(int argc, char **argv, pn_demo_opts *o)
         return PN_EXIT_USAGE;
     }
     pn_renderer_desc frame = pn_render_opts_setup(&o->r).frame;
-    if (pn_renderer_check_split(&frame) != PN_OK || pn_shadow_check_adaptive(&frame) != PN_OK)
+    if (pn_renderer_check_split(&frame) != PN_OK || pn_shadow_check_samples(&frame) != PN_OK)
         return PN_EXIT_USAGE;
     return PN_EXIT_OK;
 }

@@ -1,0 +1,347 @@
+// Projection traversal (--traversal project, exact's): one walk of the BVH per pixel answers every
+// light sample of the pixel at once. Include after exact.glsl.
+//
+// A shadow ray answers one sample; where the pyramid from the pixel to the light holds few
+// triangles, each triangle inside it can answer all the samples instead. The packet walk's
+// triangle test (packet_tri, packet_edges: the ray o + t d hits iff the three edge values s_xy =
+// d.(X x Y) have det's sign and their sum exceeds |det|) is linear in the ray's direction d, and d
+// runs over the light's parallelogram affinely in its (s, t): so the samples a triangle blocks are
+// those whose (s, t) lie in the intersection of four half-planes of the light, the triangle
+// projected from the pixel onto the light and cut where it crosses the plane through the pixel and
+// the light's own plane, with no vertex projected at all (a vertex near the pixel's plane, which a
+// projection would magnify without bound, changes nothing). Each sample is then decided by the
+// very test the packet walk gives its ray (the same products of the same floats): V equals exact's
+// with the same samples.
+//
+// The samples' bit masks: `todo`, the valid samples not yet blocked (a sample below the pixel's
+// horizon or behind a one-sided light is invalid from the start). The walk ends when none is left
+// (umbra). A node is entered when its box meets the pyramid (its four side planes, the pixel's
+// plane and the light's), and skipped when every sample its box's projection covers is blocked
+// already (the coverage cull). A triangle's half-planes are clipped against the samples' box to
+// bound its projection; only the samples of the groups of PROJECT_GROUP whose boxes meet that bound
+// are tested (a group: consecutive samples, a row of strata for a grid of them).
+//
+// The budget: the walk counts the triangles it tests; past params.project_budget per sample, the
+// pixel traces its remaining samples as rays with the packet walk (a dense mesh under a large
+// light puts thousands of tiny triangles in one pyramid). The samples already blocked stay
+// blocked.
+
+const uint PROJECT_MAX = PN_PROJECT_MAX_SAMPLES; // samples of one dispatch (shadow_pass.c keeps chunks at most this big)
+const uint PROJECT_GROUP = 8u;                   // samples per group box
+const uint PROJECT_GROUPS = PROJECT_MAX / PROJECT_GROUP;
+const uint PROJECT_WORDS = PROJECT_MAX / 32u;
+
+vec3 proj_dir[PROJECT_MAX];     // sample k's ray: o + proj_dir[k] is its point on the light
+vec4 proj_box[PROJECT_GROUPS];  // the (s, t) box of each group's valid samples (lo.xy, hi.zw; lo > hi: none)
+uint proj_todo[PROJECT_WORDS];  // valid samples not yet blocked
+uint proj_blocked[PROJECT_WORDS];
+uint proj_left, proj_valid;     // samples in proj_todo, valid samples
+float proj_t_sum, proj_nearest; // the blocked samples' summed t and the nearest (shadow_store)
+
+// The pixel's light plane in the light's (s, t): a point's ray direction is base + s e1 + t e2
+// (the patch's parallelogram; its twist, the corners' rounding, is in the frustum's delta).
+struct ProjPlane {
+    vec3 base, e1, e2;
+    vec3 up;         // unit, from the pixel towards the light's plane (against its emitting normal)
+    float height;    // the light's plane above the pixel along `up` (the farthest corner's)
+    vec3 e1d, e2d;   // dual vectors: (s, t) of a point x of the plane are (x - corner 0).e1d, .e2d
+    vec2 st_o;       // (s, t) of the pixel's foot, (o - corner 0).e1d, .e2d
+};
+
+ProjPlane proj_plane(vec3 o)
+{
+    ProjPlane pl;
+    pl.base = patch_corners[0] - o;
+    pl.e1 = patch_corners[1] - patch_corners[0];
+    pl.e2 = patch_corners[3] - patch_corners[0];
+    pl.up = -patch_normal;
+    pl.height = 0.0;
+    for (int c = 0; c < 4; c++)
+        pl.height = max(pl.height, dot(pl.up, patch_corners[c] - o));
+    vec3 nn = cross(pl.e1, pl.e2);
+    float n2 = dot(nn, nn);
+    pl.e1d = n2 > 0.0 ? cross(pl.e2, nn) / n2 : vec3(0.0);
+    pl.e2d = n2 > 0.0 ? cross(nn, pl.e1) / n2 : vec3(0.0);
+    pl.st_o = vec2(dot(-pl.base, pl.e1d), dot(-pl.base, pl.e2d));
+    return pl;
+}
+
+// Marks sample k blocked at segment parameter t.
+void proj_block(uint k, float t)
+{
+    uint w = k / 32u, bit = 1u << (k % 32u);
+    proj_todo[w] &= ~bit;
+    proj_blocked[w] |= bit;
+    proj_left--;
+    proj_t_sum += t;
+    proj_nearest = min(proj_nearest, t);
+}
+
+// Is any sample left to decide in the (s, t) box [lo, hi]?
+bool proj_open_in(vec2 lo, vec2 hi, uint groups)
+{
+    bool open = false;
+    for (uint g = 0u; g < groups && !open; g++) {
+        uint todo = (proj_todo[g / 4u] >> (8u * (g % 4u))) & 0xffu;
+        vec4 b = proj_box[g];
+        open = todo != 0u && all(lessThanEqual(b.xy, hi)) && all(lessThanEqual(lo, b.zw));
+    }
+    return open;
+}
+
+// The slab tests of a node's box against the pyramid: outside one of its four side planes (each
+// through o and an edge of the frustum's parallelogram), behind the pixel's plane parallel to the
+// light, or beyond the light's plane. A ray's direction is within delta of the parallelogram and
+// its points have t in [0, 1], so a plane's margin is |n| delta and the dot products' rounding.
+bool proj_enters(Frustum f, vec3 side[4], ProjPlane pl, vec3 o, vec3 lo, vec3 hi)
+{
+    vec3 c = 0.5 * (lo + hi) - o, h = 0.5 * (hi - lo);
+    float mag = max(max(abs(c.x), abs(c.y)), abs(c.z)) + max(max(h.x, h.y), h.z);
+    float slack = f.delta + 8.0 * ulp_bound(max(mag, f.dmax));
+    bool inside = true;
+    for (int i = 0; i < 4; i++)
+        inside = inside && dot(side[i], c) + dot(abs(side[i]), h) >= -length(side[i]) * slack;
+    float hc = dot(pl.up, c), hr = dot(abs(pl.up), h);
+    return inside && hc + hr >= -slack && hc - hr <= pl.height + slack;
+}
+
+// Is every sample the node's box could block already blocked? Its corners projected from o onto
+// the light's plane bound its shadow there (all of them in front of the pixel's plane: a box
+// reaching behind it projects without bound, and is kept).
+bool proj_covered(ProjPlane pl, vec3 o, vec3 lo, vec3 hi, uint groups)
+{
+    vec2 st_lo = vec2(1e30), st_hi = vec2(-1e30);
+    bool bounded = true;
+    for (int c = 0; c < 8; c++) {
+        vec3 x = vec3((c & 1) != 0 ? hi.x : lo.x, (c & 2) != 0 ? hi.y : lo.y, (c & 4) != 0 ? hi.z : lo.z) - o;
+        float h = dot(pl.up, x);
+        bounded = bounded && h > 0.0;
+        vec2 st = pl.st_o + (pl.height / max(h, 1e-30)) * vec2(dot(x, pl.e1d), dot(x, pl.e2d));
+        st_lo = min(st_lo, st);
+        st_hi = max(st_hi, st);
+    }
+    // The samples' (s, t) lie in [0, 1] and are a few roundings of that magnitude off the plane's
+    // affine map: 2^-18 of slack, relative to the box's own size, keeps every sample it might hold.
+    vec2 m = vec2(3.8e-6) + 3.8e-6 * (st_hi - st_lo);
+    return bounded && !proj_open_in(st_lo - m, st_hi + m, groups);
+}
+
+// Triangle `tri` against the samples left: blocks those it covers.
+// a.w: the triangle's alpha record (alpha.glsl), 0 if opaque.
+void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint words, uint groups, vec4 a, vec3 b, vec3 c)
+{
+    PacketTri t = packet_tri(o, a.xyz, b, c);
+    if (COUNT_WORK)
+        work.y++;
+    // The frustum's corners first, as packet_leaf_tri: a triangle that misses them all beyond the
+    // margin misses every sample; one that holds them all (opaque) blocks every sample left.
+    float slack = f.delta + 8.0 * ulp_bound(f.dmax);
+    vec3 tol = vec3(length(t.nab), length(t.nbc), length(t.nca)) * slack;
+    float tol_s = tol.x + tol.y + tol.z;
+    vec4 lo = vec4(1e38), hi = vec4(-1e38);
+    for (int c = 0; c < 4; c++) {
+        vec4 e = packet_edges(t, f.D[c]);
+        lo = min(lo, e);
+        hi = max(hi, e);
+    }
+    float adet = abs(t.det);
+    uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // masked: each sample's hit is tested against its texel
+    bool misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
+    bool covers = !misses && rec == 0u && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
+    if (misses)
+        return;
+    if (covers) {
+        for (uint w = 0u; w < words; w++)
+            for (uint m = proj_todo[w]; m != 0u; m &= m - 1u)
+                proj_block(32u * w + uint(findLSB(m)), adet / lo.w);
+        return;
+    }
+    // The samples to test: those in the box of the triangle's shadow on the light, its vertices
+    // projected from o onto the light's plane (the part beyond the light's plane only shrinks it).
+    // A vertex not in front of the pixel's plane projects without bound: then the samples' box.
+    // The projected coordinates round within a few ulps of the terms' magnitudes; the samples'
+    // (s, t) within a few ulps of 1.
+    vec3 x[3] = vec3[3](a.xyz - o, b - o, c - o);
+    vec2 r_lo = vec2(1e30), r_hi = vec2(-1e30);
+    float mag = 1.0 + max(abs(pl.st_o.x), abs(pl.st_o.y));
+    bool bounded = true;
+    for (int v = 0; v < 3; v++) {
+        float h = dot(pl.up, x[v]);
+        bounded = bounded && h > 0.0;
+        float k = pl.height / max(h, 1e-30);
+        vec2 st = pl.st_o + k * vec2(dot(x[v], pl.e1d), dot(x[v], pl.e2d));
+        r_lo = min(r_lo, st);
+        r_hi = max(r_hi, st);
+        mag = max(mag, k * length(x[v]) * max(length(pl.e1d), length(pl.e2d)));
+    }
+    float margin = 3.8e-6 + 16.0 * 1.1920929e-7 * mag;
+    r_lo = bounded ? r_lo - margin : st_lo;
+    r_hi = bounded ? r_hi + margin : st_hi;
+    for (uint gi = 0u; gi < groups; gi++) {
+        uint todo = (proj_todo[gi / 4u] >> (8u * (gi % 4u))) & 0xffu;
+        vec4 b = proj_box[gi];
+        bool meets = all(lessThanEqual(b.xy, r_hi)) && all(lessThanEqual(r_lo, b.zw));
+        for (uint m = meets ? todo : 0u; m != 0u; m &= m - 1u) {
+            uint k = gi * PROJECT_GROUP + uint(findLSB(m));
+            vec4 e = packet_edges(t, proj_dir[k]);
+            bool hit = packet_hit(t, e);
+            if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
+                hit = !alpha_cut(rec, e.yzx / e.w);
+            if (hit)
+                proj_block(k, adet / e.w);
+        }
+    }
+}
+
+// The walk, shared by the subgroup: its pixels (a 4 x 2 block on llvmpipe, shadow_exact.comp) walk
+// the BVH together through the union of their pyramids, which for neighbouring pixels to one light
+// are nearly the same. Each pixel tests every node's box and triangle against its own pyramid and
+// samples, and only the nodes that some pixel enters are visited. So every node and triangle is
+// loaded once for the subgroup, at an address that is provably the same for every lane, and its
+// control flow never diverges.
+// llvmpipe: a load at a divergent address is a scalar loop over the lanes (llvmpipe.md, fact 4), and
+// both sides of a divergent `if` run (fact 3): with the walk per pixel, each of the 8 lanes loaded
+// its own triangles one after the other, and a step cost every lane's interior and leaf work.
+// Measured (bunny view 256x256, 16 spp, budget off): per-pixel walks 828 ms, the shared walk below
+// (see engine/gpu/README.md for the figures now).
+// The near child first along the first lane's light direction. Returns whether this pixel's budget
+// of triangles ran out before every sample was decided.
+bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint words, uint groups, uint budget, bool live_walk)
+{
+    vec3 side[4];
+    vec3 inside = f.D[0] + f.D[1] + f.D[2] + f.D[3];
+    for (int i = 0; i < 4; i++) {
+        vec3 n = cross(f.D[i], f.D[(i + 1) & 3]);
+        side[i] = dot(n, inside) < 0.0 ? -n : n;
+    }
+    vec3 towards = subgroupBroadcastFirst(inside);
+    uint projected = 0u;
+    int sp = 0;
+    BvhNode root = params.bvh.nodes[0];
+    uint first = root.first, count = root.count;
+    live_walk = live_walk && proj_left != 0u;
+    bool here = live_walk && proj_enters(f, side, pl, o, root.min, root.max); // this pixel's pyramid meets the node
+    bool done = !subgroupAny(here);
+    while (!done) {
+        first = subgroupBroadcastFirst(first);
+        count = subgroupBroadcastFirst(count);
+        bool pop = true;
+        if (count == 0u) {
+            BvhNode a = params.bvh.nodes[first], b = params.bvh.nodes[first + 1u];
+            if (COUNT_WORK && here)
+                work = uvec4(work.x + 2u, work.yz, max(work.w, uint(sp)));
+            bool b_first = dot((b.min + b.max) - (a.min + a.max), towards) < 0.0;
+            BvhNode near = b_first ? b : a, far = b_first ? a : b;
+            bool e_near = here && proj_enters(f, side, pl, o, near.min, near.max);
+            bool e_far = here && proj_enters(f, side, pl, o, far.min, far.max);
+            // The coverage cull, once some sample of the pixel is blocked.
+            bool some = proj_left < proj_valid;
+            e_near = e_near && !(some && proj_covered(pl, o, near.min, near.max, groups));
+            e_far = e_far && !(some && proj_covered(pl, o, far.min, far.max, groups));
+            bool any_near = subgroupAny(e_near), any_far = subgroupAny(e_far);
+            if (any_near && any_far) {
+                first_stack[sp] = far.first; // depth <= BVH_STACK (bvh.c)
+                count_stack[sp] = far.count;
+                mask_stack[sp] = e_far ? 1u : 0u;
+                sp++;
+            }
+            first = any_near ? near.first : far.first;
+            count = any_near ? near.count : far.count;
+            here = any_near ? e_near : e_far;
+            pop = !any_near && !any_far;
+        } else {
+            for (uint i = first; i < first + count; i++) {
+                uint tri = subgroupBroadcastFirst(params.bvh_tris.ids[i]);
+                vec4 v0 = params.tris.v[3u * tri], v1 = params.tris.v[3u * tri + 1u], v2 = params.tris.v[3u * tri + 2u];
+                bool on = here && proj_left != 0u && projected <= budget;
+                if (on)
+                    proj_tri(f, pl, o, st_lo, st_hi, words, groups, v0, v1.xyz, v2.xyz);
+                projected += on ? 1u : 0u;
+            }
+            live_walk = live_walk && proj_left != 0u && projected <= budget;
+        }
+        if (pop) {
+            done = sp == 0 || !subgroupAny(live_walk);
+            if (!done) {
+                sp--;
+                first = first_stack[sp];
+                count = count_stack[sp];
+                here = live_walk && mask_stack[sp] != 0u;
+            }
+        }
+    }
+    return proj_left != 0u && projected > budget;
+}
+
+// The pixel's samples of this dispatch by projection; after the budget, its remaining samples as
+// rays through the packet walk, 32 at a time.
+void project_pixel(ivec2 px, vec3 p, vec3 nrm)
+{
+    float rise;
+    vec3 o = shadow_origin(p, nrm, 0.0, rise); // exact tests every ray from its origin: no rise
+    uint end = pixel_end;
+    if (params.split == PN_SPLIT_BUDGET_ID)
+        end = min(end, budget_rays(p, nrm));
+    uint count = min(end - min(end, pixel_begin), PROJECT_MAX);
+    vec2 box_lo, box_hi;
+    light_box(o, nrm, box_lo, box_hi);
+    uint words = (count + 31u) / 32u, groups = (count + PROJECT_GROUP - 1u) / PROJECT_GROUP, valid_count = 0u;
+    vec2 st_lo = vec2(1.0), st_hi = vec2(0.0);
+    uint valid[PROJECT_WORDS];
+    for (uint w = 0u; w < PROJECT_WORDS; w++)
+        valid[w] = proj_blocked[w] = 0u;
+    for (uint gi = 0u; gi < groups; gi++)
+        proj_box[gi] = vec4(1.0, 1.0, 0.0, 0.0);
+    uint i;
+    for (i = 0u; i < count; i++) {
+        vec2 st;
+        vec3 d;
+        float dn;
+        bool ok = light_ray(pixel_begin + i, uvec2(px), o, nrm, box_lo, box_hi, st, d, dn);
+        proj_dir[i] = d;
+        valid[i / 32u] |= ok ? 1u << (i % 32u) : 0u;
+        valid_count += ok ? 1u : 0u;
+        vec4 b = proj_box[i / PROJECT_GROUP];
+        proj_box[i / PROJECT_GROUP] = ok ? vec4(min(b.xy, st), max(b.zw, st)) : b;
+        st_lo = ok ? min(st_lo, st) : st_lo;
+        st_hi = ok ? max(st_hi, st) : st_hi;
+    }
+    for (uint w = 0u; w < PROJECT_WORDS; w++)
+        proj_todo[w] = valid[w];
+    proj_left = proj_valid = valid_count;
+    proj_t_sum = 0.0;
+    proj_nearest = 1.0;
+    bool fallback = false;
+    // Every lane of the subgroup takes part in the shared walk, with or without samples of its own.
+    Frustum f = frustum_make(o, st_lo, st_hi);
+    ProjPlane pl = proj_plane(o);
+    uint budget = uint(params.project_budget * float(count));
+    fallback = proj_walk(f, pl, o, st_lo, st_hi, words, groups, budget, valid_count > 0u);
+    for (uint w = 0u; fallback && w < words; w++) {
+        uint live = proj_todo[w];
+        if (live == 0u)
+            continue;
+        [[unroll]] for (uint j = 0u; j < MAX_CHUNK; j++) {
+            dir[j] = proj_dir[min(32u * w + j, PROJECT_MAX - 1u)];
+            blocker_t[j] = 1.0;
+        }
+        uint hits = bvh_packet_blocked(o, live, st_lo, st_hi);
+        for (uint m = hits; m != 0u; m &= m - 1u)
+            proj_block(32u * w + uint(findLSB(m)), blocker_t[findLSB(m)]);
+    }
+    if (COUNT_WORK && fallback)
+        work.w |= PN_WORK_FALLBACK;
+    if (params.dump_rays != 0u) {
+        ivec2 size = imageSize(img_v);
+        uint pixel = uint(px.y * size.x + px.x), pixels = uint(size.x * size.y);
+        params.dump.v[pixel] = vec4(o, 1.0);
+        for (uint k = 0u; k < count; k++) {
+            uint flags = ((valid[k / 32u] >> (k % 32u)) & 1u) | (((proj_blocked[k / 32u] >> (k % 32u)) & 1u) << 1u);
+            params.dump.v[pixels + pixel * params.spp + pixel_begin + k] = vec4(o + proj_dir[k], uintBitsToFloat(flags));
+        }
+    }
+    uint blocked = 0u;
+    for (uint w = 0u; w < words; w++)
+        blocked += uint(bitCount(proj_blocked[w]));
+    shadow_store(px, o, count, uvec2(valid_count - blocked, valid_count), uvec2(0u), proj_t_sum, proj_nearest, i < count);
+}
