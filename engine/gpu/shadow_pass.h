@@ -10,6 +10,7 @@
 #include "scene/view.h"
 
 enum { PN_PACKET_RAY_SIZES = 6 }; // 1, 2, 4 .. PN_MAX_CHUNK (32) rays
+enum { PN_PROJECT_SIZES = 6 };     // 32, 64 .. PN_PROJECT_MAX_SAMPLES (1024) samples
 
 typedef struct pn_shadow_pass {
     const pn_shadow_mode_info *mode;
@@ -18,8 +19,11 @@ typedef struct pn_shadow_pass {
     // rays of a pixel per dispatch, made when a frame first needs it (pn_shadow_pass_prepare);
     // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits.
     VkPipeline by_rays[PN_PACKET_RAY_SIZES];
-    int32_t spec_data[5];
-    bool sized_rays;
+    // The projection traversal: by_samples[k] for at most 32 x 2^k samples of a pixel per dispatch
+    // (its per-sample arrays; compute.pipeline's hold PN_PROJECT_MAX_SAMPLES), made as by_rays.
+    VkPipeline by_samples[PN_PROJECT_SIZES];
+    int32_t spec_data[6];
+    bool sized_rays, project;
     pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
     pn_gpu_buffer status;   // llvmpipe: host-visible flag, a dispatch ran out of the loop budget
     pn_gpu_buffer ray_dump; // with desc.dump_rays

@@ -26,7 +26,9 @@
 // light puts thousands of tiny triangles in one pyramid). The samples already blocked stay
 // blocked.
 
-const uint PROJECT_MAX = PN_PROJECT_MAX_SAMPLES; // samples of one dispatch (shadow_pass.c keeps chunks at most this big)
+// Samples of one dispatch: a pipeline for each power of two the frame needs, up to
+// PN_PROJECT_MAX_SAMPLES (shadow_pass.c: pn_shadow_pass_prepare keeps chunks at most that big).
+layout(constant_id = PN_SPEC_PROJECT_SAMPLES) const uint PROJECT_MAX = PN_PROJECT_MAX_SAMPLES;
 const uint PROJECT_GROUP = 8u;                   // samples per group box
 const uint PROJECT_GROUPS = PROJECT_MAX / PROJECT_GROUP;
 const uint PROJECT_WORDS = PROJECT_MAX / 32u;
@@ -37,6 +39,14 @@ uint proj_todo[PROJECT_WORDS];  // valid samples not yet blocked
 uint proj_blocked[PROJECT_WORDS];
 uint proj_left, proj_valid;     // samples in proj_todo, valid samples
 float proj_t_sum, proj_nearest; // the blocked samples' summed t and the nearest (shadow_store)
+// The samples' strata (a rectangle's light with a grid or stratified sampler, uniform samples):
+// sample k lies in cell (k % grid_u, k / grid_u) of the grid_u x grid_v grid over the samples'
+// box of the light's (s, t) (light_sample, chunk_rays), so a triangle's shadow box gives the cells
+// and so the samples to test directly. Otherwise (a disk, sun or sphere, whose samples are warped,
+// or the Sobol' samples of the budgeted split) the groups' boxes do.
+bool proj_grid;
+vec2 proj_cell_lo, proj_cell_scale; // cell coordinates of (s, t): (st - lo) * scale
+uint proj_k0;                       // the dispatch's first sample: bit i is sample proj_k0 + i
 
 // The pixel's light plane in the light's (s, t): a point's ray direction is base + s e1 + t e2
 // (the patch's parallelogram; its twist, the corners' rounding, is in the frustum's delta).
@@ -177,7 +187,34 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
     float margin = 3.8e-6 + 16.0 * 1.1920929e-7 * mag;
     r_lo = bounded ? r_lo - margin : st_lo;
     r_hi = bounded ? r_hi + margin : st_hi;
-    for (uint gi = 0u; gi < groups; gi++) {
+    // The cells of the shadow's box, row by row: each row's samples are a run of at most
+    // grid_u <= 32 bits, within two words.
+    ivec2 c_lo = ivec2(0), c_hi = ivec2(-1);
+    if (proj_grid) {
+        vec2 g = vec2(params.grid_u, params.grid_v);
+        c_lo = ivec2(clamp(floor((r_lo - proj_cell_lo) * proj_cell_scale), vec2(0.0), g - 1.0));
+        c_hi = ivec2(clamp(floor((r_hi - proj_cell_lo) * proj_cell_scale), vec2(0.0), g - 1.0));
+    }
+    for (int row = c_lo.y; row <= c_hi.y; row++) {
+        uint k_lo = uint(row) * params.grid_u + uint(c_lo.x), k_hi = uint(row) * params.grid_u + uint(c_hi.x);
+        k_lo = max(k_lo, proj_k0) - proj_k0;
+        k_hi = min(k_hi + 1u, proj_k0 + words * 32u);
+        k_hi = k_hi > proj_k0 ? k_hi - proj_k0 : 0u; // bits [k_lo, k_hi) of the dispatch
+        for (uint w = k_lo / 32u; k_lo < k_hi && w <= (k_hi - 1u) / 32u; w++) {
+            uint from = max(k_lo, 32u * w) - 32u * w, to = min(k_hi, 32u * w + 32u) - 32u * w; // [from, to) in word w
+            uint run = (to == 32u ? ~0u : (1u << to) - 1u) & ~((1u << from) - 1u);
+            for (uint m = proj_todo[w] & run; m != 0u; m &= m - 1u) {
+                uint k = 32u * w + uint(findLSB(m));
+                vec4 e = packet_edges(t, proj_dir[k]);
+                bool hit = packet_hit(t, e);
+                if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
+                    hit = !alpha_cut(rec, e.yzx / e.w);
+                if (hit)
+                    proj_block(k, adet / e.w);
+            }
+        }
+    }
+    for (uint gi = 0u; !proj_grid && gi < groups; gi++) {
         uint todo = (proj_todo[gi / 4u] >> (8u * (gi % 4u))) & 0xffu;
         vec4 b = proj_box[gi];
         bool meets = all(lessThanEqual(b.xy, r_hi)) && all(lessThanEqual(r_lo, b.zw));
@@ -309,6 +346,12 @@ void project_pixel(ivec2 px, vec3 p, vec3 nrm)
     for (uint w = 0u; w < PROJECT_WORDS; w++)
         proj_todo[w] = valid[w];
     proj_left = proj_valid = valid_count;
+    proj_grid = LIGHT_KIND == PN_LIGHT_RECT_ID && params.split != PN_SPLIT_BUDGET_ID && params.spp_min == 0u;
+    vec2 extent = box_hi - box_lo;
+    proj_grid = proj_grid && all(greaterThan(extent, vec2(0.0)));
+    proj_cell_lo = box_lo;
+    proj_cell_scale = proj_grid ? vec2(params.grid_u, params.grid_v) / extent : vec2(0.0);
+    proj_k0 = pixel_begin;
     proj_t_sum = 0.0;
     proj_nearest = 1.0;
     bool fallback = false;
