@@ -87,11 +87,45 @@ void proj_block(uint k, float t)
     proj_nearest = min(proj_nearest, t);
 }
 
+// The bits [k_lo, k_hi) of the dispatch's samples that lie in word w.
+uint proj_run(uint w, uint k_lo, uint k_hi)
+{
+    uint from = max(k_lo, 32u * w) - 32u * w, to = min(k_hi, 32u * w + 32u) - 32u * w;
+    return from >= to ? 0u : (to == 32u ? ~0u : (1u << to) - 1u) & ~((1u << from) - 1u);
+}
+
+// The cells of the strata grid (proj_grid) that meet the (s, t) box [lo, hi]: c_lo .. c_hi.
+void proj_cells(vec2 lo, vec2 hi, out ivec2 c_lo, out ivec2 c_hi)
+{
+    vec2 g = vec2(params.grid_u, params.grid_v);
+    c_lo = ivec2(clamp(floor((lo - proj_cell_lo) * proj_cell_scale), vec2(0.0), g - 1.0));
+    c_hi = ivec2(clamp(floor((hi - proj_cell_lo) * proj_cell_scale), vec2(0.0), g - 1.0));
+}
+
+// Row `row`'s samples in cells c_lo.x .. c_hi.x as bits [k_lo, k_hi) of the dispatch (a run of at
+// most grid_u <= 32 bits: within two words).
+void proj_row(int row, ivec2 c_lo, ivec2 c_hi, uint words, out uint k_lo, out uint k_hi)
+{
+    k_lo = uint(row) * params.grid_u + uint(c_lo.x);
+    k_hi = min(uint(row) * params.grid_u + uint(c_hi.x) + 1u, proj_k0 + words * 32u);
+    k_lo = max(k_lo, proj_k0) - proj_k0;
+    k_hi = k_hi > proj_k0 ? k_hi - proj_k0 : 0u;
+}
+
 // Is any sample left to decide in the (s, t) box [lo, hi]?
-bool proj_open_in(vec2 lo, vec2 hi, uint groups)
+bool proj_open_in(vec2 lo, vec2 hi, uint words, uint groups)
 {
     bool open = false;
-    for (uint g = 0u; g < groups && !open; g++) {
+    ivec2 c_lo = ivec2(0), c_hi = ivec2(-1);
+    if (proj_grid)
+        proj_cells(lo, hi, c_lo, c_hi);
+    for (int row = c_lo.y; row <= c_hi.y && !open; row++) {
+        uint k_lo, k_hi;
+        proj_row(row, c_lo, c_hi, words, k_lo, k_hi);
+        for (uint w = k_lo / 32u; k_lo < k_hi && w <= (k_hi - 1u) / 32u; w++)
+            open = open || (proj_todo[w] & proj_run(w, k_lo, k_hi)) != 0u;
+    }
+    for (uint g = 0u; !proj_grid && g < groups && !open; g++) {
         uint todo = (proj_todo[g / 4u] >> (8u * (g % 4u))) & 0xffu;
         vec4 b = proj_box[g];
         open = todo != 0u && all(lessThanEqual(b.xy, hi)) && all(lessThanEqual(lo, b.zw));
@@ -109,8 +143,8 @@ bool proj_enters(Frustum f, vec3 side[4], ProjPlane pl, vec3 o, vec3 lo, vec3 hi
     float mag = max(max(abs(c.x), abs(c.y)), abs(c.z)) + max(max(h.x, h.y), h.z);
     float slack = f.delta + 8.0 * ulp_bound(max(mag, f.dmax));
     bool inside = true;
-    for (int i = 0; i < 4; i++)
-        inside = inside && dot(side[i], c) + dot(abs(side[i]), h) >= -length(side[i]) * slack;
+    for (int i = 0; i < 4; i++) // unit normals (proj_walk)
+        inside = inside && dot(side[i], c) + dot(abs(side[i]), h) >= -slack;
     float hc = dot(pl.up, c), hr = dot(abs(pl.up), h);
     return inside && hc + hr >= -slack && hc - hr <= pl.height + slack;
 }
@@ -118,7 +152,7 @@ bool proj_enters(Frustum f, vec3 side[4], ProjPlane pl, vec3 o, vec3 lo, vec3 hi
 // Is every sample the node's box could block already blocked? Its corners projected from o onto
 // the light's plane bound its shadow there (all of them in front of the pixel's plane: a box
 // reaching behind it projects without bound, and is kept).
-bool proj_covered(ProjPlane pl, vec3 o, vec3 lo, vec3 hi, uint groups)
+bool proj_covered(ProjPlane pl, vec3 o, vec3 lo, vec3 hi, uint words, uint groups)
 {
     vec2 st_lo = vec2(1e30), st_hi = vec2(-1e30);
     bool bounded = true;
@@ -133,7 +167,7 @@ bool proj_covered(ProjPlane pl, vec3 o, vec3 lo, vec3 hi, uint groups)
     // The samples' (s, t) lie in [0, 1] and are a few roundings of that magnitude off the plane's
     // affine map: 2^-18 of slack, relative to the box's own size, keeps every sample it might hold.
     vec2 m = vec2(3.8e-6) + 3.8e-6 * (st_hi - st_lo);
-    return bounded && !proj_open_in(st_lo - m, st_hi + m, groups);
+    return bounded && !proj_open_in(st_lo - m, st_hi + m, words, groups);
 }
 
 // Triangle `tri` against the samples left: blocks those it covers.
@@ -187,23 +221,15 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
     float margin = 3.8e-6 + 16.0 * 1.1920929e-7 * mag;
     r_lo = bounded ? r_lo - margin : st_lo;
     r_hi = bounded ? r_hi + margin : st_hi;
-    // The cells of the shadow's box, row by row: each row's samples are a run of at most
-    // grid_u <= 32 bits, within two words.
+    // The cells of the shadow's box, row by row.
     ivec2 c_lo = ivec2(0), c_hi = ivec2(-1);
-    if (proj_grid) {
-        vec2 g = vec2(params.grid_u, params.grid_v);
-        c_lo = ivec2(clamp(floor((r_lo - proj_cell_lo) * proj_cell_scale), vec2(0.0), g - 1.0));
-        c_hi = ivec2(clamp(floor((r_hi - proj_cell_lo) * proj_cell_scale), vec2(0.0), g - 1.0));
-    }
+    if (proj_grid)
+        proj_cells(r_lo, r_hi, c_lo, c_hi);
     for (int row = c_lo.y; row <= c_hi.y; row++) {
-        uint k_lo = uint(row) * params.grid_u + uint(c_lo.x), k_hi = uint(row) * params.grid_u + uint(c_hi.x);
-        k_lo = max(k_lo, proj_k0) - proj_k0;
-        k_hi = min(k_hi + 1u, proj_k0 + words * 32u);
-        k_hi = k_hi > proj_k0 ? k_hi - proj_k0 : 0u; // bits [k_lo, k_hi) of the dispatch
+        uint k_lo, k_hi;
+        proj_row(row, c_lo, c_hi, words, k_lo, k_hi);
         for (uint w = k_lo / 32u; k_lo < k_hi && w <= (k_hi - 1u) / 32u; w++) {
-            uint from = max(k_lo, 32u * w) - 32u * w, to = min(k_hi, 32u * w + 32u) - 32u * w; // [from, to) in word w
-            uint run = (to == 32u ? ~0u : (1u << to) - 1u) & ~((1u << from) - 1u);
-            for (uint m = proj_todo[w] & run; m != 0u; m &= m - 1u) {
+            for (uint m = proj_todo[w] & proj_run(w, k_lo, k_hi); m != 0u; m &= m - 1u) {
                 uint k = 32u * w + uint(findLSB(m));
                 vec4 e = packet_edges(t, proj_dir[k]);
                 bool hit = packet_hit(t, e);
@@ -249,6 +275,8 @@ bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint wor
     vec3 inside = f.D[0] + f.D[1] + f.D[2] + f.D[3];
     for (int i = 0; i < 4; i++) {
         vec3 n = cross(f.D[i], f.D[(i + 1) & 3]);
+        float len = length(n);
+        n = len > 0.0 ? n / len : vec3(0.0); // a degenerate frustum's side rejects nothing
         side[i] = dot(n, inside) < 0.0 ? -n : n;
     }
     vec3 towards = subgroupBroadcastFirst(inside);
@@ -273,8 +301,8 @@ bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint wor
             bool e_far = here && proj_enters(f, side, pl, o, far.min, far.max);
             // The coverage cull, once some sample of the pixel is blocked.
             bool some = proj_left < proj_valid;
-            e_near = e_near && !(some && proj_covered(pl, o, near.min, near.max, groups));
-            e_far = e_far && !(some && proj_covered(pl, o, far.min, far.max, groups));
+            e_near = e_near && !(some && proj_covered(pl, o, near.min, near.max, words, groups));
+            e_far = e_far && !(some && proj_covered(pl, o, far.min, far.max, words, groups));
             bool any_near = subgroupAny(e_near), any_far = subgroupAny(e_far);
             if (any_near && any_far) {
                 first_stack[sp] = far.first; // depth <= BVH_STACK (bvh.c)
