@@ -72,6 +72,10 @@ typedef struct bench_opts {
     int size_count;
     int repeat, warmup;
     pn_traversal traversal;
+    // --traversal's list names project: exact is also measured with the projection traversal, a
+    // configuration of its own ("exact/project"; its V is exact's, so its bias is 0 up to grazing
+    // samples).
+    bool project;
     pn_sampler sampler;
     pn_filter filters[PN_FILTER_LAST + 1]; // --filter: an axis of the matrix like spp (default none and interleaved)
     int filter_count;
@@ -108,6 +112,10 @@ typedef struct bench_row {
     pn_shadow_mode mode;
     int n, d;
     bool per_object;         // the tree as per-object trees (--tree-kinds object)
+    bool project;            // exact with the projection traversal (--traversal ...,project)
+    // Project cells (else -1): per covered pixel the mean triangles its walk projected, and the
+    // share of covered pixels whose budget ran out (their samples left traced as rays).
+    double projected, fallback;
     pn_filter filter;        // with interleaved, tile_w x tile_h tiles
     uint32_t tile_w, tile_h; // 0 without a filter
     uint32_t triangles;
@@ -138,6 +146,7 @@ static inline const char *pn_bench_filter_suffix(pn_filter f)
 }
 static inline const char *pn_bench_kind_suffix(bool per_object) { return per_object ? "/objects" : ""; }
 static inline const char *pn_bench_adaptive_suffix(uint32_t spp_min) { return spp_min ? "+adaptive" : ""; }
+static inline const char *pn_bench_project_suffix(bool project) { return project ? "/project" : ""; }
 
 // --max-error: what --quality auto picked for one view, size and budget, next to the matrix's front.
 typedef struct bench_quality {

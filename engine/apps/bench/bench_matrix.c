@@ -169,6 +169,39 @@ static bool measure_edges(const bench_group *g, const pn_frame_images *img, benc
     return ok;
 }
 
+// The projection traversal's work at a cell (bench_row.projected, fallback): one frame of the
+// counting build of the shader (work.y: triangles projected; work.w's PN_WORK_FALLBACK bit: the
+// budget ran out), over the covered pixels.
+static pn_result project_work(bench_group *g, const pn_setup_desc *cell, bench_row *row)
+{
+    pn_setup_desc sd = *cell;
+    sd.frame.count_work = true;
+    sd.frame.dump_rays = false;
+    pn_setup s;
+    PN_TRY(pn_setup_create(g->dev, g->scene, g->light, &sd, &s));
+    pn_frame_times t;
+    pn_result r = PN_OK;
+    if (g->o->gbuffer)
+        r = pn_renderer_set_gbuffer(&s.renderer, g->o->gb_p, g->o->gb_n);
+    if (r == PN_OK)
+        r = pn_renderer_render(&s.renderer, g->cam, g->light, &t);
+    if (r == PN_OK) {
+        const uint32_t *w = pn_renderer_work(&s.renderer);
+        size_t px = (size_t)g->frame.width * g->frame.height;
+        double projected = 0, fallback = 0;
+        for (size_t i = 0; i < px; i++) {
+            if (!g->mask[i])
+                continue;
+            projected += w[4 * i + 1];
+            fallback += (w[4 * i + 3] & PN_WORK_FALLBACK) != 0;
+        }
+        row->projected = g->covered ? projected / (double)g->covered : 0;
+        row->fallback = g->covered ? fallback / (double)g->covered : 0;
+    }
+    pn_setup_destroy(g->dev, &s);
+    return r;
+}
+
 // One cell: the set-up `s` (its filter already set) at the fi-th filter and pi-th spp, timed, with
 // both errors and, filtered, the leak across edges. `sd` describes the set-up (for --work).
 // `first`: the first cell run over this set-up; `index`: its number when it is pushed.
@@ -178,7 +211,8 @@ static int run_cell(bench_group *g, pn_setup *s, pn_setup_desc *sd, int fi, int 
     const bench_opts *o = g->o;
     size_t px = (size_t)g->frame.width * g->frame.height;
     pn_shadow_mode mode = sd->frame.mode;
-    bool exact = mode == PN_SHADOW_REFERENCE;
+    bool project = sd->frame.traversal == PN_TRAVERSAL_PROJECT;
+    bool exact = mode == PN_SHADOW_REFERENCE && !project; // the cells the others are measured against
     uint32_t spp = o->spps[pi], spp_min = o->spp_mins[pi];
     int ci = fi * o->spp_count + pi; // the cell's place among the filters' spp
     sd->frame.spp = spp;
@@ -194,6 +228,8 @@ static int run_cell(bench_group *g, pn_setup *s, pn_setup_desc *sd, int fi, int 
     row.mode = mode;
     row.n = sd->tree_n, row.d = sd->tree_d;
     row.per_object = sd->per_object;
+    row.project = project;
+    row.projected = row.fallback = -1;
     row.filter = sd->frame.filter;
     if (row.filter != PN_FILTER_NONE)
         row.tile_w = pn_filter_tile(sd->frame.tile_w), row.tile_h = pn_filter_tile(sd->frame.tile_h);
@@ -253,6 +289,8 @@ static int run_cell(bench_group *g, pn_setup *s, pn_setup_desc *sd, int fi, int 
         return PN_EXIT_FAILURE;
     if (row.filter != PN_FILTER_NONE && !measure_edges(g, &img, &row, pixel_angle))
         return PN_EXIT_FAILURE;
+    if (project && project_work(g, sd, &row) != PN_OK)
+        return PN_EXIT_FAILURE;
     if (push && !push_row(rows, &row, index))
         return PN_EXIT_FAILURE;
     if (o->work) {
@@ -287,25 +325,30 @@ static pn_result time_move(bench_group *g, pn_setup *s, double *ms)
 // One configuration's cells, numbered from rows->cells.next when pushed. Exact runs every cell
 // whatever the shard, since the other modes' bias and time ratios are measured against it; another
 // mode only this run's share, and no set-up at all when the share holds none of its cells.
-static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool per_object, bench_rows *rows, bool push)
+static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool per_object, bool project, bench_rows *rows,
+                      bool push)
 {
     const bench_opts *o = g->o;
-    bool exact = mode == PN_SHADOW_REFERENCE;
+    bool exact = mode == PN_SHADOW_REFERENCE; // exact's configuration, or exact/project
     int cells = o->filter_count * o->spp_count, first_index = push ? rows->cells.next : -1, mine = 0;
     if (push)
         rows->cells.next += cells;
     for (int c = 0; push && c < cells; c++)
         mine += pn_bench_owns(o, first_index + c);
-    if (!exact && !mine)
+    if ((!exact || project) && !mine)
         return PN_EXIT_OK;
     pn_setup s;
     pn_setup_desc sd = {.frame = g->frame, .tree_n = tn, .tree_d = td, .per_object = per_object,
                         .view = o->gbuffer ? NULL : g->cam}; // the tree models what the picture needs
     sd.frame.mode = mode;
     sd.frame.spp = o->spps[o->spp_count - 1]; // the most: the ray dump holds that many rays per pixel
-    sd.frame.dump_rays = exact && g->rtc;
+    sd.frame.dump_rays = exact && g->rtc && !project;
+    if (project)
+        sd.frame.traversal = PN_TRAVERSAL_PROJECT;
     char cell[64];
     pn_bench_tree_label(cell, sizeof cell, tn, td, per_object);
+    if (project)
+        snprintf(cell, sizeof cell, "%s", pn_bench_project_suffix(true));
     fprintf(stderr, "bench: %s %ux%u %s%s\n", g->base.scene, g->frame.width, g->frame.height, MODE_NAME(mode), cell);
     if (pn_setup_create(g->dev, g->scene, g->light, &sd, &s) != PN_OK) {
         if (exact)
@@ -341,8 +384,17 @@ static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool 
         for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
             int index = first_index + fi * o->spp_count + pi;
             bool own = push && pn_bench_owns(o, index);
-            if (!exact && !own)
+            if ((!exact || project) && !own)
                 continue;
+            // The projection walk takes uniform samples only: its adaptive cells are skipped (and
+            // recorded so, for --merge).
+            if (project && o->spp_mins[pi]) {
+                bench_cells *bc = &rows->cells;
+                bc->mine--;
+                if (!pn_bench_append((void **)&bc->skipped, &bc->skip_count, &bc->skip_cap, &index, sizeof index))
+                    rc = PN_EXIT_FAILURE;
+                continue;
+            }
             rc = run_cell(g, &s, &sd, fi, pi, pixel_angle, rows, own, first, index);
             first = false;
         }
@@ -362,7 +414,7 @@ static bool wants_exact(const bench_opts *o)
 // The same walk as pn_bench_view's over the configurations, counting their cells.
 int pn_bench_view_cells(const bench_opts *o, const pn_gpu_device *dev, const pn_scene *scene)
 {
-    int configs = wants_exact(o);
+    int configs = wants_exact(o) * (1 + o->project);
     for (int m = 0; m < o->mode_count; m++) {
         const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
         const char *lack;
@@ -431,7 +483,9 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
         for (size_t i = 0; i < px; i++)
             g.covered += mask[i];
         int first_row = rows->count; // this group's rows start here
-        rc = run_config(&g, PN_SHADOW_REFERENCE, 0, 0, false, rows, want_exact);
+        rc = run_config(&g, PN_SHADOW_REFERENCE, 0, 0, false, false, rows, want_exact);
+        if (rc == PN_EXIT_OK && want_exact && o->project)
+            rc = run_config(&g, PN_SHADOW_REFERENCE, 0, 0, false, true, rows, true);
         for (int m = 0; m < o->mode_count && rc == PN_EXIT_OK; m++) {
             const pn_shadow_mode_info *info = pn_shadow_mode_get(o->modes[m]);
             const char *lack;
@@ -454,7 +508,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
                 bool per_object = kind == PN_TREE_KIND_OBJECT;
                 if (!info->needs.tree) {
                     if (kind == PN_TREE_KIND_SCENE)
-                        rc = run_config(&g, o->modes[m], 0, 0, false, rows, true);
+                        rc = run_config(&g, o->modes[m], 0, 0, false, false, rows, true);
                     continue;
                 }
                 if (!o->kinds[kind])
@@ -471,7 +525,7 @@ int pn_bench_view(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, const
                     continue;
                 }
                 for (int ti = 0; ti < o->tree_count && rc == PN_EXIT_OK; ti++)
-                    rc = run_config(&g, o->modes[m], o->trees[ti][0], o->trees[ti][1], per_object, rows, true);
+                    rc = run_config(&g, o->modes[m], o->trees[ti][0], o->trees[ti][1], per_object, false, rows, true);
             }
         }
         float centre[3];

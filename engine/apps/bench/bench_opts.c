@@ -184,7 +184,10 @@ void pn_print_bench_help(void)
            "                       draw of the samples, e.g. to see the errors' spread\n"
            "  --size WxH,...       image sizes (default 512x512)\n"
            "  --repeat R --warmup W   timed and untimed frames per cell (default 3 and 1)\n"
-           "  --traversal auto|ray|packet  --sampler grid|stratified   (default auto, stratified)\n"
+           "  --traversal auto|ray|packet[,project]  --sampler grid|stratified   (default auto,\n"
+           "                       stratified); project: exact also by projection, a configuration\n"
+           "                       of its own (exact/project: its triangles per pixel and fallback\n"
+           "                       share in bench.json), uniform cells only\n"
            "  --out DIR            where the CSV, JSON, tables, plots and reference cache go (default bench-out)\n"
            "  --reference-cache DIR   cache the converged references here instead of OUT/reference (runs\n"
            "                       with other outputs share them; a file's name holds a hash of what it depends on)\n"
@@ -319,9 +322,18 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             ok = v && pn_parse_int_range("--warmup", v, 0, 100, &x);
             o->warmup = (int)x;
         } else if (pn_args_value(&a, "--traversal", &v, &err)) {
-            int t = v ? pn_parse_choice("--traversal", v, pn_traversal_names) : -1;
-            ok = t >= 0;
-            o->traversal = ok ? (pn_traversal)t : o->traversal;
+            // A list: its walk for every mode, and project for exact's configuration by projection.
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v ? v : "");
+            ok = v != NULL && *v;
+            for (char *tok = strtok(buf, ","); ok && tok; tok = strtok(NULL, ",")) {
+                int t = pn_parse_choice("--traversal", tok, pn_traversal_names);
+                ok = t >= 0;
+                if (t == PN_TRAVERSAL_PROJECT)
+                    o->project = true;
+                else if (ok)
+                    o->traversal = (pn_traversal)t;
+            }
         } else if (pn_args_value(&a, "--sampler", &v, &err)) {
             int m = v ? pn_parse_choice("--sampler", v, pn_sampler_names) : -1;
             ok = m >= 0;

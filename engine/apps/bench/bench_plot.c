@@ -17,8 +17,8 @@ static void config_label(char *out, size_t n, const bench_row *r)
         snprintf(out, n, "%s%s%s%s LS(%d,%d)", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter),
                  pn_bench_adaptive_suffix(r->spp_min), pn_bench_kind_suffix(r->per_object), r->n, r->d);
     else
-        snprintf(out, n, "%s%s%s", MODE_NAME(r->mode), pn_bench_filter_suffix(r->filter),
-                 pn_bench_adaptive_suffix(r->spp_min));
+        snprintf(out, n, "%s%s%s%s", MODE_NAME(r->mode), pn_bench_project_suffix(r->project),
+                 pn_bench_filter_suffix(r->filter), pn_bench_adaptive_suffix(r->spp_min));
 }
 
 // Log-log position of a point in [0,1]^2 of the plot's ranges, for label placement.

@@ -47,6 +47,8 @@ void pn_bench_print_row(const bench_row *r)
     char tree[16], filter[16] = "-", edge[16] = "-", away[16] = "-", spp[24];
     spp_text(spp, sizeof spp, r);
     tree_cell(tree, sizeof tree, r->n, r->d, r->per_object);
+    if (r->project) // exact's configuration by projection: no tree, its column says how it walks
+        snprintf(tree, sizeof tree, "project");
     if (r->filter != PN_FILTER_NONE) {
         snprintf(filter, sizeof filter, "%ux%u", r->tile_w, r->tile_h);
         snprintf(edge, sizeof edge, "%.2f", 100.0 * r->edge.share);
@@ -125,17 +127,19 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
     fprintf(f, "view,width,height,spp,mode,n,d,triangles,build_ms,pool_mb,gbuffer_ms,shadow_ms,shadow_min_ms,"
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
                "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share,"
-               "away_pixels,away_grown,away_share,tree_kind,move_ms,spp_min,mean_rays,beyond_2se\n");
+               "away_pixels,away_grown,away_share,tree_kind,move_ms,spp_min,mean_rays,beyond_2se,traversal,projected,"
+               "fallback\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f,%.6g\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f,%.6g,%s,%.6g,%.6g\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
                 r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
                 r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share,
-                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms, r->spp_min, r->mean_rays, r->beyond_2se);
+                r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms, r->spp_min, r->mean_rays, r->beyond_2se,
+                r->project ? "project" : "", r->projected, r->fallback);
     }
     return pn_bench_close_out(f, path, tmp);
 }
@@ -188,12 +192,13 @@ typedef struct mode_filter {
     pn_filter filter;
     bool per_object;
     bool adaptive;
+    bool project;
 } mode_filter;
 
 static bool in_column(const bench_row *r, mode_filter c)
 {
     return r->mode == c.mode && r->filter == c.filter && r->per_object == c.per_object &&
-           (r->spp_min != 0) == c.adaptive;
+           (r->spp_min != 0) == c.adaptive && r->project == c.project;
 }
 
 // The fastest row of rows [first, end) of column c whose reference MAE is at most `level` (a
@@ -210,7 +215,8 @@ static const bench_row *fastest_within(const bench_rows *rows, int first, int en
     return best;
 }
 
-// Per mode: two tree kinds, every filter, uniform and adaptive samples (group_modes).
+// Per mode: two tree kinds (or for exact, its walk by projection), every filter, uniform and
+// adaptive samples (group_modes).
 enum { MAX_COLUMNS = 2 * (PN_FILTER_LAST + 1) * 2 * PN_SHADOW_MODE_COUNT };
 
 // The columns present in rows [first, end), in the order of the mode table, each mode over the
@@ -222,7 +228,9 @@ static int group_modes(const bench_rows *rows, int first, int end, mode_filter *
         for (int k = 0; k < 2; k++)
             for (int f = PN_FILTER_NONE; f <= PN_FILTER_LAST; f++)
                 for (int a = 0; a < 2; a++) {
-                    mode_filter c = {(pn_shadow_mode)m, (pn_filter)f, k == 1, a == 1};
+                    // k = 1: per-object trees, or exact by projection (a mode has one or the other)
+                    bool project = k == 1 && m == PN_SHADOW_REFERENCE;
+                    mode_filter c = {(pn_shadow_mode)m, (pn_filter)f, k == 1 && !project, a == 1, project};
                     for (int j = first; j < end; j++)
                         if (in_column(&rows->rows[j], c)) {
                             out[n++] = c;
@@ -269,6 +277,7 @@ static void json_tte_cell(FILE *f, const bench_row *r)
     json_tree(f, r->n, r->d);
     fprintf(f, ", \"tree_kind\": ");
     json_kind(f, r->n, r->per_object);
+    fprintf(f, ", \"project\": %s", r->project ? "true" : "false");
     fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"mean_rays\": %.4f, \"shadow_ms\": %.4f, \"cell_ms\": %.4f, \"mae\": %.6g",
             r->spp, r->spp_min, r->mean_rays, r->shadow_ms, pn_bench_row_ms(r), r->ref.mae);
 }
@@ -338,6 +347,11 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_conte
         fprintf(f, ", \"tree_kind\": ");
         json_kind(f, r->n, r->per_object);
         fprintf(f, ", \"move_ms\": %.4f", r->move_ms);
+        // The projection traversal's cells: its triangles per pixel and fallback share.
+        if (r->project)
+            fprintf(f, ", \"traversal\": \"project\", \"projected\": %.4f, \"fallback\": %.6g", r->projected, r->fallback);
+        else
+            fprintf(f, ", \"traversal\": null, \"projected\": null, \"fallback\": null");
         fprintf(f, ", \"triangles\": %u, \"build_ms\": %.3f, \"pool_mb\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, "
                    "\"shadow\": %.4f, \"shadow_min\": %.4f, \"shadow_max\": %.4f, \"filter\": %.4f, \"shade\": %.4f}, "
                    "\"cell_ms\": %.4f, \"shadow_rays_per_s\": %.6g, ",
@@ -468,6 +482,8 @@ static void cell_words(char *out, size_t n, const bench_row *r)
         snprintf(tree, sizeof tree, " LS(%d,%d)%s", r->n, r->d, r->per_object ? " per object" : "");
     char spp[24];
     spp_text(spp, sizeof spp, r);
+    if (r->project)
+        snprintf(tree, sizeof tree, " by projection");
     snprintf(out, n, "%s%s %s spp%s", MODE_NAME(r->mode), tree, spp,
              r->filter == PN_FILTER_NONE ? "" : r->filter == PN_FILTER_INTERLEAVED ? " filtered" : " penumbra-filtered");
 }
@@ -491,8 +507,9 @@ bool pn_bench_write_time_to_error(const char *dir, const bench_rows *rows)
                          "| MAE <= |",
                     g0->scene, g0->width, g0->height, g0->triangles);
             for (int m = 0; m < nm; m++)
-                fprintf(out, " %s%s%s%s |", MODE_NAME(modes[m].mode), pn_bench_filter_suffix(modes[m].filter),
-                        pn_bench_adaptive_suffix(modes[m].adaptive), pn_bench_kind_suffix(modes[m].per_object));
+                fprintf(out, " %s%s%s%s%s |", MODE_NAME(modes[m].mode), pn_bench_project_suffix(modes[m].project),
+                        pn_bench_filter_suffix(modes[m].filter), pn_bench_adaptive_suffix(modes[m].adaptive),
+                        pn_bench_kind_suffix(modes[m].per_object));
             fprintf(out, " Embree 3, exact's rays | Embree 3 plain | fastest / Embree plain |\n|---|");
             for (int m = 0; m < nm + 3; m++)
                 fprintf(out, "---|");

@@ -82,6 +82,8 @@ static const row_field row_fields[] = {
     FIELD("beyond_2se", F_F64, beyond_2se),  FIELD("mode", F_MODE, mode),
     FIELD("n", F_I32, n),                    FIELD("d", F_I32, d),
     FIELD("per_object", F_BOOL, per_object), FIELD("filter", F_FILTER, filter),
+    FIELD("project", F_BOOL, project),       FIELD("projected", F_F64, projected),
+    FIELD("fallback", F_F64, fallback),
     FIELD("tile_w", F_U32, tile_w),          FIELD("tile_h", F_U32, tile_h),
     FIELD("triangles", F_U32, triangles),    FIELD("build_ms", F_F64, build_ms),
     FIELD("pool_mb", F_F64, pool_mb),        FIELD("move_ms", F_F64, move_ms),
