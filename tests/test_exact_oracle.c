@@ -153,6 +153,14 @@ int main(void)
     check_scene(bunny, "bunny", "exact", "packet", 40);
     check_scene(bunny, "bunny", "exact", "ray", 16);
     check_scene(sponza, "sponza", "exact", "ray", 16);
+    // exact by projection (--traversal project): every sample's answer from the triangles projected
+    // onto the light, with the packet walk's test; 40 spp on the pipeline for 64 samples; and with
+    // the budget run out at once, the samples left traced by the packet walk.
+    check_scene(bunny, "bunny", "exact", "project", 16);
+    check_scene(sponza, "sponza", "exact", "project", 40);
+    setenv("PN_PROJECT_BUDGET", "0.001", 1);
+    check_scene(bunny, "bunny", "exact", "project", 16);
+    unsetenv("PN_PROJECT_BUDGET");
     // rayquery where the device has ray queries (Mesa 25's lavapipe does, 22.3's does not).
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;

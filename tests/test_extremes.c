@@ -1415,14 +1415,18 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *fil
 
     pn_camera cam;
     pn_camera_frame(scene.bounds_min, scene.bounds_max, 45, &cam);
-    // Exact first: the others' error is measured against it on the same pixels and samples.
-    int order[MODES] = {PN_SHADOW_REFERENCE}, ordered = 1;
+    // Exact first: the others' error is measured against it on the same pixels and samples. Then
+    // exact again with the projection traversal (--traversal project), held to exact's bound.
+    int order[MODES + 1] = {PN_SHADOW_REFERENCE, PN_SHADOW_REFERENCE}, ordered = 2;
     for (int m = 0; m < MODES; m++)
         if (m != PN_SHADOW_REFERENCE)
             order[ordered++] = m;
-    for (int oi = 0; oi < MODES; oi++) {
+    for (int oi = 0; oi < ordered; oi++) {
         int mi = order[oi];
         pn_shadow_mode mode = (pn_shadow_mode)mi;
+        bool project = oi == 1;
+        bool exact = mode == PN_SHADOW_REFERENCE && !project; // the frames the others are compared with
+        const char *name = project ? "exact/project" : MODE_NAME(mi);
         bool tree_mode = pn_shadow_mode_get(mode)->needs.tree;
         const char *lack;
         if (!pn_shadow_mode_available(dev, mode, &lack)) {
@@ -1438,6 +1442,8 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *fil
         pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = mode,
                                .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_AUTO, // auto: exact walks as a packet
                                .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1};
+        if (project)
+            rd.traversal = PN_TRAVERSAL_PROJECT;
         pn_shadow_accel_bind(&acc, &rd);
         if (mode != PN_SHADOW_LINESPACE)
             rd.objects = NULL; // per-object trees serve linespace only (renderer.c)
@@ -1445,7 +1451,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *fil
             CHECK_MSG(rd.objects && !rd.pools, "%s: linespace not bound to the per-object trees", c->name);
         pn_renderer ren;
         pn_result r = pn_renderer_create(dev, &scene, &rd, &ren);
-        CHECK_MSG(r == PN_OK, "%s %s: renderer: %s", c->name, MODE_NAME(mi), pn_result_str(r));
+        CHECK_MSG(r == PN_OK, "%s %s: renderer: %s", c->name, name, pn_result_str(r));
         if (r != PN_OK)
             continue;
         o.mode = mode;
@@ -1457,21 +1463,21 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *fil
             CHECK(pn_renderer_render(&ren, &cam, &light, &times) == PN_OK);
             pn_frame_images img;
             pn_renderer_images(&ren, &img);
-            if (mode == PN_SHADOW_REFERENCE)
+            if (exact)
                 memcpy(exact_v[pass], img.v, sizeof(float) * SIZE * SIZE);
-            check_frame(c, mi, &o, &img, mode == PN_SHADOW_REFERENCE ? NULL : exact_v[pass], pass ? "crafted" : "raster",
+            check_frame(c, mi, &o, &img, exact ? NULL : exact_v[pass], pass ? "crafted" : "raster",
                         &st[pass]);
         }
         for (int pass = 0; pass < 2; pass++) {
             CHECK_MSG(st[pass].violations == 0 && st[pass].bad_values == 0,
-                      "%s %s %s: %llu of %llu pixels outside the bound, %llu bad values", c->name, MODE_NAME(mi),
+                      "%s %s %s: %llu of %llu pixels outside the bound, %llu bad values", c->name, name,
                       pass ? "crafted" : "raster", (unsigned long long)st[pass].violations,
                       (unsigned long long)st[pass].pixels, (unsigned long long)st[pass].bad_values);
-            CHECK_MSG(st[pass].pixels > 0, "%s %s: no receivers checked", c->name, MODE_NAME(mi));
+            CHECK_MSG(st[pass].pixels > 0, "%s %s: no receivers checked", c->name, name);
         }
         double px = (double)(st[0].pixels + st[1].pixels);
-        fprintf(stderr, "  %-9s LS(%d,%d) spp %u: %llu px, bound width %.3f, |V - exact| mean %.4f max %.3f\n",
-                MODE_NAME(mi), c->tree_n, d, c->spp, (unsigned long long)px,
+        fprintf(stderr, "  %-13s LS(%d,%d) spp %u: %llu px, bound width %.3f, |V - exact| mean %.4f max %.3f\n",
+                name, c->tree_n, d, c->spp, (unsigned long long)px,
                 (st[0].width_sum + st[1].width_sum) / fmax(1.0, (double)(st[0].lit_pixels + st[1].lit_pixels)),
                 (st[0].err_sum + st[1].err_sum) / px, fmax(st[0].err_max, st[1].err_max));
         pn_renderer_destroy(&ren);

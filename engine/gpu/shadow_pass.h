@@ -98,7 +98,7 @@ pn_result pn_shadow_check_samples(const pn_renderer_desc *desc);
 
 // --traversal project: the triangles a pixel's walk may test per sample before its remaining
 // samples are traced as rays (ShadowParams.project_budget; env PN_PROJECT_BUDGET overrides it).
-#define PN_PROJECT_BUDGET_DEFAULT 1.0f
+#define PN_PROJECT_BUDGET_DEFAULT 0.25f
 float pn_project_budget(void);
 
 // Records the dispatches of `samples` samples per pixel (pn_shadow_samples) of light `light` (an
