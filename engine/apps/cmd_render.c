@@ -402,6 +402,7 @@ int pn_cmd_render(int argc, char **argv)
                 o.r.pixel_error = choice.spp_min ? choice.pixel_error : o.r.pixel_error;
                 // The pick's error was measured with its filter (none or penumbra): the frame is that one.
                 o.r.filter = choice.filter;
+                o.r.traversal = pn_traversal_fit(o.r.mode, o.r.spp_min, o.r.traversal);
                 if (choice.tree_n)
                     o.r.tree_n = choice.tree_n, o.r.tree_d = choice.tree_d;
                 if (!o.json) {

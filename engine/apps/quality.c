@@ -72,7 +72,9 @@ static pn_result quiet_setup(pn_gpu_device *dev, const pn_scene *scene, const pn
 {
     pn_log_level level = pn_log_get_level();
     pn_log_set_level(PN_LOG_ERROR);
-    pn_result r = pn_setup_create(dev, scene, light, sd, s);
+    pn_setup_desc fit = *sd; // --traversal project walks exact's uniform samples; the others as auto
+    fit.frame.traversal = pn_traversal_fit(fit.frame.mode, fit.frame.spp_min, fit.frame.traversal);
+    pn_result r = pn_setup_create(dev, scene, light, &fit, s);
     pn_log_set_level(level);
     return r;
 }

@@ -86,6 +86,11 @@ const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVER
                                           [PN_TRAVERSAL_AUTO] = "auto",
                                           [PN_TRAVERSAL_PROJECT] = "project", NULL};
 
+pn_traversal pn_traversal_fit(pn_shadow_mode mode, uint32_t spp_min, pn_traversal t)
+{
+    return t == PN_TRAVERSAL_PROJECT && (mode != PN_SHADOW_EXACT || spp_min) ? PN_TRAVERSAL_AUTO : t;
+}
+
 pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t)
 {
     if (t != PN_TRAVERSAL_AUTO)

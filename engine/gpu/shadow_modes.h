@@ -41,8 +41,13 @@ extern const char *const pn_sampler_names[];
 
 // The traversal a mode's shader runs: auto is packet for exact (one BVH walk per pixel: 1.8x the
 // per-ray walk's speed on the dragon, engine/gpu/llvmpipe.md) and ray for the line-space modes
-// (their packet walk is the slower one on lavapipe); ray and packet are taken as given.
+// (their packet walk is the slower one on lavapipe); ray, packet and project are taken as given.
+// Auto never takes project: on lavapipe it is no faster than the packet walk on the bench's views
+// (engine/gpu/README.md, the projection traversal).
 pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t);
+// --traversal project where the frame can take it (exact, uniform samples), else auto: for
+// configurations chosen by --quality auto under a frame that asked for project.
+pn_traversal pn_traversal_fit(pn_shadow_mode mode, uint32_t spp_min, pn_traversal t);
 
 // What a mode needs built before it can render (shadow/setup.c builds it).
 typedef struct pn_shadow_needs {

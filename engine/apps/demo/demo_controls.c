@@ -305,6 +305,8 @@ static void set_mode(pn_demo *d, float place)
     if ((int)place < 1 || (int)place > count)
         return;
     d->opts.mode = modes[(int)place - 1];
+    if (d->opts.mode != PN_SHADOW_EXACT && d->opts.traversal == PN_TRAVERSAL_PROJECT)
+        d->opts.traversal = PN_TRAVERSAL_AUTO; // the projection is exact's walk
     d->renderer_dirty = d->restart = true;
 }
 
@@ -320,7 +322,15 @@ static void next_mode(pn_demo *d, float step)
 
 static void toggle_traversal(pn_demo *d, float unused)
 {
-    d->opts.traversal = (pn_traversal)((d->opts.traversal + 1) % 3); // ray, packet, auto
+    // ray, packet, auto, and for exact with uniform samples project (pn_shadow_check_samples)
+    static const pn_traversal order[4] = {PN_TRAVERSAL_RAY, PN_TRAVERSAL_PACKET, PN_TRAVERSAL_PROJECT, PN_TRAVERSAL_AUTO};
+    int at = 0;
+    for (int i = 0; i < 4; i++)
+        at = order[i] == d->opts.traversal ? i : at;
+    pn_traversal next = order[(at + 1) % 4];
+    if (next == PN_TRAVERSAL_PROJECT && (d->opts.mode != PN_SHADOW_EXACT || d->opts.spp_min))
+        next = PN_TRAVERSAL_AUTO;
+    d->opts.traversal = next;
     d->renderer_dirty = d->restart = true;
 }
 
@@ -444,7 +454,7 @@ static const binding BINDINGS[] = {
     {GLFW_KEY_6, 0, false, set_mode, 6},
     {GLFW_KEY_7, 0, false, set_mode, 7},
     {GLFW_KEY_8, 0, false, set_mode, 8},
-    {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal ray / packet / auto"},
+    {GLFW_KEY_T, 0, false, toggle_traversal, 0, "T", "traversal ray / packet / project (exact) / auto"},
     {GLFW_KEY_G, 0, false, toggle_sampler, 0, "G", "sampler grid / stratified"},
     {GLFW_KEY_F, 0, false, toggle_filter, 0, "F", "filter none / interleaved / penumbra (tile --tile)"},
     {GLFW_KEY_MINUS, 0, true, step_spp, -1, "- =", "fewer, more shadow rays per pixel"},
