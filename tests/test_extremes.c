@@ -1475,6 +1475,11 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *fil
                       (unsigned long long)st[pass].pixels, (unsigned long long)st[pass].bad_values);
             CHECK_MSG(st[pass].pixels > 0, "%s %s: no receivers checked", c->name, name);
         }
+        // The projection decides each sample with the packet walk's own test: exact's V, but for a
+        // sample within rounding of an edge (one sample of a pixel at most, here none was).
+        CHECK_MSG(!project || fmax(st[0].err_max, st[1].err_max) <= 1.0 / c->spp + 1e-6,
+                  "%s exact/project: |V - exact| up to %.4f, more than one sample", c->name,
+                  fmax(st[0].err_max, st[1].err_max));
         double px = (double)(st[0].pixels + st[1].pixels);
         fprintf(stderr, "  %-13s LS(%d,%d) spp %u: %llu px, bound width %.3f, |V - exact| mean %.4f max %.3f\n",
                 name, c->tree_n, d, c->spp, (unsigned long long)px,

@@ -102,6 +102,9 @@ int main(void)
         {"budget spent", NULL, "--spp 64", "0.001", 64},
         {"no budget", NULL, "--spp 64", "1000000", 64},
         {"two dispatches", NULL, "--spp 1100", NULL, 1100},
+        {"omni below the top", NULL, "--spp 16 --light omni:0.3,0.6,0.1:3", NULL, 1},
+        {"spot", NULL, "--spp 16 --light spot:0.3,2,0.1:0,-1,0:25,40:5", NULL, 1},
+        {"small light far aside", NULL, "--spp 32 --light 6,1.2,0.4:-1,0,0:0,1,0:0.2,0.2:400", NULL, 32},
         {"two lights budget", NULL,
          "--spp 16 --split budget --light 0,2,0:0,-1,0:0,0,1:0.6,0.6:4 --light disk:0.5,2,0.3:0,-1,0:0,0,1:0.3:3", NULL,
          2}, // a pixel may give a light a single sample: one flip is all of it
@@ -113,6 +116,41 @@ int main(void)
             continue;
         }
         compare(&runs[i]);
+    }
+    // The projection did the work: the bench's counting build of the shader (bench.json's
+    // "projected" triangles per pixel and "fallback" share) on the default scene, with the budget
+    // off (triangles projected, no pixel falls back) and spent at once (pixels fall back).
+    const char *budgets[2] = {"1000000", "0.001"};
+    for (int b = 0; b < 2; b++) {
+        char args[1024], path[1024];
+        const char *dir = pn_test_tmp(b ? "project_bench_spent" : "project_bench_off");
+        snprintf(args, sizeof args,
+                 "bench --scenes builtin:default --modes exact --spp 16 --filter none --size 96x72 --traversal project "
+                 "--no-embree --repeat 1 --warmup 0 --reference-spp 64 --out %s >/dev/null 2>&1",
+                 dir);
+        setenv("PN_PROJECT_BUDGET", budgets[b], 1);
+        int rc = pn_test_run(args);
+        unsetenv("PN_PROJECT_BUDGET");
+        CHECK_MSG(rc == 0, "bench (budget %s) exited %d", budgets[b], rc);
+        snprintf(path, sizeof path, "%s/bench.json", dir);
+        FILE *j = fopen(path, "rb");
+        char *text = j ? calloc(1, 1 << 22) : NULL;
+        size_t len = text ? fread(text, 1, (1 << 22) - 1, j) : 0;
+        if (j)
+            fclose(j);
+        const char *at = len ? strstr(text, "\"traversal\": \"project\", \"projected\": ") : NULL;
+        double projected = -1, fallback = -1;
+        CHECK_MSG(at && sscanf(at, "\"traversal\": \"project\", \"projected\": %lf, \"fallback\": %lf", &projected,
+                               &fallback) == 2,
+                  "%s: no project cell with its projected triangles and fallback share", path);
+        printf("bench, budget %s: %.2f triangles projected per pixel, %.4f of the pixels fell back\n", budgets[b],
+               projected, fallback);
+        if (b == 0)
+            CHECK_MSG(projected > 1 && fallback == 0, "budget off: %.2f triangles per pixel, fallback %.4f", projected,
+                      fallback);
+        else
+            CHECK_MSG(fallback > 0.02, "budget spent: only %.4f of the pixels fell back", fallback);
+        free(text);
     }
     // Refused with a message: the projection is exact's, and takes uniform samples.
     CHECK(pn_test_run("render builtin:default --size 32x32 --mode linespace --traversal project -o "

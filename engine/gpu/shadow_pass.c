@@ -8,6 +8,7 @@
 
 #include "core/log.h"
 #include "gpu/pools.h"
+#include "shadow_project_comp.h"
 
 uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 1 : spp; }
 
@@ -127,6 +128,15 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
     out->sized_rays = out->mode->packet_rays && traversal == PN_TRAVERSAL_PACKET_ID;
     out->project = traversal == PN_TRAVERSAL_PROJECT_ID;
+    // The projection walk is a shader of its own (exact's, shared by the subgroup: vote and ballot).
+    out->spirv = out->project ? pn_spv_shadow_project_comp : out->mode->spirv;
+    out->spirv_size = out->project ? sizeof pn_spv_shadow_project_comp : out->mode->spirv_size;
+    const VkSubgroupFeatureFlags VOTES = VK_SUBGROUP_FEATURE_VOTE_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
+    if (out->project && ((dev->subgroup.supportedOperations & VOTES) != VOTES ||
+                         !(dev->subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT))) {
+        pn_error("--traversal project: %s lacks subgroup vote and ballot in compute shaders", dev->props.deviceName);
+        return PN_ERR_UNSUPPORTED;
+    }
     memcpy(out->spec_data,
            (int32_t[6]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK, alpha_masks ? 1 : 0,
                         PN_PROJECT_MAX_SAMPLES},
@@ -136,8 +146,8 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     const VkBufferUsageFlags ADDRESSED = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     uint64_t px = (uint64_t)desc->width * desc->height;
     pn_result r = pn_gpu_compute_create(dev,
-                                        &(pn_gpu_compute_desc){.spirv = out->mode->spirv,
-                                                               .spirv_size = out->mode->spirv_size,
+                                        &(pn_gpu_compute_desc){.spirv = out->spirv,
+                                                               .spirv_size = out->spirv_size,
                                                                .bindings = bindings,
                                                                .binding_count = PN_SHADOW_BINDING_COUNT + tlas,
                                                                .push_size = sizeof(pn_shadow_chunk),
@@ -306,7 +316,7 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         memcpy(data, s->spec_data, sizeof data);
         data[5] = (int32_t)(32u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
-        return pn_gpu_compute_pipeline(dev, s->compute.layout, s->mode->spirv, s->mode->spirv_size, &spec, &s->by_samples[k]);
+        return pn_gpu_compute_pipeline(dev, s->compute.layout, s->spirv, s->spirv_size, &spec, &s->by_samples[k]);
     }
     if (!s->sized_rays)
         return PN_OK;
@@ -320,7 +330,7 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         memcpy(data, s->spec_data, sizeof data);
         data[3] = (int32_t)(1u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
-        PN_TRY(pn_gpu_compute_pipeline(dev, s->compute.layout, s->mode->spirv, s->mode->spirv_size, &spec, &s->by_rays[k]));
+        PN_TRY(pn_gpu_compute_pipeline(dev, s->compute.layout, s->spirv, s->spirv_size, &spec, &s->by_rays[k]));
     }
     return PN_OK;
 }

@@ -24,6 +24,8 @@ typedef struct pn_shadow_pass {
     VkPipeline by_samples[PN_PROJECT_SIZES];
     int32_t spec_data[6];
     bool sized_rays, project;
+    const uint32_t *spirv; // the shadow shader: the mode's, or for project shadow_project.comp
+    size_t spirv_size;
     pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
     pn_gpu_buffer status;   // llvmpipe: host-visible flag, a dispatch ran out of the loop budget
     pn_gpu_buffer ray_dump; // with desc.dump_rays

@@ -33,7 +33,7 @@
 #define PN_TRAVERSAL_AUTO_ID 2   // host only: the faster for the mode (pn_traversal_resolve)
 #define PN_TRAVERSAL_PROJECT_ID 3 // exact: the pixel's triangles projected onto the light, all samples at once (project.glsl)
 // Samples of one pixel in one dispatch of the projection traversal (its bit masks: 32 words).
-#define PN_PROJECT_MAX_SAMPLES 64
+#define PN_PROJECT_MAX_SAMPLES 1024
 // Work counters' w (the deepest stack) with this bit: the projection traversal's budget ran out at
 // the pixel, whose remaining samples were traced as rays.
 #define PN_WORK_FALLBACK 0x80000000u

@@ -56,9 +56,17 @@ struct ProjPlane {
     float height;    // the light's plane above the pixel along `up` (the farthest corner's)
     vec3 e1d, e2d;   // dual vectors: (s, t) of a point x of the plane are (x - corner 0).e1d, .e2d
     vec2 st_o;       // (s, t) of the pixel's foot, (o - corner 0).e1d, .e2d
+    float e_len;     // max(|e1d|, |e2d|): world lengths on the plane to (s, t)
+    float st_slack;  // the samples' stray off the parallelogram (the frustum's delta) in (s, t)
 };
 
-ProjPlane proj_plane(vec3 o)
+// The slack of a box of projected points in (s, t) (proj_covered, proj_tri): `mag` bounds the
+// terms their coordinates were summed from (|st_o| and k |x| |e_d|), which round within a few ulps
+// of it; the samples' own (s, t) in [0, 1] within a few ulps of 1, and their points lie within
+// the frustum's delta of the parallelogram.
+float proj_margin(ProjPlane pl, float mag) { return 3.8e-6 + 16.0 * 1.1920929e-7 * mag + pl.st_slack; }
+
+ProjPlane proj_plane(vec3 o, float delta)
 {
     ProjPlane pl;
     pl.base = patch_corners[0] - o;
@@ -73,6 +81,8 @@ ProjPlane proj_plane(vec3 o)
     pl.e1d = n2 > 0.0 ? cross(pl.e2, nn) / n2 : vec3(0.0);
     pl.e2d = n2 > 0.0 ? cross(nn, pl.e1) / n2 : vec3(0.0);
     pl.st_o = vec2(dot(-pl.base, pl.e1d), dot(-pl.base, pl.e2d));
+    pl.e_len = max(length(pl.e1d), length(pl.e2d));
+    pl.st_slack = delta * pl.e_len;
     return pl;
 }
 
@@ -103,7 +113,7 @@ void proj_cells(vec2 lo, vec2 hi, out ivec2 c_lo, out ivec2 c_hi)
 }
 
 // Row `row`'s samples in cells c_lo.x .. c_hi.x as bits [k_lo, k_hi) of the dispatch (a run of at
-// most grid_u <= 32 bits: within two words).
+// most grid_u bits, over as many words as it spans).
 void proj_row(int row, ivec2 c_lo, ivec2 c_hi, uint words, out uint k_lo, out uint k_hi)
 {
     k_lo = uint(row) * params.grid_u + uint(c_lo.x);
@@ -156,17 +166,19 @@ bool proj_covered(ProjPlane pl, vec3 o, vec3 lo, vec3 hi, uint words, uint group
 {
     vec2 st_lo = vec2(1e30), st_hi = vec2(-1e30);
     bool bounded = true;
+    float mag = 1.0 + max(abs(pl.st_o.x), abs(pl.st_o.y));
     for (int c = 0; c < 8; c++) {
         vec3 x = vec3((c & 1) != 0 ? hi.x : lo.x, (c & 2) != 0 ? hi.y : lo.y, (c & 4) != 0 ? hi.z : lo.z) - o;
-        float h = dot(pl.up, x);
-        bounded = bounded && h > 0.0;
-        vec2 st = pl.st_o + (pl.height / max(h, 1e-30)) * vec2(dot(x, pl.e1d), dot(x, pl.e2d));
+        float h = dot(pl.up, x), k = pl.height / max(h, 1e-30);
+        vec2 st = pl.st_o + k * vec2(dot(x, pl.e1d), dot(x, pl.e2d));
+        mag = max(mag, k * length(x) * pl.e_len);
+        // A corner on or behind the pixel's plane projects without bound (and one barely in
+        // front may overflow): nothing is culled.
+        bounded = bounded && h > 0.0 && !any(isinf(st)) && !any(isnan(st)) && !isinf(mag);
         st_lo = min(st_lo, st);
         st_hi = max(st_hi, st);
     }
-    // The samples' (s, t) lie in [0, 1] and are a few roundings of that magnitude off the plane's
-    // affine map: 2^-18 of slack, relative to the box's own size, keeps every sample it might hold.
-    vec2 m = vec2(3.8e-6) + 3.8e-6 * (st_hi - st_lo);
+    float m = proj_margin(pl, mag);
     return bounded && !proj_open_in(st_lo - m, st_hi + m, words, groups);
 }
 
@@ -210,15 +222,14 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
     float mag = 1.0 + max(abs(pl.st_o.x), abs(pl.st_o.y));
     bool bounded = true;
     for (int v = 0; v < 3; v++) {
-        float h = dot(pl.up, x[v]);
-        bounded = bounded && h > 0.0;
-        float k = pl.height / max(h, 1e-30);
+        float h = dot(pl.up, x[v]), k = pl.height / max(h, 1e-30);
         vec2 st = pl.st_o + k * vec2(dot(x[v], pl.e1d), dot(x[v], pl.e2d));
+        mag = max(mag, k * length(x[v]) * pl.e_len);
+        bounded = bounded && h > 0.0 && !any(isinf(st)) && !any(isnan(st)) && !isinf(mag);
         r_lo = min(r_lo, st);
         r_hi = max(r_hi, st);
-        mag = max(mag, k * length(x[v]) * max(length(pl.e1d), length(pl.e2d)));
     }
-    float margin = 3.8e-6 + 16.0 * 1.1920929e-7 * mag;
+    float margin = proj_margin(pl, mag);
     r_lo = bounded ? r_lo - margin : st_lo;
     r_hi = bounded ? r_hi + margin : st_hi;
     // The cells of the shadow's box, row by row.
@@ -256,17 +267,14 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
     }
 }
 
-// The walk, shared by the subgroup: its pixels (a 4 x 2 block on llvmpipe, shadow_exact.comp) walk
+// The walk, shared by the subgroup: its pixels (a 4 x 2 block on llvmpipe, shadow_project.comp) walk
 // the BVH together through the union of their pyramids, which for neighbouring pixels to one light
 // are nearly the same. Each pixel tests every node's box and triangle against its own pyramid and
-// samples, and only the nodes that some pixel enters are visited. So every node and triangle is
-// loaded once for the subgroup, at an address that is provably the same for every lane, and its
-// control flow never diverges.
-// llvmpipe: a load at a divergent address is a scalar loop over the lanes (llvmpipe.md, fact 4), and
-// both sides of a divergent `if` run (fact 3): with the walk per pixel, each of the 8 lanes loaded
-// its own triangles one after the other, and a step cost every lane's interior and leaf work.
-// Measured (bunny view 256x256, 16 spp, budget off): per-pixel walks 828 ms, the shared walk below
-// (see engine/gpu/README.md for the figures now).
+// samples, and only the nodes that some pixel enters are visited, so the walk's control flow never
+// diverges (the node and the triangle are the same for every lane).
+// llvmpipe: both sides of a divergent `if` run (fact 3): with a walk per pixel, a step cost every
+// lane's interior and leaf work. Measured (bunny view 256x256, 16 spp, budget off): per-pixel walks
+// 868 ms, the shared walk 590 ms (engine/gpu/llvmpipe.md).
 // The near child first along the first lane's light direction. Returns whether this pixel's budget
 // of triangles ran out before every sample was decided.
 bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint words, uint groups, uint budget, bool live_walk)
@@ -297,8 +305,8 @@ bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint wor
                 work = uvec4(work.x + 2u, work.yz, max(work.w, uint(sp)));
             bool b_first = dot((b.min + b.max) - (a.min + a.max), towards) < 0.0;
             BvhNode near = b_first ? b : a, far = b_first ? a : b;
-            bool e_near = here && proj_enters(f, side, pl, o, near.min, near.max);
-            bool e_far = here && proj_enters(f, side, pl, o, far.min, far.max);
+            bool e_near = here && live_walk && proj_enters(f, side, pl, o, near.min, near.max);
+            bool e_far = here && live_walk && proj_enters(f, side, pl, o, far.min, far.max);
             // The coverage cull, once some sample of the pixel is blocked.
             bool some = proj_left < proj_valid;
             e_near = e_near && !(some && proj_covered(pl, o, near.min, near.max, words, groups));
@@ -340,14 +348,16 @@ bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint wor
 
 // The pixel's samples of this dispatch by projection; after the budget, its remaining samples as
 // rays through the packet walk, 32 at a time.
-void project_pixel(ivec2 px, vec3 p, vec3 nrm)
+// `mine`: the lane has a pixel with samples in this dispatch; a lane without one still takes part in
+// the subgroup's walk, deciding nothing.
+void project_pixel(ivec2 px, vec3 p, vec3 nrm, bool mine)
 {
     float rise;
     vec3 o = shadow_origin(p, nrm, 0.0, rise); // exact tests every ray from its origin: no rise
     uint end = pixel_end;
     if (params.split == PN_SPLIT_BUDGET_ID)
         end = min(end, budget_rays(p, nrm));
-    uint count = min(end - min(end, pixel_begin), PROJECT_MAX);
+    uint count = mine ? min(end - min(end, pixel_begin), PROJECT_MAX) : 0u;
     vec2 box_lo, box_hi;
     light_box(o, nrm, box_lo, box_hi);
     uint words = (count + 31u) / 32u, groups = (count + PROJECT_GROUP - 1u) / PROJECT_GROUP, valid_count = 0u;
@@ -383,11 +393,14 @@ void project_pixel(ivec2 px, vec3 p, vec3 nrm)
     proj_t_sum = 0.0;
     proj_nearest = 1.0;
     bool fallback = false;
-    // Every lane of the subgroup takes part in the shared walk, with or without samples of its own.
+    // Every lane of the subgroup takes part in the shared walk (shadow_project.comp), with or
+    // without samples of its own.
     Frustum f = frustum_make(o, st_lo, st_hi);
-    ProjPlane pl = proj_plane(o);
+    ProjPlane pl = proj_plane(o, f.delta);
     uint budget = uint(params.project_budget * float(count));
     fallback = proj_walk(f, pl, o, st_lo, st_hi, words, groups, budget, valid_count > 0u);
+    if (!mine)
+        return;
     for (uint w = 0u; fallback && w < words; w++) {
         uint live = proj_todo[w];
         if (live == 0u)

@@ -1,8 +1,6 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
-#extension GL_KHR_shader_subgroup_vote : require
-#extension GL_KHR_shader_subgroup_ballot : require
 // Exact soft shadows (--mode exact): every shadow ray is traced through the BVH with the watertight
 // triangle test; any hit blocks it. The ground truth of every error figure, and the baseline the
 // paper compared against (Aila and Laine style GPU traversal).
@@ -10,7 +8,6 @@
 #include "shadow_frame.glsl"
 layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_ID;
 #include "exact.glsl"
-#include "project.glsl"
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
@@ -23,10 +20,6 @@ void main()
     vec3 p, nrm;
     if (!shadow_pixel(px, p, nrm))
         return;
-    if (TRAVERSAL == PN_TRAVERSAL_PROJECT_ID) {
-        project_pixel(px, p, nrm);
-        return;
-    }
     // Every ray is tested from its origin: no rise (that is the line-space modes'), so chunk_rays'
     // st_lo, st_hi bound all the valid samples.
     float rise;

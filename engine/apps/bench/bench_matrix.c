@@ -105,9 +105,11 @@ static void report_work(const bench_opts *o, pn_gpu_device *dev, const pn_scene 
                 // Background pixels trace nothing and their counters are never written (the
                 // buffer is not cleared): 0 there.
                 bool geometry = img.p[4 * i + 3] > 0;
-                planes[c * px + i] = geometry ? (float)w[4 * i + c] : 0.0f;
+                // The depth counter's top bit marks a projection walk that fell back (PN_WORK_FALLBACK).
+                uint32_t v = c == 3 ? w[4 * i + c] & ~PN_WORK_FALLBACK : w[4 * i + c];
+                planes[c * px + i] = geometry ? (float)v : 0.0f;
                 if (geometry)
-                    vals[n++] = w[4 * i + c];
+                    vals[n++] = v;
             }
             qsort(vals, n, sizeof *vals, cmp_u32);
             if (n)
@@ -351,7 +353,7 @@ static int run_config(bench_group *g, pn_shadow_mode mode, int tn, int td, bool 
         snprintf(cell, sizeof cell, "%s", pn_bench_project_suffix(true));
     fprintf(stderr, "bench: %s %ux%u %s%s\n", g->base.scene, g->frame.width, g->frame.height, MODE_NAME(mode), cell);
     if (pn_setup_create(g->dev, g->scene, g->light, &sd, &s) != PN_OK) {
-        if (exact)
+        if (exact && !project)
             return PN_EXIT_FAILURE;
         pn_warn("bench: %s%s skipped (see above)", MODE_NAME(mode), cell);
         // Recorded for --merge, which would otherwise take them for a shard's missing cells.
