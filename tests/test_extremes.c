@@ -1008,7 +1008,7 @@ static bool render_filtered(pn_gpu_device *dev, const sweep_case *c, const pn_sc
                             const pn_camera *cam, const pn_light *light, extreme_frame *out)
 {
     pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = PN_SHADOW_REFERENCE,
-                           .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_AUTO, // auto: exact walks as a packet
+                           .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_AUTO, // auto: exact walks as a packet (by projection from 256 samples)
                            .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1,
                            .filter = PN_FILTER_INTERLEAVED, .tile_w = FILTER_TILE, .tile_h = FILTER_TILE};
     pn_shadow_accel_bind(acc, &rd);
@@ -1440,7 +1440,7 @@ static void run_case(pn_gpu_device *dev, const sweep_case *c, extreme_frame *fil
         if (tree_mode && !tree && !objs)
             continue; // refused above, as expected or reported
         pn_renderer_desc rd = {.width = SIZE, .height = SIZE, .mode = mode,
-                               .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_AUTO, // auto: exact walks as a packet
+                               .traversal = c->packet ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_AUTO, // auto: exact walks as a packet (by projection from 256 samples)
                                .sampler = PN_SAMPLER_GRID, .spp = c->spp, .seed = 1};
         if (project)
             rd.traversal = PN_TRAVERSAL_PROJECT;

@@ -285,7 +285,7 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
         printf(", \"width\": %u, \"height\": %u, \"triangles\": %u, \"mode\": \"%s\", \"traversal\": \"%s\", "
                "\"sampler\": \"%s\", \"spp\": %lld, \"seed\": %lld, \"filter\": \"%s\", \"split\": \"%s\", ",
                o->r.width, o->r.height, pn_scene_triangle_count(scene), mode->name,
-               pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)], pn_sampler_names[o->r.sampler],
+               pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal, o->r.spp, o->r.spp_min)], pn_sampler_names[o->r.sampler],
                o->r.spp, o->r.seed,
                pn_filter_names[o->r.filter], pn_split_names[o->r.split]);
         if (o->r.spp_min)
@@ -327,7 +327,7 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
            mode->name);
     if (tree)
         printf(" LS(%d,%d)%s %s", o->r.tree_n, o->r.tree_d, o->r.per_object ? " per object" : "",
-               pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal)]);
+               pn_traversal_names[pn_traversal_resolve(o->r.mode, o->r.traversal, o->r.spp, o->r.spp_min)]);
     if (mode->traces && o->r.spp_min)
         printf(" adaptive %lld:%lld spp to a pixel error of %g", o->r.spp_min, o->r.spp, (double)o->r.pixel_error);
     if (mode->traces && o->r.spp_min && st->mean_rays > 0) // one light: its rays image

@@ -153,7 +153,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         F1("penumbra.gpu_ms.shade", t->shade_ms),
         {.name = "penumbra.traversal",
          .type = PN_EXR_ATTR_STRING,
-         .s = pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal)]},
+         .s = pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal, o->spp, o->spp_min)]},
         {.name = "penumbra.sampler", .type = PN_EXR_ATTR_STRING, .s = pn_sampler_names[o->sampler]},
         {.name = "penumbra.spp", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp},
         {.name = "penumbra.spp_min", .type = PN_EXR_ATTR_INT, .i = (int32_t)o->spp_min},

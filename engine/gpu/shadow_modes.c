@@ -91,11 +91,13 @@ pn_traversal pn_traversal_fit(pn_shadow_mode mode, uint32_t spp_min, pn_traversa
     return t == PN_TRAVERSAL_PROJECT && (mode != PN_SHADOW_EXACT || spp_min) ? PN_TRAVERSAL_AUTO : t;
 }
 
-pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t)
+pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t, uint32_t samples, uint32_t spp_min)
 {
     if (t != PN_TRAVERSAL_AUTO)
         return t;
-    return mode == PN_SHADOW_EXACT ? PN_TRAVERSAL_PACKET : PN_TRAVERSAL_RAY;
+    if (mode != PN_SHADOW_EXACT)
+        return PN_TRAVERSAL_RAY;
+    return !spp_min && samples >= PN_PROJECT_AUTO_SAMPLES ? PN_TRAVERSAL_PROJECT : PN_TRAVERSAL_PACKET;
 }
 const char *const pn_filter_names[] = {[PN_FILTER_NONE] = "none", [PN_FILTER_INTERLEAVED] = "interleaved",
                                        [PN_FILTER_PENUMBRA] = "penumbra", NULL};

@@ -39,12 +39,16 @@ typedef enum pn_sampler { PN_SAMPLER_GRID = PN_SAMPLER_GRID_ID, PN_SAMPLER_STRAT
 extern const char *const pn_traversal_names[];
 extern const char *const pn_sampler_names[];
 
-// The traversal a mode's shader runs: auto is packet for exact (one BVH walk per pixel: 1.8x the
-// per-ray walk's speed on the dragon, engine/gpu/llvmpipe.md) and ray for the line-space modes
-// (their packet walk is the slower one on lavapipe); ray, packet and project are taken as given.
-// Auto never takes project: on lavapipe it is no faster than the packet walk on the bench's views
-// (engine/gpu/README.md, the projection traversal).
-pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t);
+// The traversal a mode's shader runs for a light of `samples` samples per pixel (pn_shadow_samples;
+// spp_min > 0: adaptive): auto is, for exact, project from PN_PROJECT_AUTO_SAMPLES uniform samples
+// on and packet below (one BVH walk per pixel: 1.8x the per-ray walk's speed on the dragon,
+// engine/gpu/llvmpipe.md), and ray for the line-space modes (their packet walk is the slower one
+// on lavapipe); ray, packet and project are taken as given.
+pn_traversal pn_traversal_resolve(pn_shadow_mode mode, pn_traversal t, uint32_t samples, uint32_t spp_min);
+// Exact's projection traversal is auto's from this many samples: measured (engine/gpu/README.md,
+// the projection traversal; 256x256, lavapipe) at 256 spp 0.81x, 1.06x and 0.95x the packet walk's
+// time on the bunny, dragon and Sponza views, at 1024 0.45x, 0.68x, 0.62x; at 64, 0.93-1.40x.
+#define PN_PROJECT_AUTO_SAMPLES 256
 // --traversal project where the frame can take it (exact, uniform samples), else auto: for
 // configurations chosen by --quality auto under a frame that asked for project.
 pn_traversal pn_traversal_fit(pn_shadow_mode mode, uint32_t spp_min, pn_traversal t);

@@ -104,11 +104,12 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     // There the per-ray walk balances its 8 lanes better the more rays each has, and the packet
     // walk does fewer walks, so the chunk starts at the maximum.
     out->chunk = PN_MAX_CHUNK;
-    int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal);
     // The projection walk answers up to PN_PROJECT_MAX_SAMPLES samples of a pixel in one dispatch
     // (its bit masks); its rays after the budget run 32 at a time within it.
-    if (traversal == PN_TRAVERSAL_PROJECT_ID)
-        out->chunk = PN_PROJECT_MAX_SAMPLES;
+    out->project_chunk = PN_PROJECT_MAX_SAMPLES;
+    // The pass's own pipeline is the one for the fewest samples: under auto, exact's packet walk
+    // (the projection's pipelines are made for the frames that take it: pn_shadow_pass_prepare).
+    int32_t traversal = (int32_t)pn_traversal_resolve(desc->mode, desc->traversal, 0, 0);
     const VkDescriptorType IMAGE = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
     // Every shadow shader sees the same set (interface.h): P, N, V, the parameters, counts, status;
     // the modes that trace the device's acceleration structure also see it.
@@ -132,11 +133,15 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     out->spirv = out->project ? pn_spv_shadow_project_comp : out->mode->spirv;
     out->spirv_size = out->project ? sizeof pn_spv_shadow_project_comp : out->mode->spirv_size;
     const VkSubgroupFeatureFlags VOTES = VK_SUBGROUP_FEATURE_VOTE_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
-    if (out->project && ((dev->subgroup.supportedOperations & VOTES) != VOTES ||
-                         !(dev->subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT))) {
+    bool votes = (dev->subgroup.supportedOperations & VOTES) == VOTES &&
+                 (dev->subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT);
+    if (out->project && !votes) {
         pn_error("--traversal project: %s lacks subgroup vote and ballot in compute shaders", dev->props.deviceName);
         return PN_ERR_UNSUPPORTED;
     }
+    // Auto: exact's frames of many samples take the projection (pn_traversal_resolve), where the
+    // device can run it.
+    out->auto_project = desc->traversal == PN_TRAVERSAL_AUTO && desc->mode == PN_SHADOW_EXACT && votes;
     memcpy(out->spec_data,
            (int32_t[6]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK, alpha_masks ? 1 : 0,
                         PN_PROJECT_MAX_SAMPLES},
@@ -303,20 +308,31 @@ static uint32_t rays_size(uint32_t rays)
     return k;
 }
 
+// Whether a light of `samples` samples per pixel takes the projection walk this frame: as asked
+// (--traversal project), or under auto for exact's uniform frames of many samples.
+static bool frame_project(const pn_shadow_pass *s, uint32_t samples)
+{
+    return s->project || (s->auto_project && pn_traversal_resolve(PN_SHADOW_EXACT, PN_TRAVERSAL_AUTO, samples,
+                                                                  s->spp_min) == PN_TRAVERSAL_PROJECT);
+}
+
 pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples)
 {
-    if (s->project) {
+    if (frame_project(s, samples)) {
         // The projection traversal's per-sample arrays sized to the dispatch's samples: private
         // arrays of 1024 samples cost a frame of 16 spp a third more (default scene, lavapipe).
-        uint32_t k = rays_size(samples < s->chunk ? samples : s->chunk);
+        // With --traversal project the pass's own pipeline holds the most.
+        uint32_t k = rays_size(samples < s->project_chunk ? samples : s->project_chunk);
         k = k < 5 ? 0 : k - 5;
-        if ((32u << k) >= PN_PROJECT_MAX_SAMPLES || s->by_samples[k])
+        if ((s->project && (32u << k) >= PN_PROJECT_MAX_SAMPLES) || s->by_samples[k])
             return PN_OK;
         int32_t data[6];
         memcpy(data, s->spec_data, sizeof data);
+        data[0] = PN_TRAVERSAL_PROJECT_ID;
         data[5] = (int32_t)(32u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
-        return pn_gpu_compute_pipeline(dev, s->compute.layout, s->spirv, s->spirv_size, &spec, &s->by_samples[k]);
+        return pn_gpu_compute_pipeline(dev, s->compute.layout, pn_spv_shadow_project_comp,
+                                       sizeof pn_spv_shadow_project_comp, &spec, &s->by_samples[k]);
     }
     if (!s->sized_rays)
         return PN_OK;
@@ -336,9 +352,9 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
 }
 
 // The pipeline for a dispatch of at most `rays` rays per pixel: the smallest made that holds them.
-static VkPipeline pipeline_for(const pn_shadow_pass *s, uint32_t rays)
+static VkPipeline pipeline_for(const pn_shadow_pass *s, uint32_t rays, bool project)
 {
-    for (uint32_t k = rays_size(rays), j = k < 5 ? 0 : k - 5; s->project && (32u << j) < PN_PROJECT_MAX_SAMPLES; j++)
+    for (uint32_t k = rays_size(rays), j = k < 5 ? 0 : k - 5; project && j < PN_PROJECT_SIZES; j++)
         if (s->by_samples[j])
             return s->by_samples[j];
     for (uint32_t k = rays_size(rays); s->sized_rays && (1u << k) < PN_MAX_CHUNK; k++)
@@ -365,10 +381,10 @@ static void between_dispatches(VkCommandBuffer cmd)
 
 // A dispatch of the shadow shader: over every tile of the image (ch.list_in 0), or over the pixels
 // of list ch.list_in - 1, as many groups as the list fills.
-static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch)
+static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch, bool project)
 {
     pn_gpu_compute c = s->compute;
-    c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin);
+    c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin, project);
     if (ch->list_in == 0) {
         uint32_t gy = s->tile_total / s->tiles_across;
         pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, s->tiles_across, gy, 1);
@@ -383,17 +399,18 @@ static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shad
 // start at multiples of the chunk size, so that a round's range [n, 2n) falls in as few as it can:
 // each costs a pixel a walk of the tree.
 static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t begin, uint32_t end,
-                           uint32_t list_in, uint32_t light)
+                           uint32_t list_in, uint32_t light, bool project)
 {
+    uint32_t chunk = project ? s->project_chunk : s->chunk;
     if (list_in)
-        begin -= begin % s->chunk;
-    for (uint32_t b = begin; b < end; b += s->chunk) {
-        uint32_t e = end - b > s->chunk ? b + s->chunk : end;
+        begin -= begin % chunk;
+    for (uint32_t b = begin; b < end; b += chunk) {
+        uint32_t e = end - b > chunk ? b + chunk : end;
         pn_shadow_chunk ch = {.sample_begin = b, .sample_end = e, .first = b == 0 && !list_in, .last = e == end,
                               .light = light, .list_in = list_in};
         if (b > begin)
             between_dispatches(cmd);
-        dispatch(cmd, s, &ch);
+        dispatch(cmd, s, &ch, project);
     }
 }
 
@@ -436,7 +453,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
                                         VK_IMAGE_LAYOUT_GENERAL);
     pn_gpu_cmd_barrier(cmd, NULL, 4, fresh);
     if (!pn_shadow_adaptive(s, spp)) {
-        record_samples(cmd, s, 0, spp, 0, light);
+        record_samples(cmd, s, 0, spp, 0, light, frame_project(s, spp));
         return;
     }
     // Adaptive: the first round over the image, then after each round a decision over its pixels,
@@ -449,7 +466,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     // whole image (list_in 0) and writes every pixel's V from its counts (.first), as V is rewritten
     // every frame (renderer.c discards it) and a pixel that goes on no more traces nothing.
     if (!resume)
-        record_samples(cmd, s, 0, s->spp_min, 0, light);
+        record_samples(cmd, s, 0, s->spp_min, 0, light, false);
     uint32_t rounds = 0;
     for (uint32_t n = resume ? s->resume_from : s->spp_min; n < spp; n *= 2)
         rounds++;
@@ -460,11 +477,12 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
         // The last decision only reports (.last): a pixel's rays are the samples it took.
         dispatch(cmd, s,
                  &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out,
-                                    .first = resume && decision == 1, .last = decision > rounds});
+                                    .first = resume && decision == 1, .last = decision > rounds},
+                 false);
         if (decision > rounds)
             break;
         between_dispatches(cmd);
-        record_samples(cmd, s, s->spp_min, spp, 1 + out, light);
+        record_samples(cmd, s, s->spp_min, spp, 1 + out, light, false);
         list_in = 1 + out;
         out ^= 1;
     }
@@ -481,11 +499,13 @@ pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry)
     // rendered again with half the samples per dispatch. Only llvmpipe has such a budget
     // (pn_gpu_device_loop_budget); elsewhere the canary never fires, and if it did the frame would
     // be wrong, so it is an error there.
-    if (!s->loop_budget || s->chunk == 1) {
+    if (!s->loop_budget || (s->chunk == 1 && s->project_chunk == 1)) {
         pn_error("a single shadow ray's traversal exceeds the device's shader loop budget; try a smaller N or d");
         return PN_ERR_UNSUPPORTED;
     }
-    s->chunk /= 2;
+    // Both walks' chunks: the frame may have taken either (the projection's for its many samples).
+    s->chunk = s->chunk > 1 ? s->chunk / 2 : 1;
+    s->project_chunk = s->project_chunk > 1 ? s->project_chunk / 2 : 1;
     pn_info("shadow pass cut short by the shader loop budget: retrying with %u samples per dispatch", s->chunk);
     *retry = true;
     return PN_OK;

@@ -20,10 +20,14 @@ typedef struct pn_shadow_pass {
     // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits.
     VkPipeline by_rays[PN_PACKET_RAY_SIZES];
     // The projection traversal: by_samples[k] for at most 32 x 2^k samples of a pixel per dispatch
-    // (its per-sample arrays; compute.pipeline's hold PN_PROJECT_MAX_SAMPLES), made as by_rays.
+    // (its per-sample arrays; with --traversal project compute.pipeline holds
+    // PN_PROJECT_MAX_SAMPLES), made as by_rays, from shadow_project.comp.
     VkPipeline by_samples[PN_PROJECT_SIZES];
     int32_t spec_data[6];
-    bool sized_rays, project;
+    bool sized_rays;
+    bool project;      // --traversal project: every frame by projection (exact)
+    bool auto_project; // --traversal auto, exact: frames of PN_PROJECT_AUTO_SAMPLES samples and more
+    uint32_t project_chunk; // samples per dispatch of the projection (PN_PROJECT_MAX_SAMPLES; llvmpipe halves it)
     const uint32_t *spirv; // the shadow shader: the mode's, or for project shadow_project.comp
     size_t spirv_size;
     pn_gpu_buffer params;   // uniform ShadowParams, host-written between frames
@@ -100,7 +104,7 @@ pn_result pn_shadow_check_samples(const pn_renderer_desc *desc);
 
 // --traversal project: the triangles a pixel's walk may test per sample before its remaining
 // samples are traced as rays (ShadowParams.project_budget; env PN_PROJECT_BUDGET overrides it).
-#define PN_PROJECT_BUDGET_DEFAULT 0.25f
+#define PN_PROJECT_BUDGET_DEFAULT 1.0f
 float pn_project_budget(void);
 
 // Records the dispatches of `samples` samples per pixel (pn_shadow_samples) of light `light` (an

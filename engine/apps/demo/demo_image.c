@@ -262,7 +262,7 @@ static void params_text(const pn_demo *d, char *out, size_t n)
     int at = snprintf(out, n, "%s", mode->name);
     if (mode->needs.tree && at >= 0 && (size_t)at < n)
         at += snprintf(out + at, n - (size_t)at, " LS(%d,%d)%s %s", d->accel.desc.tree_n, d->accel.desc.tree_d,
-                       d->accel.desc.per_object ? " per object" : "", pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal)]);
+                       d->accel.desc.per_object ? " per object" : "", pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal, o->spp, o->spp_min)]);
     if (at >= 0 && (size_t)at < n && o->spp_min) // adaptive: the most of the frame shown (refined: raised)
         at += snprintf(out + at, n - (size_t)at, " %s %lld:%u spp%s", pn_sampler_names[o->sampler], o->spp_min,
                        d->renderer.desc.spp, o->filter != PN_FILTER_NONE ? " filtered" : "");
