@@ -17,9 +17,11 @@
 // horizon or behind a one-sided light is invalid from the start). The walk ends when none is left
 // (umbra). A node is entered when its box meets the pyramid (its four side planes, the pixel's
 // plane and the light's), and skipped when every sample its box's projection covers is blocked
-// already (the coverage cull). A triangle's half-planes are clipped against the samples' box to
-// bound its projection; only the samples of the groups of PROJECT_GROUP whose boxes meet that bound
-// are tested (a group: consecutive samples, a row of strata for a grid of them).
+// already (the coverage cull). Which samples a triangle may block is bounded by its vertices
+// projected onto the light's plane (a bound only: the decision is each sample's own test); that box
+// names the strata cells to test for a rectangle's uniform samples, else the groups of
+// PROJECT_GROUP consecutive samples whose boxes it meets. Under a point light (one sample)
+// shadow_project.comp traces its ray instead.
 //
 // The budget: the walk counts the triangles it tests; past params.project_budget per sample, the
 // pixel traces its remaining samples as rays with the packet walk (a dense mesh under a large
