@@ -298,7 +298,9 @@ static double edge_offset(int k, double e, double x, double z)
 static void check_extremes(void)
 {
     const double cases[4][2] = {{1e-4, 0}, {1e6, 0}, {1, 1e4}, {1e3, 1e7}};
-    const char *modes[] = {"exact", "exact-ls", "rayquery", "hybrid", "linespace", "ls-leaf", "ls-plane"};
+    // exact walks by projection at 256 spp (auto's choice); the packet walk too, by name.
+    const char *modes[] = {"exact", "exact --traversal packet", "exact-ls", "rayquery", "hybrid", "linespace", "ls-leaf",
+                           "ls-plane"};
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
     bool ray_query = pn_gpu_device_create(&desc, &dev) == PN_OK && dev.ray_query;
@@ -321,7 +323,8 @@ static void check_extremes(void)
         for (size_t m = 0; m < sizeof modes / sizeof modes[0]; m++) {
             if (strcmp(modes[m], "rayquery") == 0 && !ray_query)
                 continue;
-            bool tree = strcmp(modes[m], "exact") != 0 && strcmp(modes[m], "rayquery") != 0;
+            bool tree = strncmp(modes[m], "exact ", 6) != 0 && strcmp(modes[m], "exact") != 0 &&
+                        strcmp(modes[m], "rayquery") != 0;
             bool exact = tree ? strcmp(modes[m], "exact-ls") == 0 : true;
             double leaf = (0.5 + 8 * ulp) / 16, e_far = 0.25 + (exact ? 0 : 4 * leaf + 8 * ulp);
             for (int k = 0; k < 4; k++) {

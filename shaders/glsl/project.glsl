@@ -78,10 +78,15 @@ ProjPlane proj_plane(vec3 o, float delta)
     pl.height = 0.0;
     for (int c = 0; c < 4; c++)
         pl.height = max(pl.height, dot(pl.up, patch_corners[c] - o));
-    vec3 nn = cross(pl.e1, pl.e2);
+    // The dual vectors from the unit edges, then scaled: |e1 x e2|^2 is the fourth power of the
+    // light's size, past float's range for a sun's far disk at scale 1e6 (its square is 3.5e10
+    // across), where e1d, e2d themselves are well within it.
+    float s1 = length(pl.e1), s2 = length(pl.e2);
+    vec3 u1 = s1 > 0.0 ? pl.e1 / s1 : vec3(0.0), u2 = s2 > 0.0 ? pl.e2 / s2 : vec3(0.0);
+    vec3 nn = cross(u1, u2);
     float n2 = dot(nn, nn);
-    pl.e1d = n2 > 0.0 ? cross(pl.e2, nn) / n2 : vec3(0.0);
-    pl.e2d = n2 > 0.0 ? cross(nn, pl.e1) / n2 : vec3(0.0);
+    pl.e1d = n2 > 0.0 ? cross(u2, nn) / (n2 * s1) : vec3(0.0);
+    pl.e2d = n2 > 0.0 ? cross(nn, u1) / (n2 * s2) : vec3(0.0);
     pl.st_o = vec2(dot(-pl.base, pl.e1d), dot(-pl.base, pl.e2d));
     pl.e_len = max(length(pl.e1d), length(pl.e2d));
     pl.st_slack = delta * pl.e_len;
@@ -284,9 +289,14 @@ bool proj_walk(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint wor
     vec3 side[4];
     vec3 inside = f.D[0] + f.D[1] + f.D[2] + f.D[3];
     for (int i = 0; i < 4; i++) {
-        vec3 n = cross(f.D[i], f.D[(i + 1) & 3]);
+        // Unit normals, the corner directions scaled to a max norm of 1 first (a sun's are 1e11
+        // long at scale 1e6: their cross product's square leaves float's range). A degenerate
+        // frustum's side is 0 and rejects nothing.
+        vec3 a = f.D[i] / max(max(max(abs(f.D[i].x), abs(f.D[i].y)), abs(f.D[i].z)), 1e-30);
+        vec3 b = f.D[(i + 1) & 3] / max(max(max(abs(f.D[(i + 1) & 3].x), abs(f.D[(i + 1) & 3].y)), abs(f.D[(i + 1) & 3].z)), 1e-30);
+        vec3 n = cross(a, b);
         float len = length(n);
-        n = len > 0.0 ? n / len : vec3(0.0); // a degenerate frustum's side rejects nothing
+        n = len > 0.0 ? n / len : vec3(0.0);
         side[i] = dot(n, inside) < 0.0 ? -n : n;
     }
     vec3 towards = subgroupBroadcastFirst(inside);
