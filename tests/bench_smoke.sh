@@ -163,7 +163,7 @@ if [ -f "$MESH" ]; then
     --filter none --spp 4 --repeat 1 --warmup 0 --no-embree --out "$OUT/kinds" > "$OUT/kinds.txt" \
     || { echo "FAIL: bench --tree-kinds"; fail=1; }
   grep -q "linespace 4,3 obj" "$OUT/kinds.txt" || { echo "FAIL: no per-object row on the console"; fail=1; }
-  head -1 "$OUT/kinds/bench.csv" | grep -q ",tree_kind,move_ms,spp_min,mean_rays,beyond_2se$" || { echo "FAIL: bench.csv lacks tree_kind, move_ms, spp_min, mean_rays, beyond_2se"; fail=1; }
+  head -1 "$OUT/kinds/bench.csv" | grep -q ",tree_kind,move_ms,spp_min,mean_rays,beyond_2se,traversal,projected,fallback$" || { echo "FAIL: bench.csv lacks tree_kind, move_ms, spp_min, mean_rays, beyond_2se, traversal, projected, fallback"; fail=1; }
   python3 - "$OUT/kinds/bench.json" <<'PY' || fail=1
 import json, sys
 j = json.load(open(sys.argv[1]))
