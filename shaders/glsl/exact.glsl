@@ -221,12 +221,11 @@ Frustum frustum_make(vec3 o, vec2 st_lo, vec2 st_hi)
 // combination of the corners', and the edge values and S are linear in d). Both only beyond a
 // margin, |n_e| times delta plus the dots' rounding over |d| <= dmax, so that no ray's own test
 // would disagree. Otherwise each ray is tested.
-uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
+// The frustum's four corners against triangle t (above): whether it misses every ray, whether it
+// covers every ray (`masked`: an alpha-masked triangle never covers), and the least S of the
+// corners, lo_s (a covering triangle's hit is at most t = |det| / lo_s along every ray).
+void packet_corners(Frustum f, PacketTri t, bool masked, out bool misses, out bool covers, out float lo_s)
 {
-    vec4 a = params.tris.v[3u * tri]; // w: the triangle's alpha record (alpha.glsl), 0 if opaque
-    PacketTri t = packet_tri(o, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz);
-    if (COUNT_WORK)
-        work.z++;
     float slack = f.delta + 8.0 * ulp_bound(f.dmax);
     vec3 tol = vec3(length(t.nab), length(t.nbc), length(t.nca)) * slack;
     float tol_s = tol.x + tol.y + tol.z;
@@ -237,23 +236,46 @@ uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
         hi = max(hi, e);
     }
     float adet = abs(t.det);
+    misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
+    covers = !misses && !masked && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
+    lo_s = lo.w;
+}
+
+// Ray direction d against triangle t, as every walk tests it: inside, between o and the light, and
+// on an opaque texel of a masked triangle (rec: its alpha record, 0 if opaque). S (e.w) is set for
+// the hit's t = |det| / S.
+bool packet_ray_hits(PacketTri t, vec3 d, uint rec, out float s)
+{
+    vec4 e = packet_edges(t, d);
+    bool hit = packet_hit(t, e);
+    if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
+        hit = !alpha_cut(rec, e.yzx / e.w);
+    s = e.w;
+    return hit;
+}
+
+uint packet_leaf_tri(Frustum f, vec3 o, uint tri, uint live)
+{
+    vec4 a = params.tris.v[3u * tri]; // w: the triangle's alpha record (alpha.glsl), 0 if opaque
+    PacketTri t = packet_tri(o, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz);
+    if (COUNT_WORK)
+        work.z++;
+    float adet = abs(t.det), lo_s;
     uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // masked: every ray's hit is tested against its texel
-    bool misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
-    bool covers = !misses && rec == 0u && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
+    bool misses, covers;
+    packet_corners(f, t, rec != 0u, misses, covers, lo_s);
     uint hits = covers ? live : 0u;
     for (uint m = hits; m != 0u; m &= m - 1u)
-        blocker_at(findLSB(m), adet / lo.w);
+        blocker_at(findLSB(m), adet / lo_s);
     for (uint m = misses || covers ? 0u : live; m != 0u; m &= m - 1u) {
         uint j = findLSB(m);
         if (COUNT_WORK)
             work.z++;
-        vec4 e = packet_edges(t, dir[j]);
-        bool hit = packet_hit(t, e);
-        if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
-            hit = !alpha_cut(rec, e.yzx / e.w);
+        float s;
+        bool hit = packet_ray_hits(t, dir[j], rec, s);
         hits |= hit ? (1u << j) : 0u;
         if (hit)
-            blocker_at(j, adet / e.w);
+            blocker_at(j, adet / s);
     }
     return hits;
 }

@@ -198,25 +198,16 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
         work.y++;
     // The frustum's corners first, as packet_leaf_tri: a triangle that misses them all beyond the
     // margin misses every sample; one that holds them all (opaque) blocks every sample left.
-    float slack = f.delta + 8.0 * ulp_bound(f.dmax);
-    vec3 tol = vec3(length(t.nab), length(t.nbc), length(t.nca)) * slack;
-    float tol_s = tol.x + tol.y + tol.z;
-    vec4 lo = vec4(1e38), hi = vec4(-1e38);
-    for (int c = 0; c < 4; c++) {
-        vec4 e = packet_edges(t, f.D[c]);
-        lo = min(lo, e);
-        hi = max(hi, e);
-    }
-    float adet = abs(t.det);
+    float adet = abs(t.det), lo_s;
     uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // masked: each sample's hit is tested against its texel
-    bool misses = t.det == 0.0 || any(lessThan(hi.xyz, -tol)) || hi.w < adet - tol_s;
-    bool covers = !misses && rec == 0u && all(greaterThan(lo.xyz, tol)) && lo.w > adet + tol_s;
+    bool misses, covers;
+    packet_corners(f, t, rec != 0u, misses, covers, lo_s);
     if (misses)
         return;
     if (covers) {
         for (uint w = 0u; w < words; w++)
             for (uint m = proj_todo[w]; m != 0u; m &= m - 1u)
-                proj_block(32u * w + uint(findLSB(m)), adet / lo.w);
+                proj_block(32u * w + uint(findLSB(m)), adet / lo_s);
         return;
     }
     // The samples to test: those in the box of the triangle's shadow on the light, its vertices
@@ -249,12 +240,9 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
         for (uint w = k_lo / 32u; k_lo < k_hi && w <= (k_hi - 1u) / 32u; w++) {
             for (uint m = proj_todo[w] & proj_run(w, k_lo, k_hi); m != 0u; m &= m - 1u) {
                 uint k = 32u * w + uint(findLSB(m));
-                vec4 e = packet_edges(t, proj_dir[k]);
-                bool hit = packet_hit(t, e);
-                if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
-                    hit = !alpha_cut(rec, e.yzx / e.w);
-                if (hit)
-                    proj_block(k, adet / e.w);
+                float s;
+                if (packet_ray_hits(t, proj_dir[k], rec, s))
+                    proj_block(k, adet / s);
             }
         }
     }
@@ -264,12 +252,9 @@ void proj_tri(Frustum f, ProjPlane pl, vec3 o, vec2 st_lo, vec2 st_hi, uint word
         bool meets = all(lessThanEqual(b.xy, r_hi)) && all(lessThanEqual(r_lo, b.zw));
         for (uint m = meets ? todo : 0u; m != 0u; m &= m - 1u) {
             uint k = gi * PROJECT_GROUP + uint(findLSB(m));
-            vec4 e = packet_edges(t, proj_dir[k]);
-            bool hit = packet_hit(t, e);
-            if (hit && rec != 0u) // the weights of a, b, c are s_bc, s_ca, s_ab over S
-                hit = !alpha_cut(rec, e.yzx / e.w);
-            if (hit)
-                proj_block(k, adet / e.w);
+            float s;
+            if (packet_ray_hits(t, proj_dir[k], rec, s))
+                proj_block(k, adet / s);
         }
     }
 }
