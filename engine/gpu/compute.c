@@ -67,18 +67,21 @@ pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *d
     VkDescriptorPoolSize sizes[16];
     if (desc->binding_count > 16)
         return PN_ERR_INVALID;
+    out->stages = desc->stages ? desc->stages : VK_SHADER_STAGE_COMPUTE_BIT;
+    out->bind_point = desc->stages & ~VK_SHADER_STAGE_COMPUTE_BIT ? VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR
+                                                                  : VK_PIPELINE_BIND_POINT_COMPUTE;
     for (uint32_t i = 0; i < desc->binding_count; i++) {
         b[i] = desc->bindings[i];
         if (!b[i].stageFlags)
-            b[i].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+            b[i].stageFlags = out->stages;
         if (!b[i].descriptorCount)
             b[i].descriptorCount = 1;
         sizes[i] = (VkDescriptorPoolSize){b[i].descriptorType, b[i].descriptorCount};
     }
     pn_result r = pn_gpu_set_layout(dev, b, desc->binding_count, &out->set_layout);
     if (r == PN_OK)
-        r = pn_gpu_pipeline_layout(dev, out->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, desc->push_size, &out->layout);
-    if (r == PN_OK)
+        r = pn_gpu_pipeline_layout(dev, out->set_layout, out->stages, desc->push_size, &out->layout);
+    if (r == PN_OK && desc->spirv)
         r = pn_gpu_compute_pipeline(dev, out->layout, desc->spirv, desc->spirv_size, desc->spec, &out->pipeline);
     if (r == PN_OK && desc->binding_count) {
         VkDescriptorPoolCreateInfo pi = {
@@ -197,25 +200,25 @@ void pn_gpu_compute_write_tlas(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t b
     vkUpdateDescriptorSets(dev->device, 1, &w, 0, NULL);
 }
 
-static void bind(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push)
+void pn_gpu_compute_bind(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push)
 {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline);
+    vkCmdBindPipeline(cmd, c->bind_point, c->pipeline);
     if (c->set)
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->layout, 0, 1, &c->set, 0, NULL);
+        vkCmdBindDescriptorSets(cmd, c->bind_point, c->layout, 0, 1, &c->set, 0, NULL);
     if (push_size)
-        vkCmdPushConstants(cmd, c->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, push_size, push);
+        vkCmdPushConstants(cmd, c->layout, c->stages, 0, push_size, push);
 }
 
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
                              uint32_t x, uint32_t y, uint32_t z)
 {
-    bind(cmd, c, push_size, push);
+    pn_gpu_compute_bind(cmd, c, push_size, push);
     vkCmdDispatch(cmd, x, y, z);
 }
 
 void pn_gpu_compute_dispatch_indirect(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size,
                                       const void *push, VkBuffer args, VkDeviceSize offset)
 {
-    bind(cmd, c, push_size, push);
+    pn_gpu_compute_bind(cmd, c, push_size, push);
     vkCmdDispatchIndirect(cmd, args, offset);
 }

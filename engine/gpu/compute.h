@@ -18,12 +18,15 @@ pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, VkPipelineLayout layout, c
                                   const VkSpecializationInfo *spec, VkPipeline *out);
 
 typedef struct pn_gpu_compute_desc {
-    const uint32_t *spirv;
+    const uint32_t *spirv; // NULL: no pipeline (the caller makes its own with the layout: gpu/raytrace.h)
     size_t spirv_size; // bytes
     const VkDescriptorSetLayoutBinding *bindings; // set 0; stageFlags may be left 0 (compute)
     uint32_t binding_count;
     uint32_t push_size; // bytes of push constants, 0 for none
     const VkSpecializationInfo *spec;
+    // The stages that see the set and the push constants: 0 for compute; ray-tracing stages make
+    // the set and pushes bind to the ray-tracing bind point (a pass without a compute shader).
+    VkShaderStageFlags stages;
 } pn_gpu_compute_desc;
 
 typedef struct pn_gpu_compute {
@@ -32,6 +35,8 @@ typedef struct pn_gpu_compute {
     VkPipeline pipeline;
     VkDescriptorPool pool;
     VkDescriptorSet set; // allocated, not written: see pn_gpu_compute_write_*
+    VkShaderStageFlags stages;       // desc.stages (compute if 0)
+    VkPipelineBindPoint bind_point; // compute, or ray tracing for ray-tracing stages
 } pn_gpu_compute;
 
 pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out);
@@ -50,6 +55,8 @@ void pn_gpu_compute_write_buffer(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t
 void pn_gpu_compute_write_uniform(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkBuffer buffer);
 void pn_gpu_compute_write_tlas(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkAccelerationStructureKHR tlas);
 
+// Binds pipeline and set at the pass's bind point and pushes `push` (push_size bytes, may be NULL).
+void pn_gpu_compute_bind(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push);
 // Binds pipeline and set, pushes `push` (push_size bytes, may be NULL) and dispatches.
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
                              uint32_t x, uint32_t y, uint32_t z);

@@ -323,7 +323,7 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
             pn_error("%s has no queue with graphics, compute and timestamps", dev->props.deviceName);
         return PN_ERR_VULKAN;
     }
-    const char *device_exts[5] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    const char *device_exts[7] = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
     uint32_t ext_count = desc->present ? 1 : 0;
     if (desc->present) {
         bool swapchain = false;
@@ -334,31 +334,53 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         }
     }
 
-    // Ray queries where the device has them: the extensions, then the two features.
-    static const char *const RQ_EXTS[3] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME, VK_KHR_RAY_QUERY_EXTENSION_NAME,
+    // The device's acceleration structures where it has them, with ray queries (rayquery) and
+    // ray-tracing pipelines (rtpipeline), each where it has that too: NVIDIA's driver offers the
+    // pipelines without the queries, Mesa 25's lavapipe both.
+    static const char *const AS_EXTS[2] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
                                            VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME};
-    bool rq = true;
-    for (int i = 0; i < 3 && rq; i++)
-        PN_TRY(device_extension_available(dev->physical, RQ_EXTS[i], &rq));
-    VkPhysicalDeviceRayQueryFeaturesKHR rq_f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR};
+    bool as = true, rq = false, rt = false;
+    for (int i = 0; i < 2 && as; i++)
+        PN_TRY(device_extension_available(dev->physical, AS_EXTS[i], &as));
+    if (as) {
+        PN_TRY(device_extension_available(dev->physical, VK_KHR_RAY_QUERY_EXTENSION_NAME, &rq));
+        PN_TRY(device_extension_available(dev->physical, VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME, &rt));
+    }
+    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_f = {
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR};
+    VkPhysicalDeviceRayQueryFeaturesKHR rq_f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR,
+                                                .pNext = &rt_f};
     VkPhysicalDeviceAccelerationStructureFeaturesKHR as_f = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR, .pNext = &rq_f};
-    if (rq) {
+    if (as) {
         VkPhysicalDeviceFeatures2 q = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &as_f};
         vkGetPhysicalDeviceFeatures2(dev->physical, &q);
-        rq = as_f.accelerationStructure && rq_f.rayQuery;
+        rq = rq && as_f.accelerationStructure && rq_f.rayQuery;
+        rt = rt && as_f.accelerationStructure && rt_f.rayTracingPipeline;
+        as = rq || rt; // the structures alone trace nothing
     }
-    if (rq) {
+    if (as) {
+        // Only the features penumbra uses are enabled: each struct rewritten with its one flag.
+        rt_f = (VkPhysicalDeviceRayTracingPipelineFeaturesKHR){
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR, .rayTracingPipeline = rt};
+        rq_f = (VkPhysicalDeviceRayQueryFeaturesKHR){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR,
+                                                     .pNext = rt ? &rt_f : NULL,
+                                                     .rayQuery = rq};
         as_f = (VkPhysicalDeviceAccelerationStructureFeaturesKHR){
             .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
-            .pNext = &rq_f,
+            .pNext = rq ? (void *)&rq_f : rt ? (void *)&rt_f : NULL,
             .accelerationStructure = VK_TRUE};
-        rq_f = (VkPhysicalDeviceRayQueryFeaturesKHR){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR,
-                                                     .rayQuery = VK_TRUE};
-        for (int i = 0; i < 3; i++)
-            device_exts[ext_count++] = RQ_EXTS[i];
+        for (int i = 0; i < 2; i++)
+            device_exts[ext_count++] = AS_EXTS[i];
+        if (rq)
+            device_exts[ext_count++] = VK_KHR_RAY_QUERY_EXTENSION_NAME;
+        if (rt)
+            device_exts[ext_count++] = VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
+        dev->rt_props = (VkPhysicalDeviceRayTracingPipelinePropertiesKHR){
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR};
         dev->as_props = (VkPhysicalDeviceAccelerationStructurePropertiesKHR){
-            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR};
+            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR,
+            .pNext = rt ? &dev->rt_props : NULL};
         VkPhysicalDeviceProperties2 p2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->as_props};
         vkGetPhysicalDeviceProperties2(dev->physical, &p2);
     }
@@ -369,7 +391,7 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         device_exts[ext_count++] = VK_EXT_MEMORY_BUDGET_EXTENSION_NAME;
     VkPhysicalDeviceVulkan13Features f13 = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES,
-        .pNext = rq ? &as_f : NULL,
+        .pNext = as ? &as_f : NULL,
         .dynamicRendering = VK_TRUE,
         .synchronization2 = VK_TRUE,
     };
@@ -404,16 +426,20 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         .ppEnabledExtensionNames = device_exts,
     };
     VK_CHECK(vkCreateDevice(dev->physical, &di, NULL, &dev->device));
-    if (rq) {
+    if (as) {
         // Extension entry points are not exported by the loader: fetched from the device.
-        dev->as.create = (PFN_vkCreateAccelerationStructureKHR)vkGetDeviceProcAddr(dev->device, "vkCreateAccelerationStructureKHR");
-        dev->as.destroy = (PFN_vkDestroyAccelerationStructureKHR)vkGetDeviceProcAddr(dev->device, "vkDestroyAccelerationStructureKHR");
-        dev->as.build_sizes = (PFN_vkGetAccelerationStructureBuildSizesKHR)vkGetDeviceProcAddr(
-            dev->device, "vkGetAccelerationStructureBuildSizesKHR");
-        dev->as.cmd_build = (PFN_vkCmdBuildAccelerationStructuresKHR)vkGetDeviceProcAddr(dev->device, "vkCmdBuildAccelerationStructuresKHR");
-        dev->as.address = (PFN_vkGetAccelerationStructureDeviceAddressKHR)vkGetDeviceProcAddr(
-            dev->device, "vkGetAccelerationStructureDeviceAddressKHR");
-        dev->ray_query = dev->as.create && dev->as.destroy && dev->as.build_sizes && dev->as.cmd_build && dev->as.address;
+#define PN_DEVICE_PROC(field, name) (field = (PFN_##name)vkGetDeviceProcAddr(dev->device, #name))
+        bool loaded = PN_DEVICE_PROC(dev->as.create, vkCreateAccelerationStructureKHR) &&
+                      PN_DEVICE_PROC(dev->as.destroy, vkDestroyAccelerationStructureKHR) &&
+                      PN_DEVICE_PROC(dev->as.build_sizes, vkGetAccelerationStructureBuildSizesKHR) &&
+                      PN_DEVICE_PROC(dev->as.cmd_build, vkCmdBuildAccelerationStructuresKHR) &&
+                      PN_DEVICE_PROC(dev->as.address, vkGetAccelerationStructureDeviceAddressKHR);
+        dev->ray_query = loaded && rq;
+        dev->ray_pipeline = loaded && rt && PN_DEVICE_PROC(dev->rt.create, vkCreateRayTracingPipelinesKHR) &&
+                            PN_DEVICE_PROC(dev->rt.handles, vkGetRayTracingShaderGroupHandlesKHR) &&
+                            PN_DEVICE_PROC(dev->rt.trace, vkCmdTraceRaysKHR);
+#undef PN_DEVICE_PROC
+        dev->accel = dev->ray_query || dev->ray_pipeline;
     }
     vkGetDeviceQueue(dev->device, dev->queue_family, 0, &dev->queue);
     VkCommandPoolCreateInfo pi = {

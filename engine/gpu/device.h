@@ -50,17 +50,27 @@ typedef struct pn_gpu_device {
     VkCommandPool cmd_pool;
     bool validation;
     bool present;                 // VK_KHR_swapchain enabled, the queue can present (desc.present)
-    // VK_KHR_ray_query with VK_KHR_acceleration_structure, enabled wherever the device has both
-    // (Mesa 25 lavapipe, RTX, RDNA2+, Arc); the rayquery shadow mode needs them.
+    // VK_KHR_acceleration_structure (gpu/tlas.h), enabled wherever the device also has one way
+    // to trace it: ray queries (VK_KHR_ray_query: Mesa 25 lavapipe, RTX, RDNA2+, Arc; the rayquery
+    // shadow mode) or ray-tracing pipelines (VK_KHR_ray_tracing_pipeline: the same, and NVIDIA's
+    // drivers that offer no ray queries; the rtpipeline shadow mode).
+    bool accel;
     bool ray_query;
-    VkPhysicalDeviceAccelerationStructurePropertiesKHR as_props; // with ray_query
-    struct {                                                      // loaded with ray_query
+    bool ray_pipeline;
+    VkPhysicalDeviceAccelerationStructurePropertiesKHR as_props; // with accel
+    VkPhysicalDeviceRayTracingPipelinePropertiesKHR rt_props;    // with ray_pipeline
+    struct {                                                      // loaded with accel
         PFN_vkCreateAccelerationStructureKHR create;
         PFN_vkDestroyAccelerationStructureKHR destroy;
         PFN_vkGetAccelerationStructureBuildSizesKHR build_sizes;
         PFN_vkCmdBuildAccelerationStructuresKHR cmd_build;
         PFN_vkGetAccelerationStructureDeviceAddressKHR address;
     } as;
+    struct { // loaded with ray_pipeline
+        PFN_vkCreateRayTracingPipelinesKHR create;
+        PFN_vkGetRayTracingShaderGroupHandlesKHR handles;
+        PFN_vkCmdTraceRaysKHR trace;
+    } rt;
     unsigned validation_messages; // warnings and errors reported by the layer so far
     pn_gpu_fault_desc fault;      // as given, in PN_FAULT_INJECTION builds; zero in others
     uint64_t fault_count;         // allocations so far, with fault.count

@@ -79,7 +79,20 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                             .traces = true,
                             .alpha_masks = true,
                             .exact = true,
+                            .ray_query = true,
                             .auto_trees = 1},
+    // The same structure through a ray generation shader per pixel; masked casters' texels in an
+    // any-hit shader. The GPU vendor's own traversal (on NVIDIA without ray queries too): the peer
+    // a GPU's exact must beat, as Embree is on a CPU.
+    [PN_SHADOW_RTPIPELINE] = {.name = "rtpipeline",
+                              .help = "the device's ray-tracing pipeline (VK_KHR_ray_tracing_pipeline; Mesa 25 lavapipe, "
+                                      "NVIDIA, RDNA2+, Arc)",
+                              .needs = {.tlas = true, .exact_pools_if_masked = true},
+                              .traces = true,
+                              .alpha_masks = true,
+                              .exact = true,
+                              .ray_pipeline = true,
+                              .auto_trees = 1},
 };
 
 const char *const pn_traversal_names[] = {[PN_TRAVERSAL_RAY] = "ray", [PN_TRAVERSAL_PACKET] = "packet",
@@ -143,7 +156,10 @@ bool pn_shadow_mode_takes_scene(pn_shadow_mode m, const pn_scene *scene, char *w
 bool pn_shadow_mode_available(const pn_gpu_device *dev, pn_shadow_mode m, const char **why)
 {
     const pn_shadow_mode_info *info = pn_shadow_mode_get(m);
-    const char *lack = !info ? "no such mode" : info->needs.tlas && !dev->ray_query ? "ray queries (VK_KHR_ray_query)" : NULL;
+    const char *lack = !info                                    ? "no such mode"
+                       : info->ray_query && !dev->ray_query       ? "ray queries (VK_KHR_ray_query)"
+                       : info->ray_pipeline && !dev->ray_pipeline ? "ray-tracing pipelines (VK_KHR_ray_tracing_pipeline)"
+                                                                  : NULL;
     if (why)
         *why = lack;
     return lack == NULL;

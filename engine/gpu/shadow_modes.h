@@ -21,6 +21,7 @@ typedef enum pn_shadow_mode {
     PN_SHADOW_EXACT_LS,  // line spaces skip empty space; set shafts test their triangles exactly
     PN_SHADOW_EXACT,     // BVH and watertight triangle tests: the reference
     PN_SHADOW_RAYQUERY,  // the device's ray queries through its own acceleration structure
+    PN_SHADOW_RTPIPELINE, // the device's ray-tracing pipeline through the same structure
     PN_SHADOW_MODE_COUNT
 } pn_shadow_mode;
 
@@ -60,7 +61,7 @@ typedef struct pn_shadow_needs {
     bool bvh;         // a BVH over all triangles
     bool exact_pools; // triangles, BVH and candidate lists on the GPU, for exact triangle tests
     bool planes;      // the tree's leaf planes (ls-plane)
-    bool tlas;        // a device-built acceleration structure (gpu/tlas.h); needs ray queries
+    bool tlas;        // a device-built acceleration structure (gpu/tlas.h)
     // exact_pools, but only on a scene with alpha-masked casters: the triangle pool holds their
     // texels (accel/alpha.h), which rayquery tests at its hits and the line-space modes in the
     // leaves holding them (with those leaves' candidate lists); an opaque scene's rays never read it.
@@ -70,7 +71,7 @@ typedef struct pn_shadow_needs {
 typedef struct pn_shadow_mode_info {
     const char *name;          // on the command line and in every output
     const char *help;          // one line for --help
-    const uint32_t *spirv;     // its shadow shader
+    const uint32_t *spirv;     // its shadow shader (NULL for ray_pipeline)
     size_t spirv_size;         // bytes
     int32_t variant;           // the shader's MODE specialisation constant (PN_VARIANT_*)
     pn_shadow_needs needs;
@@ -89,6 +90,11 @@ typedef struct pn_shadow_mode_info {
     // tracing mode has it; a new one without it would refuse scenes with masked casters
     // (pn_shadow_mode_takes_scene), as per-object trees do (shadow/setup.c).
     bool alpha_masks;
+    // What the device must have: ray queries (VK_KHR_ray_query, in its compute shader), or
+    // ray-tracing pipelines (VK_KHR_ray_tracing_pipeline: the mode traces through one made of the
+    // shadow_rtpipeline.* shaders, gpu/raytrace.h, instead of a compute shader).
+    bool ray_query;
+    bool ray_pipeline;
     uint8_t auto_trees;        // --quality auto tries the first this many of its standard trees
                                // (a mode without a tree: 1 tries it once, 0 not at all)
 } pn_shadow_mode_info;

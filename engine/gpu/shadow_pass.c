@@ -9,6 +9,10 @@
 #include "core/log.h"
 #include "gpu/pools.h"
 #include "shadow_project_comp.h"
+#include "shadow_rtpipeline_rahit.h"
+#include "shadow_rtpipeline_rchit.h"
+#include "shadow_rtpipeline_rgen.h"
+#include "shadow_rtpipeline_rmiss.h"
 
 uint32_t pn_shadow_samples(uint32_t spp, const pn_light *light) { return pn_light_is_point(light) ? 1 : spp; }
 
@@ -150,14 +154,25 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                  .pData = out->spec_data};
     const VkBufferUsageFlags ADDRESSED = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     uint64_t px = (uint64_t)desc->width * desc->height;
+    bool ray = out->mode->ray_pipeline;
+    out->stage = ray ? VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR : VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     pn_result r = pn_gpu_compute_create(dev,
-                                        &(pn_gpu_compute_desc){.spirv = out->spirv,
+                                        &(pn_gpu_compute_desc){.spirv = ray ? NULL : out->spirv,
                                                                .spirv_size = out->spirv_size,
                                                                .bindings = bindings,
                                                                .binding_count = PN_SHADOW_BINDING_COUNT + tlas,
                                                                .push_size = sizeof(pn_shadow_chunk),
-                                                               .spec = &spec},
+                                                               .spec = &spec,
+                                                               .stages = ray ? PN_GPU_RAY_STAGES : 0},
                                         &out->compute);
+    // The any-hit shader only where masked casters can call it (their geometry alone is not opaque).
+    pn_gpu_ray_shaders shaders = {
+        pn_spv_shadow_rtpipeline_rgen, pn_spv_shadow_rtpipeline_rmiss, pn_spv_shadow_rtpipeline_rchit,
+        alpha_masks ? pn_spv_shadow_rtpipeline_rahit : NULL, sizeof pn_spv_shadow_rtpipeline_rgen,
+        sizeof pn_spv_shadow_rtpipeline_rmiss, sizeof pn_spv_shadow_rtpipeline_rchit,
+        sizeof pn_spv_shadow_rtpipeline_rahit};
+    if (r == PN_OK && ray)
+        r = pn_gpu_ray_pipeline_create(dev, out->compute.layout, &shaders, &spec, &out->ray);
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "shadow pass's parameters", sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                  &out->params);
@@ -234,6 +249,7 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
     for (int k = 0; k < PN_PROJECT_SIZES; k++)
         if (s->by_samples[k])
             vkDestroyPipeline(dev->device, s->by_samples[k], NULL);
+    pn_gpu_ray_pipeline_destroy(dev, &s->ray);
     pn_gpu_compute_destroy(dev, &s->compute);
     pn_gpu_image_destroy(dev, &s->counts);
     pn_gpu_image_destroy(dev, &s->adapt);
@@ -365,14 +381,13 @@ static VkPipeline pipeline_for(const pn_shadow_pass *s, uint32_t rays, bool proj
 
 // Each dispatch reads the counts the previous one wrote (see ShadowChunk in interface.h), and an
 // indirect one its group count.
-static void between_dispatches(VkCommandBuffer cmd)
+static void between_dispatches(VkCommandBuffer cmd, const pn_shadow_pass *s)
 {
-    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
-                                           .srcStageMask = COMPUTE,
+                                           .srcStageMask = s->stage,
                                            .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                           .dstStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                           .dstStageMask = s->stage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                                            .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                                                             VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT |
                                                             VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT},
@@ -383,6 +398,17 @@ static void between_dispatches(VkCommandBuffer cmd)
 // of list ch.list_in - 1, as many groups as the list fills.
 static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch, bool project)
 {
+    if (s->ray.pipeline) {
+        // One ray generation invocation per pixel of the tiles (its launch id), or per place in
+        // the list: the list's length is known only on the device, so the launch covers the
+        // longest (every pixel) and the places past its end return at once (shadow_list_pixel).
+        uint32_t side = PN_WORKGROUP, groups_y = s->tile_total / s->tiles_across;
+        if (ch->list_in == 0)
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, s->tiles_across * side, groups_y * side);
+        else
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, s->tile_total * side * side, 1);
+        return;
+    }
     pn_gpu_compute c = s->compute;
     c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin, project);
     if (ch->list_in == 0) {
@@ -409,7 +435,7 @@ static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
         pn_shadow_chunk ch = {.sample_begin = b, .sample_end = e, .first = b == 0 && !list_in, .last = e == end,
                               .light = light, .list_in = list_in};
         if (b > begin)
-            between_dispatches(cmd);
+            between_dispatches(cmd, s);
         dispatch(cmd, s, &ch, project);
     }
 }
@@ -417,10 +443,10 @@ static void record_samples(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
 // Empties pixel list k for a decision to fill, after every earlier use of the lists.
 static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k)
 {
-    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
+    const VkPipelineStageFlags2 STAGE = s->stage, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
-                                           .srcStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                           .srcStageMask = STAGE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                                            .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                            .dstStageMask = COPY,
                                            .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT},
@@ -431,15 +457,41 @@ static void reset_list(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t k)
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = COPY,
                                            .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                                           .dstStageMask = COMPUTE,
+                                           .dstStageMask = STAGE,
                                            .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                                                             VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT},
                        0, NULL);
 }
 
+// The passes around the shadow pass order their work against the compute stage. A ray-tracing
+// pass bridges to it: before its first launch, everything earlier (the G-buffer's P and N, V's
+// discard, the previous light's reads) before its shaders; after its last, its writes before
+// compute (the filter, the shading), from which the renderer's own barriers chain on.
+static void bridge(VkCommandBuffer cmd, const pn_shadow_pass *s, bool begin)
+{
+    if (s->stage == VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT)
+        return;
+    const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+    VkMemoryBarrier2 b = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                          .srcStageMask = begin ? VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT : s->stage,
+                          .srcAccessMask = begin ? VK_ACCESS_2_MEMORY_WRITE_BIT : VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                          .dstStageMask = begin ? s->stage : VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                          .dstAccessMask = RW | (begin ? VK_ACCESS_2_UNIFORM_READ_BIT : 0)};
+    pn_gpu_cmd_barrier(cmd, &b, 0, NULL);
+}
+
+static void record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light);
+
 void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
 {
-    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+    bridge(cmd, s, true);
+    record(cmd, s, samples, light);
+    bridge(cmd, s, false);
+}
+
+static void record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
+{
+    const VkPipelineStageFlags2 STAGE = s->stage;
     uint32_t spp = s->mode->traces ? samples : 1;
     bool resume = s->resume_from != 0; // the renderer sets it only for an adaptive frame with more samples
     // The counts and the adaptive images are rewritten from the first chunk on: discard what the
@@ -448,7 +500,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     const pn_gpu_image *images[4] = {&s->counts, &s->adapt, &s->rays, &s->blockers};
     for (int i = 0; i < 4; i++)
         fresh[i] = pn_gpu_image_barrier(images[i], VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
-                                        COMPUTE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                        STAGE, VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                         resume ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED,
                                         VK_IMAGE_LAYOUT_GENERAL);
     pn_gpu_cmd_barrier(cmd, NULL, 4, fresh);
@@ -473,7 +525,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
     uint32_t list_in = 0, out = 0;
     for (uint32_t decision = 1;; decision++) {
         reset_list(cmd, s, out);
-        between_dispatches(cmd);
+        between_dispatches(cmd, s);
         // The last decision only reports (.last): a pixel's rays are the samples it took.
         dispatch(cmd, s,
                  &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out,
@@ -481,7 +533,7 @@ void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_
                  false);
         if (decision > rounds)
             break;
-        between_dispatches(cmd);
+        between_dispatches(cmd, s);
         record_samples(cmd, s, s->spp_min, spp, 1 + out, light, false);
         list_in = 1 + out;
         out ^= 1;

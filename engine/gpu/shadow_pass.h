@@ -6,6 +6,7 @@
 #pragma once
 #include "gpu/compute.h"
 #include "gpu/frame.h"
+#include "gpu/raytrace.h"
 #include "gpu/resources.h"
 #include "scene/view.h"
 
@@ -14,7 +15,13 @@ enum { PN_PROJECT_SIZES = 6 };     // 32, 64 .. PN_PROJECT_MAX_SAMPLES (1024) sa
 
 typedef struct pn_shadow_pass {
     const pn_shadow_mode_info *mode;
-    pn_gpu_compute compute; // its pipeline is the one for PN_MAX_CHUNK rays
+    pn_gpu_compute compute; // its pipeline is the one for PN_MAX_CHUNK rays (none for a ray_pipeline mode)
+    // A mode with ray_pipeline (rtpipeline): its pipeline, traced with compute's set and pushes.
+    pn_gpu_ray_pipeline ray;
+    // The stage its shaders run in: compute, or ray tracing for ray_pipeline. The pass's barriers
+    // name it, and bridge to compute at its ends (pn_shadow_pass_record), so the passes around it
+    // see a compute pass whatever the mode.
+    VkPipelineStageFlags2 stage;
     // A mode with packet_rays under packet traversal: by_rays[k] is the pipeline for at most 2^k
     // rays of a pixel per dispatch, made when a frame first needs it (pn_shadow_pass_prepare);
     // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits.

@@ -1,4 +1,4 @@
-// The scene's triangles in a device-built acceleration structure, for --mode rayquery.
+// The scene's triangles in a device-built acceleration structure, for --mode rayquery and rtpipeline.
 #include "gpu/tlas.h"
 
 #include <stdio.h>
@@ -223,12 +223,13 @@ static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t,
     };
     PN_TRY(build_level(dev, cmd, "top-level", VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, &insts, 1, (uint32_t[1]){1},
                        &t->tlas_buffer, &t->tlas, &scratch[1]));
-    // Ready for the shadow pass's ray queries.
+    // Ready for the shadow pass's ray queries (compute) or its ray-tracing pipeline.
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
                                            .srcAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
-                                           .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                           .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
+                                                           (dev->ray_pipeline ? VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR : 0),
                                            .dstAccessMask = VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR},
                        0, NULL);
     return PN_OK;
@@ -237,9 +238,10 @@ static pn_result record(pn_gpu_device *dev, VkCommandBuffer cmd, pn_gpu_tlas *t,
 pn_result pn_gpu_tlas_create(pn_gpu_device *dev, const pn_scene *scene, pn_gpu_tlas *out)
 {
     memset(out, 0, sizeof *out);
-    if (!dev->ray_query) {
-        pn_error("%s has no ray queries (VK_KHR_ray_query, VK_KHR_acceleration_structure): mode rayquery needs them "
-                 "(Mesa 25's lavapipe has them: see ci/deps.sh)",
+    if (!dev->accel) {
+        pn_error("%s has no acceleration structures with ray queries or ray-tracing pipelines (VK_KHR_acceleration_"
+                 "structure with VK_KHR_ray_query or VK_KHR_ray_tracing_pipeline): modes rayquery and rtpipeline need "
+                 "them (Mesa 25's lavapipe has them: see ci/deps.sh)",
                  dev->props.deviceName);
         return PN_ERR_UNSUPPORTED;
     }

@@ -25,18 +25,23 @@ bool pixel_last;
 // (512 x 512, exact, default scene): a dispatch over the whole image in which no pixel traced took
 // 6.5 ms, as much as a sixth of a 4-sample round; over the tiles holding a pixel that goes on
 // (dragon view, 4:64), 79% of the lanes of a SIMD group with work had any, and their rays were
-// 72% of what full groups would trace.
-ivec2 shadow_invocation_pixel(ivec2 local)
+// 72% of what full groups would trace. shadow_list_pixel: the list's i-th pixel.
+ivec2 shadow_list_pixel(uint i)
 {
-    if (chunk.list_in == 0u)
-        return ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + local;
     uint list = (chunk.list_in - 1u) * PN_PIXEL_LIST_WORDS(params.tile_total);
-    uint i = gl_WorkGroupID.x * uint(PN_WORKGROUP * PN_WORKGROUP) + gl_LocalInvocationIndex;
     if (i >= pixel_lists.words[list + 3u])
         return ivec2(-1);
     uint packed = pixel_lists.words[list + 4u + i];
     return ivec2(packed & 0xffffu, packed >> 16u);
 }
+#ifndef PN_RAY_GENERATION // a ray generation shader has launch ids instead (shadow_rtpipeline.rgen)
+ivec2 shadow_invocation_pixel(ivec2 local)
+{
+    if (chunk.list_in == 0u)
+        return ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + local;
+    return shadow_list_pixel(gl_WorkGroupID.x * uint(PN_WORKGROUP * PN_WORKGROUP) + gl_LocalInvocationIndex);
+}
+#endif
 
 const uint MAX_CHUNK = PN_MAX_CHUNK; // rays of one dispatch (shadow_pass.c keeps chunks at most this big)
 
