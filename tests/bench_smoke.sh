@@ -6,7 +6,7 @@
 # positive time and an Embree ratio; the context names the driver and the reference. The filter is an
 # axis: every configuration appears unfiltered and filtered (3x3), a filtered cell's time is its
 # shadow and filter passes, and it reports its edge leak (metrics.h) over a non-empty band. rayquery is a row wherever the device has ray queries (penumbra info
-# says), with an error near zero: it traces exact's rays with the driver's own triangle test, which
+# says), and rtpipeline wherever it has ray-tracing pipelines, each with an error near zero: it traces exact's rays with the driver's own triangle test, which
 # may decide a ray grazing an edge the other way (test_exact_oracle checks it ray for ray). The
 # time-to-error table names, per level, the unfiltered exact cell with the least spp within it
 # (Embree run plain) and the fastest cell of all, and none of Embree's figures with --no-embree.
@@ -34,18 +34,20 @@ chans=$(exrheader "$edge" 2>/dev/null | sed -n 's/^ *\([A-Za-z._]*\), 32-bit flo
 [ "$chans" = "N.X N.Y N.Z P.X P.Y P.Z Z edge reference.V shadow.V shadow.V_raw shadow.penumbra shadow.valid " ] \
   || { echo "FAIL: $edge has channels '$chans'"; fail=1; }
 oiiotool "$edge" --ch Z --printstats 2>/dev/null | grep -q "Max: *[1-9]" || { echo "FAIL: $edge has no view depth"; fail=1; }
-rq=0
+rq=0 rt=0
 "$BIN" info | grep -q "ray queries: *yes" && rq=1
-python3 - "$OUT/bench.json" "$rq" <<'PY' || fail=1
+"$BIN" info | grep -q "ray-tracing pipelines: *yes" && rt=1
+python3 - "$OUT/bench.json" "$rq" "$rt" <<'PY' || fail=1
 import json, sys
 j = json.load(open(sys.argv[1]))
-rq = sys.argv[2] == "1"
+rq, rt = sys.argv[2] == "1", sys.argv[3] == "1"
 ctx, rows = j["context"], j["results"]
 assert ctx["device"] and ctx["threads"] >= 1 and ctx["driver"] and ctx["driver_info"], ctx
 assert ctx["reference"]["mode"] == "exact" and ctx["reference"]["spp"] == 1024 and ctx["reference"]["seed"] != 1, ctx
 modes = {r["mode"] for r in rows}
-assert modes == {"exact", "exact-ls", "hybrid", "linespace", "ls-leaf", "ls-plane"} | ({"rayquery"} if rq else set()), modes
-assert len(rows) == 2 * (1 + 5 * 2 + rq), len(rows)  # (exact, five tree modes x two trees, rayquery) x two filters
+assert modes == ({"exact", "exact-ls", "hybrid", "linespace", "ls-leaf", "ls-plane"} | ({"rayquery"} if rq else set())
+                 | ({"rtpipeline"} if rt else set())), modes
+assert len(rows) == 2 * (1 + 5 * 2 + rq + rt), len(rows)  # (exact, five tree modes x two trees, rayquery, rtpipeline) x two filters
 assert ctx["filters"] == ["none", "interleaved"] and ctx["tile"] == [3, 3], ctx
 for r in rows:
     if r["filter"] == "none":
@@ -69,7 +71,7 @@ for r in rows:
         assert r["bias"]["max"] == 0, r
     if r["mode"] == "linespace":
         assert r["bias"]["mae"] > 0, r
-    if r["mode"] == "rayquery":
+    if r["mode"] in ("rayquery", "rtpipeline"):
         assert r["bias"]["mae"] <= 1e-3, r
 # The time-to-error table: one entry per error level for the one view and size; each mode's entry is
 # its fastest row within the level.

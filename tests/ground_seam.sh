@@ -29,10 +29,11 @@ json.dump({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], 
 PY
 view=(--size 256x256 --spp 4 --no-ground --camera-pos 0.040527,0.27954,0.30458 --camera-target 0.03419,0.08491,-0.0046
       --light-pos -0.17936,0.3385,0.062134 --light-normal 0.17351,-0.21355,-0.066734 --light-size 0.066734,0.066734)
-rq=0
+rq=0 rt=0
 "$BIN" info | grep -q "ray queries: *yes" && rq=1
+"$BIN" info | grep -q "ray-tracing pipelines: *yes" && rt=1
 fail=0
-for mode in exact linespace ls-leaf ls-plane hybrid exact-ls $([ $rq = 1 ] && echo rayquery); do
+for mode in exact linespace ls-leaf ls-plane hybrid exact-ls $([ $rq = 1 ] && echo rayquery) $([ $rt = 1 ] && echo rtpipeline); do
   "$BIN" render "$T/quad.gltf" "${view[@]}" --mode $mode --tree 6,3 -o "$T/$mode.exr" >/dev/null \
     || { echo "FAIL: render $mode"; fail=1; continue; }
   # Covered pixels have A = 1; the least V over them must be 1 (background V = 0 is masked out).

@@ -12,7 +12,7 @@ RUNOFF_MAX = 4
 MAX_SPP = 256
 ADAPTIVE_MIN = 4      # quality.h: PN_QUALITY_ADAPTIVE_MIN
 ADAPTIVE_STEPS = 6    # PN_QUALITY_ADAPTIVE_STEPS
-EXACT_MODES = ("exact", "exact-ls", "rayquery")
+EXACT_MODES = ("exact", "exact-ls", "rayquery", "rtpipeline")
 
 
 def f32(x):

@@ -173,9 +173,10 @@ static void counts_free(counts *c)
     free(c->edge);
 }
 
-// rayquery (r) against exact (x) on the same scene and view: V bit for bit on every pixel but
-// those the oracle leaves out, where the two triangle tests' rounding may differ (the header).
-static void check_same_v(const char *what, const counts *x, const counts *r)
+// The device's traversal (r: rayquery or rtpipeline, `mode`) against exact (x) on the same scene
+// and view: V bit for bit on every pixel but those the oracle leaves out, where the two triangle
+// tests' rounding may differ (the header).
+static void check_same_v(const char *what, const char *mode, const counts *x, const counts *r)
 {
     int differ = 0, off_edge = 0;
     for (int i = 0; x->v && r->v && x->edge && i < x->pixels && i < r->pixels; i++)
@@ -183,9 +184,9 @@ static void check_same_v(const char *what, const counts *x, const counts *r)
             differ++;
             off_edge += !x->edge[i];
         }
-    printf("%s: rayquery's V differs from exact's on %d pixels, %d of them off the edges\n", what, differ, off_edge);
+    printf("%s: %s's V differs from exact's on %d pixels, %d of them off the edges\n", what, mode, differ, off_edge);
     CHECK_MSG(x->v && r->v && x->pixels == r->pixels && off_edge == 0,
-              "%s: rayquery's V differs from exact's on %d pixels away from every edge", what, off_edge);
+              "%s: %s's V differs from exact's on %d pixels away from every edge", what, mode, off_edge);
 }
 
 // Renders `gltf` under a 2 x 2 rectangle at (0, 2, 0) facing down, 16 spp, and returns per pixel
@@ -253,25 +254,30 @@ int main(void)
     const char *side = "--camera-pos 2.2,1.2,1.6 --camera-target 0,0,0";
     pn_gpu_device_desc dd = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
-    bool ray_query = pn_gpu_device_create(&dd, &dev) == PN_OK && dev.ray_query;
+    bool made = pn_gpu_device_create(&dd, &dev) == PN_OK;
+    bool ray_query = made && dev.ray_query, ray_pipeline = made && dev.ray_pipeline;
     pn_gpu_device_destroy(&dev);
     if (!ray_query)
         printf("rayquery: skipped, the device has no VK_KHR_ray_query (PN_MESA=stock, Mesa 22.3)\n");
+    if (!ray_pipeline)
+        printf("rtpipeline: skipped, the device has no VK_KHR_ray_tracing_pipeline (PN_MESA=stock, Mesa 22.3)\n");
     // The scene with an opaque ground in every mode, then (exact, rayquery) the one with every
     // triangle masked. The line-space modes test the quad's leaves exactly (they hold its masked
     // triangles), so they too draw the checkerboard without a pixel off; the ground's own leaves are
     // where rays start, culled or skipped, so nothing else blocks.
     const char *runs[][3] = {{gltf, "exact", ""},          {gltf, "exact", "--traversal ray"},
                              {gltf, "exact-ls", ""},       {gltf, "exact-ls", "--traversal packet"},
-                             {gltf, "rayquery", ""},       {gltf, "linespace", ""},
+                             {gltf, "rayquery", ""},       {gltf, "rtpipeline", ""},
+                             {gltf, "linespace", ""},
                              {gltf, "linespace", "--traversal packet"}, {gltf, "linespace", "--tree 4,2"},
                              {gltf, "ls-leaf", ""},        {gltf, "ls-plane", "--traversal packet"},
                              {gltf, "hybrid", ""},         {gltf_all, "exact", ""},
-                             {gltf_all, "rayquery", ""}};
+                             {gltf_all, "rayquery", ""},   {gltf_all, "rtpipeline", ""}};
     counts exact = {0};
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++) {
-        bool rq = strcmp(runs[r][1], "rayquery") == 0;
-        if (rq && !ray_query)
+        // The device's own traversals (rayquery, rtpipeline) against exact's V.
+        bool rt = strcmp(runs[r][1], "rtpipeline") == 0, rq = rt || strcmp(runs[r][1], "rayquery") == 0;
+        if ((rq && !rt && !ray_query) || (rt && !ray_pipeline))
             continue;
         // exact's V (its default traversal), for rayquery's on the same scene.
         bool keep = rq || (strcmp(runs[r][1], "exact") == 0 && runs[r][2][0] == 0);
@@ -281,7 +287,7 @@ int main(void)
         CHECK_MSG(c.quad > 200 && c.wrong_quad == 0, "%s %s: %d quad pixels on cut-out texels", runs[r][0], runs[r][1],
                   c.wrong_quad);
         if (rq)
-            check_same_v(runs[r][0], &exact, &c);
+            check_same_v(runs[r][0], runs[r][1], &exact, &c);
         if (keep && !rq) {
             counts_free(&exact);
             exact = c;

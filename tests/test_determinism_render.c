@@ -174,7 +174,8 @@ static int compare_pixels(const char *label, const char *pa, const char *pb, int
 }
 
 // Whether `penumbra info` reports ray queries.
-static bool has_ray_queries(void)
+// Whether `penumbra info` says yes on its line starting with `what` ("ray queries:").
+static bool info_says_yes(const char *what)
 {
     char cmd[1200];
     snprintf(cmd, sizeof cmd, "\"%s\" info 2>/dev/null", pn_test_env("PN_BIN", "penumbra"));
@@ -184,7 +185,7 @@ static bool has_ray_queries(void)
     char line[512];
     bool yes = false;
     while (fgets(line, sizeof line, p))
-        if (strstr(line, "ray queries:") && strstr(line, "yes"))
+        if (strstr(line, what) && strstr(line, "yes"))
             yes = true;
     pclose(p);
     return yes;
@@ -286,10 +287,14 @@ int main(void)
     char first[1100] = "";
     for (size_t i = 0; i < sizeof cfg / sizeof *cfg; i++)
         check_config(scene, cfg[i].label, cfg[i].args, i == 0 ? first : NULL, sizeof first);
-    if (has_ray_queries())
+    if (info_says_yes("ray queries:"))
         check_config(scene, "rayquery", "--mode rayquery", NULL, 0);
     else
         printf("rayquery: not compared (penumbra info reports no ray queries)\n");
+    if (info_says_yes("ray-tracing pipelines:"))
+        check_config(scene, "rtpipeline", "--mode rtpipeline", NULL, 0);
+    else
+        printf("rtpipeline: not compared (penumbra info reports no ray-tracing pipelines)\n");
     if (*first) {
         check_control(scene, first);
         remove(first);

@@ -164,13 +164,21 @@ int main(void)
     // rayquery where the device has ray queries (Mesa 25's lavapipe does, 22.3's does not).
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
-    bool rq = pn_gpu_device_create(&desc, &dev) == PN_OK && dev.ray_query;
+    bool made = pn_gpu_device_create(&desc, &dev) == PN_OK;
+    bool rq = made && dev.ray_query, rt = made && dev.ray_pipeline;
     pn_gpu_device_destroy(&dev);
     if (rq) {
         check_scene(bunny, "bunny", "rayquery", "auto", 16);
         check_scene(sponza, "sponza", "rayquery", "auto", 16);
     } else {
         fprintf(stderr, "rayquery: skipped, the device has no VK_KHR_ray_query (PN_MESA=stock, Mesa 22.3)\n");
+    }
+    // rtpipeline, the same structure through the device's ray-tracing pipeline.
+    if (rt) {
+        check_scene(bunny, "bunny", "rtpipeline", "auto", 16);
+        check_scene(sponza, "sponza", "rtpipeline", "auto", 16);
+    } else {
+        fprintf(stderr, "rtpipeline: skipped, the device has no VK_KHR_ray_tracing_pipeline (PN_MESA=stock, Mesa 22.3)\n");
     }
     return pn_test_result();
 }

@@ -299,14 +299,17 @@ static void check_extremes(void)
 {
     const double cases[4][2] = {{1e-4, 0}, {1e6, 0}, {1, 1e4}, {1e3, 1e7}};
     // exact walks by projection at 256 spp (auto's choice); the packet walk too, by name.
-    const char *modes[] = {"exact", "exact --traversal packet", "exact-ls", "rayquery", "hybrid", "linespace", "ls-leaf",
-                           "ls-plane"};
+    const char *modes[] = {"exact",  "exact --traversal packet", "exact-ls", "rayquery", "rtpipeline", "hybrid",
+                           "linespace", "ls-leaf", "ls-plane"};
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
-    bool ray_query = pn_gpu_device_create(&desc, &dev) == PN_OK && dev.ray_query;
+    bool made = pn_gpu_device_create(&desc, &dev) == PN_OK;
+    bool ray_query = made && dev.ray_query, ray_pipeline = made && dev.ray_pipeline;
     pn_gpu_device_destroy(&dev);
     if (!ray_query)
         printf("rayquery at the extremes: skipped, the device has no VK_KHR_ray_query\n");
+    if (!ray_pipeline)
+        printf("rtpipeline at the extremes: skipped, the device has no VK_KHR_ray_tracing_pipeline\n");
     for (int c = 0; c < 4; c++) {
         double sc = cases[c][0], t = cases[c][1];
         char name[64];
@@ -321,10 +324,10 @@ static void check_extremes(void)
         // The spacing of floats at the case's magnitude, in local units.
         double mag = fabs(t) + 4 * sc, ulp = mag * 1.1920929e-7 / sc;
         for (size_t m = 0; m < sizeof modes / sizeof modes[0]; m++) {
-            if (strcmp(modes[m], "rayquery") == 0 && !ray_query)
+            bool rq = strcmp(modes[m], "rayquery") == 0, rt = strcmp(modes[m], "rtpipeline") == 0;
+            if ((rq && !ray_query) || (rt && !ray_pipeline))
                 continue;
-            bool tree = strncmp(modes[m], "exact ", 6) != 0 && strcmp(modes[m], "exact") != 0 &&
-                        strcmp(modes[m], "rayquery") != 0;
+            bool tree = strncmp(modes[m], "exact ", 6) != 0 && strcmp(modes[m], "exact") != 0 && !rq && !rt;
             bool exact = tree ? strcmp(modes[m], "exact-ls") == 0 : true;
             double leaf = (0.5 + 8 * ulp) / 16, e_far = 0.25 + (exact ? 0 : 4 * leaf + 8 * ulp);
             for (int k = 0; k < 4; k++) {
@@ -527,12 +530,13 @@ int main(void)
     // Every mode takes every kind: the same view under the sun and a spot in each mode. The exact
     // ones give exact's V bit for bit; the line-space ones their approximation (mean |V - exact's|
     // below 0.05 here; bench and engine/shadow/README.md give their errors).
-    const char *modes[] = {"exact-ls", "rayquery", "hybrid", "linespace", "ls-leaf", "ls-plane"};
+    const char *modes[] = {"exact-ls", "rayquery", "rtpipeline", "hybrid", "linespace", "ls-leaf", "ls-plane"};
     const char *kinds[4] = {"sun:0.3,-1,0.2:6:2", "spot:0.3,2,0.1:0,-1,0:25,40:5", "sphere:0.3,2,0.1:0.3:3",
                             "disk:0.3,2,0.1:0,-1,0:0,0,1:0.3:3"};
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
-    bool ray_query = pn_gpu_device_create(&desc, &dev) == PN_OK && dev.ray_query;
+    bool made = pn_gpu_device_create(&desc, &dev) == PN_OK;
+    bool ray_query = made && dev.ray_query, ray_pipeline = made && dev.ray_pipeline;
     pn_gpu_device_destroy(&dev);
     for (int k = 0; k < 4; k++) {
         frame ref;
@@ -541,8 +545,8 @@ int main(void)
         if (!render_mode(kinds[k], "exact", name, &ref))
             continue;
         for (size_t m = 0; m < sizeof modes / sizeof modes[0]; m++) {
-            if (m == 1 && !ray_query) {
-                printf("rayquery: skipped, the device has no VK_KHR_ray_query\n");
+            if ((m == 1 && !ray_query) || (m == 2 && !ray_pipeline)) {
+                printf("%s: skipped, the device lacks it\n", modes[m]);
                 continue;
             }
             snprintf(name, sizeof name, "kinds_%d_%s.exr", k, modes[m]);
@@ -554,9 +558,10 @@ int main(void)
                 double d = fabs((double)f.v[i] - ref.v[i]);
                 sum += d, worst = fmax(worst, d);
             }
-            // exact-ls tests exact's triangles with exact's test: the same V. rayquery's triangle
-            // test is the driver's: a ray grazing an edge may go the other way (none did here).
-            double bound = m == 0 ? 0.0 : m == 1 ? 1e-3 : 0.05;
+            // exact-ls tests exact's triangles with exact's test: the same V. rayquery's and
+            // rtpipeline's triangle test is the driver's: a ray grazing an edge may go the other
+            // way (none did here).
+            double bound = m == 0 ? 0.0 : m <= 2 ? 1e-3 : 0.05;
             printf("%s %s: mean |V - exact's| %.5f, max %.3f\n", kinds[k], modes[m], sum / n, worst);
             CHECK_MSG(m == 0 ? worst == 0 : sum / n < bound, "%s %s: mean |V - exact's| %.5f, max %.3f", kinds[k],
                       modes[m], sum / n, worst);

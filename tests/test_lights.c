@@ -306,7 +306,8 @@ int main(void)
         pn_scene_destroy(&scene);
         TEST_SKIP("no Vulkan device");
     }
-    const pn_shadow_mode modes[] = {PN_SHADOW_EXACT, PN_SHADOW_LINESPACE, PN_SHADOW_HYBRID, PN_SHADOW_RAYQUERY};
+    const pn_shadow_mode modes[] = {PN_SHADOW_EXACT, PN_SHADOW_LINESPACE, PN_SHADOW_HYBRID, PN_SHADOW_RAYQUERY,
+                                    PN_SHADOW_RTPIPELINE};
     for (size_t m = 0; m < sizeof modes / sizeof modes[0]; m++) {
         const char *lack = NULL;
         if (!pn_shadow_mode_available(&dev, modes[m], &lack)) {

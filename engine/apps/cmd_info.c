@@ -57,6 +57,8 @@ int pn_cmd_info(int argc, char **argv)
     printf("  driver:                     %s %s\n", dev.driver.driverName, dev.driver.driverInfo);
     printf("  largest buffer:             %.0f MiB\n", (double)pn_gpu_device_max_buffer(&dev) / 1048576.0);
     printf("  ray queries:                %s\n", dev.ray_query ? "yes (--mode rayquery)" : "no (--mode rayquery is refused)");
+    printf("  ray-tracing pipelines:      %s\n",
+           dev.ray_pipeline ? "yes (--mode rtpipeline)" : "no (--mode rtpipeline is refused)");
     printf("  max storage buffer range:   %u bytes (%.0f MiB)\n", l->maxStorageBufferRange,
            l->maxStorageBufferRange / 1048576.0);
     printf("  device-local heap:          %.0f MiB\n", (double)heap / 1048576.0);

@@ -448,7 +448,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
         total += candidate_trees(dev, scene, (pn_shadow_mode)m);
     for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
         const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
-        int trees = candidate_trees(dev, scene, (pn_shadow_mode)m); // 0: not a candidate here (rayquery without ray queries)
+        int trees = candidate_trees(dev, scene, (pn_shadow_mode)m); // 0: not a candidate here (rayquery, rtpipeline on a device without them)
         for (int t = 0; r == PN_OK && t < trees; t++) {
             sd.frame.mode = (pn_shadow_mode)m;
             sd.frame.spp = 1;

@@ -52,7 +52,7 @@ typedef struct pn_quality_choice {
 // Renders a pilot (the frame's framing at about 128x128 pixels, or the frame itself when smaller)
 // with the converged reference (exact, reference_spp samples, PN_REFERENCE_SEED), then every
 // configuration of the mode table (gpu/shadow_modes.c: line space, coarse to fine trees, hybrid,
-// exact-ls, exact, rayquery where the device has ray queries) at 1, 2, 4, ... PN_QUALITY_MAX_SPP
+// exact-ls, exact, rayquery and rtpipeline where the device has them) at 1, 2, 4, ... PN_QUALITY_MAX_SPP
 // samples per pixel with frame's sampler and seed, and picks the fastest whose pilot error (MAE of V
 // against the reference, over pixels with geometry) is at most max_error: by two standard errors
 // of margin when the pilot is smaller than the frame, and where the pilot cannot tell, by the same
