@@ -64,6 +64,8 @@ for r in rows:
     assert len(twin) == 1, (r, twin)
 for r in rows:
     assert r["gpu_ms"]["shadow"] > 0 and r["shadow_rays_per_s"] > 0 and r["vs_embree"] > 0, r
+    # Every cell's renderer readied its pipelines before its first frame, apart from the passes' times.
+    assert r["compile_ms"] > 0, r
     assert r["spp"] == 9 and r["reference"]["mae"] > 0 and r["reference"]["max"] >= r["reference"]["p99"], r
     # Unfiltered: a filtered V reads penumbra widths from the blocker each walk meets first, which
     # exact-ls's tree and exact's BVH may order differently (filter.comp).
@@ -165,7 +167,7 @@ if [ -f "$MESH" ]; then
     --filter none --spp 4 --repeat 1 --warmup 0 --no-embree --out "$OUT/kinds" > "$OUT/kinds.txt" \
     || { echo "FAIL: bench --tree-kinds"; fail=1; }
   grep -q "linespace 4,3 obj" "$OUT/kinds.txt" || { echo "FAIL: no per-object row on the console"; fail=1; }
-  head -1 "$OUT/kinds/bench.csv" | grep -q ",tree_kind,move_ms,spp_min,mean_rays,beyond_2se,traversal,projected,fallback$" || { echo "FAIL: bench.csv lacks tree_kind, move_ms, spp_min, mean_rays, beyond_2se, traversal, projected, fallback"; fail=1; }
+  head -1 "$OUT/kinds/bench.csv" | grep -q ",tree_kind,move_ms,spp_min,mean_rays,beyond_2se,traversal,projected,fallback,compile_ms$" || { echo "FAIL: bench.csv lacks tree_kind, move_ms, spp_min, mean_rays, beyond_2se, traversal, projected, fallback, compile_ms"; fail=1; }
   python3 - "$OUT/kinds/bench.json" <<'PY' || fail=1
 import json, sys
 j = json.load(open(sys.argv[1]))

@@ -8,7 +8,7 @@
 //    payload counts as a difference), not the compressed file bytes;
 //  - the header: every attribute's name, type and raw value bytes, read from the file itself,
 //    except the timings, which differ from run to run by design: penumbra.build_ms,
-//    penumbra.shadow_rays_per_s and penumbra.gpu_ms.{gbuffer,shadow,filter,shade}.
+//    penumbra.shadow_rays_per_s, penumbra.gpu_ms.{gbuffer,shadow,filter,shade} and penumbra.compile_ms.
 // The scene is the Stanford bunny (69k triangles) from ../shared/assets, or builtin:default when
 // the assets are missing; 96x72 pixels, 16 samples.
 #include <stdint.h>
@@ -23,7 +23,8 @@
 // Header attributes that record times: excluded by name, and only these.
 static const char *const g_timing_attrs[] = {"penumbra.build_ms",       "penumbra.shadow_rays_per_s",
                                              "penumbra.gpu_ms.gbuffer", "penumbra.gpu_ms.shadow",
-                                             "penumbra.gpu_ms.filter",  "penumbra.gpu_ms.shade"};
+                                             "penumbra.gpu_ms.filter",  "penumbra.gpu_ms.shade",
+                                             "penumbra.compile_ms"};
 
 static bool is_timing(const char *name)
 {

@@ -151,6 +151,8 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         F1("penumbra.gpu_ms.shadow", t->shadow_ms),
         F1("penumbra.gpu_ms.filter", t->filter_ms),
         F1("penumbra.gpu_ms.shade", t->shade_ms),
+        // Pipelines readied before the frame ran (pn_frame_times.compile_ms): not in the passes' times.
+        F1("penumbra.compile_ms", t->compile_ms),
         {.name = "penumbra.traversal",
          .type = PN_EXR_ATTR_STRING,
          .s = pn_traversal_names[pn_traversal_resolve(o->mode, o->traversal, o->spp, o->spp_min)]},

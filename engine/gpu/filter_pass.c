@@ -72,5 +72,5 @@ void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_
         .max_radius = pn_penumbra_max_radius(f->height),
     };
     uint32_t gx = (f->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (f->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
-    pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, gx, gy, 1);
+    pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, f->one_tile ? 1 : gx, f->one_tile ? 1 : gy, 1);
 }

@@ -11,6 +11,7 @@
 typedef struct pn_filter_pass {
     pn_gpu_compute compute; // specialised for the window (PN_SPEC_TILE_W, PN_SPEC_TILE_H)
     uint32_t width, height;
+    bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     uint32_t tile_w, tile_h; // the window: the tile of light_sample's interleaving
     VkImageView images[PN_FILTER_BINDING_COUNT]; // the set's, kept for a new window's pipeline
 } pn_filter_pass;

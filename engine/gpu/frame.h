@@ -68,6 +68,11 @@ static inline double pn_pixel_angle(double yfov_deg, uint32_t height)
 typedef struct pn_frame_times {
     double gbuffer_ms, shadow_ms, filter_ms, shade_ms; // GPU time per pass, from timestamp queries (filter
                                                        // 0 without one)
+    // Wall-clock time this frame spent readying pipelines before it ran, kept out of the passes'
+    // times: creating those it lacked (the renderer's own, on its first frame) and their first run,
+    // over one tile (renderer.c: warm_up), where a driver that compiles lazily (llvmpipe: at the
+    // first dispatch, 1.3 s of a cold cache's first shadow pass) does its compiling. 0 once warm.
+    double compile_ms;
 } pn_frame_times;
 
 // The frame's images after pn_renderer_render, in the renderer's host-visible readback buffer.

@@ -102,6 +102,7 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
                                                .dstAccessMask = RW},
                            0, NULL);
         push.stage = stage;
-        pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, (f->width + G - 1) / G, (f->height + G - 1) / G, 1);
+        uint32_t gx = f->one_tile ? 1 : (f->width + G - 1) / G, gy = f->one_tile ? 1 : (f->height + G - 1) / G;
+        pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, gx, gy, 1);
     }
 }

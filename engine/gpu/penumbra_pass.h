@@ -13,6 +13,7 @@
 typedef struct pn_penumbra_pass {
     pn_gpu_compute compute;
     uint32_t width, height;
+    bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
 } pn_penumbra_pass;

@@ -10,6 +10,7 @@
 
 #include "accel/alpha.h"
 #include "core/log.h"
+#include "core/timer.h"
 
 // Timestamps: the frame's start, the G-buffer's end, then per light the ends of its shadow, filter
 // and shading passes (TS_LIGHT + 3 i + TS_*).
@@ -175,6 +176,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("image size %ux%u outside the device's 1..%u", desc->width, desc->height, lim->maxImageDimension2D);
         return PN_ERR_INVALID;
     }
+    uint64_t t0 = pn_time_ns();
     pn_result r = pn_gbuffer_pass_create(dev, scene, &out->gbuffer);
     if (r == PN_OK)
         r = create_targets(out);
@@ -193,6 +195,10 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
     if (r != PN_OK)
         pn_renderer_destroy(out);
+    // The passes' creation is mostly their pipelines' (and the G-buffer's vertex upload): the
+    // first frame reports it with their first run.
+    out->cold = true;
+    out->compile_pending_ms = pn_ms_since(t0);
     return r;
 }
 
@@ -365,7 +371,8 @@ static void record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t i)
 // readback, with a timestamp after each pass. Per light: `samples` traced per pixel
 // (pn_shadow_samples) and the filter's `noise_samples` (pn_filter_noise_samples).
 static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *camera, const pn_light_gpu *lights,
-                         const uint32_t *samples, const uint32_t *noise_samples, uint32_t light_count, float yfov_deg)
+                         const uint32_t *samples, const uint32_t *noise_samples, uint32_t light_count, float yfov_deg,
+                         bool one_tile)
 {
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
@@ -386,6 +393,10 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
     timestamp(r, cmd, TS_START);
 
     pn_gbuffer_targets targets = {&r->p, &r->n, &r->albedo, &r->depth, r->width, r->height};
+    if (one_tile) { // the warm-up frame: every pass over the first tile (warm_up)
+        targets.width = targets.width < PN_WORKGROUP ? targets.width : PN_WORKGROUP;
+        targets.height = targets.height < PN_WORKGROUP ? targets.height : PN_WORKGROUP;
+    }
     if (r->upload.buffer.buffer)
         pn_gbuffer_upload_record(cmd, &r->upload, &targets);
     else
@@ -452,6 +463,42 @@ static pn_result reserve_readback(pn_renderer *r, uint32_t light_count)
                                 PN_GPU_HOST_READBACK, &r->readback);
 }
 
+// The frame once over its first tile, every pass and pipeline it will run, so that the driver
+// compiles what it compiles at a pipeline's first use (llvmpipe: all of it, 1.3 s of a 1.5 s first
+// frame of the default scene on a cold shader cache) outside the frame's own times. Its images are
+// all rewritten by the frame that follows. *compile_ms: its wall-clock time and the creation time
+// pending. Ignores the loop budget's flag (the frame itself retries as it needs).
+static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_light_gpu *l, const uint32_t *samples,
+                         const uint32_t *noise_samples, uint32_t light_count, float yfov_deg, double *compile_ms)
+{
+    uint64_t t0 = pn_time_ns();
+    bool *one_tile[4] = {&r->shadow.one_tile, &r->filter.one_tile, &r->penumbra.one_tile, &r->shade.one_tile};
+    for (int i = 0; i < 4; i++)
+        *one_tile[i] = true;
+    VkResult vr = vkResetCommandBuffer(r->cmd, 0);
+    VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                   .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
+    if (vr == VK_SUCCESS)
+        vr = vkBeginCommandBuffer(r->cmd, &bi);
+    if (vr == VK_SUCCESS) {
+        record_frame(r, r->cmd, cam, l, samples, noise_samples, light_count, yfov_deg, true);
+        vr = vkEndCommandBuffer(r->cmd);
+    }
+    for (int i = 0; i < 4; i++)
+        *one_tile[i] = false;
+    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
+    if (vr == VK_SUCCESS)
+        vr = vkQueueSubmit(r->dev->queue, 1, &si, VK_NULL_HANDLE);
+    if (vr == VK_SUCCESS)
+        vr = vkQueueWaitIdle(r->dev->queue);
+    VK_CHECK(vr);
+    *compile_ms = r->compile_pending_ms + pn_ms_since(t0);
+    r->compile_pending_ms = 0;
+    r->cold = false;
+    r->shadow_made = r->shadow.pipelines_made;
+    return PN_OK;
+}
+
 pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,
                                     uint32_t light_count, pn_frame_times *times)
 {
@@ -475,8 +522,18 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
+    uint64_t t0 = pn_time_ns();
     for (uint32_t i = 0; i < light_count; i++)
         PN_TRY(pn_shadow_pass_prepare(dev, &r->shadow, samples[i]));
+    double compile_ms = 0;
+    if (r->shadow.pipelines_made != r->shadow_made) {
+        r->cold = true;
+        r->compile_pending_ms += pn_ms_since(t0);
+    }
+    // A frame that continues the last one's counts has run every pipeline it needs (the same
+    // samples' and more, made above only if new): its warm-up would overwrite a tile's counts.
+    if (r->cold && !r->continue_next)
+        PN_TRY(warm_up(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, &compile_ms));
     // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
     // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).
@@ -498,7 +555,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
         VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-        record_frame(r, r->cmd, &cam, l, samples, noise_samples, light_count, camera->yfov_deg);
+        record_frame(r, r->cmd, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, false);
         VK_CHECK(vkEndCommandBuffer(r->cmd));
         VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
@@ -518,6 +575,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
                                    VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
     double period_ms = dev->props.limits.timestampPeriod * 1e-6;
     memset(times, 0, sizeof *times);
+    times->compile_ms = compile_ms;
     times->gbuffer_ms = (double)(ts[TS_GBUFFER] - ts[TS_START]) * period_ms;
     uint64_t prev = ts[TS_GBUFFER];
     for (uint32_t i = 0; i < light_count; i++) {
@@ -583,7 +641,13 @@ pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile
     // The queue is idle between frames (pn_renderer_render waits), so the filter's pipeline may be
     // replaced and the shading pass's set rewritten; the readback buffer always has room for V_raw
     // (create_targets).
+    uint64_t t0 = pn_time_ns();
     PN_TRY(pn_filter_pass_set_tile(r->dev, &r->filter, pn_filter_tile(tile_w), pn_filter_tile(tile_h)));
+    // Another filter, or another tile's pipeline, may run passes not run yet: warmed up first.
+    if (filter != r->desc.filter || tile_w != r->desc.tile_w || tile_h != r->desc.tile_h) {
+        r->cold = true;
+        r->compile_pending_ms += pn_ms_since(t0);
+    }
     r->desc.filter = filter, r->desc.tile_w = tile_w, r->desc.tile_h = tile_h;
     pn_gpu_compute_write_image(r->dev, &r->shade.compute, PN_SHADE_BINDING_V,
                                filter != PN_FILTER_NONE ? r->v.view : r->v_raw.view);

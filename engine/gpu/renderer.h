@@ -39,6 +39,12 @@ typedef struct pn_renderer {
     bool continue_next;
     uint32_t continuable_spp, continuable_spp_min, continuable_seed;
     bool resumed;
+    // Pipelines not run yet (at creation, after pn_renderer_set_filter, or when the shadow pass made
+    // one): the next frame first runs over one tile (warm_up), and reports that and
+    // compile_pending_ms (their creation) as its compile_ms. shadow_made: pipelines_made when warm.
+    bool cold;
+    double compile_pending_ms;
+    uint32_t shadow_made;
 } pn_renderer;
 
 // Uploads the scene and creates targets and pipelines as `desc` says.

@@ -65,5 +65,5 @@ void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_
 {
     uint32_t gx = (s->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (s->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_shade_push push = {.light = *light, .accumulate = accumulate};
-    pn_gpu_compute_dispatch(cmd, &s->compute, sizeof push, &push, gx, gy, 1);
+    pn_gpu_compute_dispatch(cmd, &s->compute, sizeof push, &push, s->one_tile ? 1 : gx, s->one_tile ? 1 : gy, 1);
 }

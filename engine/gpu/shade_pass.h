@@ -9,6 +9,7 @@
 typedef struct pn_shade_pass {
     pn_gpu_compute compute;
     uint32_t width, height;
+    bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
 } pn_shade_pass;
 
 // The light as the shaders read it (interface.h): corners, unit normal, radiance.

@@ -347,6 +347,7 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         data[0] = PN_TRAVERSAL_PROJECT_ID;
         data[5] = (int32_t)(32u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
+        s->pipelines_made++;
         return pn_gpu_compute_pipeline(dev, s->compute.layout, pn_spv_shadow_project_comp,
                                        sizeof pn_spv_shadow_project_comp, &spec, &s->by_samples[k]);
     }
@@ -362,6 +363,7 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         memcpy(data, s->spec_data, sizeof data);
         data[3] = (int32_t)(1u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
+        s->pipelines_made++;
         PN_TRY(pn_gpu_compute_pipeline(dev, s->compute.layout, s->spirv, s->spirv_size, &spec, &s->by_rays[k]));
     }
     return PN_OK;
@@ -403,17 +405,18 @@ static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shad
         // the list: the list's length is known only on the device, so the launch covers the
         // longest (every pixel) and the places past its end return at once (shadow_list_pixel).
         uint32_t side = PN_WORKGROUP, groups_y = s->tile_total / s->tiles_across;
+        uint32_t w = s->one_tile ? 1 : s->tiles_across, h = s->one_tile ? 1 : groups_y;
         if (ch->list_in == 0)
-            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, s->tiles_across * side, groups_y * side);
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * side, h * side);
         else
-            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, s->tile_total * side * side, 1);
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * h * side * side, 1);
         return;
     }
     pn_gpu_compute c = s->compute;
     c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin, project);
     if (ch->list_in == 0) {
         uint32_t gy = s->tile_total / s->tiles_across;
-        pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, s->tiles_across, gy, 1);
+        pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, s->one_tile ? 1 : s->tiles_across, s->one_tile ? 1 : gy, 1);
         return;
     }
     VkDeviceSize offset = (VkDeviceSize)(ch->list_in - 1) * PN_PIXEL_LIST_WORDS(s->tile_total) * 4;

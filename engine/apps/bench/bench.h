@@ -126,6 +126,9 @@ typedef struct bench_row {
     double move_ms;
     double gbuffer_ms, shadow_ms, filter_ms, shade_ms; // medians (filter_ms 0 without a filter)
     double shadow_min_ms, shadow_max_ms;          // spread
+    // The cell's pipelines readied (pn_frame_times.compile_ms) over its frames, untimed and timed:
+    // what a first frame costs beyond its passes' times (llvmpipe compiles at first use).
+    double compile_ms;
     double rays_per_s;
     pn_error_metrics ref;  // against the converged reference: what the user sees (bias and noise)
     pn_error_metrics bias; // against exact with the same pixels and light samples: the mode's bias

@@ -14,12 +14,16 @@ pn_result pn_bench_time_frames(const bench_opts *o, pn_renderer *r, const pn_cam
 {
     double g[1000], s[1000], f[1000], h[1000];
     pn_frame_times t;
-    for (int i = 0; i < o->warmup; i++)
+    row->compile_ms = 0;
+    for (int i = 0; i < o->warmup; i++) {
         if (pn_renderer_render_lights(r, cam, lights, light_count, &t) != PN_OK)
             return PN_ERR_VULKAN;
+        row->compile_ms += t.compile_ms;
+    }
     for (int i = 0; i < o->repeat; i++) {
         if (pn_renderer_render_lights(r, cam, lights, light_count, &t) != PN_OK)
             return PN_ERR_VULKAN;
+        row->compile_ms += t.compile_ms;
         g[i] = t.gbuffer_ms, s[i] = t.shadow_ms, f[i] = t.filter_ms, h[i] = t.shade_ms;
     }
     row->gbuffer_ms = pn_time_median(g, o->repeat);

@@ -128,18 +128,18 @@ bool pn_bench_write_csv(const char *dir, const bench_rows *rows)
                "shadow_max_ms,shade_ms,rays_per_s,ref_mae,ref_rmse,ref_p99,ref_max,bias_mae,bias_rmse,bias_p99,"
                "bias_max,vs_exact,vs_embree,embree_ms,filter,tile_w,tile_h,filter_ms,edge_band,edge_grown,edge_share,"
                "away_pixels,away_grown,away_share,tree_kind,move_ms,spp_min,mean_rays,beyond_2se,traversal,projected,"
-               "fallback\n");
+               "fallback,compile_ms\n");
     for (int i = 0; i < rows->count; i++) {
         const bench_row *r = &rows->rows[i];
         fprintf(f, "%s,%u,%u,%u,%s,%d,%d,%u,%.3f,%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,"
-                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f,%.6g,%s,%.6g,%.6g\n",
+                   "%.6g,%.4f,%.4f,%.4f,%s,%u,%u,%.4f,%zu,%zu,%.6g,%zu,%zu,%.6g,%s,%.4f,%u,%.4f,%.6g,%s,%.6g,%.6g,%.3f\n",
                 r->scene, r->width, r->height, r->spp, MODE_NAME(r->mode), r->n, r->d, r->triangles, r->build_ms,
                 r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms, r->shade_ms, r->rays_per_s,
                 r->ref.mae, r->ref.rmse, r->ref.p99, r->ref.max, r->bias.mae, r->bias.rmse, r->bias.p99, r->bias.max,
                 r->vs_exact, r->vs_embree, r->embree_ms, pn_filter_names[r->filter], r->tile_w, r->tile_h, r->filter_ms,
                 r->edge.band, r->edge.grown, r->edge.share, r->edge.away, r->edge.away_grown, r->edge.away_share,
                 r->n ? pn_bench_tree_kind_names[r->per_object] : "", r->move_ms, r->spp_min, r->mean_rays, r->beyond_2se,
-                r->project ? "project" : "", r->projected, r->fallback);
+                r->project ? "project" : "", r->projected, r->fallback, r->compile_ms);
     }
     return pn_bench_close_out(f, path, tmp);
 }
@@ -354,9 +354,9 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_conte
             fprintf(f, ", \"traversal\": null, \"projected\": null, \"fallback\": null");
         fprintf(f, ", \"triangles\": %u, \"build_ms\": %.3f, \"pool_mb\": %.3f, \"gpu_ms\": {\"gbuffer\": %.4f, "
                    "\"shadow\": %.4f, \"shadow_min\": %.4f, \"shadow_max\": %.4f, \"filter\": %.4f, \"shade\": %.4f}, "
-                   "\"cell_ms\": %.4f, \"shadow_rays_per_s\": %.6g, ",
+                   "\"cell_ms\": %.4f, \"compile_ms\": %.3f, \"shadow_rays_per_s\": %.6g, ",
                 r->triangles, r->build_ms, r->pool_mb, r->gbuffer_ms, r->shadow_ms, r->shadow_min_ms, r->shadow_max_ms,
-                r->filter_ms, r->shade_ms, pn_bench_row_ms(r), r->rays_per_s);
+                r->filter_ms, r->shade_ms, pn_bench_row_ms(r), r->compile_ms, r->rays_per_s);
         if (r->filter != PN_FILTER_NONE)
             fprintf(f, "\"edge_leak\": {\"band\": %zu, \"grown\": %zu, \"share\": %.6g, \"away\": %zu, "
                        "\"away_grown\": %zu, \"away_share\": %.6g}, ",

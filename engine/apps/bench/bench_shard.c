@@ -90,6 +90,7 @@ static const row_field row_fields[] = {
     FIELD("gbuffer_ms", F_F64, gbuffer_ms),  FIELD("shadow_ms", F_F64, shadow_ms),
     FIELD("filter_ms", F_F64, filter_ms),    FIELD("shade_ms", F_F64, shade_ms),
     FIELD("shadow_min_ms", F_F64, shadow_min_ms), FIELD("shadow_max_ms", F_F64, shadow_max_ms),
+    FIELD("compile_ms", F_F64, compile_ms),
     FIELD("rays_per_s", F_F64, rays_per_s),  METRICS("ref", ref),
     METRICS("bias", bias),                   FIELD("vs_exact", F_F64, vs_exact),
     FIELD("vs_embree", F_F64, vs_embree),    FIELD("embree_ms", F_F64, embree_ms),
