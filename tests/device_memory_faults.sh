@@ -105,6 +105,12 @@ if [ "$rq" -gt 0 ]; then
 else
   echo "note: no ray queries on this device: the rayquery sweep is skipped"
 fi
+# rtpipeline: rayquery's structure, and the pipeline's shader binding table (every third K).
+if "$BIN" info 2>/dev/null | grep -q 'ray-tracing pipelines: *yes'; then
+  STRIDE=3 sweep "render rtpipeline" "" "" "${R[@]}" --mode rtpipeline
+else
+  echo "note: no ray-tracing pipelines on this device: the rtpipeline sweep is skipped"
+fi
 # build uploads the pools alone.
 sweep "build" "" "" build builtin:default --tree 3,2
 # bench: the reference render, then a cell per mode, each with its own setup, into a folder it

@@ -335,8 +335,9 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
     }
 
     // The device's acceleration structures where it has them, with ray queries (rayquery) and
-    // ray-tracing pipelines (rtpipeline), each where it has that too: NVIDIA's driver offers the
-    // pipelines without the queries, Mesa 25's lavapipe both.
+    // ray-tracing pipelines (rtpipeline), each where it has that too, independently: Mesa 25's
+    // lavapipe has both; the NVIDIA H100/H200 servers this project targets were seen offering the
+    // pipelines without the queries.
     static const char *const AS_EXTS[2] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
                                            VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME};
     bool as = true, rq = false, rt = false;
@@ -346,12 +347,14 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         PN_TRY(device_extension_available(dev->physical, VK_KHR_RAY_QUERY_EXTENSION_NAME, &rq));
         PN_TRY(device_extension_available(dev->physical, VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME, &rt));
     }
+    // Each extension's feature struct is chained only where the device lists the extension.
     VkPhysicalDeviceRayTracingPipelineFeaturesKHR rt_f = {
         .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR};
     VkPhysicalDeviceRayQueryFeaturesKHR rq_f = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR,
-                                                .pNext = &rt_f};
+                                                .pNext = rt ? &rt_f : NULL};
     VkPhysicalDeviceAccelerationStructureFeaturesKHR as_f = {
-        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR, .pNext = &rq_f};
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR,
+        .pNext = rq ? (void *)&rq_f : rt ? (void *)&rt_f : NULL};
     if (as) {
         VkPhysicalDeviceFeatures2 q = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &as_f};
         vkGetPhysicalDeviceFeatures2(dev->physical, &q);

@@ -52,7 +52,7 @@ typedef struct pn_gpu_device {
     bool present;                 // VK_KHR_swapchain enabled, the queue can present (desc.present)
     // VK_KHR_acceleration_structure (gpu/tlas.h), enabled wherever the device also has one way
     // to trace it: ray queries (VK_KHR_ray_query: Mesa 25 lavapipe, RTX, RDNA2+, Arc; the rayquery
-    // shadow mode) or ray-tracing pipelines (VK_KHR_ray_tracing_pipeline: the same, and NVIDIA's
+    // shadow mode) or ray-tracing pipelines (VK_KHR_ray_tracing_pipeline: the same, and the NVIDIA
     // drivers that offer no ray queries; the rtpipeline shadow mode).
     bool accel;
     bool ray_query;

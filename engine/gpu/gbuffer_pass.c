@@ -368,7 +368,9 @@ void pn_gbuffer_pass_record(VkCommandBuffer cmd, const pn_gbuffer_pass *g, const
     vkCmdBeginRendering(cmd, &ri);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, g->pipeline);
     vkCmdSetViewport(cmd, 0, 1, &(VkViewport){0, 0, (float)t->width, (float)t->height, 0, 1});
-    vkCmdSetScissor(cmd, 0, 1, &(VkRect2D){{0, 0}, {t->width, t->height}});
+    uint32_t sw = t->one_tile && t->width > PN_WORKGROUP ? PN_WORKGROUP : t->width;
+    uint32_t sh = t->one_tile && t->height > PN_WORKGROUP ? PN_WORKGROUP : t->height;
+    vkCmdSetScissor(cmd, 0, 1, &(VkRect2D){{0, 0}, {sw, sh}});
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, g->layout, 0, 1, &g->set, 0, NULL);
     vkCmdBindVertexBuffers(cmd, 0, 1, &g->vertices.buffer, &(VkDeviceSize){0});
     vkCmdBindIndexBuffer(cmd, g->indices.buffer, 0, VK_INDEX_TYPE_UINT32);

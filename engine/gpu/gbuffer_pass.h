@@ -27,6 +27,9 @@ typedef struct pn_gbuffer_pass {
 typedef struct pn_gbuffer_targets {
     const pn_gpu_image *p, *n, *albedo, *depth;
     uint32_t width, height;
+    // The renderer's warm-up frame: fragments only in the first PN_WORKGROUP-square tile (the
+    // scissor), the same ones the frame itself writes there; the whole image is still cleared.
+    bool one_tile;
 } pn_gbuffer_targets;
 
 // Uploads the scene and creates the pipeline. All or nothing; logs the reason on failure.

@@ -176,10 +176,13 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
         pn_error("image size %ux%u outside the device's 1..%u", desc->width, desc->height, lim->maxImageDimension2D);
         return PN_ERR_INVALID;
     }
-    uint64_t t0 = pn_time_ns();
     pn_result r = pn_gbuffer_pass_create(dev, scene, &out->gbuffer);
     if (r == PN_OK)
         r = create_targets(out);
+    // The compute passes' creation is mostly their pipelines' (with their own few buffers and
+    // images): the first frame reports it with their first run (warm_up). The G-buffer pass's
+    // includes the scene's upload and is left out.
+    uint64_t t0 = pn_time_ns();
     if (r == PN_OK)
         r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene),
                                   pn_alpha_masked_triangles(scene) > 0, &out->shadow);
@@ -193,12 +196,10 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);
-    if (r != PN_OK)
-        pn_renderer_destroy(out);
-    // The passes' creation is mostly their pipelines' (and the G-buffer's vertex upload): the
-    // first frame reports it with their first run.
     out->cold = true;
     out->compile_pending_ms = pn_ms_since(t0);
+    if (r != PN_OK)
+        pn_renderer_destroy(out);
     return r;
 }
 
@@ -392,11 +393,9 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
     pn_gpu_cmd_barrier(cmd, NULL, filtered(r) ? 3 : 2, start);
     timestamp(r, cmd, TS_START);
 
-    pn_gbuffer_targets targets = {&r->p, &r->n, &r->albedo, &r->depth, r->width, r->height};
-    if (one_tile) { // the warm-up frame: every pass over the first tile (warm_up)
-        targets.width = targets.width < PN_WORKGROUP ? targets.width : PN_WORKGROUP;
-        targets.height = targets.height < PN_WORKGROUP ? targets.height : PN_WORKGROUP;
-    }
+    // The warm-up frame: every pass over the first tile (warm_up), which holds what the frame
+    // itself writes there (a ray dump's and the work counts' pixels included).
+    pn_gbuffer_targets targets = {&r->p, &r->n, &r->albedo, &r->depth, r->width, r->height, one_tile};
     if (r->upload.buffer.buffer)
         pn_gbuffer_upload_record(cmd, &r->upload, &targets);
     else
@@ -444,11 +443,12 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         timestamp(r, cmd, ts + TS_FILTER);
         pn_shade_pass_record(cmd, &r->shade, &lights[i], i > 0); // P, N, albedo, V -> radiance
         timestamp(r, cmd, ts + TS_SHADE);
-        if (light_count > 1)
+        if (light_count > 1 && !one_tile)
             record_light_copy(r, cmd, i);
     }
 
-    record_readback(r, cmd);
+    if (!one_tile) // nothing of the warm-up frame is read
+        record_readback(r, cmd);
 }
 
 // The readback buffer holds the frame's images and, with several lights, every light's V and V_raw.
@@ -530,10 +530,17 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         r->cold = true;
         r->compile_pending_ms += pn_ms_since(t0);
     }
-    // A frame that continues the last one's counts has run every pipeline it needs (the same
-    // samples' and more, made above only if new): its warm-up would overwrite a tile's counts.
-    if (r->cold && !r->continue_next)
+    // A frame that continues the last one's counts cannot be warmed up: the warm-up's shadow pass
+    // starts its images afresh and would lose them. It reports what was created for it, and a
+    // pipeline made for it runs first within it (the demo's refinement, below 32 samples).
+    if (r->cold && r->continue_next) {
+        compile_ms = r->compile_pending_ms;
+        r->compile_pending_ms = 0;
+        r->cold = false;
+        r->shadow_made = r->shadow.pipelines_made;
+    } else if (r->cold) {
         PN_TRY(warm_up(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, &compile_ms));
+    }
     // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
     // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).

@@ -82,7 +82,7 @@ static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
                             .ray_query = true,
                             .auto_trees = 1},
     // The same structure through a ray generation shader per pixel; masked casters' texels in an
-    // any-hit shader. The GPU vendor's own traversal (on NVIDIA without ray queries too): the peer
+    // any-hit shader. The GPU vendor's own traversal (also where a driver has no ray queries): the peer
     // a GPU's exact must beat, as Embree is on a CPU.
     [PN_SHADOW_RTPIPELINE] = {.name = "rtpipeline",
                               .help = "the device's ray-tracing pipeline (VK_KHR_ray_tracing_pipeline; Mesa 25 lavapipe, "

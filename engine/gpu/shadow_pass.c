@@ -297,7 +297,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
         sp.cand_tris = e->cand_tris.address;
         sp.alpha_bits = e->alpha_bits.address;
     }
-    if (desc->tlas) // rayquery: its masked geometry's triangle ids (0 for an opaque scene)
+    if (desc->tlas) // rayquery, rtpipeline: its masked geometry's triangle ids (0 for an opaque scene)
         sp.masked_tris = desc->tlas->masked_tris.address;
     sp.dump = s->ray_dump.address;
     sp.cand_first = desc->cand_first_node;
@@ -405,11 +405,13 @@ static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shad
         // the list: the list's length is known only on the device, so the launch covers the
         // longest (every pixel) and the places past its end return at once (shadow_list_pixel).
         uint32_t side = PN_WORKGROUP, groups_y = s->tile_total / s->tiles_across;
+        // The list's places run along the rows of a launch as wide as the image's tiles' pixels,
+        // one row per row of tiles (a launch's width is bounded like a compute dispatch's).
         uint32_t w = s->one_tile ? 1 : s->tiles_across, h = s->one_tile ? 1 : groups_y;
         if (ch->list_in == 0)
             pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * side, h * side);
         else
-            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * h * side * side, 1);
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * side * side, h);
         return;
     }
     pn_gpu_compute c = s->compute;
