@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # penumbra bench --shard K/N and --merge (issue 31): a small matrix (builtin:default at two sizes,
-# 56 cells) run once whole and once as three shards at the same time under GNU parallel (or as
+# the six modes every device runs: 48 cells) run once whole and once as three shards at the same time under GNU parallel (or as
 # three background jobs when `parallel` is not installed), which share one reference cache that
 # starts empty (so all three may render a reference at once: it is written under a temporary name
 # and renamed). The merge must hold exactly the unsharded run's cells, in its order, with the same
@@ -13,12 +13,14 @@ set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/bench_shards
 rm -rf "$T" && mkdir -p "$T"
-A=(bench --scenes builtin:default --size 64x48,32x32 --spp 4,9 --trees 5,2 --repeat 1 --warmup 0)
+# The modes are named, so that the cells do not depend on the device's ray queries and pipelines.
+MODES=exact,exact-ls,hybrid,linespace,ls-leaf,ls-plane
+A=(bench --scenes builtin:default --size 64x48,32x32 --spp 4,9 --trees 5,2 --modes $MODES --repeat 1 --warmup 0)
 fail=0
 "$BIN" "${A[@]}" --out "$T/whole" > "$T/whole.txt" 2> "$T/whole.err" \
   || { echo "FAIL: the unsharded bench exited $?"; cat "$T/whole.err"; exit 1; }
-grep -q "bench: cell 56/56 done (.*), [0-9.]* s elapsed, about [0-9.]* s left" "$T/whole.err" \
-  || { echo "FAIL: no progress line for the last of 56 cells"; fail=1; }
+grep -q "bench: cell 48/48 done (.*), [0-9.]* s elapsed, about [0-9.]* s left" "$T/whole.err" \
+  || { echo "FAIL: no progress line for the last of 48 cells"; fail=1; }
 grep -q "reference rendered in [0-9.]* s" "$T/whole.err" || { echo "FAIL: no reference time line"; fail=1; }
 
 RC="$T/reference_cache"
@@ -56,7 +58,7 @@ import csv, json, re, sys
 whole, merged = sys.argv[1], sys.argv[2]
 a = list(csv.DictReader(open(whole + "/bench.csv")))
 b = list(csv.DictReader(open(merged + "/bench.csv")))
-assert len(a) == 56, len(a)
+assert len(a) == 48, len(a)
 assert len(a) == len(b), (len(a), len(b))
 times = {c for c in a[0] if c.endswith("_ms")} | {"rays_per_s", "vs_exact", "vs_embree"}
 compared = [c for c in a[0] if c not in times]
@@ -99,7 +101,7 @@ done
 # Another run's shard 3/3: the same cells, another seed; and one of another matrix (other samples).
 "$BIN" "${A[@]}" --seed 2 --reference-cache "$RC" --shard 3/3 --out "$T/other" > /dev/null 2>&1 \
   || { echo "FAIL: the other run's shard"; fail=1; }
-"$BIN" bench --scenes builtin:default --size 64x48,32x32 --spp 4 --trees 5,2 --repeat 1 --warmup 0 --no-embree \
+"$BIN" bench --scenes builtin:default --size 64x48,32x32 --spp 4 --trees 5,2 --modes $MODES --repeat 1 --warmup 0 --no-embree \
   --reference-cache "$RC" --shard 3/3 --out "$T/small" > /dev/null 2>&1 || { echo "FAIL: the small run's shard"; fail=1; }
 mkdir -p "$T/empty"
 bad_merge() { # expected message, then the folders
@@ -113,7 +115,7 @@ bad_merge() { # expected message, then the folders
 }
 bad_merge "shard 2/3 missing" "$T/s1" "$T/s3"
 bad_merge "shards of different runs: 'opt seed 1' against 'opt seed 2'" "$T/s1" "$T/s2" "$T/other"
-bad_merge "is shard 3/3 of 28 cells, .* shard 1/3 of 56: not shards of one run" "$T/s1" "$T/s2" "$T/small"
+bad_merge "is shard 3/3 of 24 cells, .* shard 1/3 of 48: not shards of one run" "$T/s1" "$T/s2" "$T/small"
 bad_merge "are both shard 1/3" "$T/s1" "$T/s1" "$T/s2" "$T/s3"
 bad_merge "no bench_partial.txt" "$T/s1" "$T/s2" "$T/empty"
 bad_merge "no shard folders"
@@ -125,5 +127,5 @@ mkdir -p "$T/stale" && cp "$T/s1/bench_partial.txt" "$T/stale/"
 "$BIN" bench --scenes "$T/no_such_scene.glb" --shard 1/3 --out "$T/stale" > /dev/null 2> "$T/stale.err" \
   && { echo "FAIL: a shard of a missing scene succeeded"; fail=1; }
 [ -e "$T/stale/bench_partial.txt" ] && { echo "FAIL: a failed shard left a partial file"; fail=1; }
-[ $fail = 0 ] && echo "PASS: three shards merged into the unsharded run's 56 cells, same errors; bad input refused"
+[ $fail = 0 ] && echo "PASS: three shards merged into the unsharded run's 48 cells, same errors; bad input refused"
 exit $fail
