@@ -4,7 +4,8 @@
 # From the bundle (ci/bundle.sh: ./gpu-check.sh at its root) or from the repository
 # (ci/gpu-check.sh, with build/penumbra; PN_BIN overrides either). Everything goes under OUT_DIR.
 #  1. the device and driver (penumbra info);
-#  2. every mode against exact on the same pixels and samples (render --filter none, same seed;
+#  2. every mode, and exact's per-ray and projection walks, against exact on the same pixels and
+#     samples (render --filter none, same seed;
 #     penumbra diff's mean |V - exact's|) on builtin:default, the bunny and builtin:canopy (alpha-
 #     masked), within the documented bound: exact-ls, rayquery, rtpipeline are exact (<= 1e-3: at
 #     most a ray grazing an edge may go the other way, engine/shadow/README.md); the line-space
@@ -139,10 +140,13 @@ done < <("$pn" render --help 2>&1 | awk '/--mode M/ {on = 1; sub(/.*--mode M */,
 if [ $rtp = 1 ] && ! printf '%s\n' "${modes[@]}" | grep -x rtpipeline >/dev/null; then
   modes+=(rtpipeline) # listed by info, not yet in render's help
 fi
+# exact's other walks too (exact itself walks as a packet at 16 spp): the per-ray walk, and the
+# projection, whose walk is shared by the subgroup (8 lanes on llvmpipe, 32 or 64 on a GPU).
+modes=(exact/ray exact/project "${modes[@]}")
 echo "modes checked against exact: ${modes[*]}"
 bound_of() {
   case $1 in
-    exact-ls | rayquery | rtpipeline) echo 0.001 ;;
+    exact/* | exact-ls | rayquery | rtpipeline) echo 0.001 ;;
     linespace | ls-leaf | ls-plane | hybrid) echo 0.05 ;;
     *) echo 0.05 ;; # a mode this script does not know: held to the line-space bound, said below
   esac
@@ -167,16 +171,19 @@ for sc in "${scenes[@]}"; do
   fi
   for m in "${modes[@]}"; do
     b=$(bound_of "$m")
-    if ! "$pn" render "$sc" "${common[@]}" --mode "$m" -o "$cdir/$nm.$m.exr" >"$cdir/$nm.$m.log" 2>&1; then
-      tail -n 5 "$cdir/$nm.$m.log"
+    margs=(--mode "$m")
+    [[ $m == exact/* ]] && margs=(--mode exact --traversal "${m#exact/}")
+    f=${m//\//-} # a file name
+    if ! "$pn" render "$sc" "${common[@]}" "${margs[@]}" -o "$cdir/$nm.$f.exr" >"$cdir/$nm.$f.log" 2>&1; then
+      tail -n 5 "$cdir/$nm.$f.log"
       record FAIL "$m on $nm: failed to render"
       continue
     fi
     rc=0
-    js=$("$pn" diff "$cdir/$nm.exact.exr" "$cdir/$nm.$m.exr" --json --fail "mae=$b" 2>&1) || rc=$?
+    js=$("$pn" diff "$cdir/$nm.exact.exr" "$cdir/$nm.$f.exr" --json --fail "mae=$b" 2>&1) || rc=$?
     mae=$(sed -n 's/.*"mae": *\([^,]*\),.*/\1/p' <<<"$js")
     mx=$(sed -n 's/.*"max": *\([^,]*\),.*/\1/p' <<<"$js")
-    what="$m on $nm: mean |V - exact's| ${mae:-?} (bound $b$(case $m in exact-ls | rayquery | rtpipeline | linespace | ls-leaf | ls-plane | hybrid) ;; *) echo ", a mode unknown to gpu-check" ;; esac)), max ${mx:-?}"
+    what="$m on $nm: mean |V - exact's| ${mae:-?} (bound $b$(case $m in exact/* | exact-ls | rayquery | rtpipeline | linespace | ls-leaf | ls-plane | hybrid) ;; *) echo ", a mode unknown to gpu-check" ;; esac)), max ${mx:-?}"
     case $rc in
       0) record PASS "$what" ;;
       1) record FAIL "$what" ;;
@@ -229,13 +236,16 @@ else
     [[ $sc == builtin:* ]] || [ -f "$sc" ] || continue
     for m in exact "${modes[@]}"; do
       rc=0
-      PN_VALIDATION=1 "$pn" render "$sc" --size "${vsize}x${vsize}" --spp 4 --mode "$m" --tree 6,3 \
-        -o "$vdir/$nm.$m.exr" >"$vdir/$nm.$m.log" 2>&1 || rc=$?
+      margs=(--mode "$m")
+      [[ $m == exact/* ]] && margs=(--mode exact --traversal "${m#exact/}")
+      f=${m//\//-}
+      PN_VALIDATION=1 "$pn" render "$sc" --size "${vsize}x${vsize}" --spp 4 "${margs[@]}" --tree 6,3 \
+        -o "$vdir/$nm.$f.exr" >"$vdir/$nm.$f.log" 2>&1 || rc=$?
       case $rc in
         0) ;;
-        3) grep -m 3 "validation" "$vdir/$nm.$m.log" || true
-           vfail=1; record FAIL "validation: $m on $nm: the layer reported messages ($vdir/$nm.$m.log)" ;;
-        *) vfail=1; tail -n 5 "$vdir/$nm.$m.log"; record FAIL "validation: $m on $nm: render exited $rc ($vdir/$nm.$m.log)" ;;
+        3) grep -m 3 "validation" "$vdir/$nm.$f.log" || true
+           vfail=1; record FAIL "validation: $m on $nm: the layer reported messages ($vdir/$nm.$f.log)" ;;
+        *) vfail=1; tail -n 5 "$vdir/$nm.$f.log"; record FAIL "validation: $m on $nm: render exited $rc ($vdir/$nm.$f.log)" ;;
       esac
     done
   done
