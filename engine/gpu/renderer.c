@@ -463,37 +463,40 @@ static pn_result reserve_readback(pn_renderer *r, uint32_t light_count)
                                 PN_GPU_HOST_READBACK, &r->readback);
 }
 
-// Records the frame (record_frame), submits it and waits for it.
-static pn_result submit_frame(pn_renderer *r, const pn_gbuffer_push *cam, const pn_light_gpu *l, const uint32_t *samples,
-                              const uint32_t *noise_samples, uint32_t light_count, float yfov_deg, bool one_tile)
-{
-    VK_CHECK(vkResetCommandBuffer(r->cmd, 0));
-    VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-                                   .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
-    VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-    record_frame(r, r->cmd, cam, l, samples, noise_samples, light_count, yfov_deg, one_tile);
-    VK_CHECK(vkEndCommandBuffer(r->cmd));
-    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
-    VK_CHECK(vkQueueSubmit(r->dev->queue, 1, &si, VK_NULL_HANDLE));
-    VK_CHECK(vkQueueWaitIdle(r->dev->queue));
-    return PN_OK;
-}
-
 // The frame once over its first tile, every pass and pipeline it will run, so that the driver
 // compiles what it compiles at a pipeline's first use (llvmpipe: all of it, 1.3 s of a 1.5 s first
 // frame of the default scene on a cold shader cache) outside the frame's own times. Its images are
-// all rewritten by the frame that follows. Ignores the loop budget's flag (the frame itself
-// retries as it needs).
+// all rewritten by the frame that follows. *compile_ms: its wall-clock time and the creation time
+// pending. Ignores the loop budget's flag (the frame itself retries as it needs).
 static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_light_gpu *l, const uint32_t *samples,
-                         const uint32_t *noise_samples, uint32_t light_count, float yfov_deg)
+                         const uint32_t *noise_samples, uint32_t light_count, float yfov_deg, double *compile_ms)
 {
+    uint64_t t0 = pn_time_ns();
     bool *one_tile[4] = {&r->shadow.one_tile, &r->filter.one_tile, &r->penumbra.one_tile, &r->shade.one_tile};
     for (int i = 0; i < 4; i++)
         *one_tile[i] = true;
-    pn_result res = submit_frame(r, cam, l, samples, noise_samples, light_count, yfov_deg, true);
+    VkResult vr = vkResetCommandBuffer(r->cmd, 0);
+    VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                   .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
+    if (vr == VK_SUCCESS)
+        vr = vkBeginCommandBuffer(r->cmd, &bi);
+    if (vr == VK_SUCCESS) {
+        record_frame(r, r->cmd, cam, l, samples, noise_samples, light_count, yfov_deg, true);
+        vr = vkEndCommandBuffer(r->cmd);
+    }
     for (int i = 0; i < 4; i++)
         *one_tile[i] = false;
-    return res;
+    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
+    if (vr == VK_SUCCESS)
+        vr = vkQueueSubmit(r->dev->queue, 1, &si, VK_NULL_HANDLE);
+    if (vr == VK_SUCCESS)
+        vr = vkQueueWaitIdle(r->dev->queue);
+    VK_CHECK(vr);
+    *compile_ms = r->compile_pending_ms + pn_ms_since(t0);
+    r->compile_pending_ms = 0;
+    r->cold = false;
+    r->shadow_made = r->shadow.pipelines_made;
+    return PN_OK;
 }
 
 pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,
@@ -527,18 +530,16 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         r->cold = true;
         r->compile_pending_ms += pn_ms_since(t0);
     }
-    // The frame's compile_ms: the creation pending and the warm-up. A frame that continues the
-    // last one's counts cannot be warmed up: the warm-up's shadow pass starts its images afresh
-    // and would lose them. It reports what was created for it, and a pipeline made for it runs
-    // first within it (the demo's refinement, below 32 samples).
-    if (r->cold) {
-        uint64_t t1 = pn_time_ns();
-        if (!r->continue_next)
-            PN_TRY(warm_up(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg));
-        compile_ms = r->compile_pending_ms + (r->continue_next ? 0.0 : pn_ms_since(t1));
+    // A frame that continues the last one's counts cannot be warmed up: the warm-up's shadow pass
+    // starts its images afresh and would lose them. It reports what was created for it, and a
+    // pipeline made for it runs first within it (the demo's refinement, below 32 samples).
+    if (r->cold && r->continue_next) {
+        compile_ms = r->compile_pending_ms;
         r->compile_pending_ms = 0;
         r->cold = false;
         r->shadow_made = r->shadow.pipelines_made;
+    } else if (r->cold) {
+        PN_TRY(warm_up(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, &compile_ms));
     }
     // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
@@ -557,7 +558,15 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     bool retry = true;
     while (retry) {
         pn_shadow_pass_begin_frame(&r->shadow);
-        PN_TRY(submit_frame(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, false));
+        VK_CHECK(vkResetCommandBuffer(r->cmd, 0));
+        VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                       .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
+        VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
+        record_frame(r, r->cmd, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, false);
+        VK_CHECK(vkEndCommandBuffer(r->cmd));
+        VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
+        VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
+        VK_CHECK(vkQueueWaitIdle(dev->queue));
         PN_TRY(pn_shadow_pass_end_frame(&r->shadow, &retry));
         // A continued frame cut short has added to the counts it resumed from: its retry is a
         // frame of its own, from the first samples.

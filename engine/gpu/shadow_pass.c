@@ -165,15 +165,14 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                                                .spec = &spec,
                                                                .stages = ray ? PN_GPU_RAY_STAGES : 0},
                                         &out->compute);
-    if (r == PN_OK && ray) {
-        // The any-hit shader only where masked casters can call it (their geometry alone is not opaque).
-        pn_gpu_ray_shaders shaders = {
-            pn_spv_shadow_rtpipeline_rgen, pn_spv_shadow_rtpipeline_rmiss, pn_spv_shadow_rtpipeline_rchit,
-            alpha_masks ? pn_spv_shadow_rtpipeline_rahit : NULL, sizeof pn_spv_shadow_rtpipeline_rgen,
-            sizeof pn_spv_shadow_rtpipeline_rmiss, sizeof pn_spv_shadow_rtpipeline_rchit,
-            sizeof pn_spv_shadow_rtpipeline_rahit};
+    // The any-hit shader only where masked casters can call it (their geometry alone is not opaque).
+    pn_gpu_ray_shaders shaders = {
+        pn_spv_shadow_rtpipeline_rgen, pn_spv_shadow_rtpipeline_rmiss, pn_spv_shadow_rtpipeline_rchit,
+        alpha_masks ? pn_spv_shadow_rtpipeline_rahit : NULL, sizeof pn_spv_shadow_rtpipeline_rgen,
+        sizeof pn_spv_shadow_rtpipeline_rmiss, sizeof pn_spv_shadow_rtpipeline_rchit,
+        sizeof pn_spv_shadow_rtpipeline_rahit};
+    if (r == PN_OK && ray)
         r = pn_gpu_ray_pipeline_create(dev, out->compute.layout, &shaders, &spec, &out->ray);
-    }
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "shadow pass's parameters", sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                  &out->params);
@@ -401,25 +400,25 @@ static void between_dispatches(VkCommandBuffer cmd, const pn_shadow_pass *s)
 // of list ch.list_in - 1, as many groups as the list fills.
 static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shadow_chunk *ch, bool project)
 {
-    // The image's tiles, or in the renderer's warm-up frame the first one.
-    uint32_t gx = s->one_tile ? 1 : s->tiles_across, gy = s->one_tile ? 1 : s->tile_total / s->tiles_across;
     if (s->ray.pipeline) {
         // One ray generation invocation per pixel of the tiles (its launch id), or per place in
         // the list: the list's length is known only on the device, so the launch covers the
         // longest (every pixel) and the places past its end return at once (shadow_list_pixel).
-        // The places run along the rows of a launch as wide as a row of tiles' pixels, one row
-        // per row of tiles (a launch's width is bounded like a compute dispatch's).
-        const uint32_t side = PN_WORKGROUP;
+        uint32_t side = PN_WORKGROUP, groups_y = s->tile_total / s->tiles_across;
+        // The list's places run along the rows of a launch as wide as the image's tiles' pixels,
+        // one row per row of tiles (a launch's width is bounded like a compute dispatch's).
+        uint32_t w = s->one_tile ? 1 : s->tiles_across, h = s->one_tile ? 1 : groups_y;
         if (ch->list_in == 0)
-            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, gx * side, gy * side);
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * side, h * side);
         else
-            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, gx * side * side, gy);
+            pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * side * side, h);
         return;
     }
     pn_gpu_compute c = s->compute;
     c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin, project);
     if (ch->list_in == 0) {
-        pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, gx, gy, 1);
+        uint32_t gy = s->tile_total / s->tiles_across;
+        pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, s->one_tile ? 1 : s->tiles_across, s->one_tile ? 1 : gy, 1);
         return;
     }
     VkDeviceSize offset = (VkDeviceSize)(ch->list_in - 1) * PN_PIXEL_LIST_WORDS(s->tile_total) * 4;
@@ -486,6 +485,15 @@ static void bridge(VkCommandBuffer cmd, const pn_shadow_pass *s, bool begin)
     pn_gpu_cmd_barrier(cmd, &b, 0, NULL);
 }
 
+static void record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light);
+
+void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
+{
+    bridge(cmd, s, true);
+    record(cmd, s, samples, light);
+    bridge(cmd, s, false);
+}
+
 static void record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
 {
     const VkPipelineStageFlags2 STAGE = s->stage;
@@ -535,13 +543,6 @@ static void record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t sample
         list_in = 1 + out;
         out ^= 1;
     }
-}
-
-void pn_shadow_pass_record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t samples, uint32_t light)
-{
-    bridge(cmd, s, true);
-    record(cmd, s, samples, light);
-    bridge(cmd, s, false);
 }
 
 void pn_shadow_pass_begin_frame(pn_shadow_pass *s) { *(volatile uint32_t *)s->status.mapped = 0; }
