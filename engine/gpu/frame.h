@@ -53,6 +53,11 @@ typedef struct pn_renderer_desc {
     const pn_gpu_tlas *tlas;         // the device-built structure, for needs.tlas (gpu/tlas.h)
     bool dump_rays; // keep every shadow ray for pn_renderer_ray_dump
     bool count_work; // a build of the shadow shader that counts its work (pn_renderer_work); slower
+    // No warm-up frame (renderer.c): a frame whose pipelines have not run yet carries their first
+    // run in its passes' times, and reports only their creation as compile_ms. For a renderer that
+    // draws frame after frame (the demo), where one slow frame after a switch is what is seen
+    // anyway and an extra submission per switch only costs.
+    bool no_warm_up;
 } pn_renderer_desc;
 
 // A tile edge as the passes use it: 0 (unset) means 3, the thesis' 3 x 3.

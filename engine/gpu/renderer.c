@@ -532,8 +532,9 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     }
     // A frame that continues the last one's counts cannot be warmed up: the warm-up's shadow pass
     // starts its images afresh and would lose them. It reports what was created for it, and a
-    // pipeline made for it runs first within it (the demo's refinement, below 32 samples).
-    if (r->cold && r->continue_next) {
+    // pipeline made for it runs first within it (the demo's refinement, below 32 samples); so
+    // does every frame of a renderer made with no_warm_up.
+    if (r->cold && (r->continue_next || r->desc.no_warm_up)) {
         compile_ms = r->compile_pending_ms;
         r->compile_pending_ms = 0;
         r->cold = false;

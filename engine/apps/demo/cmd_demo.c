@@ -71,6 +71,8 @@ static pn_result create_renderers(pn_demo *d)
     rd.width = d->swapchain.extent.width;
     rd.height = d->swapchain.extent.height;
     pn_shadow_accel_bind(&d->accel, &rd);
+    // Frame after frame: a switch's first frame carries its compile, as the user sees it.
+    rd.no_warm_up = true;
     PN_TRY(pn_renderer_create(&d->dev, &d->scene, &rd, &d->renderer));
     if (d->view == PN_DEMO_ERROR && rd.mode != PN_SHADOW_REFERENCE) {
         rd.mode = PN_SHADOW_REFERENCE;
