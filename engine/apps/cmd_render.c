@@ -5,6 +5,7 @@
 
 #include "apps/args.h"
 #include "apps/commands.h"
+#include "apps/gbuffer_file.h"
 #include "shadow/metrics.h"
 #include "apps/options.h"
 #include "apps/quality.h"
@@ -36,6 +37,10 @@ void pn_print_render_help(void)
            "  --exposure E          preview exposure multiplier (default 1)\n"
            "  --size WxH            image size (default 1280x720)\n"
            "  --json                print one JSON object instead of the summary line\n"
+           "  --gbuffer FILE.exr    shadows for the points of a G-buffer instead of the raster pass's:\n"
+           "                        the P.X/Y/Z, A and N.X/Y/Z layers of an EXR (render --aovs, or\n"
+           "                        another renderer's); the size is the EXR's, the camera and view\n"
+           "                        culling play no part, and the picture's albedo is black\n"
            "  --ray-dump FILE       every shadow ray (origin, light sample, valid, blocked) as binary,\n"
            "                        for checks against an independent tracer; format in\n"
            "                        engine/apps/cmd_render.c\n"
@@ -76,6 +81,8 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
             return -1;
         } else if (pn_args_value(&a, "-o", &v, &err) || pn_args_value(&a, "--output", &v, &err)) {
             o->output = v;
+        } else if (pn_args_value(&a, "--gbuffer", &v, &err)) {
+            o->gbuffer = v;
         } else if (pn_args_value(&a, "--ray-dump", &v, &err)) {
             o->ray_dump = v;
         } else if (pn_args_value(&a, "--preview", &v, &err)) {
@@ -141,6 +148,10 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
         }
         if (!pn_frame_pattern_ok("-o", o->output))
             return PN_EXIT_USAGE;
+    }
+    if (o->gbuffer && (o->seq.on || o->auto_quality)) {
+        pn_error("--gbuffer: the frame is the file's G-buffer: not with %s", o->seq.on ? "--frames" : "--quality auto");
+        return PN_EXIT_USAGE;
     }
     if (o->ray_dump && !pn_shadow_mode_get(o->r.mode)->traces) {
         pn_error("--ray-dump: mode %s traces no rays", pn_shadow_mode_get(o->r.mode)->name);
@@ -218,12 +229,13 @@ static pn_result write_ray_dump(const render_opts *o, const pn_renderer *r)
 
 // Builds what the shadow mode needs, renders one frame and writes the outputs.
 static int render_frame(const render_opts *o, const char *output, pn_gpu_device *dev, const pn_scene *scene,
-                        const pn_camera *cam, const pn_light *lights, uint32_t light_count, render_stats *st)
+                        const pn_camera *cam, const pn_light *lights, uint32_t light_count,
+                        const pn_gbuffer_file *gb, render_stats *st)
 {
     const pn_render_opts *p = &o->r;
     pn_setup_desc sd = pn_render_opts_setup(p);
     sd.frame.dump_rays = o->ray_dump != NULL;
-    sd.view = o->view_cull ? cam : NULL;
+    sd.view = o->view_cull && !gb ? cam : NULL; // the camera sees none of a file's G-buffer
     sd.light_count = light_count;
     pn_setup s;
     if (pn_setup_create(dev, scene, lights, &sd, &s) != PN_OK)
@@ -241,7 +253,8 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     st->exact_bytes = s.exact_bytes;
     int rc = PN_EXIT_FAILURE;
     pn_frame_images img;
-    if (pn_renderer_render_lights(&s.renderer, cam, lights, light_count, &st->times) == PN_OK) {
+    if ((!gb || pn_renderer_set_gbuffer(&s.renderer, gb->p, gb->n) == PN_OK) &&
+        pn_renderer_render_lights(&s.renderer, cam, lights, light_count, &st->times) == PN_OK) {
         pn_renderer_images(&s.renderer, &img);
         size_t px = (size_t)p->width * p->height;
         uint64_t rays = 0;
@@ -383,6 +396,14 @@ int pn_cmd_render(int argc, char **argv)
     pn_scene scene = prep.scene;
     pn_camera cam = prep.camera;
     double load_ms = prep.load_ms;
+    pn_gbuffer_file gb = {0};
+    if (o.gbuffer) {
+        if (pn_gbuffer_file_read(o.gbuffer, &gb) != PN_OK) {
+            pn_scene_destroy(&scene);
+            return PN_EXIT_FAILURE;
+        }
+        o.r.width = gb.width, o.r.height = gb.height;
+    }
 
     pn_gpu_device_desc desc = pn_gpu_device_desc_from_env();
     pn_gpu_device dev;
@@ -432,12 +453,14 @@ int pn_cmd_render(int argc, char **argv)
         if (exit_code == PN_EXIT_OK && o.seq.on)
             exit_code = pn_render_sequence(&o, &prep, &dev);
         else if (exit_code == PN_EXIT_OK)
-            exit_code = render_frame(&o, output, &dev, &scene, &cam, prep.lights, prep.light_count, &st);
+            exit_code = render_frame(&o, output, &dev, &scene, &cam, prep.lights, prep.light_count,
+                                     o.gbuffer ? &gb : NULL, &st);
         pn_gpu_device_destroy(&dev);
     }
     if (exit_code == PN_EXIT_OK && !o.seq.on)
         print_summary(&o, output, &scene, &st, load_ms, dev.validation_messages);
     pn_scene_destroy(o.seq.on ? &prep.scene : &scene);
+    pn_gbuffer_file_free(&gb);
     if (dev.validation_messages) {
         pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);
         return PN_EXIT_VALIDATION;

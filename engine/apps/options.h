@@ -22,6 +22,7 @@ typedef struct pn_sequence {
 typedef struct pn_render_cmd_opts {
     pn_render_opts r;
     const char *scene, *output, *preview, *ray_dump;
+    const char *gbuffer; // --gbuffer FILE.exr: P and N from it instead of the raster pass
     bool aovs, json;
     bool view_cull;    // the tree models only what the picture needs (off: --no-view-cull)
     bool auto_quality; // --quality auto

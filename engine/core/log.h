@@ -17,6 +17,18 @@ pn_log_level pn_log_get_level(void);
 // Writes one line to stderr ("penumbra: warning: ..."); a trailing newline is added.
 void pn_log(pn_log_level level, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+// A library call's messages (engine/api): while a capture is set on the calling thread, the first
+// error logged is also kept in `buf` (the API's per-context last error), and messages below
+// `level` are not written to stderr on that thread, whatever the global level. NULL ends it.
+// Thread-local, so two contexts used from two threads keep their own.
+typedef struct pn_log_capture {
+    char *buf;
+    unsigned long size;
+    pn_log_level level;
+    int errors; // errors logged while set
+} pn_log_capture;
+void pn_log_set_capture(pn_log_capture *capture);
+
 #define pn_debug(...) pn_log(PN_LOG_DEBUG, __VA_ARGS__)
 #define pn_info(...) pn_log(PN_LOG_INFO, __VA_ARGS__)
 #define pn_warn(...) pn_log(PN_LOG_WARN, __VA_ARGS__)

@@ -10,6 +10,7 @@
 
 #include "apps/args.h"
 #include "apps/bench/bench.h"
+#include "apps/gbuffer_file.h"
 #include "apps/commands.h"
 #include "apps/render_opts.h"
 #include "core/log.h"
@@ -463,48 +464,16 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
     return PN_EXIT_OK;
 }
 
-// The G-buffer of --gbuffer: P.X/Y/Z with A as P.w, N.X/Y/Z, as the renderer's images hold them.
+// The G-buffer of --gbuffer (apps/gbuffer_file.h).
 pn_result pn_bench_load_gbuffer(bench_opts *o)
 {
-    pn_exr_image img;
-    if (pn_exr_read(o->gbuffer, &img) != PN_OK)
-        return PN_ERR_IO;
-    const char *names[7] = {"P.X", "P.Y", "P.Z", "A", "N.X", "N.Y", "N.Z"};
-    const float *ch[7];
-    for (int c = 0; c < 7; c++)
-        if (!(ch[c] = pn_exr_image_channel(&img, names[c]))) {
-            pn_error("%s: no %s channel (write it with render --aovs)", o->gbuffer, names[c]);
-            pn_exr_image_free(&img);
-            return PN_ERR_FORMAT;
-        }
-    size_t px = (size_t)img.width * img.height;
-    // The shadow rays start at P and leave along N: a non-finite one has no path through the tree.
-    // A render's AOVs are finite everywhere (0 off geometry), so anything else is a damaged file.
-    for (int c = 0; c < 7; c++)
-        for (size_t i = 0; i < px; i++)
-            if (!isfinite(ch[c][i])) {
-                pn_error("%s: %s is not finite at pixel (%zu, %zu)", o->gbuffer, names[c], i % (size_t)img.width,
-                         i / (size_t)img.width);
-                pn_exr_image_free(&img);
-                return PN_ERR_FORMAT;
-            }
-    o->gb_p = calloc(px * 4, sizeof(float));
-    o->gb_n = calloc(px * 4, sizeof(float));
-    if (!o->gb_p || !o->gb_n) {
-        pn_error("%s: out of memory for a %dx%d G-buffer", o->gbuffer, img.width, img.height);
-        free(o->gb_p), free(o->gb_n);
-        o->gb_p = o->gb_n = NULL;
-        pn_exr_image_free(&img);
-        return PN_ERR_MEMORY;
-    }
-    for (size_t i = 0; i < px; i++)
-        for (int k = 0; k < 4; k++) {
-            o->gb_p[4 * i + k] = ch[k][i];
-            o->gb_n[4 * i + k] = k < 3 ? ch[4 + k][i] : 0.0f;
-        }
-    o->gb_width = (uint32_t)img.width;
-    o->gb_height = (uint32_t)img.height;
+    pn_gbuffer_file g;
+    pn_result r = pn_gbuffer_file_read(o->gbuffer, &g);
+    if (r != PN_OK)
+        return r;
+    o->gb_p = g.p, o->gb_n = g.n; // freed with the options, as before
+    o->gb_width = g.width;
+    o->gb_height = g.height;
     o->sizes[0][0] = o->gb_width, o->sizes[0][1] = o->gb_height, o->size_count = 1;
-    pn_exr_image_free(&img);
     return PN_OK;
 }

@@ -1,0 +1,77 @@
+// What the API's files share: the opaque handles' contents and the call bracket that turns the
+// engine's logged errors into the context's last error and a status.
+#pragma once
+#include <stdbool.h>
+
+#include "api/penumbra.h"
+#include "core/log.h"
+#include "gpu/device.h"
+#include "scene/scene.h"
+#include "shadow/setup.h"
+
+// The farthest a coordinate may lie from the origin, as render's options allow (apps/render_opts.h):
+// beyond it the float products of the light's frame and the ray setup overflow.
+#define PN_API_MAX_COORD 1e18f
+
+struct penumbra_context {
+    bool ok;              // the device was created; a failed context holds only its message
+    int log_level;        // penumbra_context_desc.log_level
+    char error[1024];     // the last failed call's message
+    pn_gpu_device dev;    // must not move: the validation messenger points at it
+};
+
+// One mesh or glTF object as penumbra_scene_set_transform moves it: its vertices [first, first +
+// count) of the scene are `base` moved by `base_to_world`'s inverse then the new transform, always
+// from the base, so that rounding does not add up over moves (arrays: base holds the mesh's own
+// positions and base_to_world is the identity; files: the positions as loaded, and the node's
+// transform). cur_to_world: the transform now.
+typedef struct pn_api_object {
+    uint32_t first_vertex, vertex_count;
+    float (*base)[3];
+    double base_to_world[3][4], cur_to_world[3][4];
+} pn_api_object;
+
+// What the last visibility call built for the scene, reused while its key holds.
+typedef struct pn_api_key {
+    int mode, traversal, sampler, tree_n, tree_d;
+    uint32_t width, height, light_count;
+    uint64_t scene_version;
+    pn_light lights[PN_MAX_LIGHTS];
+} pn_api_key;
+
+struct penumbra_scene {
+    penumbra_context *ctx;
+    pn_scene scene;
+    pn_api_object *objects;
+    uint32_t object_count;
+    uint64_t version; // bumped by every change to the triangles
+    bool built;       // `setup` holds what `key` describes
+    pn_api_key key;
+    pn_setup setup;
+};
+
+// The bracket of every API call on a context: messages go to the context's log level and the
+// first error to a scratch line, which becomes ctx->error when the call fails.
+typedef struct pn_api_call {
+    penumbra_context *ctx;
+    pn_log_capture capture;
+    char message[1024];
+} pn_api_call;
+
+void pn_api_begin(pn_api_call *call, penumbra_context *ctx);
+// Ends the call: maps r to a status and, on failure, keeps the message (or r's name when
+// nothing was logged) as the context's last error.
+penumbra_status pn_api_end(pn_api_call *call, pn_result r);
+
+// Checks a pointer argument: logs "<fn>: <name> is NULL" and returns false for NULL.
+bool pn_api_need(const void *p, const char *fn, const char *name);
+
+// True when the context can take calls; logs why not otherwise (NULL, or failed at creation).
+bool pn_api_context_ok(const penumbra_context *ctx, const char *fn);
+
+// A public light as the engine's, checked and completed (unit normal and up, a sun placed beyond
+// the scene's bounds); logs what is wrong with light `index` and returns false.
+bool pn_api_light_in(const penumbra_light *in, uint32_t index, const pn_scene *scene, pn_light *out);
+
+// Frees the acceleration structures and renderer the scene's last visibility call left.
+void pn_api_scene_drop_built(penumbra_scene *scene);

@@ -1,0 +1,214 @@
+/* penumbra: soft shadows from area lights on Vulkan compute, as a C library.
+ *
+ * The public API, the only header a program that links penumbra includes (installed as
+ * <penumbra.h>; pkg-config --cflags --libs penumbra, or CMake's find_package(penumbra) and the
+ * target penumbra::penumbra). Everything under engine/ but engine/api is internal.
+ *
+ * The model: a context owns a Vulkan device; a scene holds triangles; lights are plain structs;
+ * penumbra_visibility takes world-space points with normals and returns, per point and light, the
+ * fraction of the light the point sees (V, 0..1), traced as `penumbra render` traces a pixel.
+ *
+ * Conventions:
+ *  - Every function that can fail returns a penumbra_status; PENUMBRA_OK is 0. On failure,
+ *    penumbra_context_error(ctx) holds one line naming the problem (the argument, the file, the
+ *    index), until the next call on that context that fails.
+ *  - Handles are opaque. A NULL handle, a NULL array with a non-zero count, a non-finite number or
+ *    a value out of range is PENUMBRA_ERROR_INVALID_ARGUMENT, never a crash.
+ *  - Descriptions are structs whose zero fields mean the default: pass NULL or `&(T){0}` for all
+ *    defaults, and new fields never break a caller.
+ *  - A context and what it made are used from one thread at a time. Two contexts may be used from
+ *    two threads.
+ *  - The library logs nothing to stderr unless asked (penumbra_context_desc.log_level).
+ */
+#ifndef PENUMBRA_H
+#define PENUMBRA_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(__GNUC__) || defined(__clang__)
+#define PENUMBRA_API __attribute__((visibility("default")))
+#else
+#define PENUMBRA_API
+#endif
+
+/* The version this header belongs to; penumbra_version() gives the linked library's. The ABI
+ * changes only with the major version (the shared library's soname is libpenumbra.so.MAJOR). */
+#define PENUMBRA_VERSION_MAJOR 0
+#define PENUMBRA_VERSION_MINOR 1
+#define PENUMBRA_VERSION_PATCH 0
+#define PENUMBRA_VERSION (PENUMBRA_VERSION_MAJOR * 10000 + PENUMBRA_VERSION_MINOR * 100 + PENUMBRA_VERSION_PATCH)
+
+/* PENUMBRA_VERSION of the library as linked: compare it with the header's at start-up. */
+PENUMBRA_API uint32_t penumbra_version(void);
+
+typedef enum penumbra_status {
+    PENUMBRA_OK = 0,
+    PENUMBRA_ERROR_INVALID_ARGUMENT = 1, /* a handle, size, value or name that cannot be used */
+    PENUMBRA_ERROR_IO = 2,               /* a file could not be read */
+    PENUMBRA_ERROR_FORMAT = 3,           /* a file's content is malformed or unsupported */
+    PENUMBRA_ERROR_OUT_OF_MEMORY = 4,    /* host or device memory, or a size limit of the device */
+    PENUMBRA_ERROR_VULKAN = 5,           /* no usable device, or a Vulkan call failed */
+    PENUMBRA_ERROR_UNSUPPORTED = 6,      /* valid, but not offered by this device or build */
+} penumbra_status;
+
+/* A constant name for a status ("PENUMBRA_OK", ...); "unknown status" for any other value. */
+PENUMBRA_API const char *penumbra_status_string(penumbra_status status);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Context: one Vulkan device and the last error. */
+
+typedef struct penumbra_context penumbra_context;
+
+typedef struct penumbra_context_desc {
+    /* NULL or "": the best device with Vulkan 1.3 (a discrete GPU over an integrated one, a GPU
+     * over lavapipe); else its index in Vulkan's enumeration ("1") or a case-insensitive part of
+     * its name ("llvmpipe"). The environment variable PN_DEVICE is not read. */
+    const char *device;
+    /* Non-zero: the Khronos validation layer with synchronization validation; its error messages
+     * are counted (penumbra_context_validation_messages). */
+    int validation;
+    /* What the library writes to stderr from this context's calls: 0 nothing (default), 1 errors,
+     * 2 warnings too, 3 progress too. The last error is kept either way. */
+    int log_level;
+} penumbra_context_desc;
+
+/* Creates the context and its device. On failure returns the status and still sets *out to a
+ * context that holds only the message (read it with penumbra_context_error, then destroy it);
+ * *out is NULL only when not even that could be allocated. desc may be NULL. */
+PENUMBRA_API penumbra_status penumbra_context_create(const penumbra_context_desc *desc, penumbra_context **out);
+
+/* Destroys the context (NULL is ignored). Its scenes must be destroyed first. */
+PENUMBRA_API void penumbra_context_destroy(penumbra_context *ctx);
+
+/* The message of the last failed call on ctx ("" if none failed); valid until the next call that
+ * fails or the context's destruction. A constant message for NULL. */
+PENUMBRA_API const char *penumbra_context_error(const penumbra_context *ctx);
+
+/* The name of the context's device ("llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA H100 ..."); ""
+ * for a context that failed. */
+PENUMBRA_API const char *penumbra_context_device(const penumbra_context *ctx);
+
+/* With desc.validation: the warnings and errors the validation layer reported so far. */
+PENUMBRA_API uint32_t penumbra_context_validation_messages(const penumbra_context *ctx);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Scene: the triangles that cast shadows. */
+
+typedef struct penumbra_scene penumbra_scene;
+
+/* One mesh of a scene from arrays: positions in its own frame and a triangle list. */
+typedef struct penumbra_mesh_desc {
+    const float *positions;   /* xyz per vertex, vertex_count * 3 floats, finite */
+    uint32_t vertex_count;
+    const uint32_t *indices;  /* 3 per triangle, each < vertex_count; index_count a multiple of 3 */
+    uint32_t index_count;
+    /* Local to world, 3 rows of 4 (row-major: x_world[r] = t[4r] x + t[4r+1] y + t[4r+2] z + t[4r+3]);
+     * NULL: identity. The mesh is one object, moved later with penumbra_scene_set_transform. */
+    const float *transform;
+    /* Optional alpha mask (a cut-out caster such as a leaf): uv per vertex (2 floats), a mask of
+     * alpha_width x alpha_height bytes (row 0 at v = 0, repeating outside 0..1), and the cutoff in
+     * (0, 1]: a ray passes where alpha / 255 is below it. NULL uvs: opaque. */
+    const float *uvs;
+    const uint8_t *alpha;
+    uint32_t alpha_width, alpha_height;
+    float alpha_cutoff;
+} penumbra_mesh_desc;
+
+/* A scene of mesh_count meshes (object i is mesh i). Copies the arrays; they may be freed after. */
+PENUMBRA_API penumbra_status penumbra_scene_create(penumbra_context *ctx, const penumbra_mesh_desc *meshes,
+                                                   uint32_t mesh_count, penumbra_scene **out);
+
+/* A scene from a glTF 2.0 file (.gltf, .glb; its nodes with a mesh are its objects, its
+ * KHR_lights_punctual and penumbra area lights its lights), or a built-in one ("builtin:default",
+ * "builtin:plane", "builtin:penumbra", "builtin:canopy"). Loaded as `penumbra render` loads it
+ * with --no-ground. */
+PENUMBRA_API penumbra_status penumbra_scene_load(penumbra_context *ctx, const char *path, penumbra_scene **out);
+
+/* Destroys the scene (NULL is ignored) and what the context built for it. */
+PENUMBRA_API void penumbra_scene_destroy(penumbra_scene *scene);
+
+typedef struct penumbra_scene_info {
+    uint64_t triangle_count;
+    uint32_t object_count;   /* arrays: mesh_count; glTF: nodes with a mesh; built-in: 1 */
+    uint32_t light_count;    /* lights the file carries */
+    float bounds_min[3], bounds_max[3];
+} penumbra_scene_info;
+
+PENUMBRA_API penumbra_status penumbra_scene_get_info(const penumbra_scene *scene, penumbra_scene_info *out);
+
+/* Object `object`'s transform from now on (3 rows of 4, as penumbra_mesh_desc.transform; its
+ * mesh's own positions are moved, not the current ones). The next visibility call rebuilds the
+ * scene's acceleration structures. */
+PENUMBRA_API penumbra_status penumbra_scene_set_transform(penumbra_scene *scene, uint32_t object,
+                                                          const float transform[12]);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Lights. V does not depend on a light's power, so a light here has only its shape. */
+
+typedef enum penumbra_light_kind {
+    PENUMBRA_LIGHT_RECT = 0,   /* one-sided rectangle: position (centre), normal, up, size; size 0: a point */
+    PENUMBRA_LIGHT_POINT = 1,  /* point (or spot: cone): position; hard shadows */
+    PENUMBRA_LIGHT_SUN = 2,    /* directional: normal (direction of travel) and angle (angular diameter) */
+    PENUMBRA_LIGHT_SPHERE = 3, /* sphere: position (centre) and radius */
+    PENUMBRA_LIGHT_DISK = 4,   /* one-sided disk: position (centre), normal and radius */
+} penumbra_light_kind;
+
+typedef struct penumbra_light {
+    penumbra_light_kind kind;
+    float position[3];
+    float normal[3]; /* the side a rectangle or disk emits to; a sun's and a spot's direction */
+    float up[3];     /* a rectangle's height axis (projected onto its plane); zero: any */
+    float size[2];   /* a rectangle's width and height */
+    float radius;    /* sphere, disk */
+    float angle;     /* sun: angular diameter in radians (0.0093 is the sun's) */
+    float cone[2];   /* point: a spot's inner and outer half-angles in radians; 0, 0: no cone */
+    float range;     /* point, sphere: where the light fades out (KHR_lights_punctual); 0: nowhere */
+} penumbra_light;
+
+/* The lights `penumbra render` uses for the scene without --light options: the file's own, else
+ * one rectangle framed on the scene (or on its interior, for a room seen from inside). Writes at
+ * most `capacity` lights to out (which may be NULL with capacity 0) and their number to *count. */
+PENUMBRA_API penumbra_status penumbra_scene_lights(const penumbra_scene *scene, penumbra_light *out,
+                                                   uint32_t capacity, uint32_t *count);
+
+/* ------------------------------------------------------------------------------------------ */
+/* Points in, visibility out. */
+
+typedef struct penumbra_visibility_desc {
+    /* A shadow mode of `penumbra render --mode` (NULL: "exact", the reference): "exact",
+     * "linespace", "ls-leaf", "ls-plane", "hybrid", "exact-ls", "rayquery", "rtpipeline", "none".
+     * Exact modes return the exact V of the samples; line-space modes trade accuracy for speed. */
+    const char *mode;
+    const char *traversal; /* NULL: "auto"; or "ray", "packet", "project" (render's --traversal) */
+    const char *sampler;   /* NULL: "stratified"; or "grid" */
+    uint32_t spp;          /* light samples per point, 1..4096; 0: 4, as render */
+    uint32_t seed;         /* the samples' seed, as render's --seed (whose default is 1) */
+    uint32_t tree_n, tree_d; /* line-space modes' N-tree: branching 2..16, depth 1..6; 0: 7 and 3 */
+    /* The points are traced as the pixels of an image `width` points wide (point i is pixel
+     * (i mod width, i / width)); a pixel's samples depend on where it is. 0: min(count, 1024).
+     * To reproduce render's V for its pixels' P and N (render --aovs --filter none), pass its width
+     * and the pixels in row order: V is then render's bit for bit. */
+    uint32_t width;
+} penumbra_visibility_desc;
+
+/* For point_count points (xyz each in `points`, a unit normal each in `normals`, the side the
+ * point receives light from), the visibility of each of light_count lights: v[l * point_count + i]
+ * for light l and point i, light_count * point_count floats. V is the fraction of the light's
+ * samples that reach the point unblocked, among those above its horizon; 0 where none is.
+ * The first call for a scene, mode and set of lights builds the acceleration structures (and
+ * compiles the shaders); later calls with other points, samples or seed reuse them.
+ * desc may be NULL (the defaults). */
+PENUMBRA_API penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *scene,
+                                                 const penumbra_visibility_desc *desc, const penumbra_light *lights,
+                                                 uint32_t light_count, const float *points, const float *normals,
+                                                 size_t point_count, float *v);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,198 @@
+// Points in, visibility out: the points become the G-buffer of a frame as wide as the caller's
+// rows (pn_renderer_set_gbuffer, the bench's shader-level path), traced by render's shadow pass
+// with filter none; V is read back per light. What a scene's last call built is kept for the next.
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "api/api_internal.h"
+#include "scene/view.h"
+
+// The default row length: rows of 1024 points keep a million points within lavapipe's and every
+// GPU's image size (16384), and a row is long enough that the frame's tiles are full.
+enum { DEFAULT_WIDTH = 1024, DEFAULT_SPP = 4, MAX_SPP = 4096 };
+
+static int parse_name(const char *fn, const char *field, const char *name, const char *const *names, int fallback)
+{
+    if (!name)
+        return fallback;
+    for (int i = 0; names[i]; i++)
+        if (strcmp(names[i], name) == 0)
+            return i;
+    char list[256] = "";
+    for (int i = 0; names[i]; i++)
+        snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? "|" : "", names[i]);
+    pn_error("%s: %s: expected one of %s, got '%s'", fn, field, list, name);
+    return -1;
+}
+
+typedef struct vis_config {
+    pn_api_key key;
+    uint32_t spp, seed;
+} vis_config;
+
+// The description checked and resolved into the cache key (lights and size filled in later).
+static pn_result config_in(const penumbra_context *ctx, const penumbra_scene *s, const penumbra_visibility_desc *d,
+                           vis_config *c)
+{
+    const char *fn = "penumbra_visibility";
+    memset(c, 0, sizeof *c); // the key is compared with memcmp: its padding too
+    int mode = d->mode ? pn_shadow_mode_parse("penumbra_visibility: mode", d->mode) : PN_SHADOW_REFERENCE;
+    int traversal = parse_name(fn, "traversal", d->traversal, pn_traversal_names, PN_TRAVERSAL_AUTO);
+    int sampler = parse_name(fn, "sampler", d->sampler, pn_sampler_names, PN_SAMPLER_STRATIFIED);
+    if (mode < 0 || traversal < 0 || sampler < 0)
+        return PN_ERR_INVALID;
+    c->spp = d->spp ? d->spp : DEFAULT_SPP;
+    if (c->spp > MAX_SPP) {
+        pn_error("%s: spp %u: expected 1..%d", fn, c->spp, MAX_SPP);
+        return PN_ERR_INVALID;
+    }
+    c->seed = d->seed;
+    int n = d->tree_n ? (int)d->tree_n : 7, depth = d->tree_d ? (int)d->tree_d : 3;
+    if (n < 2 || n > 16 || depth < 1 || depth > 6) {
+        pn_error("%s: tree %u,%u: expected a branching factor 2..16 and a depth 1..6", fn, d->tree_n, d->tree_d);
+        return PN_ERR_INVALID;
+    }
+    const char *lack;
+    if (!pn_shadow_mode_available(&ctx->dev, (pn_shadow_mode)mode, &lack)) {
+        pn_error("%s: mode %s needs %s, which %s does not offer", fn, pn_shadow_mode_get(mode)->name, lack,
+                 ctx->dev.props.deviceName);
+        return PN_ERR_UNSUPPORTED;
+    }
+    char why[512];
+    if (!pn_shadow_mode_takes_scene((pn_shadow_mode)mode, &s->scene, why, sizeof why)) {
+        pn_error("%s", why);
+        return PN_ERR_INVALID;
+    }
+    const pn_shadow_mode_info *info = pn_shadow_mode_get(mode);
+    bool tree = info->needs.tree;
+    c->key = (pn_api_key){.mode = mode, .traversal = traversal, .sampler = sampler,
+                          .tree_n = tree ? n : 0, .tree_d = tree ? depth : 0, .scene_version = s->version};
+    return PN_OK;
+}
+
+static pn_result points_in(const float *p, const float *nrm, size_t count)
+{
+    const char *fn = "penumbra_visibility";
+    for (size_t i = 0; i < count; i++) {
+        const float *x = p + 3 * i, *n = nrm + 3 * i;
+        bool ok = true;
+        for (int k = 0; k < 3; k++)
+            ok = ok && isfinite(x[k]) && fabsf(x[k]) <= PN_API_MAX_COORD && isfinite(n[k]);
+        if (!ok || !(n[0] != 0 || n[1] != 0 || n[2] != 0)) {
+            pn_error("%s: point %zu: (%g, %g, %g) with normal (%g, %g, %g): %s", fn, i, (double)x[0], (double)x[1],
+                     (double)x[2], (double)n[0], (double)n[1], (double)n[2],
+                     ok ? "the normal is zero" : "not finite, or beyond 1e18 from the origin");
+            return PN_ERR_INVALID;
+        }
+    }
+    return PN_OK;
+}
+
+// Builds (or keeps) what the key describes, then traces one frame of up to PN_MAX_LIGHTS lights.
+static pn_result trace(penumbra_scene *s, const vis_config *c, const float *gp, const float *gn, pn_frame_images *img)
+{
+    pn_gpu_device *dev = &s->ctx->dev;
+    if (!s->built || memcmp(&s->key, &c->key, sizeof c->key) != 0) {
+        pn_api_scene_drop_built(s);
+        pn_setup_desc sd = {
+            .frame = {.width = c->key.width, .height = c->key.height, .mode = (pn_shadow_mode)c->key.mode,
+                      .traversal = (pn_traversal)c->key.traversal, .sampler = (pn_sampler)c->key.sampler,
+                      .spp = c->spp, .seed = c->seed, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN},
+            .tree_n = c->key.tree_n ? c->key.tree_n : 7,
+            .tree_d = c->key.tree_d ? c->key.tree_d : 3,
+            .light_count = c->key.light_count,
+        };
+        PN_TRY(pn_setup_create(dev, &s->scene, c->key.lights, &sd, &s->setup));
+        s->built = true;
+        s->key = c->key;
+    } else {
+        PN_TRY(pn_renderer_set_spp(&s->setup.renderer, c->spp));
+        pn_renderer_set_seed(&s->setup.renderer, c->seed);
+    }
+    pn_renderer *r = &s->setup.renderer;
+    PN_TRY(pn_renderer_set_gbuffer(r, gp, gn));
+    // The camera only places the raster pass, which the points replace.
+    pn_camera cam;
+    pn_camera_frame(s->scene.bounds_min, s->scene.bounds_max, 45.0f, &cam);
+    pn_frame_times times;
+    PN_TRY(pn_renderer_render_lights(r, &cam, c->key.lights, c->key.light_count, &times));
+    pn_renderer_images(r, img);
+    return PN_OK;
+}
+
+penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, const penumbra_visibility_desc *desc,
+                                    const penumbra_light *lights, uint32_t light_count, const float *points,
+                                    const float *normals, size_t count, float *v)
+{
+    const char *fn = "penumbra_visibility";
+    pn_api_call call;
+    pn_api_begin(&call, ctx);
+    if (!pn_api_context_ok(ctx, fn) || !pn_api_need(s, fn, "scene") || !pn_api_need(lights, fn, "lights"))
+        return pn_api_end(&call, PN_ERR_INVALID);
+    if (s->ctx != ctx) {
+        pn_error("%s: the scene belongs to another context", fn);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    if (light_count == 0) {
+        pn_error("%s: light_count is 0", fn);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    vis_config c;
+    pn_result r = config_in(ctx, s, desc ? desc : &(penumbra_visibility_desc){0}, &c);
+    if (r != PN_OK)
+        return pn_api_end(&call, r);
+    if (count == 0)
+        return pn_api_end(&call, PN_OK);
+    if (!pn_api_need(points, fn, "points") || !pn_api_need(normals, fn, "normals") || !pn_api_need(v, fn, "v") ||
+        points_in(points, normals, count) != PN_OK)
+        return pn_api_end(&call, PN_ERR_INVALID);
+    pn_light *in = malloc((size_t)light_count * sizeof *in);
+    if (!in)
+        return pn_api_end(&call, PN_ERR_MEMORY);
+    for (uint32_t l = 0; l < light_count; l++)
+        if (!pn_api_light_in(&lights[l], l, &s->scene, &in[l])) {
+            free(in);
+            return pn_api_end(&call, PN_ERR_INVALID);
+        }
+    // The points' image: `width` to a row, as the caller laid them out (its samples depend on it).
+    uint32_t max_dim = ctx->dev.props.limits.maxImageDimension2D;
+    uint64_t width = desc && desc->width ? desc->width : (count < DEFAULT_WIDTH ? count : DEFAULT_WIDTH);
+    uint64_t height = (count + width - 1) / width;
+    if (width > max_dim || height > max_dim) {
+        pn_error("%s: %zu points at %llu to a row make an image of %llu x %llu; %s takes at most %u x %u: use longer "
+                 "rows (desc.width) or split the call",
+                 fn, count, (unsigned long long)width, (unsigned long long)width, (unsigned long long)height,
+                 ctx->dev.props.deviceName, max_dim, max_dim);
+        free(in);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    c.key.width = (uint32_t)width, c.key.height = (uint32_t)height;
+    size_t pixels = (size_t)width * height;
+    float *gp = calloc(4 * pixels, sizeof *gp), *gn = calloc(4 * pixels, sizeof *gn);
+    if (!gp || !gn) {
+        pn_error("%s: out of memory for the G-buffer of %zu points", fn, count);
+        r = PN_ERR_MEMORY;
+    }
+    for (size_t i = 0; r == PN_OK && i < count; i++) {
+        memcpy(gp + 4 * i, points + 3 * i, 3 * sizeof(float));
+        gp[4 * i + 3] = 1; // geometry here (the padding past `count` stays background: V 0, unread)
+        memcpy(gn + 4 * i, normals + 3 * i, 3 * sizeof(float));
+    }
+    // A frame takes PN_MAX_LIGHTS lights: more go in frames of their own.
+    for (uint32_t first = 0; r == PN_OK && first < light_count; first += PN_MAX_LIGHTS) {
+        uint32_t k = light_count - first < PN_MAX_LIGHTS ? light_count - first : PN_MAX_LIGHTS;
+        memset(c.key.lights, 0, sizeof c.key.lights);
+        memcpy(c.key.lights, in + first, k * sizeof *in);
+        c.key.light_count = k;
+        pn_frame_images img;
+        r = trace(s, &c, gp, gn, &img);
+        for (uint32_t l = 0; r == PN_OK && l < k; l++)
+            memcpy(v + (size_t)(first + l) * count, img.v_light[l], count * sizeof *v);
+        if (r != PN_OK)
+            pn_api_scene_drop_built(s); // whatever failed, the next call starts afresh
+    }
+    free(gp), free(gn), free(in);
+    return pn_api_end(&call, r);
+}
