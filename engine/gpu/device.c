@@ -143,7 +143,7 @@ pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32
             bool match = by_index ? (uint32_t)atoi(selector) == i : ci_contains(p.deviceName, selector);
             if (match && best < 0) {
                 if (!ok13) {
-                    pn_error("PN_DEVICE=%s selects %s, which lacks Vulkan 1.3", selector, p.deviceName);
+                    pn_error("device \"%s\" (PN_DEVICE) selects %s, which lacks Vulkan 1.3", selector, p.deviceName);
                     free(pd);
                     return PN_ERR_VULKAN;
                 }
@@ -157,7 +157,7 @@ pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32
     free(pd);
     if (best < 0) {
         if (selector)
-            pn_error("PN_DEVICE=%s matches none of the %u Vulkan devices (see `penumbra info`)", selector, count);
+            pn_error("device \"%s\" (PN_DEVICE) matches none of the %u Vulkan devices (see `penumbra info`)", selector, count);
         else
             pn_error("no Vulkan 1.3 device among the %u found", count);
         return PN_ERR_VULKAN;

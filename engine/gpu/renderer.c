@@ -23,6 +23,15 @@ enum { TS_START, TS_GBUFFER, TS_LIGHT, TS_SHADOW = 0, TS_FILTER = 1, TS_SHADE = 
 enum { PN_READBACK_COUNTS = 4 * 4 + 2, PN_READBACK_RAYS = PN_READBACK_COUNTS + 4,
        PN_READBACK_FOOTPRINT = PN_READBACK_RAYS + 4, PN_READBACK_FLOATS_PER_PIXEL = PN_READBACK_FOOTPRINT + 2 };
 
+// A plane of the readback buffer holds one float (or one channel) per pixel, its pixel count
+// rounded up to a multiple of 4: every plane then starts 16 bytes aligned, as a copy of an RGBA32
+// image must (vkCmdCopyImageToBuffer's bufferOffset, a multiple of the texel size), whatever the
+// frame's size (the API's point images: any count of points).
+static size_t readback_plane(const pn_renderer *r)
+{
+    return ((size_t)r->width * r->height + 3) & ~(size_t)3;
+}
+
 static pn_result reserve_readback(pn_renderer *r, uint32_t light_count);
 
 // ---------------------------------------------------------------------------------------------
@@ -275,13 +284,13 @@ static void record_readback(pn_renderer *r, VkCommandBuffer cmd)
         VkImageMemoryBarrier2 b = pn_gpu_image_barrier(&r->penumbra.scratch, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
         pn_gpu_cmd_barrier(cmd, NULL, 1, &b);
         VkBufferImageCopy copy = {
-            .bufferOffset = (VkDeviceSize)PN_READBACK_FOOTPRINT * 4 * r->width * r->height,
+            .bufferOffset = (VkDeviceSize)PN_READBACK_FOOTPRINT * 4 * readback_plane(r),
             .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
             .imageExtent = {r->width, r->height, 1},
         };
         vkCmdCopyImageToBuffer(cmd, r->penumbra.scratch.image, SRC, r->readback.buffer, 1, &copy);
     }
-    VkDeviceSize px = (VkDeviceSize)r->width * r->height, offset = 0;
+    VkDeviceSize px = readback_plane(r), offset = 0;
     for (int i = 0; i < count; i++) {
         VkBufferImageCopy copy = {
             .bufferOffset = offset,
@@ -350,7 +359,7 @@ static void record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t i)
         pn_gpu_image_barrier(src[1], COMPUTE, WRITE, COPY, READ, GENERAL, SRC),
     };
     pn_gpu_cmd_barrier(cmd, NULL, count, to_copy);
-    VkDeviceSize px = (VkDeviceSize)r->width * r->height;
+    VkDeviceSize px = readback_plane(r);
     for (uint32_t k = 0; k < count; k++) {
         VkBufferImageCopy copy = {
             .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL + 2 * i + k) * 4 * px,
@@ -454,7 +463,7 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
 // The readback buffer holds the frame's images and, with several lights, every light's V and V_raw.
 static pn_result reserve_readback(pn_renderer *r, uint32_t light_count)
 {
-    VkDeviceSize px = (VkDeviceSize)r->width * r->height;
+    VkDeviceSize px = readback_plane(r);
     VkDeviceSize bytes = px * 4 * (PN_READBACK_FLOATS_PER_PIXEL + (light_count > 1 ? 2 * light_count : 0));
     if (r->readback.size >= bytes)
         return PN_OK;
@@ -604,7 +613,7 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
 
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
 {
-    size_t px = (size_t)r->width * r->height;
+    size_t px = readback_plane(r);
     const float *base = r->readback.mapped;
     memset(out, 0, sizeof *out);
     out->p = base;
