@@ -19,7 +19,7 @@ PACKAGES=(
   xvfb xauth openimageio-tools gnuplot-nox
   parallel
   assimp-testmodels
-  python3
+  python3 python3-numpy
   clang-14 clang libclang-rt-14-dev llvm-14
 )
 
