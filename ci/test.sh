@@ -8,8 +8,8 @@
 # report nothing; then each libFuzzer target for a bounded time.
 # Arguments go to the first two ctest runs (e.g. -R hostile). Environment:
 #   PN_SANITIZERS=0     skip the sanitizer builds, their tests and the fuzzing
-#   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing); four targets,
-#                       two at a time: the step takes about 2 x N seconds
+#   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing); five targets,
+#                       two at a time: the step takes about 3 x N seconds
 # How the sanitizer run is set up, and why: tests/sanitizers.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -50,7 +50,7 @@ seconds=${PN_FUZZ_SECONDS:-60}
 [ "$seconds" -gt 0 ] || exit 0
 t0=$SECONDS
 step "fuzzing, ${seconds} s per target"
-# Four targets on two cores: two at a time, one core each, so the step takes about 2 x seconds.
+# Five targets on two cores: two at a time, one core each, so the step takes about 3 x seconds.
 # New inputs go to build-asan/fuzz/<target>/new, never into the corpus in tests/fuzz; a crash
 # leaves its input in build-asan/fuzz/<target>/ as crash-*.
 dict_of() {
@@ -60,7 +60,7 @@ dict_of() {
   esac
 }
 status=0
-for pair in "scene cli" "exr script"; do
+for pair in "scene cli" "exr script" "api"; do
   read -r -a targets <<<"$pair"
   pids=()
   for target in "${targets[@]}"; do

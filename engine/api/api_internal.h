@@ -73,5 +73,13 @@ bool pn_api_context_ok(const penumbra_context *ctx, const char *fn);
 // the scene's bounds); logs what is wrong with light `index` and returns false.
 bool pn_api_light_in(const penumbra_light *in, uint32_t index, const pn_scene *scene, pn_light *out);
 
+// The pieces of penumbra_scene_create and penumbra_visibility that touch no device, apart for the
+// fuzzer (tests/fuzz/fuzz_api.c): a scene handle (ctx may be NULL: messages are then dropped), the
+// arrays checked and added to it (logs what is wrong; PN_ERR_INVALID), the points checked.
+penumbra_scene *pn_api_scene_new(penumbra_context *ctx, const char *name);
+pn_result pn_api_scene_arrays(penumbra_scene *s, const penumbra_mesh_desc *meshes, uint32_t mesh_count);
+void pn_api_scene_free(penumbra_scene *s);
+pn_result pn_api_points_in(const float *points, const float *normals, size_t count);
+
 // Frees the acceleration structures and renderer the scene's last visibility call left.
 void pn_api_scene_drop_built(penumbra_scene *scene);

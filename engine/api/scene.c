@@ -101,8 +101,10 @@ void pn_api_scene_drop_built(penumbra_scene *s)
     s->built = false;
 }
 
-static void scene_free(penumbra_scene *s)
+void pn_api_scene_free(penumbra_scene *s)
 {
+    if (!s)
+        return;
     pn_api_scene_drop_built(s);
     for (uint32_t i = 0; i < s->object_count; i++)
         free(s->objects[i].base);
@@ -138,7 +140,7 @@ static pn_result objects_from_scene(penumbra_scene *s)
     return PN_OK;
 }
 
-static penumbra_scene *scene_new(penumbra_context *ctx, const char *name)
+penumbra_scene *pn_api_scene_new(penumbra_context *ctx, const char *name)
 {
     penumbra_scene *s = calloc(1, sizeof *s);
     if (s) {
@@ -237,34 +239,26 @@ static pn_result add_mesh(penumbra_scene *s, const penumbra_mesh_desc *m, uint32
     return r;
 }
 
-penumbra_status penumbra_scene_create(penumbra_context *ctx, const penumbra_mesh_desc *meshes, uint32_t mesh_count,
-                                      penumbra_scene **out)
+pn_result pn_api_scene_arrays(penumbra_scene *s, const penumbra_mesh_desc *meshes, uint32_t mesh_count)
 {
-    pn_api_call call;
-    pn_api_begin(&call, ctx);
     const char *fn = "penumbra_scene_create";
-    if (out)
-        *out = NULL;
-    if (!pn_api_context_ok(ctx, fn) || !pn_api_need(out, fn, "out") || !pn_api_need(meshes, fn, "meshes"))
-        return pn_api_end(&call, PN_ERR_INVALID);
     if (mesh_count == 0) {
         pn_error("%s: mesh_count is 0; a scene needs at least one mesh", fn);
-        return pn_api_end(&call, PN_ERR_INVALID);
+        return PN_ERR_INVALID;
     }
     uint64_t vertices = 0, indices = 0;
     for (uint32_t i = 0; i < mesh_count; i++) {
         if (!mesh_valid(&meshes[i], i))
-            return pn_api_end(&call, PN_ERR_INVALID);
+            return PN_ERR_INVALID;
         vertices += meshes[i].vertex_count, indices += meshes[i].index_count;
     }
     if (vertices > UINT32_MAX || indices > UINT32_MAX) {
         pn_error("%s: %llu vertices and %llu indices in all; a scene holds at most %u of each", fn,
                  (unsigned long long)vertices, (unsigned long long)indices, UINT32_MAX);
-        return pn_api_end(&call, PN_ERR_INVALID);
+        return PN_ERR_INVALID;
     }
-    penumbra_scene *s = scene_new(ctx, "arrays");
-    pn_result r = s ? PN_OK : PN_ERR_MEMORY;
-    if (s && !(s->objects = calloc(mesh_count, sizeof *s->objects)))
+    pn_result r = PN_OK;
+    if (!(s->objects = calloc(mesh_count, sizeof *s->objects)))
         r = PN_ERR_MEMORY;
     if (r == PN_OK)
         s->object_count = mesh_count;
@@ -277,12 +271,26 @@ penumbra_status penumbra_scene_create(penumbra_context *ctx, const penumbra_mesh
         if (pn_scene_validate(&s->scene) != PN_OK)
             r = PN_ERR_INVALID;
     }
+    if (r == PN_ERR_MEMORY)
+        pn_error("%s: out of memory for %llu vertices and %llu indices", fn, (unsigned long long)vertices,
+                 (unsigned long long)indices);
+    return r;
+}
+
+penumbra_status penumbra_scene_create(penumbra_context *ctx, const penumbra_mesh_desc *meshes, uint32_t mesh_count,
+                                      penumbra_scene **out)
+{
+    pn_api_call call;
+    pn_api_begin(&call, ctx);
+    const char *fn = "penumbra_scene_create";
+    if (out)
+        *out = NULL;
+    if (!pn_api_context_ok(ctx, fn) || !pn_api_need(out, fn, "out") || !pn_api_need(meshes, fn, "meshes"))
+        return pn_api_end(&call, PN_ERR_INVALID);
+    penumbra_scene *s = pn_api_scene_new(ctx, "arrays");
+    pn_result r = s ? pn_api_scene_arrays(s, meshes, mesh_count) : PN_ERR_MEMORY;
     if (r != PN_OK) {
-        if (r == PN_ERR_MEMORY)
-            pn_error("%s: out of memory for %llu vertices and %llu indices", fn, (unsigned long long)vertices,
-                     (unsigned long long)indices);
-        if (s)
-            scene_free(s);
+        pn_api_scene_free(s);
         return pn_api_end(&call, r);
     }
     *out = s;
@@ -301,14 +309,14 @@ penumbra_status penumbra_scene_load(penumbra_context *ctx, const char *path, pen
         *out = NULL;
     if (!pn_api_context_ok(ctx, fn) || !pn_api_need(out, fn, "out") || !pn_api_need(path, fn, "path"))
         return pn_api_end(&call, PN_ERR_INVALID);
-    penumbra_scene *s = scene_new(ctx, path);
+    penumbra_scene *s = pn_api_scene_new(ctx, path);
     if (!s)
         return pn_api_end(&call, PN_ERR_MEMORY);
     pn_result r = pn_scene_load(path, &s->scene);
     if (r == PN_OK && (r = objects_from_scene(s)) != PN_OK)
         pn_error("%s: out of memory for its objects", path);
     if (r != PN_OK) {
-        scene_free(s);
+        pn_api_scene_free(s);
         return pn_api_end(&call, r);
     }
     *out = s;
@@ -321,7 +329,7 @@ void penumbra_scene_destroy(penumbra_scene *s)
         return;
     pn_api_call call;
     pn_api_begin(&call, s->ctx);
-    scene_free(s);
+    pn_api_scene_free(s);
     pn_api_end(&call, PN_OK);
 }
 

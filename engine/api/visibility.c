@@ -72,7 +72,7 @@ static pn_result config_in(const penumbra_context *ctx, const penumbra_scene *s,
     return PN_OK;
 }
 
-static pn_result points_in(const float *p, const float *nrm, size_t count)
+pn_result pn_api_points_in(const float *p, const float *nrm, size_t count)
 {
     const char *fn = "penumbra_visibility";
     for (size_t i = 0; i < count; i++) {
@@ -143,11 +143,6 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
     pn_result r = config_in(ctx, s, desc ? desc : &(penumbra_visibility_desc){0}, &c);
     if (r != PN_OK)
         return pn_api_end(&call, r);
-    if (count == 0)
-        return pn_api_end(&call, PN_OK);
-    if (!pn_api_need(points, fn, "points") || !pn_api_need(normals, fn, "normals") || !pn_api_need(v, fn, "v") ||
-        points_in(points, normals, count) != PN_OK)
-        return pn_api_end(&call, PN_ERR_INVALID);
     pn_light *in = malloc((size_t)light_count * sizeof *in);
     if (!in)
         return pn_api_end(&call, PN_ERR_MEMORY);
@@ -156,6 +151,15 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
             free(in);
             return pn_api_end(&call, PN_ERR_INVALID);
         }
+    if (count == 0) { // nothing to trace: the description and lights are checked all the same
+        free(in);
+        return pn_api_end(&call, PN_OK);
+    }
+    if (!pn_api_need(points, fn, "points") || !pn_api_need(normals, fn, "normals") || !pn_api_need(v, fn, "v") ||
+        pn_api_points_in(points, normals, count) != PN_OK) {
+        free(in);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
     // The points' image: `width` to a row, as the caller laid them out (its samples depend on it).
     uint32_t max_dim = ctx->dev.props.limits.maxImageDimension2D;
     uint64_t width = desc && desc->width ? desc->width : (count < DEFAULT_WIDTH ? count : DEFAULT_WIDTH);
