@@ -264,6 +264,10 @@ expect 1 "garbage.exr: not a readable EXR" -- bench --shader shadow --gbuffer "$
 expect 1 "error.exr: no P.X channel" -- bench --shader shadow --gbuffer "$TMP/error.exr" \
   --scenes builtin:default --out "$TMP/bench-out"
 [ -e "$TMP/bench-out" ] && { echo "FAIL: bench created its output folder for a G-buffer it refused"; fail=1; }
+# And as render's: exit 1, the file and its problem named, no output (expect checks out.exr).
+expect 1 "garbage.exr: not a readable EXR" -- render builtin:default --gbuffer "$TMP/garbage.exr" -o "$TMP/out.exr"
+expect 1 "error.exr: no P.X channel" -- render builtin:default --gbuffer "$TMP/error.exr" -o "$TMP/out.exr"
+expect 2 "--gbuffer: .*not with --frames" -- render builtin:default --gbuffer "$TMP/good.exr" --frames 1:2 -o "$TMP/f%d.exr"
 
 chmod 644 "$TMP/unreadable.glb"
 exit $fail
