@@ -1,6 +1,5 @@
-// The options of animated scenes that render and demo share (--time, --node-transform) and the
-// posing of a prepared scene (scene/anim.h): its objects move, the file's camera and lights follow
-// their nodes where the frame uses them, and the framing stays the rest pose's.
+// The options of animated scenes that render and demo share (--time, --node-transform). Posing a
+// prepared scene with them is render_prepare.c's (pn_render_pose).
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -80,31 +79,4 @@ bool pn_parse_node_transform(const char *v, pn_render_opts *o)
     }
     o->node_transform_count++;
     return true;
-}
-
-int pn_render_pose(const pn_render_opts *o, pn_prepared_scene *p, double time)
-{
-    pn_scene *s = &p->scene;
-    if (pn_scene_pose(s, time, &p->pose) != PN_OK || pn_scene_validate(s) != PN_OK)
-        return PN_EXIT_USAGE;
-    const pn_scene_anim *a = s->anim;
-    if (!a)
-        return PN_EXIT_OK;
-    if (p->file_camera && a->camera_node >= 0 && a->nodes[a->camera_node].posed) {
-        pn_camera cam = s->camera;
-        if (!pn_render_finish_camera(o, &cam))
-            return PN_EXIT_USAGE;
-        p->camera = cam;
-    }
-    for (uint32_t i = 0; p->file_lights && i < p->light_count; i++) {
-        int32_t n = a->light_node[i];
-        if (n < 0 || !a->nodes[n].posed)
-            continue;
-        char what[300];
-        snprintf(what, sizeof what, "%s: light %u at time %g", s->name, i, time);
-        // As the rest pose's lights were finished: a sun placed for the scene's own bounds.
-        if (!pn_render_finish_light(what, &s->lights[i], p->object_min, p->object_max, &p->lights[i]))
-            return PN_EXIT_USAGE;
-    }
-    return PN_EXIT_OK;
 }

@@ -92,7 +92,8 @@ bool pn_parse_light_group(const char *v, pn_render_opts *o);
 // Camera and lights from the scene's bounds (and camera), overridden by the options: the --light
 // groups, else one light (the default above the scene, changed by --light-*). Call before the
 // ground plane is added: the defaults frame the scene itself. Logs and returns false for a
-// degenerate camera or light. lights has room for PN_MAX_LIGHTS.
+// degenerate camera or light. lights has room for PN_MAX_LIGHTS. (This, the finishing, the
+// prepared scene and its posing below: apps/render_prepare.c.)
 bool pn_render_setup_view(const pn_render_opts *o, const pn_scene *s, pn_camera *cam, pn_light *lights,
                           uint32_t *light_count);
 

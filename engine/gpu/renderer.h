@@ -1,5 +1,5 @@
 // One frame of penumbra: G-buffer raster pass, shadow compute pass, filter compute pass (with a
-// filter), shading compute pass, readback (renderer.c records them in that order; each pass is its own file). Shared by render,
+// filter), shading compute pass, readback (renderer_frame.c records them in that order; each pass is its own file). Shared by render,
 // demo and bench.
 #pragma once
 #include "gpu/frame.h"

@@ -271,24 +271,3 @@ pn_result pn_scene_set_node_transform(pn_scene *s, uint32_t node, const double t
     memcpy(a->nodes[node].s, scale, sizeof a->nodes[node].s);
     return PN_OK;
 }
-
-void pn_scene_anim_destroy(pn_scene_anim *a)
-{
-    if (!a)
-        return;
-    for (uint32_t i = 0; i < a->channel_count; i++) {
-        free(a->channels[i].times);
-        free(a->channels[i].values);
-    }
-    for (uint32_t i = 0; i < a->prim_count; i++) {
-        free(a->prims[i].positions);
-        free(a->prims[i].normals);
-        free(a->prims[i].uvs);
-        free(a->prims[i].triangles);
-    }
-    free(a->channels);
-    free(a->prims);
-    free(a->nodes);
-    free(a->order);
-    free(a);
-}

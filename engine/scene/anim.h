@@ -102,4 +102,5 @@ pn_result pn_scene_set_node_transform(pn_scene *s, uint32_t node, const double t
 // Whether the scene has animation channels.
 static inline bool pn_scene_animated(const pn_scene *s) { return s->anim && s->anim->channel_count > 0; }
 
+// Frees the animation and everything it holds (scene.c, beside pn_scene_destroy, which calls it).
 void pn_scene_anim_destroy(pn_scene_anim *a);

@@ -27,6 +27,29 @@ void pn_scene_destroy(pn_scene *s)
     memset(s, 0, sizeof *s);
 }
 
+// The animation's arrays belong to the scene as its vertices do: freed here, with the rest of its
+// data, so that the scene's data calls nothing of the posing above it (anim.c).
+void pn_scene_anim_destroy(pn_scene_anim *a)
+{
+    if (!a)
+        return;
+    for (uint32_t i = 0; i < a->channel_count; i++) {
+        free(a->channels[i].times);
+        free(a->channels[i].values);
+    }
+    for (uint32_t i = 0; i < a->prim_count; i++) {
+        free(a->prims[i].positions);
+        free(a->prims[i].normals);
+        free(a->prims[i].uvs);
+        free(a->prims[i].triangles);
+    }
+    free(a->channels);
+    free(a->prims);
+    free(a->nodes);
+    free(a->order);
+    free(a);
+}
+
 // The box of the vertices object o's triangles use: its share of the bounds.
 static void object_bounds(const pn_scene *s, const pn_scene_object *o, float lo[3], float hi[3])
 {
