@@ -3,9 +3,9 @@
 #pragma once
 #include <stdbool.h>
 
+#include "gpu/device.h" // Vulkan first: penumbra.h declares its Vulkan entry points after it
 #include "api/penumbra.h"
 #include "core/log.h"
-#include "gpu/device.h"
 #include "scene/scene.h"
 #include "shadow/setup.h"
 
@@ -38,6 +38,12 @@ typedef struct pn_api_key {
     uint64_t scene_version;
     pn_light lights[PN_MAX_LIGHTS];
 } pn_api_key;
+
+// A visibility description checked and resolved (its key's lights and size are the caller's).
+typedef struct pn_api_config {
+    pn_api_key key;
+    uint32_t spp, seed;
+} pn_api_config;
 
 struct penumbra_scene {
     penumbra_context *ctx;
@@ -80,6 +86,10 @@ penumbra_scene *pn_api_scene_new(penumbra_context *ctx, const char *name);
 pn_result pn_api_scene_arrays(penumbra_scene *s, const penumbra_mesh_desc *meshes, uint32_t mesh_count);
 void pn_api_scene_free(penumbra_scene *s);
 pn_result pn_api_points_in(const float *points, const float *normals, size_t count);
+
+// The description checked against the device and scene (names, ranges, the mode's needs); logs.
+pn_result pn_api_config_in(const penumbra_context *ctx, const penumbra_scene *s, const penumbra_visibility_desc *d,
+                           pn_api_config *c);
 
 // Frees the acceleration structures and renderer the scene's last visibility call left.
 void pn_api_scene_drop_built(penumbra_scene *scene);

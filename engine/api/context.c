@@ -18,6 +18,7 @@ const char *penumbra_status_string(penumbra_status status)
     case PENUMBRA_ERROR_OUT_OF_MEMORY: return "PENUMBRA_ERROR_OUT_OF_MEMORY";
     case PENUMBRA_ERROR_VULKAN: return "PENUMBRA_ERROR_VULKAN";
     case PENUMBRA_ERROR_UNSUPPORTED: return "PENUMBRA_ERROR_UNSUPPORTED";
+    case PENUMBRA_INCOMPLETE: return "PENUMBRA_INCOMPLETE";
     }
     return "unknown status";
 }
@@ -88,6 +89,35 @@ penumbra_status penumbra_context_create(const penumbra_context_desc *desc, penum
     pn_gpu_device_desc dd = {.validation = d.validation != 0,
                              .selector = d.device && d.device[0] ? d.device : NULL};
     pn_result r = pn_gpu_device_create(&dd, &ctx->dev);
+    ctx->ok = r == PN_OK;
+    return pn_api_end(&call, r);
+}
+
+penumbra_status penumbra_context_create_vulkan(const penumbra_vulkan_desc *vk, const penumbra_context_desc *desc,
+                                              penumbra_context **out)
+{
+    if (!out)
+        return PENUMBRA_ERROR_INVALID_ARGUMENT;
+    penumbra_context *ctx = calloc(1, sizeof *ctx);
+    *out = ctx;
+    if (!ctx)
+        return PENUMBRA_ERROR_OUT_OF_MEMORY;
+    ctx->log_level = desc ? desc->log_level : 0;
+    pn_api_call call;
+    pn_api_begin(&call, ctx);
+    const char *fn = "penumbra_context_create_vulkan";
+    if (!pn_api_need(vk, fn, "vulkan"))
+        return pn_api_end(&call, PN_ERR_INVALID);
+    if (!vk->instance || !vk->physical_device || !vk->device || !vk->queue ||
+        (vk->enabled_extension_count && !vk->enabled_extensions)) {
+        pn_error("%s: the instance, physical device, device and queue must all be given (and the extension list "
+                 "with its count)", fn);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    pn_gpu_device_adopt_desc ad = {.instance = vk->instance, .physical = vk->physical_device, .device = vk->device,
+                                   .queue_family = vk->queue_family, .queue = vk->queue,
+                                   .extensions = vk->enabled_extensions, .extension_count = vk->enabled_extension_count};
+    pn_result r = pn_gpu_device_adopt(&ad, &ctx->dev);
     ctx->ok = r == PN_OK;
     return pn_api_end(&call, r);
 }

@@ -54,6 +54,9 @@ typedef enum penumbra_status {
     PENUMBRA_ERROR_OUT_OF_MEMORY = 4,    /* host or device memory, or a size limit of the device */
     PENUMBRA_ERROR_VULKAN = 5,           /* no usable device, or a Vulkan call failed */
     PENUMBRA_ERROR_UNSUPPORTED = 6,      /* valid, but not offered by this device or build */
+    /* penumbra_recorder_check: the recorded pass was cut short (lavapipe's shader loop budget):
+     * record and submit it again; it then takes fewer samples per dispatch. */
+    PENUMBRA_INCOMPLETE = 7,
 } penumbra_status;
 
 /* A constant name for a status ("PENUMBRA_OK", ...); "unknown status" for any other value. */
@@ -207,6 +210,77 @@ PENUMBRA_API penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra
                                                  const penumbra_visibility_desc *desc, const penumbra_light *lights,
                                                  uint32_t light_count, const float *points, const float *normals,
                                                  size_t point_count, float *v);
+
+/* ------------------------------------------------------------------------------------------ */
+/* On the host's Vulkan device. Declared where <vulkan/vulkan.h> was included before this header. */
+
+#ifdef VK_VERSION_1_0
+
+/* The host's device, which penumbra then uses instead of making its own. */
+typedef struct penumbra_vulkan_desc {
+    VkInstance instance;         /* created for Vulkan 1.3 */
+    VkPhysicalDevice physical_device;
+    VkDevice device;             /* created with: Vulkan 1.3's dynamicRendering and synchronization2,
+                                  * 1.2's hostQueryReset and bufferDeviceAddress, and shaderFloat64 */
+    uint32_t queue_family;       /* a family with graphics, compute and timestamps */
+    VkQueue queue;               /* penumbra submits its own work (builds, penumbra_visibility) here
+                                  * and waits for it: the host must not use this queue from another
+                                  * thread during a penumbra call (Vulkan's external synchronisation) */
+    /* The device extensions the host enabled; penumbra uses VK_KHR_acceleration_structure with
+     * VK_KHR_deferred_host_operations and VK_KHR_ray_query or VK_KHR_ray_tracing_pipeline (modes
+     * rayquery, rtpipeline; their features enabled), and VK_EXT_memory_budget, where listed. */
+    const char *const *enabled_extensions;
+    uint32_t enabled_extension_count;
+} penumbra_vulkan_desc;
+
+/* A context on the host's device: as penumbra_context_create, but nothing is created but a command
+ * pool of penumbra's own; penumbra_context_destroy leaves the device and instance to the host (it
+ * waits for the queue to be idle). desc's device and validation are ignored (the host's instance
+ * has its layers). */
+PENUMBRA_API penumbra_status penumbra_context_create_vulkan(const penumbra_vulkan_desc *vulkan,
+                                                            const penumbra_context_desc *desc, penumbra_context **out);
+
+/* The shadow pass recorded into the host's command buffer, over the host's images. */
+typedef struct penumbra_recorder penumbra_recorder;
+
+typedef struct penumbra_recorder_desc {
+    uint32_t width, height;  /* of the three images: 2D, one mip level, one layer */
+    /* Views of the host's images, all used as storage images in VK_IMAGE_LAYOUT_GENERAL:
+     * position: VK_FORMAT_R32G32B32A32_SFLOAT, world xyz, w > 0 where there is a point (elsewhere
+     *           V is 0); normal: R32G32B32A32_SFLOAT, unit xyz facing the side that receives light;
+     * visibility: R32_SFLOAT, written: V per pixel. */
+    VkImageView position, normal, visibility;
+    penumbra_visibility_desc shadow; /* mode, traversal, sampler, spp, tree (seed: per record; width:
+                                      * the image's) */
+    penumbra_light light;           /* the light V is of (one per recorder) */
+} penumbra_recorder_desc;
+
+/* Builds what the mode needs for the scene as it is now (a later penumbra_scene_set_transform does
+ * not reach the recorder: make a new one) and the pass's pipelines and buffers on the context's
+ * device, which must be the host's (penumbra_context_create_vulkan). */
+PENUMBRA_API penumbra_status penumbra_recorder_create(penumbra_context *ctx, penumbra_scene *scene,
+                                                      const penumbra_recorder_desc *desc, penumbra_recorder **out);
+
+/* Records the shadow pass with the given seed into cmd (recording, primary, on the context's queue
+ * family). Synchronisation, stated:
+ *  - before: position and normal written, all three images in VK_IMAGE_LAYOUT_GENERAL; the
+ *    recorded commands begin with a global memory barrier from all commands' writes, so the host
+ *    needs only the layout transitions;
+ *  - after: V is written by the compute shader stage (VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+ *    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT): the host's barrier from there to its reads;
+ *  - the recorder's parameters are written at record time: record again only once the previous
+ *    recording's submission has completed (then call penumbra_recorder_check). */
+PENUMBRA_API penumbra_status penumbra_recorder_record(penumbra_recorder *rec, VkCommandBuffer cmd, uint32_t seed);
+
+/* After the recording's submission has completed: PENUMBRA_OK, or PENUMBRA_INCOMPLETE when a
+ * dispatch was cut short (lavapipe's shader loop budget) and V is not whole: record and submit
+ * again. */
+PENUMBRA_API penumbra_status penumbra_recorder_check(penumbra_recorder *rec);
+
+/* Destroys the recorder (NULL is ignored); its last recording must have completed. */
+PENUMBRA_API void penumbra_recorder_destroy(penumbra_recorder *rec);
+
+#endif /* VK_VERSION_1_0 */
 
 #ifdef __cplusplus
 }

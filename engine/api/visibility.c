@@ -27,14 +27,8 @@ static int parse_name(const char *fn, const char *field, const char *name, const
     return -1;
 }
 
-typedef struct vis_config {
-    pn_api_key key;
-    uint32_t spp, seed;
-} vis_config;
-
-// The description checked and resolved into the cache key (lights and size filled in later).
-static pn_result config_in(const penumbra_context *ctx, const penumbra_scene *s, const penumbra_visibility_desc *d,
-                           vis_config *c)
+pn_result pn_api_config_in(const penumbra_context *ctx, const penumbra_scene *s, const penumbra_visibility_desc *d,
+                           pn_api_config *c)
 {
     const char *fn = "penumbra_visibility";
     memset(c, 0, sizeof *c); // the key is compared with memcmp: its padding too
@@ -91,7 +85,7 @@ pn_result pn_api_points_in(const float *p, const float *nrm, size_t count)
 }
 
 // Builds (or keeps) what the key describes, then traces one frame of up to PN_MAX_LIGHTS lights.
-static pn_result trace(penumbra_scene *s, const vis_config *c, const float *gp, const float *gn, pn_frame_images *img)
+static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *gp, const float *gn, pn_frame_images *img)
 {
     pn_gpu_device *dev = &s->ctx->dev;
     if (!s->built || memcmp(&s->key, &c->key, sizeof c->key) != 0) {
@@ -139,8 +133,8 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
         pn_error("%s: light_count is 0", fn);
         return pn_api_end(&call, PN_ERR_INVALID);
     }
-    vis_config c;
-    pn_result r = config_in(ctx, s, desc ? desc : &(penumbra_visibility_desc){0}, &c);
+    pn_api_config c;
+    pn_result r = pn_api_config_in(ctx, s, desc ? desc : &(penumbra_visibility_desc){0}, &c);
     if (r != PN_OK)
         return pn_api_end(&call, r);
     pn_light *in = malloc((size_t)light_count * sizeof *in);

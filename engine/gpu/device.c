@@ -268,6 +268,63 @@ static pn_result device_extension_available(VkPhysicalDevice physical, const cha
     return PN_OK;
 }
 
+// The physical device's properties and memory, as dev keeps them.
+static void query_properties(pn_gpu_device *dev)
+{
+    dev->driver = (VkPhysicalDeviceDriverProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+    dev->maintenance4 = (VkPhysicalDeviceMaintenance4Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_4_PROPERTIES,
+                                                                 .pNext = &dev->driver};
+    dev->maintenance3 = (VkPhysicalDeviceMaintenance3Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES,
+                                                                 .pNext = &dev->maintenance4};
+    dev->subgroup = (VkPhysicalDeviceSubgroupProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES,
+                                                         .pNext = &dev->maintenance3};
+    VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->subgroup};
+    vkGetPhysicalDeviceProperties2(dev->physical, &props2);
+    dev->props = props2.properties;
+    vkGetPhysicalDeviceMemoryProperties(dev->physical, &dev->memory);
+}
+
+// The acceleration-structure and ray-tracing-pipeline properties, for a device with them enabled.
+static void query_ray_properties(pn_gpu_device *dev, bool rt)
+{
+    dev->rt_props = (VkPhysicalDeviceRayTracingPipelinePropertiesKHR){
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR};
+    dev->as_props = (VkPhysicalDeviceAccelerationStructurePropertiesKHR){
+        .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR,
+        .pNext = rt ? &dev->rt_props : NULL};
+    VkPhysicalDeviceProperties2 p2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->as_props};
+    vkGetPhysicalDeviceProperties2(dev->physical, &p2);
+}
+
+// The extension entry points (the loader exports none of them: fetched from the device), and
+// from them which ways of tracing the device's structures work.
+static void load_ray_procs(pn_gpu_device *dev, bool rq, bool rt)
+{
+#define PN_DEVICE_PROC(field, name) (field = (PFN_##name)vkGetDeviceProcAddr(dev->device, #name))
+    bool loaded = PN_DEVICE_PROC(dev->as.create, vkCreateAccelerationStructureKHR) &&
+                  PN_DEVICE_PROC(dev->as.destroy, vkDestroyAccelerationStructureKHR) &&
+                  PN_DEVICE_PROC(dev->as.build_sizes, vkGetAccelerationStructureBuildSizesKHR) &&
+                  PN_DEVICE_PROC(dev->as.cmd_build, vkCmdBuildAccelerationStructuresKHR) &&
+                  PN_DEVICE_PROC(dev->as.address, vkGetAccelerationStructureDeviceAddressKHR);
+    dev->ray_query = loaded && rq;
+    dev->ray_pipeline = loaded && rt && PN_DEVICE_PROC(dev->rt.create, vkCreateRayTracingPipelinesKHR) &&
+                        PN_DEVICE_PROC(dev->rt.handles, vkGetRayTracingShaderGroupHandlesKHR) &&
+                        PN_DEVICE_PROC(dev->rt.trace, vkCmdTraceRaysKHR);
+#undef PN_DEVICE_PROC
+    dev->accel = dev->ray_query || dev->ray_pipeline;
+}
+
+static pn_result create_command_pool(pn_gpu_device *dev)
+{
+    VkCommandPoolCreateInfo pi = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+        .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+        .queueFamilyIndex = dev->queue_family,
+    };
+    VK_CHECK(vkCreateCommandPool(dev->device, &pi, NULL, &dev->cmd_pool));
+    return PN_OK;
+}
+
 static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
 {
     uint32_t index;
@@ -282,17 +339,7 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
     if (vr != VK_SUCCESS && vr != VK_INCOMPLETE)
         VK_CHECK(vr);
 
-    dev->driver = (VkPhysicalDeviceDriverProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
-    dev->maintenance4 = (VkPhysicalDeviceMaintenance4Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_4_PROPERTIES,
-                                                                 .pNext = &dev->driver};
-    dev->maintenance3 = (VkPhysicalDeviceMaintenance3Properties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES,
-                                                                 .pNext = &dev->maintenance4};
-    dev->subgroup = (VkPhysicalDeviceSubgroupProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES,
-                                                         .pNext = &dev->maintenance3};
-    VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->subgroup};
-    vkGetPhysicalDeviceProperties2(dev->physical, &props2);
-    dev->props = props2.properties;
-    vkGetPhysicalDeviceMemoryProperties(dev->physical, &dev->memory);
+    query_properties(dev);
 #ifdef PN_FAULT_INJECTION
     // A smaller device than this one, for the tests of what does not fit (pn_gpu_fault_desc).
     VkDeviceSize *limits[2] = {&dev->maintenance3.maxMemoryAllocationSize, &dev->maintenance4.maxBufferSize};
@@ -379,13 +426,7 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
             device_exts[ext_count++] = VK_KHR_RAY_QUERY_EXTENSION_NAME;
         if (rt)
             device_exts[ext_count++] = VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
-        dev->rt_props = (VkPhysicalDeviceRayTracingPipelinePropertiesKHR){
-            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_PROPERTIES_KHR};
-        dev->as_props = (VkPhysicalDeviceAccelerationStructurePropertiesKHR){
-            .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR,
-            .pNext = rt ? &dev->rt_props : NULL};
-        VkPhysicalDeviceProperties2 p2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &dev->as_props};
-        vkGetPhysicalDeviceProperties2(dev->physical, &p2);
+        query_ray_properties(dev, rt);
     }
     // The driver's own count of the memory in use, where it keeps one (Mesa 25 lavapipe does):
     // the demo's --stats report it beside penumbra's tally.
@@ -429,29 +470,10 @@ static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *de
         .ppEnabledExtensionNames = device_exts,
     };
     VK_CHECK(vkCreateDevice(dev->physical, &di, NULL, &dev->device));
-    if (as) {
-        // Extension entry points are not exported by the loader: fetched from the device.
-#define PN_DEVICE_PROC(field, name) (field = (PFN_##name)vkGetDeviceProcAddr(dev->device, #name))
-        bool loaded = PN_DEVICE_PROC(dev->as.create, vkCreateAccelerationStructureKHR) &&
-                      PN_DEVICE_PROC(dev->as.destroy, vkDestroyAccelerationStructureKHR) &&
-                      PN_DEVICE_PROC(dev->as.build_sizes, vkGetAccelerationStructureBuildSizesKHR) &&
-                      PN_DEVICE_PROC(dev->as.cmd_build, vkCmdBuildAccelerationStructuresKHR) &&
-                      PN_DEVICE_PROC(dev->as.address, vkGetAccelerationStructureDeviceAddressKHR);
-        dev->ray_query = loaded && rq;
-        dev->ray_pipeline = loaded && rt && PN_DEVICE_PROC(dev->rt.create, vkCreateRayTracingPipelinesKHR) &&
-                            PN_DEVICE_PROC(dev->rt.handles, vkGetRayTracingShaderGroupHandlesKHR) &&
-                            PN_DEVICE_PROC(dev->rt.trace, vkCmdTraceRaysKHR);
-#undef PN_DEVICE_PROC
-        dev->accel = dev->ray_query || dev->ray_pipeline;
-    }
+    if (as)
+        load_ray_procs(dev, rq, rt);
     vkGetDeviceQueue(dev->device, dev->queue_family, 0, &dev->queue);
-    VkCommandPoolCreateInfo pi = {
-        .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
-        .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
-        .queueFamilyIndex = dev->queue_family,
-    };
-    VK_CHECK(vkCreateCommandPool(dev->device, &pi, NULL, &dev->cmd_pool));
-    return PN_OK;
+    return create_command_pool(dev);
 }
 
 pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
@@ -470,6 +492,55 @@ pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *de
     return r;
 }
 
+pn_result pn_gpu_device_adopt(const pn_gpu_device_adopt_desc *desc, pn_gpu_device *dev)
+{
+    memset(dev, 0, sizeof *dev);
+    dev->adopted = true;
+    dev->instance = desc->instance;
+    dev->physical = desc->physical;
+    dev->device = desc->device;
+    dev->queue = desc->queue;
+    dev->queue_family = desc->queue_family;
+    query_properties(dev);
+    if (dev->props.apiVersion < VK_API_VERSION_1_3) {
+        pn_error("%s: Vulkan %u.%u; penumbra needs 1.3", dev->props.deviceName, VK_API_VERSION_MAJOR(dev->props.apiVersion),
+                 VK_API_VERSION_MINOR(dev->props.apiVersion));
+        memset(dev, 0, sizeof *dev);
+        return PN_ERR_UNSUPPORTED;
+    }
+    uint32_t qn = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(dev->physical, &qn, NULL);
+    VkQueueFamilyProperties qf[16];
+    qn = qn > 16 ? 16 : qn;
+    vkGetPhysicalDeviceQueueFamilyProperties(dev->physical, &qn, qf);
+    const VkQueueFlags need = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+    if (desc->queue_family >= qn || (qf[desc->queue_family].queueFlags & need) != need ||
+        qf[desc->queue_family].timestampValidBits == 0) {
+        pn_error("%s: queue family %u is not one with graphics, compute and timestamps", dev->props.deviceName,
+                 desc->queue_family);
+        memset(dev, 0, sizeof *dev);
+        return PN_ERR_UNSUPPORTED;
+    }
+    // What the host enabled of the extensions penumbra can use.
+    bool has[5] = {false};
+    static const char *const names[5] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
+                                         VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME, VK_KHR_RAY_QUERY_EXTENSION_NAME,
+                                         VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME, VK_EXT_MEMORY_BUDGET_EXTENSION_NAME};
+    for (uint32_t i = 0; i < desc->extension_count; i++)
+        for (int k = 0; k < 5; k++)
+            has[k] = has[k] || (desc->extensions[i] && strcmp(desc->extensions[i], names[k]) == 0);
+    bool as = has[0] && has[1] && (has[2] || has[3]);
+    if (as) {
+        query_ray_properties(dev, has[3]);
+        load_ray_procs(dev, has[2], has[3]);
+    }
+    dev->memory_budget = has[4];
+    pn_result r = create_command_pool(dev);
+    if (r != PN_OK)
+        memset(dev, 0, sizeof *dev);
+    return r;
+}
+
 void pn_gpu_device_destroy(pn_gpu_device *dev)
 {
     // Every allocation of gpu/resources.c is released by its resource's destroy: memory still held
@@ -480,6 +551,14 @@ void pn_gpu_device_destroy(pn_gpu_device *dev)
                  "was not destroyed",
                  dev->memory_allocations, (double)dev->memory_bytes / 1048576.0);
         dev->validation_messages++;
+    }
+    if (dev->device && dev->adopted) {
+        // The host's device: only what penumbra made on it goes (its queue idle first: the host may
+        // still have work of its own on it, which it waits for as it likes).
+        vkQueueWaitIdle(dev->queue);
+        if (dev->cmd_pool)
+            vkDestroyCommandPool(dev->device, dev->cmd_pool, NULL);
+        dev->device = VK_NULL_HANDLE, dev->instance = VK_NULL_HANDLE;
     }
     if (dev->device) {
         vkDeviceWaitIdle(dev->device);

@@ -80,7 +80,29 @@ typedef struct pn_gpu_device {
     VkDeviceSize memory_bytes;
     uint32_t memory_allocations;
     bool memory_budget; // VK_EXT_memory_budget enabled: pn_gpu_device_heap_usage answers
+    bool adopted;       // the host's device (pn_gpu_device_adopt): destroy leaves it and its instance
 } pn_gpu_device;
+
+// A device another program created (the library's penumbra_context_create_vulkan): its handles,
+// the queue penumbra submits to (a family with graphics, compute and timestamps), and the device
+// extensions it enabled, of which penumbra uses the acceleration-structure, ray-query,
+// ray-tracing-pipeline and memory-budget ones where listed. The device must have Vulkan 1.3's
+// dynamicRendering and synchronization2, 1.2's hostQueryReset and bufferDeviceAddress, and
+// shaderFloat64 enabled (what pn_gpu_device_create enables), and the instance be 1.3's.
+typedef struct pn_gpu_device_adopt_desc {
+    VkInstance instance;
+    VkPhysicalDevice physical;
+    VkDevice device;
+    uint32_t queue_family;
+    VkQueue queue;
+    const char *const *extensions;
+    uint32_t extension_count;
+} pn_gpu_device_adopt_desc;
+
+// Takes the host's device as penumbra's: its properties, the entry points of the extensions listed,
+// a command pool of penumbra's own. pn_gpu_device_destroy then destroys the pool alone. Logs and
+// fails for a device below Vulkan 1.3 or a queue family without graphics, compute or timestamps.
+pn_result pn_gpu_device_adopt(const pn_gpu_device_adopt_desc *desc, pn_gpu_device *out);
 
 // Desc from the environment: PN_VALIDATION=1 turns validation on, PN_DEVICE selects the device.
 // PN_FAULT_INJECTION builds also read PN_FAULT_ALLOC=K (fault.count, fault.fail_at = K),

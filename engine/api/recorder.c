@@ -1,0 +1,166 @@
+// The shadow pass recorded into the host's command buffer over the host's images: the engine's
+// pass (gpu/shadow_pass.h) with the host's views in place of the renderer's P, N and V, and the
+// acceleration structures built for the recorder alone.
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel/alpha.h"
+#include "api/api_internal.h"
+#include "gpu/shade_pass.h"
+#include "gpu/shadow_pass.h"
+
+struct penumbra_recorder {
+    penumbra_context *ctx;
+    pn_shadow_accel accel;
+    pn_renderer_desc rd;    // what the pass is made for (filter none; the seed set per record)
+    pn_gpu_image p, n, v;   // the host's views, wrapped: penumbra owns no image, memory or view
+    pn_shadow_pass pass;
+    bool pass_made;
+    pn_light light;
+    uint32_t samples;       // pn_shadow_samples of the light
+};
+
+static float scene_magnitude(const pn_scene *scene) // as the renderer bounds every vertex (renderer.c)
+{
+    float mag = 0;
+    for (int k = 0; k < 3; k++)
+        mag = fmaxf(mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
+    return mag;
+}
+
+static void recorder_free(penumbra_recorder *rec)
+{
+    pn_gpu_device *dev = &rec->ctx->dev;
+    if (rec->pass_made)
+        pn_shadow_pass_destroy(dev, &rec->pass);
+    pn_shadow_accel_destroy(dev, &rec->accel);
+    free(rec);
+}
+
+static pn_result recorder_make(penumbra_recorder *rec, const penumbra_scene *s, const penumbra_recorder_desc *d)
+{
+    const char *fn = "penumbra_recorder_create";
+    pn_gpu_device *dev = &rec->ctx->dev;
+    uint32_t max_dim = dev->props.limits.maxImageDimension2D;
+    if (!d->position || !d->normal || !d->visibility || d->width == 0 || d->height == 0 || d->width > max_dim ||
+        d->height > max_dim) {
+        pn_error("%s: the three image views and a size of 1..%u on each side are needed (got %ux%u%s)", fn, max_dim,
+                 d->width, d->height, !d->position || !d->normal || !d->visibility ? ", a NULL view" : "");
+        return PN_ERR_INVALID;
+    }
+    pn_api_config c;
+    PN_TRY(pn_api_config_in(rec->ctx, s, &d->shadow, &c));
+    if (!pn_api_light_in(&d->light, 0, &s->scene, &rec->light))
+        return PN_ERR_INVALID;
+    rec->rd = (pn_renderer_desc){.width = d->width, .height = d->height, .mode = (pn_shadow_mode)c.key.mode,
+                                 .traversal = (pn_traversal)c.key.traversal, .sampler = (pn_sampler)c.key.sampler,
+                                 .spp = c.spp, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN};
+    PN_TRY(pn_shadow_check_samples(&rec->rd));
+    // As pn_setup_create builds them, for this one light and no view (the host's points are anywhere).
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(rec->rd.mode);
+    pn_shadow_accel_desc ad = {.needs = mode->needs,
+                               .tree_n = c.key.tree_n ? c.key.tree_n : 7,
+                               .tree_d = c.key.tree_d ? c.key.tree_d : 3,
+                               .max_bytes = pn_gpu_device_pool_budget(dev),
+                               .max_pool_bytes = pn_gpu_device_max_buffer(dev),
+                               .light = &rec->light,
+                               .light_count = 1};
+    PN_TRY(pn_shadow_accel_build(&s->scene, &ad, &rec->accel));
+    PN_TRY(pn_shadow_accel_upload(dev, &s->scene, &rec->accel));
+    pn_shadow_accel_bind(&rec->accel, &rec->rd);
+    VkExtent2D extent = {d->width, d->height};
+    rec->p = (pn_gpu_image){.view = d->position, .format = VK_FORMAT_R32G32B32A32_SFLOAT, .extent = extent, .mip_levels = 1};
+    rec->n = (pn_gpu_image){.view = d->normal, .format = VK_FORMAT_R32G32B32A32_SFLOAT, .extent = extent, .mip_levels = 1};
+    rec->v = (pn_gpu_image){.view = d->visibility, .format = VK_FORMAT_R32_SFLOAT, .extent = extent, .mip_levels = 1};
+    PN_TRY(pn_shadow_pass_create(dev, &rec->rd, &rec->p, &rec->n, &rec->v, scene_magnitude(&s->scene),
+                                 pn_alpha_masked_triangles(&s->scene) > 0, &rec->pass));
+    rec->pass_made = true;
+    rec->samples = pn_shadow_samples(rec->rd.spp, &rec->light);
+    // Its pipelines now, not while the host records.
+    pn_light_gpu l = pn_light_to_gpu(&rec->light);
+    pn_shadow_pass_update(&rec->pass, &rec->rd, &l, 1);
+    return pn_shadow_pass_prepare(dev, &rec->pass, rec->samples);
+}
+
+penumbra_status penumbra_recorder_create(penumbra_context *ctx, penumbra_scene *s, const penumbra_recorder_desc *d,
+                                         penumbra_recorder **out)
+{
+    const char *fn = "penumbra_recorder_create";
+    pn_api_call call;
+    pn_api_begin(&call, ctx);
+    if (out)
+        *out = NULL;
+    if (!pn_api_context_ok(ctx, fn) || !pn_api_need(s, fn, "scene") || !pn_api_need(d, fn, "desc") ||
+        !pn_api_need(out, fn, "out"))
+        return pn_api_end(&call, PN_ERR_INVALID);
+    if (!ctx->dev.adopted) {
+        pn_error("%s: the context made its own device; recording into the host's command buffer needs a context on "
+                 "the host's device (penumbra_context_create_vulkan)", fn);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    if (s->ctx != ctx) {
+        pn_error("%s: the scene belongs to another context", fn);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    penumbra_recorder *rec = calloc(1, sizeof *rec);
+    if (!rec)
+        return pn_api_end(&call, PN_ERR_MEMORY);
+    rec->ctx = ctx;
+    pn_result r = recorder_make(rec, s, d);
+    if (r != PN_OK) {
+        recorder_free(rec);
+        return pn_api_end(&call, r);
+    }
+    *out = rec;
+    return pn_api_end(&call, PN_OK);
+}
+
+penumbra_status penumbra_recorder_record(penumbra_recorder *rec, VkCommandBuffer cmd, uint32_t seed)
+{
+    const char *fn = "penumbra_recorder_record";
+    pn_api_call call;
+    pn_api_begin(&call, rec ? rec->ctx : NULL);
+    if (!pn_api_need(rec, fn, "recorder") || !pn_api_need(cmd, fn, "cmd"))
+        return pn_api_end(&call, PN_ERR_INVALID);
+    rec->rd.seed = seed;
+    pn_light_gpu l = pn_light_to_gpu(&rec->light);
+    // The parameters are host-written: the previous recording has completed (the header's contract).
+    pn_shadow_pass_update(&rec->pass, &rec->rd, &l, 1);
+    pn_result r = pn_shadow_pass_prepare(&rec->ctx->dev, &rec->pass, rec->samples); // a chunk halved: its pipeline
+    if (r == PN_OK) {
+        pn_shadow_pass_begin_frame(&rec->pass);
+        pn_shadow_pass_record(cmd, &rec->pass, rec->samples, 0);
+    }
+    return pn_api_end(&call, r);
+}
+
+penumbra_status penumbra_recorder_check(penumbra_recorder *rec)
+{
+    const char *fn = "penumbra_recorder_check";
+    pn_api_call call;
+    pn_api_begin(&call, rec ? rec->ctx : NULL);
+    if (!pn_api_need(rec, fn, "recorder"))
+        return pn_api_end(&call, PN_ERR_INVALID);
+    bool retry = false;
+    pn_result r = pn_shadow_pass_end_frame(&rec->pass, &retry);
+    if (r == PN_OK && retry) {
+        pn_api_end(&call, PN_OK);
+        snprintf(rec->ctx->error, sizeof rec->ctx->error,
+                 "%s: a dispatch ran out of the device's shader loop budget: record and submit again (%u samples per "
+                 "dispatch from now on)", fn, rec->pass.chunk);
+        return PENUMBRA_INCOMPLETE;
+    }
+    return pn_api_end(&call, r);
+}
+
+void penumbra_recorder_destroy(penumbra_recorder *rec)
+{
+    if (!rec)
+        return;
+    pn_api_call call;
+    pn_api_begin(&call, rec->ctx);
+    recorder_free(rec);
+    pn_api_end(&call, PN_OK);
+}

@@ -1,0 +1,196 @@
+// The API on the host's Vulkan device (penumbra.h, VK_VERSION_1_0 part): a "host" makes its own
+// device (the engine's device code stands in for the host's, with the validation layer from
+// PN_VALIDATION counting every message), hands it to penumbra_context_create_vulkan, writes P and N
+// into images of its own, records penumbra's shadow pass into its own command buffer between its
+// own barriers, and reads V back. Oracle: penumbra_visibility on the same context for the same
+// points laid out the same way, bit for bit (itself checked against render in test_api), in exact
+// and, where the device has it, rayquery; pixels without a point (P.w = 0) must read V = 0. Then
+// the context is destroyed and the host's device must still work (a submit of its own), and the
+// layer must have reported nothing.
+#include "gpu/device.h" // Vulkan before penumbra.h: it declares its Vulkan part only then
+#include "api/penumbra.h"
+#include "gpu/gbuffer_upload.h"
+#include "gpu/resources.h"
+#include "test_util.h"
+
+enum { W = 37, H = 23 }; // 851 points: not a multiple of 4 or of a workgroup tile
+
+static pn_gpu_device g_host;
+
+// The host's frame: P and N uploaded to its images, penumbra's pass, V copied to `out`.
+static bool host_frame(penumbra_recorder *rec, uint32_t seed, const pn_gpu_image *img, const pn_gbuffer_upload *up,
+                       pn_gpu_buffer *out)
+{
+    for (int attempt = 0; attempt < 8; attempt++) {
+        VkCommandBuffer cmd;
+        if (pn_gpu_begin_once(&g_host, &cmd) != PN_OK)
+            return false;
+        pn_gbuffer_targets t = {.p = &img[0], .n = &img[1], .albedo = &img[2], .width = W, .height = H};
+        pn_gbuffer_upload_record(cmd, up, &t); // P and N end in GENERAL, written
+        VkImageMemoryBarrier2 to_general = pn_gpu_image_barrier(&img[3], VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                                                                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                                                VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                                                VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &to_general);
+        penumbra_status st = penumbra_recorder_record(rec, cmd, seed);
+        CHECK(st == PENUMBRA_OK);
+        // As penumbra.h states: V is written by the compute stage; the host's barrier from there.
+        VkImageMemoryBarrier2 to_copy = pn_gpu_image_barrier(&img[3], VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                                             VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                                             VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                                                             VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &to_copy);
+        VkBufferImageCopy copy = {.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1}, .imageExtent = {W, H, 1}};
+        vkCmdCopyImageToBuffer(cmd, img[3].image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out->buffer, 1, &copy);
+        VkMemoryBarrier2 to_host = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                    .srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
+                                    .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                    .dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT,
+                                    .dstAccessMask = VK_ACCESS_2_HOST_READ_BIT};
+        pn_gpu_cmd_barrier(cmd, &to_host, 0, NULL);
+        if (pn_gpu_submit_wait(&g_host, cmd) != PN_OK)
+            return false;
+        st = penumbra_recorder_check(rec);
+        if (st == PENUMBRA_OK)
+            return true;
+        CHECK_MSG(st == PENUMBRA_INCOMPLETE, "penumbra_recorder_check: %s", penumbra_status_string(st));
+        if (st != PENUMBRA_INCOMPLETE)
+            return false;
+        fprintf(stderr, "recorded pass cut short: recording again\n");
+    }
+    return false;
+}
+
+static void compare_mode(penumbra_context *ctx, penumbra_scene *scene, const char *mode, const penumbra_light *light,
+                         const float *p4, const float *n4, const pn_gpu_image *img, const pn_gbuffer_upload *up,
+                         pn_gpu_buffer *out)
+{
+    penumbra_recorder *rec = NULL;
+    penumbra_recorder_desc rd = {.width = W, .height = H, .position = img[0].view, .normal = img[1].view,
+                                 .visibility = img[3].view, .shadow = {.mode = mode, .spp = 16}, .light = *light};
+    penumbra_status st = penumbra_recorder_create(ctx, scene, &rd, &rec);
+    CHECK_MSG(st == PENUMBRA_OK, "penumbra_recorder_create (%s): %s", mode, penumbra_context_error(ctx));
+    if (st != PENUMBRA_OK)
+        return;
+    float p3[W * H * 3], n3[W * H * 3], v_api[W * H];
+    for (int i = 0; i < W * H; i++)
+        for (int k = 0; k < 3; k++)
+            p3[3 * i + k] = p4[4 * i + k], n3[3 * i + k] = n4[4 * i + k];
+    for (uint32_t seed = 1; seed <= 2; seed++) {
+        CHECK(host_frame(rec, seed, img, up, out));
+        const float *v_host = out->mapped;
+        penumbra_visibility_desc vd = {.mode = mode, .spp = 16, .seed = seed, .width = W};
+        st = penumbra_visibility(ctx, scene, &vd, light, 1, p3, n3, W * H, v_api);
+        CHECK_MSG(st == PENUMBRA_OK, "%s", penumbra_context_error(ctx));
+        size_t differ = 0, points = 0, partial = 0, empty_nonzero = 0;
+        for (int i = 0; i < W * H; i++) {
+            if (p4[4 * i + 3] <= 0) {
+                empty_nonzero += v_host[i] != 0;
+                continue;
+            }
+            points++;
+            partial += v_api[i] > 0 && v_api[i] < 1;
+            differ += memcmp(&v_host[i], &v_api[i], sizeof(float)) != 0;
+        }
+        fprintf(stderr, "%s seed %u: %zu of %zu points differ between the host's recording and penumbra_visibility "
+                        "(%zu in penumbra)\n", mode, seed, differ, points, partial);
+        CHECK(partial > 20);
+        CHECK_MSG(differ == 0, "%s: %zu points differ", mode, differ);
+        CHECK_MSG(empty_nonzero == 0, "%s: %zu pixels without a point have V != 0", mode, empty_nonzero);
+    }
+    penumbra_recorder_destroy(rec);
+}
+
+int main(void)
+{
+    pn_gpu_device_desc dd = pn_gpu_device_desc_from_env();
+    if (pn_gpu_device_create(&dd, &g_host) != PN_OK)
+        return 1;
+    const char *exts[6];
+    uint32_t ext_count = 0;
+    if (g_host.accel) {
+        exts[ext_count++] = VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
+        exts[ext_count++] = VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME;
+    }
+    if (g_host.ray_query)
+        exts[ext_count++] = VK_KHR_RAY_QUERY_EXTENSION_NAME;
+    if (g_host.ray_pipeline)
+        exts[ext_count++] = VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
+    if (g_host.memory_budget)
+        exts[ext_count++] = VK_EXT_MEMORY_BUDGET_EXTENSION_NAME;
+    penumbra_context *ctx = NULL;
+    penumbra_vulkan_desc vk = {.instance = g_host.instance, .physical_device = g_host.physical, .device = g_host.device,
+                               .queue_family = g_host.queue_family, .queue = g_host.queue,
+                               .enabled_extensions = exts, .enabled_extension_count = ext_count};
+    penumbra_status st = penumbra_context_create_vulkan(&vk, NULL, &ctx);
+    CHECK_MSG(st == PENUMBRA_OK, "penumbra_context_create_vulkan: %s", penumbra_context_error(ctx));
+    CHECK(strcmp(penumbra_context_device(ctx), g_host.props.deviceName) == 0);
+
+    // The host's points: a grid over the default scene's floor, every seventh pixel left empty.
+    static float p4[W * H * 4], n4[W * H * 4];
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int i = y * W + x;
+            p4[4 * i + 0] = -2.5f + 5.0f * x / (W - 1);
+            p4[4 * i + 2] = -2.5f + 5.0f * y / (H - 1);
+            p4[4 * i + 3] = i % 7 == 3 ? 0.0f : 1.0f;
+            n4[4 * i + 1] = 1;
+        }
+    pn_gpu_image img[4];
+    const VkImageUsageFlags IN = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    bool ok = pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host P", VK_FORMAT_R32G32B32A32_SFLOAT, W, H, 1, IN}, &img[0]) == PN_OK &&
+              pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host N", VK_FORMAT_R32G32B32A32_SFLOAT, W, H, 1, IN}, &img[1]) == PN_OK &&
+              pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host albedo", VK_FORMAT_R32G32B32A32_SFLOAT, W, H, 1, IN}, &img[2]) == PN_OK &&
+              pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host V", VK_FORMAT_R32_SFLOAT, W, H, 1,
+                                                                VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT}, &img[3]) == PN_OK;
+    pn_gbuffer_upload up;
+    pn_gpu_buffer out;
+    ok = ok && pn_gbuffer_upload_create(&g_host, W, H, p4, n4, &up) == PN_OK &&
+         pn_gpu_buffer_create(&g_host, "host readback", W * H * sizeof(float), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                              PN_GPU_HOST_READBACK, &out) == PN_OK;
+    CHECK(ok);
+    penumbra_scene *scene = NULL;
+    penumbra_light light;
+    uint32_t count;
+    if (ok && st == PENUMBRA_OK && penumbra_scene_load(ctx, "builtin:default", &scene) == PENUMBRA_OK &&
+        penumbra_scene_lights(scene, &light, 1, &count) == PENUMBRA_OK) {
+        compare_mode(ctx, scene, "exact", &light, p4, n4, img, &up, &out);
+        if (g_host.ray_query)
+            compare_mode(ctx, scene, "rayquery", &light, p4, n4, img, &up, &out);
+        else
+            fprintf(stderr, "rayquery: the device has no ray queries; exact alone\n");
+        // A recorder needs the host's device, and the host's views.
+        penumbra_context *own = NULL;
+        penumbra_recorder *rec = NULL;
+        penumbra_recorder_desc bad = {.width = W, .height = H, .position = img[0].view, .normal = img[1].view,
+                                      .visibility = img[3].view, .light = light};
+        CHECK(penumbra_recorder_create(ctx, scene, &(penumbra_recorder_desc){.width = W, .height = H, .light = light}, &rec) ==
+              PENUMBRA_ERROR_INVALID_ARGUMENT);
+        CHECK(strstr(penumbra_context_error(ctx), "NULL view"));
+        if (penumbra_context_create(NULL, &own) == PENUMBRA_OK) {
+            penumbra_scene *other = NULL;
+            CHECK(penumbra_scene_load(own, "builtin:plane", &other) == PENUMBRA_OK);
+            CHECK(penumbra_recorder_create(own, other, &bad, &rec) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+            CHECK(strstr(penumbra_context_error(own), "penumbra_context_create_vulkan"));
+            CHECK(penumbra_recorder_create(ctx, other, &bad, &rec) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+            penumbra_scene_destroy(other);
+        }
+        penumbra_context_destroy(own);
+        CHECK(penumbra_recorder_record(NULL, VK_NULL_HANDLE, 0) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+        penumbra_recorder_destroy(NULL);
+    } else {
+        CHECK_MSG(false, "scene: %s", penumbra_context_error(ctx));
+    }
+    penumbra_scene_destroy(scene);
+    penumbra_context_destroy(ctx);
+    // The host's device outlives the context: one more submit of its own.
+    VkCommandBuffer cmd;
+    CHECK(pn_gpu_begin_once(&g_host, &cmd) == PN_OK && pn_gpu_submit_wait(&g_host, cmd) == PN_OK);
+    pn_gbuffer_upload_destroy(&g_host, &up);
+    pn_gpu_buffer_destroy(&g_host, &out);
+    for (int i = 0; i < 4; i++)
+        pn_gpu_image_destroy(&g_host, &img[i]);
+    pn_gpu_device_destroy(&g_host);
+    CHECK_MSG(g_host.validation_messages == 0, "the validation layer reported %u message(s)", g_host.validation_messages);
+    return pn_test_result();
+}
