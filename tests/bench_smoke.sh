@@ -214,4 +214,19 @@ for r in rows:
     assert r["reference"]["mae"] > 0 and 0 <= r["beyond_2se"] < 1, r
 print("adaptive rows ok")
 PY
+# --points: the library beside the renderer; a row per tracing mode and spp, its points the covered
+# pixels (render --json counts them the same way: its coverage), every time positive.
+"$BIN" bench --points --scenes builtin:default --size 64x48 --modes exact,linespace --spp 4 --repeat 1 \
+  --out "$OUT/points" > "$OUT/points.txt" 2> "$OUT/points.err" || { echo "FAIL: bench --points"; cat "$OUT/points.err"; fail=1; }
+python3 - "$OUT/points/points.csv" <<'PY' || fail=1
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert [(r["mode"], r["spp"]) for r in rows] == [("exact", "4"), ("linespace", "4")], rows
+for r in rows:
+    assert 0 < int(r["points"]) <= 64 * 48, r
+    for k in ("render_shadow_ms", "api_ms", "api_shadow_ms", "api_first_ms"):
+        assert float(r[k]) > 0, (k, r)
+assert rows[0]["points"] == rows[1]["points"]  # the same view's covered pixels
+print("points rows ok")
+PY
 exit $fail

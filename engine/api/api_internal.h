@@ -52,6 +52,7 @@ struct penumbra_scene {
     uint32_t object_count;
     uint64_t version; // bumped by every change to the triangles
     bool built;       // `setup` holds what `key` describes
+    penumbra_times times; // of the last successful visibility call
     pn_api_key key;
     pn_setup setup;
 };

@@ -211,6 +211,16 @@ PENUMBRA_API penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra
                                                  uint32_t light_count, const float *points, const float *normals,
                                                  size_t point_count, float *v);
 
+/* What the scene's last successful penumbra_visibility call took, in milliseconds. */
+typedef struct penumbra_times {
+    double build_ms;   /* acceleration structures it built (0 when the last call's were reused) */
+    double compile_ms; /* pipelines it readied apart from the passes (created, run once over a tile) */
+    double shadow_ms;  /* its shadow passes on the device (timestamps), all lights */
+    double total_ms;   /* the call, wall-clock: checks, building, upload, passes, readback */
+} penumbra_times;
+
+PENUMBRA_API penumbra_status penumbra_scene_last_times(const penumbra_scene *scene, penumbra_times *out);
+
 /* ------------------------------------------------------------------------------------------ */
 /* On the host's Vulkan device. Declared where <vulkan/vulkan.h> was included before this header. */
 

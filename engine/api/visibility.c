@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "api/api_internal.h"
+#include "core/timer.h"
 #include "scene/view.h"
 
 // The default row length: rows of 1024 points keep a million points within lavapipe's and every
@@ -85,10 +86,12 @@ pn_result pn_api_points_in(const float *p, const float *nrm, size_t count)
 }
 
 // Builds (or keeps) what the key describes, then traces one frame of up to PN_MAX_LIGHTS lights.
-static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *gp, const float *gn, pn_frame_images *img)
+static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *gp, const float *gn, pn_frame_images *img,
+                       penumbra_times *t)
 {
     pn_gpu_device *dev = &s->ctx->dev;
     if (!s->built || memcmp(&s->key, &c->key, sizeof c->key) != 0) {
+        uint64_t t0 = pn_time_ns();
         pn_api_scene_drop_built(s);
         pn_setup_desc sd = {
             .frame = {.width = c->key.width, .height = c->key.height, .mode = (pn_shadow_mode)c->key.mode,
@@ -100,6 +103,7 @@ static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *g
         };
         PN_TRY(pn_setup_create(dev, &s->scene, c->key.lights, &sd, &s->setup));
         s->built = true;
+        t->build_ms += pn_ms_since(t0); // with the renderer's creation (its pipelines: compile_ms too)
         s->key = c->key;
     } else {
         PN_TRY(pn_renderer_set_spp(&s->setup.renderer, c->spp));
@@ -113,6 +117,8 @@ static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *g
     pn_frame_times times;
     PN_TRY(pn_renderer_render_lights(r, &cam, c->key.lights, c->key.light_count, &times));
     pn_renderer_images(r, img);
+    t->compile_ms += times.compile_ms;
+    t->shadow_ms += times.shadow_ms;
     return PN_OK;
 }
 
@@ -121,6 +127,8 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
                                     const float *normals, size_t count, float *v)
 {
     const char *fn = "penumbra_visibility";
+    uint64_t t0 = pn_time_ns();
+    penumbra_times times = {0};
     pn_api_call call;
     pn_api_begin(&call, ctx);
     if (!pn_api_context_ok(ctx, fn) || !pn_api_need(s, fn, "scene") || !pn_api_need(lights, fn, "lights"))
@@ -185,12 +193,23 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
         memcpy(c.key.lights, in + first, k * sizeof *in);
         c.key.light_count = k;
         pn_frame_images img;
-        r = trace(s, &c, gp, gn, &img);
+        r = trace(s, &c, gp, gn, &img, &times);
         for (uint32_t l = 0; r == PN_OK && l < k; l++)
             memcpy(v + (size_t)(first + l) * count, img.v_light[l], count * sizeof *v);
         if (r != PN_OK)
             pn_api_scene_drop_built(s); // whatever failed, the next call starts afresh
     }
     free(gp), free(gn), free(in);
+    times.total_ms = pn_ms_since(t0);
+    if (r == PN_OK)
+        s->times = times;
     return pn_api_end(&call, r);
+}
+
+penumbra_status penumbra_scene_last_times(const penumbra_scene *s, penumbra_times *out)
+{
+    if (!s || !out)
+        return PENUMBRA_ERROR_INVALID_ARGUMENT; // no context to hold a message: the status says it
+    *out = s->times;
+    return PENUMBRA_OK;
 }

@@ -12,6 +12,7 @@
 //   bench_report.c  console table, bench.csv, bench.json, time_to_error.md
 //   bench_plot.c    the gnuplot plots
 //   bench_shard.c   --shard K/N's partial file, and --merge of the shards' partial files
+//   bench_points.c  --points: the library's points in, V out beside the renderer
 #pragma once
 #include <stdbool.h>
 #include <stdio.h>
@@ -97,6 +98,7 @@ typedef struct bench_opts {
     // --shard K/N: this run measures the cells whose index in one run's order is K-1 modulo N and
     // writes a partial file for --merge (0/0: no --shard).
     int shard_k, shard_n;
+    bool points; // --points: the library's points in, V out beside the renderer (bench_points.c) alone
 } bench_opts;
 
 // One cell of the matrix.
@@ -326,6 +328,11 @@ int pn_bench_run_lights(const bench_group *g, const float centre[3], pn_shadow_m
 int pn_bench_check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
                            const pn_light *light, const pn_renderer_desc *frame, const float *v_conv,
                            const uint8_t *mask, double budget, bench_rows *rows, int first_row);
+
+// ---------------------------------------------------------------------------------------------
+// --points (bench_points.c): per view, size, spp and tracing mode, the library's penumbra_visibility
+// over the view's covered pixels beside the renderer's shadow pass; points.csv. An exit code.
+int pn_bench_points(const bench_opts *o, pn_gpu_device *dev);
 
 // ---------------------------------------------------------------------------------------------
 // Views (bench_views.c)

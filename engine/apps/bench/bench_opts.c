@@ -204,6 +204,9 @@ void pn_print_bench_help(void)
            "  --shader shadow --gbuffer FILE.exr\n"
            "                       shader level: the shadow pass alone over the P and N layers of an EXR\n"
            "                       (render --aovs of the same scene); the size is the EXR's\n"
+           "  --points             instead of the matrix: per view, size, spp and mode, the library's\n"
+           "                       penumbra_visibility over the view's covered pixels as points beside\n"
+           "                       the renderer's shadow pass (time per point and per pixel; points.csv)\n"
            "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
            "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
            "                       stack; their distribution is printed and written as EXR layers work.*\n"
@@ -234,6 +237,8 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             o->edge_images = true;
         } else if (pn_args_flag(&a, "--work")) {
             o->work = true;
+        } else if (pn_args_flag(&a, "--points")) {
+            o->points = true;
         } else if (pn_args_flag(&a, "--no-embree")) {
             o->embree = false;
         } else if (pn_args_value(&a, "--scenes", &v, &err)) {

@@ -59,6 +59,16 @@ int pn_cmd_bench(int argc, char **argv)
         free_opts(&o);
         return PN_EXIT_FAILURE;
     }
+    if (o.points) { // the library's rows alone (bench_points.c)
+        rc = pn_bench_points(&o, &dev);
+        pn_gpu_device_destroy(&dev);
+        free_opts(&o);
+        if (dev.validation_messages) {
+            pn_error("the Vulkan validation layer reported %u message(s)", dev.validation_messages);
+            return PN_EXIT_VALIDATION;
+        }
+        return rc;
+    }
     pn_embree *rtc = o.embree ? pn_embree_create() : NULL;
     if (o.embree && !rtc)
         pn_warn("Embree could not start: the CPU peer is skipped");
