@@ -168,6 +168,15 @@ int main(void)
             CHECK_MSG(v[i] == (float)exact, "point %d: V %g where the closed form is %g exactly", i, (double)v[i], exact);
     }
 
+    // What the calls did: the first built the BVH, a second with other samples reused it.
+    penumbra_times times;
+    OK(penumbra_scene_last_times(occ, &times));
+    CHECK(times.build_ms > 0 && times.total_ms > 0);
+    OK(penumbra_visibility(g_ctx, occ, &(penumbra_visibility_desc){.spp = 64, .seed = 4}, &rect, 1, &pts[0][0], &nrm[0][0], NP, v_again));
+    OK(penumbra_scene_last_times(occ, &times));
+    CHECK_MSG(times.build_ms == 0, "another spp and seed rebuilt the scene's structures");
+    CHECK(penumbra_scene_last_times(NULL, &times) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+
     // --- moved away, everything is lit; moved back, V is what it was, bit for bit.
     float away[12] = {1, 0, 0, 100, 0, 1, 0, 0, 0, 0, 1, 0}, home[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
     OK(penumbra_scene_set_transform(occ, 0, away));
