@@ -176,6 +176,25 @@ int main(void)
     OK(penumbra_scene_last_times(occ, &times));
     CHECK_MSG(times.build_ms == 0, "another spp and seed rebuilt the scene's structures");
     CHECK(penumbra_scene_last_times(NULL, &times) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+    // Fewer points, then more rows than one: the structures kept (build_ms 0), and a point's V the
+    // same as among more points, where it is the same pixel (rows of 1024 by default).
+    {
+        enum { MANY = 2500 };
+        float *mp = malloc(MANY * 3 * sizeof *mp), *mn = malloc(MANY * 3 * sizeof *mn), *mv = malloc(MANY * sizeof *mv);
+        for (int i = 0; i < MANY; i++)
+            for (int k = 0; k < 3; k++)
+                mp[3 * i + k] = pts[i % NP][k], mn[3 * i + k] = nrm[i % NP][k];
+        float v5[5];
+        OK(penumbra_visibility(g_ctx, occ, &vd, &rect, 1, &pts[0][0], &nrm[0][0], 5, v5));
+        OK(penumbra_scene_last_times(occ, &times));
+        CHECK(times.build_ms == 0);
+        CHECK(memcmp(v5, v, sizeof v5) == 0);
+        OK(penumbra_visibility(g_ctx, occ, &vd, &rect, 1, mp, mn, MANY, mv));
+        OK(penumbra_scene_last_times(occ, &times));
+        CHECK(times.build_ms == 0);
+        CHECK(memcmp(mv, v, sizeof v) == 0); // the first row's first points: the same pixels
+        free(mp), free(mn), free(mv);
+    }
 
     // --- moved away, everything is lit; moved back, V is what it was, bit for bit.
     float away[12] = {1, 0, 0, 100, 0, 1, 0, 0, 0, 0, 1, 0}, home[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
@@ -283,6 +302,24 @@ int main(void)
     penumbra_scene_info info;
     OK(penumbra_scene_get_info(occ, &info));
     CHECK(info.triangle_count == 2 && info.object_count == 1 && info.bounds_min[1] == 1.0f);
+
+    // A context destroyed before its scene (a garbage collector's order): calls on it fail, the
+    // scene's destroy frees both (ASan: no use after free, no leak).
+    penumbra_context *early = NULL;
+    penumbra_scene *orphan = NULL;
+    if (penumbra_context_create(NULL, &early) == PENUMBRA_OK &&
+        penumbra_scene_load(early, "builtin:plane", &orphan) == PENUMBRA_OK) {
+        float one = 0;
+        CHECK(penumbra_visibility(early, orphan, NULL, &rect, 1, &pts[0][0], &nrm[0][0], 1, &one) == PENUMBRA_OK);
+        penumbra_context_destroy(early);
+        CHECK(penumbra_visibility(early, orphan, NULL, &rect, 1, &pts[0][0], &nrm[0][0], 1, &one) ==
+              PENUMBRA_ERROR_INVALID_ARGUMENT);
+        CHECK(strstr(penumbra_context_error(early), "destroyed"));
+        penumbra_scene_destroy(orphan);
+    } else {
+        CHECK_MSG(false, "a second context: %s", penumbra_context_error(early));
+        penumbra_context_destroy(early);
+    }
 
     penumbra_scene_destroy(occ);
     uint32_t messages = penumbra_context_validation_messages(g_ctx);

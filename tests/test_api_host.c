@@ -9,7 +9,7 @@
 // layer must have reported nothing.
 #include "gpu/device.h" // Vulkan before penumbra.h: it declares its Vulkan part only then
 #include "api/penumbra.h"
-#include "gpu/gbuffer_upload.h"
+#include "gpu/gbuffer_upload.h" // only its staging buffer: the host records its own copies
 #include "gpu/resources.h"
 #include "test_util.h"
 
@@ -17,7 +17,8 @@ enum { W = 37, H = 23 }; // 851 points: not a multiple of 4 or of a workgroup ti
 
 static pn_gpu_device g_host;
 
-// The host's frame: P and N uploaded to its images, penumbra's pass, V copied to `out`.
+// The host's frame: P and N copied to its images from the staging buffer `up` holds (P then N),
+// penumbra's pass, V copied to `out`.
 static bool host_frame(penumbra_recorder *rec, uint32_t seed, const pn_gpu_image *img, const pn_gbuffer_upload *up,
                        pn_gpu_buffer *out)
 {
@@ -25,13 +26,36 @@ static bool host_frame(penumbra_recorder *rec, uint32_t seed, const pn_gpu_image
         VkCommandBuffer cmd;
         if (pn_gpu_begin_once(&g_host, &cmd) != PN_OK)
             return false;
-        pn_gbuffer_targets t = {.p = &img[0], .n = &img[1], .albedo = &img[2], .width = W, .height = H};
-        pn_gbuffer_upload_record(cmd, up, &t); // P and N end in GENERAL, written
-        VkImageMemoryBarrier2 to_general = pn_gpu_image_barrier(&img[3], VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
-                                                                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                                                                VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                                                VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL);
-        pn_gpu_cmd_barrier(cmd, NULL, 1, &to_general);
+        // The host's own writes: P and N copied in from its staging buffer, V cleared to a
+        // sentinel that penumbra must overwrite everywhere (0 where there is no point). Then only
+        // layout transitions to GENERAL, as penumbra.h asks: its recording opens with the barrier
+        // that makes these writes visible (synchronization validation checks that it does).
+        const VkPipelineStageFlags2 COPY = VK_PIPELINE_STAGE_2_COPY_BIT, CLEAR = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+        VkImageMemoryBarrier2 to_dst[3];
+        for (int i = 0; i < 3; i++) {
+            int k = i < 2 ? i : 3;
+            to_dst[i] = pn_gpu_image_barrier(&img[k], VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE, COPY | CLEAR,
+                                             VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        }
+        pn_gpu_cmd_barrier(cmd, NULL, 3, to_dst);
+        for (int i = 0; i < 2; i++) {
+            VkBufferImageCopy in = {.bufferOffset = (VkDeviceSize)i * W * H * 16,
+                                    .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                                    .imageExtent = {W, H, 1}};
+            vkCmdCopyBufferToImage(cmd, up->buffer.buffer, img[i].image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &in);
+        }
+        vkCmdClearColorImage(cmd, img[3].image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                             &(VkClearColorValue){.float32 = {42, 42, 42, 42}}, 1,
+                             &(VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1});
+        VkImageMemoryBarrier2 to_general[3];
+        for (int i = 0; i < 3; i++) {
+            int k = i < 2 ? i : 3;
+            to_general[i] = pn_gpu_image_barrier(&img[k], COPY | CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                                 VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_NONE,
+                                                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL);
+        }
+        pn_gpu_cmd_barrier(cmd, NULL, 3, to_general);
         penumbra_status st = penumbra_recorder_record(rec, cmd, seed);
         CHECK(st == PENUMBRA_OK);
         // As penumbra.h states: V is written by the compute stage; the host's barrier from there.
@@ -136,13 +160,13 @@ int main(void)
             p4[4 * i + 3] = i % 7 == 3 ? 0.0f : 1.0f;
             n4[4 * i + 1] = 1;
         }
-    pn_gpu_image img[4];
+    pn_gpu_image img[4] = {0}; // P, N, (unused), V
     const VkImageUsageFlags IN = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
     bool ok = pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host P", VK_FORMAT_R32G32B32A32_SFLOAT, W, H, 1, IN}, &img[0]) == PN_OK &&
               pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host N", VK_FORMAT_R32G32B32A32_SFLOAT, W, H, 1, IN}, &img[1]) == PN_OK &&
-              pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host albedo", VK_FORMAT_R32G32B32A32_SFLOAT, W, H, 1, IN}, &img[2]) == PN_OK &&
               pn_gpu_image_create(&g_host, &(pn_gpu_image_desc){"host V", VK_FORMAT_R32_SFLOAT, W, H, 1,
-                                                                VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT}, &img[3]) == PN_OK;
+                                                                VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                                                                    VK_IMAGE_USAGE_TRANSFER_DST_BIT}, &img[3]) == PN_OK;
     pn_gbuffer_upload up;
     pn_gpu_buffer out;
     ok = ok && pn_gbuffer_upload_create(&g_host, W, H, p4, n4, &up) == PN_OK &&

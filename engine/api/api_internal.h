@@ -16,6 +16,11 @@
 struct penumbra_context {
     bool ok;              // the device was created; a failed context holds only its message
     int log_level;        // penumbra_context_desc.log_level
+    // Scenes and recorders made on it and not destroyed yet: penumbra_context_destroy with some
+    // left (closing) defers the device's destruction to the last one's (pn_api_context_release),
+    // so that a scene destroyed after its context (a garbage collector's order) frees nothing twice.
+    uint32_t live;
+    bool closing;
     char error[1024];     // the last failed call's message
     pn_gpu_device dev;    // must not move: the validation messenger points at it
 };
@@ -31,7 +36,10 @@ typedef struct pn_api_object {
     double base_to_world[3][4], cur_to_world[3][4];
 } pn_api_object;
 
-// What the last visibility call built for the scene, reused while its key holds.
+// What the scene's visibility calls keep between them, in two parts, each rebuilt only when its own
+// key changes: the acceleration structures (the mode's needs; the lights only where the mode has an
+// N-tree, which leaves out what cannot block them) and the renderer over them (its image of points,
+// kept while the rows are as long and no more of them are needed: the rest are empty pixels).
 typedef struct pn_api_key {
     int mode, traversal, sampler, tree_n, tree_d;
     uint32_t width, height, light_count;
@@ -51,10 +59,13 @@ struct penumbra_scene {
     pn_api_object *objects;
     uint32_t object_count;
     uint64_t version; // bumped by every change to the triangles
-    bool built;       // `setup` holds what `key` describes
+    bool accel_built;     // `accel` holds what accel_key describes
+    pn_api_key accel_key; // mode, tree, scene version and (a tree's) lights
+    pn_shadow_accel accel;
+    bool renderer_made;   // `renderer` is made over `accel` as frame_key says
+    pn_api_key frame_key; // mode, traversal, sampler, width; its height the most rows so far
+    pn_renderer renderer;
     penumbra_times times; // of the last successful visibility call
-    pn_api_key key;
-    pn_setup setup;
 };
 
 // The bracket of every API call on a context: messages go to the context's log level and the
@@ -69,6 +80,9 @@ void pn_api_begin(pn_api_call *call, penumbra_context *ctx);
 // Ends the call: maps r to a status and, on failure, keeps the message (or r's name when
 // nothing was logged) as the context's last error.
 penumbra_status pn_api_end(pn_api_call *call, pn_result r);
+
+// A scene or recorder of ctx is gone: the context goes too if it was destroyed meanwhile.
+void pn_api_context_release(penumbra_context *ctx);
 
 // Checks a pointer argument: logs "<fn>: <name> is NULL" and returns false for NULL.
 bool pn_api_need(const void *p, const char *fn, const char *name);
@@ -92,5 +106,5 @@ pn_result pn_api_points_in(const float *points, const float *normals, size_t cou
 pn_result pn_api_config_in(const penumbra_context *ctx, const penumbra_scene *s, const penumbra_visibility_desc *d,
                            pn_api_config *c);
 
-// Frees the acceleration structures and renderer the scene's last visibility call left.
+// Frees the acceleration structures and renderer the scene's visibility calls keep.
 void pn_api_scene_drop_built(penumbra_scene *scene);

@@ -69,6 +69,10 @@ bool pn_api_context_ok(const penumbra_context *ctx, const char *fn)
         pn_error("%s: the context is NULL", fn);
         return false;
     }
+    if (ctx->closing) {
+        pn_error("%s: the context was destroyed (it stays only until its last scene and recorder go)", fn);
+        return false;
+    }
     if (!ctx->ok)
         pn_error("%s: the context failed at creation (%s)", fn, ctx->error);
     return ctx->ok;
@@ -122,10 +126,8 @@ penumbra_status penumbra_context_create_vulkan(const penumbra_vulkan_desc *vk, c
     return pn_api_end(&call, r);
 }
 
-void penumbra_context_destroy(penumbra_context *ctx)
+static void context_free(penumbra_context *ctx)
 {
-    if (!ctx)
-        return;
     if (ctx->ok) {
         pn_api_call call;
         pn_api_begin(&call, ctx);
@@ -133,6 +135,21 @@ void penumbra_context_destroy(penumbra_context *ctx)
         pn_api_end(&call, PN_OK);
     }
     free(ctx);
+}
+
+void penumbra_context_destroy(penumbra_context *ctx)
+{
+    if (!ctx)
+        return;
+    ctx->closing = true;
+    if (ctx->live == 0)
+        context_free(ctx);
+}
+
+void pn_api_context_release(penumbra_context *ctx)
+{
+    if (ctx && --ctx->live == 0 && ctx->closing)
+        context_free(ctx);
 }
 
 const char *penumbra_context_error(const penumbra_context *ctx)

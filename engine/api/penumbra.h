@@ -17,7 +17,8 @@
  *  - Descriptions are structs whose zero fields mean the default: pass NULL or `&(T){0}` for all
  *    defaults, and new fields never break a caller.
  *  - A context and what it made are used from one thread at a time. Two contexts may be used from
- *    two threads.
+ *    two threads, unless both adopted the same VkQueue (penumbra_context_create_vulkan): a queue
+ *    is externally synchronised, so their calls must then not overlap.
  *  - The library logs nothing to stderr unless asked (penumbra_context_desc.log_level).
  */
 #ifndef PENUMBRA_H
@@ -85,7 +86,9 @@ typedef struct penumbra_context_desc {
  * *out is NULL only when not even that could be allocated. desc may be NULL. */
 PENUMBRA_API penumbra_status penumbra_context_create(const penumbra_context_desc *desc, penumbra_context **out);
 
-/* Destroys the context (NULL is ignored). Its scenes must be destroyed first. */
+/* Destroys the context (NULL is ignored). Scenes and recorders made on it may be destroyed before
+ * or after (a garbage collector's order): the device goes with the last of them, and meanwhile
+ * every other call on the context fails. */
 PENUMBRA_API void penumbra_context_destroy(penumbra_context *ctx);
 
 /* The message of the last failed call on ctx ("" if none failed); valid until the next call that
@@ -193,7 +196,7 @@ typedef struct penumbra_visibility_desc {
     uint32_t seed;         /* the samples' seed, as render's --seed (whose default is 1) */
     uint32_t tree_n, tree_d; /* line-space modes' N-tree: branching 2..16, depth 1..6; 0: 7 and 3 */
     /* The points are traced as the pixels of an image `width` points wide (point i is pixel
-     * (i mod width, i / width)); a pixel's samples depend on where it is. 0: min(count, 1024).
+     * (i mod width, i / width)); a pixel's samples depend on where it is. 0: 1024.
      * To reproduce render's V for its pixels' P and N (render --aovs --filter none), pass its width
      * and the pixels in row order: V is then render's bit for bit. */
     uint32_t width;
@@ -203,8 +206,11 @@ typedef struct penumbra_visibility_desc {
  * point receives light from), the visibility of each of light_count lights: v[l * point_count + i]
  * for light l and point i, light_count * point_count floats. V is the fraction of the light's
  * samples that reach the point unblocked, among those above its horizon; 0 where none is.
- * The first call for a scene, mode and set of lights builds the acceleration structures (and
- * compiles the shaders); later calls with other points, samples or seed reuse them.
+ * The first call builds the acceleration structures for the scene and mode (for the line-space
+ * modes, also for the lights: their tree leaves out what cannot block them) and readies the
+ * pipelines; later calls reuse both while the mode, traversal, sampler, tree and row length stay
+ * (other points, counts, samples and seeds; other lights too, but in the line-space modes; more
+ * than 16 lights there are built for 16 at a time). penumbra_scene_last_times says what a call did.
  * desc may be NULL (the defaults). */
 PENUMBRA_API penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *scene,
                                                  const penumbra_visibility_desc *desc, const penumbra_light *lights,
@@ -267,7 +273,8 @@ typedef struct penumbra_recorder_desc {
 
 /* Builds what the mode needs for the scene as it is now (a later penumbra_scene_set_transform does
  * not reach the recorder: make a new one) and the pass's pipelines and buffers on the context's
- * device, which must be the host's (penumbra_context_create_vulkan). */
+ * device, which must be the host's (penumbra_context_create_vulkan). The recorder's descriptors
+ * name the three views: they must outlive it. */
 PENUMBRA_API penumbra_status penumbra_recorder_create(penumbra_context *ctx, penumbra_scene *scene,
                                                       const penumbra_recorder_desc *desc, penumbra_recorder **out);
 
@@ -279,7 +286,8 @@ PENUMBRA_API penumbra_status penumbra_recorder_create(penumbra_context *ctx, pen
  *  - after: V is written by the compute shader stage (VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
  *    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT): the host's barrier from there to its reads;
  *  - the recorder's parameters are written at record time: record again only once the previous
- *    recording's submission has completed (then call penumbra_recorder_check). */
+ *    recording's submission has completed (then call penumbra_recorder_check; the recording ends
+ *    with the barrier that makes its status visible to the host). */
 PENUMBRA_API penumbra_status penumbra_recorder_record(penumbra_recorder *rec, VkCommandBuffer cmd, uint32_t seed);
 
 /* After the recording's submission has completed: PENUMBRA_OK, or PENUMBRA_INCOMPLETE when a

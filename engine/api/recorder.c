@@ -8,6 +8,7 @@
 
 #include "accel/alpha.h"
 #include "api/api_internal.h"
+#include "gpu/resources.h"
 #include "gpu/shade_pass.h"
 #include "gpu/shadow_pass.h"
 
@@ -36,7 +37,9 @@ static void recorder_free(penumbra_recorder *rec)
     if (rec->pass_made)
         pn_shadow_pass_destroy(dev, &rec->pass);
     pn_shadow_accel_destroy(dev, &rec->accel);
+    penumbra_context *ctx = rec->ctx;
     free(rec);
+    pn_api_context_release(ctx); // last: it may free the context
 }
 
 static pn_result recorder_make(penumbra_recorder *rec, const penumbra_scene *s, const penumbra_recorder_desc *d)
@@ -108,6 +111,7 @@ penumbra_status penumbra_recorder_create(penumbra_context *ctx, penumbra_scene *
     if (!rec)
         return pn_api_end(&call, PN_ERR_MEMORY);
     rec->ctx = ctx;
+    ctx->live++;
     pn_result r = recorder_make(rec, s, d);
     if (r != PN_OK) {
         recorder_free(rec);
@@ -131,7 +135,24 @@ penumbra_status penumbra_recorder_record(penumbra_recorder *rec, VkCommandBuffer
     pn_result r = pn_shadow_pass_prepare(&rec->ctx->dev, &rec->pass, rec->samples); // a chunk halved: its pipeline
     if (r == PN_OK) {
         pn_shadow_pass_begin_frame(&rec->pass);
+        // The header's contract: every earlier write (the host's P and N, its layout transitions)
+        // before the pass reads; the pass's own barriers start from its own images only.
+        VkMemoryBarrier2 before = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                   .srcStageMask = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                                   .srcAccessMask = VK_ACCESS_2_MEMORY_WRITE_BIT,
+                                   .dstStageMask = rec->pass.stage | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                   .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                                                    VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_UNIFORM_READ_BIT};
+        pn_gpu_cmd_barrier(cmd, &before, 0, NULL);
         pn_shadow_pass_record(cmd, &rec->pass, rec->samples, 0);
+        // The pass's status flag (the loop budget's canary), read by penumbra_recorder_check once
+        // the submission is done: a fence alone does not make a shader's write visible to the host.
+        VkMemoryBarrier2 after = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                  .srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | rec->pass.stage,
+                                  .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                  .dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT,
+                                  .dstAccessMask = VK_ACCESS_2_HOST_READ_BIT};
+        pn_gpu_cmd_barrier(cmd, &after, 0, NULL);
     }
     return pn_api_end(&call, r);
 }
@@ -162,5 +183,5 @@ void penumbra_recorder_destroy(penumbra_recorder *rec)
     pn_api_call call;
     pn_api_begin(&call, rec->ctx);
     recorder_free(rec);
-    pn_api_end(&call, PN_OK);
+    pn_log_set_capture(NULL); // not pn_api_end: the context may be gone with its last recorder
 }

@@ -96,9 +96,11 @@ static void vertex_normals(pn_vertex *v, uint32_t n, const uint32_t *idx, uint32
 
 void pn_api_scene_drop_built(penumbra_scene *s)
 {
-    if (s->built)
-        pn_setup_destroy(&s->ctx->dev, &s->setup);
-    s->built = false;
+    if (s->renderer_made)
+        pn_renderer_destroy(&s->renderer);
+    if (s->accel_built)
+        pn_shadow_accel_destroy(&s->ctx->dev, &s->accel);
+    s->renderer_made = s->accel_built = false;
 }
 
 void pn_api_scene_free(penumbra_scene *s)
@@ -110,7 +112,9 @@ void pn_api_scene_free(penumbra_scene *s)
         free(s->objects[i].base);
     free(s->objects);
     pn_scene_destroy(&s->scene);
+    penumbra_context *ctx = s->ctx;
     free(s);
+    pn_api_context_release(ctx); // last: it may free the context
 }
 
 // One pn_api_object per object: the scene file's (their world vertices now, and their transform),
@@ -146,6 +150,8 @@ penumbra_scene *pn_api_scene_new(penumbra_context *ctx, const char *name)
     if (s) {
         s->ctx = ctx;
         snprintf(s->scene.name, sizeof s->scene.name, "%s", name);
+        if (ctx)
+            ctx->live++;
     }
     return s;
 }
@@ -330,7 +336,7 @@ void penumbra_scene_destroy(penumbra_scene *s)
     pn_api_call call;
     pn_api_begin(&call, s->ctx);
     pn_api_scene_free(s);
-    pn_api_end(&call, PN_OK);
+    pn_log_set_capture(NULL); // not pn_api_end: the context may be gone with its last scene
 }
 
 penumbra_status penumbra_scene_get_info(const penumbra_scene *s, penumbra_scene_info *out)
@@ -358,14 +364,24 @@ penumbra_status penumbra_scene_set_transform(penumbra_scene *s, uint32_t object,
     }
     pn_api_object *o = &s->objects[object];
     double t[3][4], base_inv[3][4], m[3][4], cur_inv[3][4], step[3][4], step_inv[3][4];
-    if (!transform_in(transform, fn, t) || !affine_invert((const double(*)[4])o->base_to_world, base_inv) ||
-        !affine_invert((const double(*)[4])o->cur_to_world, cur_inv))
+    if (!transform_in(transform, fn, t))
         return pn_api_end(&call, PN_ERR_INVALID);
-    affine_compose((const double(*)[4])t, (const double(*)[4])base_inv, m); // base -> new world
-    // Normals move by the step from the current transform to the new one, as the inverse
-    // transpose of its linear part (they stay perpendicular to the moved surfaces).
-    affine_compose((const double(*)[4])t, (const double(*)[4])cur_inv, step);
-    affine_invert((const double(*)[4])step, step_inv); // both factors are regular
+    // Each transform passed the test on its own, but a file's node may be singular (a glTF scale
+    // of 0), and two regular ones may compose to a step too ill-conditioned to invert.
+    bool regular = affine_invert((const double(*)[4])o->base_to_world, base_inv) &&
+                   affine_invert((const double(*)[4])o->cur_to_world, cur_inv);
+    if (regular) {
+        affine_compose((const double(*)[4])t, (const double(*)[4])base_inv, m); // base -> new world
+        // Normals move by the step from the current transform to the new one, as the inverse
+        // transpose of its linear part (they stay perpendicular to the moved surfaces).
+        affine_compose((const double(*)[4])t, (const double(*)[4])cur_inv, step);
+        regular = affine_invert((const double(*)[4])step, step_inv);
+    }
+    if (!regular) {
+        pn_error("%s: %s, object %u: its transform as loaded or now is singular, or the move to this one too "
+                 "ill-conditioned to carry its normals; not moved", fn, s->scene.name, object);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
     pn_scene *sc = &s->scene;
     pn_vertex *old = malloc((size_t)(o->vertex_count ? o->vertex_count : 1) * sizeof *old);
     if (!old)

@@ -11,7 +11,9 @@
 #include "scene/view.h"
 
 // The default row length: rows of 1024 points keep a million points within lavapipe's and every
-// GPU's image size (16384), and a row is long enough that the frame's tiles are full.
+// GPU's image size (16384). Fixed, not the count's: calls with other counts then keep the renderer
+// (its rows past the points' are empty pixels, which cost next to nothing), and a point's samples
+// do not depend on how many came with it.
 enum { DEFAULT_WIDTH = 1024, DEFAULT_SPP = 4, MAX_SPP = 4096 };
 
 static int parse_name(const char *fn, const char *field, const char *name, const char *const *names, int fallback)
@@ -85,31 +87,71 @@ pn_result pn_api_points_in(const float *p, const float *nrm, size_t count)
     return PN_OK;
 }
 
-// Builds (or keeps) what the key describes, then traces one frame of up to PN_MAX_LIGHTS lights.
+// The acceleration structures for the key's mode and lights, kept while they serve (a rebuild
+// takes the renderer made over them too).
+static pn_result ensure_accel(penumbra_scene *s, const pn_api_config *c, penumbra_times *t)
+{
+    const pn_shadow_mode_info *mode = pn_shadow_mode_get(c->key.mode);
+    pn_api_key key = {.mode = c->key.mode, .tree_n = c->key.tree_n, .tree_d = c->key.tree_d,
+                      .scene_version = s->version};
+    if (mode->needs.tree) { // its tree culls by the lights' reach (shadow/setup.h)
+        key.light_count = c->key.light_count;
+        memcpy(key.lights, c->key.lights, sizeof key.lights);
+    }
+    if (s->accel_built && memcmp(&s->accel_key, &key, sizeof key) == 0)
+        return PN_OK;
+    pn_api_scene_drop_built(s);
+    pn_gpu_device *dev = &s->ctx->dev;
+    uint64_t t0 = pn_time_ns();
+    // As pn_setup_create builds them, without a view to cull by: the points are anywhere.
+    pn_shadow_accel_desc ad = {.needs = mode->needs,
+                               .tree_n = c->key.tree_n ? c->key.tree_n : 7,
+                               .tree_d = c->key.tree_d ? c->key.tree_d : 3,
+                               .max_bytes = pn_gpu_device_pool_budget(dev),
+                               .max_pool_bytes = pn_gpu_device_max_buffer(dev),
+                               .light = c->key.lights,
+                               .light_count = c->key.light_count};
+    PN_TRY(pn_shadow_accel_build(&s->scene, &ad, &s->accel));
+    pn_result r = pn_shadow_accel_upload(dev, &s->scene, &s->accel);
+    if (r != PN_OK) {
+        pn_shadow_accel_destroy(dev, &s->accel);
+        return r;
+    }
+    s->accel_built = true;
+    s->accel_key = key;
+    t->build_ms += pn_ms_since(t0);
+    return PN_OK;
+}
+
+// A renderer `width` points to a row with at least `height` rows over the structures, kept while
+// the rows are as long and no more of them are wanted; its samples and seed set for this call.
+static pn_result ensure_renderer(penumbra_scene *s, const pn_api_config *c)
+{
+    pn_api_key key = {.mode = c->key.mode, .traversal = c->key.traversal, .sampler = c->key.sampler,
+                      .width = c->key.width};
+    if (s->renderer_made && memcmp(&s->frame_key, &key, sizeof key) == 0 && s->renderer.height >= c->key.height) {
+        PN_TRY(pn_renderer_set_spp(&s->renderer, c->spp));
+        pn_renderer_set_seed(&s->renderer, c->seed);
+        return PN_OK;
+    }
+    if (s->renderer_made)
+        pn_renderer_destroy(&s->renderer);
+    s->renderer_made = false;
+    pn_renderer_desc rd = {.width = c->key.width, .height = c->key.height, .mode = (pn_shadow_mode)c->key.mode,
+                           .traversal = (pn_traversal)c->key.traversal, .sampler = (pn_sampler)c->key.sampler,
+                           .spp = c->spp, .seed = c->seed, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN};
+    pn_shadow_accel_bind(&s->accel, &rd);
+    PN_TRY(pn_renderer_create(&s->ctx->dev, &s->scene, &rd, &s->renderer));
+    s->renderer_made = true;
+    s->frame_key = key;
+    return PN_OK;
+}
+
+// One frame of up to PN_MAX_LIGHTS lights over the points' G-buffer (gp, gn: the renderer's size).
 static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *gp, const float *gn, pn_frame_images *img,
                        penumbra_times *t)
 {
-    pn_gpu_device *dev = &s->ctx->dev;
-    if (!s->built || memcmp(&s->key, &c->key, sizeof c->key) != 0) {
-        uint64_t t0 = pn_time_ns();
-        pn_api_scene_drop_built(s);
-        pn_setup_desc sd = {
-            .frame = {.width = c->key.width, .height = c->key.height, .mode = (pn_shadow_mode)c->key.mode,
-                      .traversal = (pn_traversal)c->key.traversal, .sampler = (pn_sampler)c->key.sampler,
-                      .spp = c->spp, .seed = c->seed, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN},
-            .tree_n = c->key.tree_n ? c->key.tree_n : 7,
-            .tree_d = c->key.tree_d ? c->key.tree_d : 3,
-            .light_count = c->key.light_count,
-        };
-        PN_TRY(pn_setup_create(dev, &s->scene, c->key.lights, &sd, &s->setup));
-        s->built = true;
-        t->build_ms += pn_ms_since(t0); // with the renderer's creation (its pipelines: compile_ms too)
-        s->key = c->key;
-    } else {
-        PN_TRY(pn_renderer_set_spp(&s->setup.renderer, c->spp));
-        pn_renderer_set_seed(&s->setup.renderer, c->seed);
-    }
-    pn_renderer *r = &s->setup.renderer;
+    pn_renderer *r = &s->renderer;
     PN_TRY(pn_renderer_set_gbuffer(r, gp, gn));
     // The camera only places the raster pass, which the points replace.
     pn_camera cam;
@@ -164,7 +206,7 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
     }
     // The points' image: `width` to a row, as the caller laid them out (its samples depend on it).
     uint32_t max_dim = ctx->dev.props.limits.maxImageDimension2D;
-    uint64_t width = desc && desc->width ? desc->width : (count < DEFAULT_WIDTH ? count : DEFAULT_WIDTH);
+    uint64_t width = desc && desc->width ? desc->width : DEFAULT_WIDTH;
     uint64_t height = (count + width - 1) / width;
     if (width > max_dim || height > max_dim) {
         pn_error("%s: %zu points at %llu to a row make an image of %llu x %llu; %s takes at most %u x %u: use longer "
@@ -175,25 +217,36 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
         return pn_api_end(&call, PN_ERR_INVALID);
     }
     c.key.width = (uint32_t)width, c.key.height = (uint32_t)height;
-    size_t pixels = (size_t)width * height;
-    float *gp = calloc(4 * pixels, sizeof *gp), *gn = calloc(4 * pixels, sizeof *gn);
-    if (!gp || !gn) {
-        pn_error("%s: out of memory for the G-buffer of %zu points", fn, count);
-        r = PN_ERR_MEMORY;
-    }
-    for (size_t i = 0; r == PN_OK && i < count; i++) {
-        memcpy(gp + 4 * i, points + 3 * i, 3 * sizeof(float));
-        gp[4 * i + 3] = 1; // geometry here (the padding past `count` stays background: V 0, unread)
-        memcpy(gn + 4 * i, normals + 3 * i, 3 * sizeof(float));
-    }
+    float *gp = NULL, *gn = NULL;
+    size_t pixels = 0;
     // A frame takes PN_MAX_LIGHTS lights: more go in frames of their own.
     for (uint32_t first = 0; r == PN_OK && first < light_count; first += PN_MAX_LIGHTS) {
         uint32_t k = light_count - first < PN_MAX_LIGHTS ? light_count - first : PN_MAX_LIGHTS;
         memset(c.key.lights, 0, sizeof c.key.lights);
         memcpy(c.key.lights, in + first, k * sizeof *in);
         c.key.light_count = k;
+        r = ensure_accel(s, &c, &times);
+        if (r == PN_OK)
+            r = ensure_renderer(s, &c);
+        // The points' G-buffer at the renderer's size: rows past the points' are empty pixels.
+        size_t need = (size_t)s->renderer.width * s->renderer.height;
+        if (r == PN_OK && need != pixels) {
+            free(gp), free(gn);
+            pixels = need;
+            gp = calloc(4 * pixels, sizeof *gp), gn = calloc(4 * pixels, sizeof *gn);
+            if (!gp || !gn) {
+                pn_error("%s: out of memory for the G-buffer of %zu points", fn, count);
+                r = PN_ERR_MEMORY;
+            }
+            for (size_t i = 0; r == PN_OK && i < count; i++) {
+                memcpy(gp + 4 * i, points + 3 * i, 3 * sizeof(float));
+                gp[4 * i + 3] = 1; // a point here; the padding stays background (V 0, unread)
+                memcpy(gn + 4 * i, normals + 3 * i, 3 * sizeof(float));
+            }
+        }
         pn_frame_images img;
-        r = trace(s, &c, gp, gn, &img, &times);
+        if (r == PN_OK)
+            r = trace(s, &c, gp, gn, &img, &times);
         for (uint32_t l = 0; r == PN_OK && l < k; l++)
             memcpy(v + (size_t)(first + l) * count, img.v_light[l], count * sizeof *v);
         if (r != PN_OK)

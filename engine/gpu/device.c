@@ -519,7 +519,7 @@ pn_result pn_gpu_device_adopt(const pn_gpu_device_adopt_desc *desc, pn_gpu_devic
         pn_error("%s: queue family %u is not one with graphics, compute and timestamps", dev->props.deviceName,
                  desc->queue_family);
         memset(dev, 0, sizeof *dev);
-        return PN_ERR_UNSUPPORTED;
+        return PN_ERR_INVALID; // the caller's argument
     }
     // What the host enabled of the extensions penumbra can use.
     bool has[5] = {false};

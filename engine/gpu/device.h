@@ -101,7 +101,8 @@ typedef struct pn_gpu_device_adopt_desc {
 
 // Takes the host's device as penumbra's: its properties, the entry points of the extensions listed,
 // a command pool of penumbra's own. pn_gpu_device_destroy then destroys the pool alone. Logs and
-// fails for a device below Vulkan 1.3 or a queue family without graphics, compute or timestamps.
+// fails for a device below Vulkan 1.3 (PN_ERR_UNSUPPORTED) or a queue family without graphics,
+// compute or timestamps (PN_ERR_INVALID).
 pn_result pn_gpu_device_adopt(const pn_gpu_device_adopt_desc *desc, pn_gpu_device *out);
 
 // Desc from the environment: PN_VALIDATION=1 turns validation on, PN_DEVICE selects the device.

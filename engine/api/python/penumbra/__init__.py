@@ -116,7 +116,7 @@ class Context:
 
     def __init__(self, device=None, validation=False, log_level=0):
         self._h = _P()
-        desc = _ContextDesc(device.encode() if device else None, int(bool(validation)), int(log_level))
+        desc = _ContextDesc(str(device).encode() if device is not None else None, int(bool(validation)), int(log_level))
         st = _lib.penumbra_context_create(ctypes.byref(desc), ctypes.byref(self._h))
         if st != 0:
             msg = _lib.penumbra_context_error(self._h).decode()
