@@ -83,7 +83,7 @@ static bool parse_light_kind(pn_light_kind kind, bool spot, char **part, int par
         }
         l->size[0] = l->size[1] = 2 * l->radius; // the square round it
     } else if (kind == PN_LIGHT_SUN && parts == 3) {
-        float deg;
+        float deg = 0; // read only where parsed (ok), but clang cannot see it
         ok = pn_parse_floats("--light direction", part[0], l->normal, 3) &&
              pn_parse_float_range("--light angular diameter", part[1], 0.0f, 10.0f, &deg) &&
              pn_parse_rgb("--light irradiance", part[2], l->radiance);
