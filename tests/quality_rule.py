@@ -1,4 +1,4 @@
-# --quality auto's choice replayed from what the run reported (engine/apps/quality.c), for
+# --quality auto's choice replayed from what the run reported (engine/shadow/quality.c), for
 # quality_auto.sh and bench_quality.sh. The times are measurements, so which configuration wins
 # differs from run to run; the rule that turns the reported times into the pick does not. The
 # report writes every number with 17 significant digits (pn_quality_write_tried), so this replays

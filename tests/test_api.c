@@ -196,6 +196,40 @@ int main(void)
         free(mp), free(mn), free(mv);
     }
 
+    // --- max_error: --quality auto's pick over the occluder and a ground under it (a view with a
+    // shadow to measure). The configuration it reports, given as a plain description, gives the
+    // same V bit for bit; a second call keeps the pick (no pilots: build_ms 0 and the same config).
+    {
+        float ground[12] = {-3, 0, -3, -3, 0, 3, 3, 0, 3, 3, 0, -3};
+        penumbra_mesh_desc occ_ground[2] = {
+            {.positions = qpos, .vertex_count = 4, .indices = qidx, .index_count = 6},
+            {.positions = ground, .vertex_count = 4, .indices = qidx, .index_count = 6},
+        };
+        penumbra_scene *lit = NULL;
+        OK(penumbra_scene_create(g_ctx, occ_ground, 2, &lit));
+        penumbra_visibility_desc auto_d = {.max_error = 0.05f, .seed = 3};
+        float va[NP], vb[NP];
+        OK(penumbra_visibility(g_ctx, lit, &auto_d, &rect, 1, &pts[0][0], &nrm[0][0], NP, va));
+        penumbra_visibility_desc used, again;
+        OK(penumbra_scene_last_config(lit, &used));
+        CHECK(used.mode && used.spp >= 1 && used.max_error == 0.05f && used.seed == 3);
+        fprintf(stderr, "max_error 0.05: %s at %u spp, tree %u,%u\n", used.mode ? used.mode : "?", used.spp,
+                used.tree_n, used.tree_d);
+        OK(penumbra_visibility(g_ctx, lit, &auto_d, &rect, 1, &pts[0][0], &nrm[0][0], NP, vb));
+        OK(penumbra_scene_last_config(lit, &again));
+        CHECK(again.spp == used.spp && used.mode && again.mode && strcmp(again.mode, used.mode) == 0);
+        CHECK(memcmp(va, vb, sizeof va) == 0);
+        used.max_error = 0;
+        OK(penumbra_visibility(g_ctx, lit, &used, &rect, 1, &pts[0][0], &nrm[0][0], NP, vb));
+        CHECK_MSG(memcmp(va, vb, sizeof va) == 0, "the pick given by hand traces other V");
+        CHECK(penumbra_visibility(g_ctx, lit, &(penumbra_visibility_desc){.max_error = 2}, &rect, 1, &pts[0][0],
+                                  &nrm[0][0], NP, vb) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+        CHECK(penumbra_visibility(g_ctx, lit, &(penumbra_visibility_desc){.max_error = 0.05f}, (penumbra_light[2]){rect, rect}, 2, &pts[0][0],
+                                  &nrm[0][0], NP, vb) == PENUMBRA_ERROR_INVALID_ARGUMENT);
+        CHECK(strstr(penumbra_context_error(g_ctx), "one light"));
+        penumbra_scene_destroy(lit);
+    }
+
     // --- moved away, everything is lit; moved back, V is what it was, bit for bit.
     float away[12] = {1, 0, 0, 100, 0, 1, 0, 0, 0, 0, 1, 0}, home[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
     OK(penumbra_scene_set_transform(occ, 0, away));

@@ -66,6 +66,14 @@ struct penumbra_scene {
     pn_api_key frame_key; // mode, traversal, sampler, width; its height the most rows so far
     pn_renderer renderer;
     penumbra_times times; // of the last successful visibility call
+    penumbra_visibility_desc config; // what it ran with (penumbra_scene_last_config)
+    // max_error's choice (shadow/quality.h), kept while its key holds: the light, the budget,
+    // traversal, sampler, seed and the scene version.
+    bool chosen;
+    pn_api_key choice_key;
+    float choice_error;
+    int choice_mode, choice_tree_n, choice_tree_d;
+    uint32_t choice_spp, choice_seed;
 };
 
 // The bracket of every API call on a context: messages go to the context's log level and the

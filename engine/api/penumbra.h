@@ -200,6 +200,13 @@ typedef struct penumbra_visibility_desc {
      * To reproduce render's V for its pixels' P and N (render --aovs --filter none), pass its width
      * and the pixels in row order: V is then render's bit for bit. */
     uint32_t width;
+    /* > 0: `--quality auto`'s choice replaces mode, spp and tree (traversal, sampler and seed stay
+     * as given): the fastest configuration whose mean absolute error of V stays within max_error
+     * (at most 1; against a converged exact reference), measured on pilot renders of the scene as
+     * `penumbra render` frames it by default (the file's camera, an interior's, or one framing the
+     * bounds) at 256x256, unfiltered, with uniform samples, under the call's one light (one only).
+     * The choice is kept for the scene, light and budget; penumbra_scene_last_config tells it. */
+    float max_error;
 } penumbra_visibility_desc;
 
 /* For point_count points (xyz each in `points`, a unit normal each in `normals`, the side the
@@ -226,6 +233,11 @@ typedef struct penumbra_times {
 } penumbra_times;
 
 PENUMBRA_API penumbra_status penumbra_scene_last_times(const penumbra_scene *scene, penumbra_times *out);
+
+/* The description the scene's last successful penumbra_visibility call ran with: its defaults
+ * filled in, and with max_error the configuration chosen (mode, traversal and sampler point to
+ * constant names). Zeroed before the first call. */
+PENUMBRA_API penumbra_status penumbra_scene_last_config(const penumbra_scene *scene, penumbra_visibility_desc *out);
 
 /* ------------------------------------------------------------------------------------------ */
 /* On the host's Vulkan device. Declared where <vulkan/vulkan.h> was included before this header. */

@@ -8,7 +8,9 @@
 
 #include "api/api_internal.h"
 #include "core/timer.h"
+#include "scene/interior.h"
 #include "scene/view.h"
+#include "shadow/quality.h"
 
 // The default row length: rows of 1024 points keep a million points within lavapipe's and every
 // GPU's image size (16384). Fixed, not the count's: calls with other counts then keep the renderer
@@ -147,6 +149,66 @@ static pn_result ensure_renderer(penumbra_scene *s, const pn_api_config *c)
     return PN_OK;
 }
 
+// render's default view of the scene: the file's camera, an interior's, else one framing the bounds.
+static void default_camera(const pn_scene *scene, pn_camera *cam)
+{
+    pn_interior interior = {0};
+    if (!scene->has_camera)
+        pn_interior_find(scene, 45.0f, &interior);
+    if (scene->has_camera)
+        *cam = scene->camera;
+    else if (interior.is_interior)
+        *cam = interior.camera;
+    else
+        pn_camera_frame(scene->bounds_min, scene->bounds_max, 45.0f, cam);
+}
+
+// max_error: --quality auto's pick (shadow/quality.h) for the one light, kept while its key holds,
+// put into c in place of the description's mode, samples and tree.
+static pn_result choose(penumbra_scene *s, float max_error, const pn_light *light, pn_api_config *c)
+{
+    const char *fn = "penumbra_visibility";
+    pn_api_key key = {.traversal = c->key.traversal, .sampler = c->key.sampler, .light_count = 1,
+                      .scene_version = s->version};
+    key.lights[0] = *light;
+    if (!s->chosen || s->choice_error != max_error || s->choice_seed != c->seed ||
+        memcmp(&s->choice_key, &key, sizeof key) != 0) {
+        s->chosen = false;
+        pn_quality_choice *q = malloc(sizeof *q); // its record of every pilot: tens of KiB
+        if (!q) {
+            pn_error("%s: out of memory for --quality auto's record", fn);
+            return PN_ERR_MEMORY;
+        }
+        pn_camera cam;
+        default_camera(&s->scene, &cam);
+        // Unfiltered and uniform: a point's V is its own samples' (no neighbours to filter or to
+        // decide adaptive rounds by).
+        pn_renderer_desc frame = {.width = 256, .height = 256, .mode = PN_SHADOW_REFERENCE,
+                                  .traversal = (pn_traversal)c->key.traversal, .sampler = (pn_sampler)c->key.sampler,
+                                  .spp = 1, .seed = c->seed, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN};
+        pn_result r = pn_quality_choose(&s->ctx->dev, &s->scene, &cam, light, &frame, max_error, 0, 0, true, q);
+        if (r == PN_OK) {
+            s->chosen = true;
+            s->choice_key = key;
+            s->choice_error = max_error;
+            s->choice_seed = c->seed;
+            s->choice_mode = (int)q->mode;
+            s->choice_spp = q->spp;
+            s->choice_tree_n = q->tree_n, s->choice_tree_d = q->tree_d;
+            pn_info("quality auto: %s at %u spp (pilot MAE %.4f, budget %.4f%s)", pn_shadow_mode_get(q->mode)->name,
+                    q->spp, q->pilot_mae, (double)max_error, q->within ? "" : ": none met it, the least error");
+        }
+        free(q);
+        PN_TRY(r);
+    }
+    c->key.mode = s->choice_mode;
+    c->spp = s->choice_spp;
+    bool tree = pn_shadow_mode_get(s->choice_mode)->needs.tree;
+    c->key.tree_n = tree ? s->choice_tree_n : 0, c->key.tree_d = tree ? s->choice_tree_d : 0;
+    c->key.traversal = (int)pn_traversal_fit((pn_shadow_mode)c->key.mode, 0, (pn_traversal)c->key.traversal);
+    return PN_OK;
+}
+
 // One frame of up to PN_MAX_LIGHTS lights over the points' G-buffer (gp, gn: the renderer's size).
 static pn_result trace(penumbra_scene *s, const pn_api_config *c, const float *gp, const float *gn, pn_frame_images *img,
                        penumbra_times *t)
@@ -195,6 +257,17 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
             free(in);
             return pn_api_end(&call, PN_ERR_INVALID);
         }
+    float max_error = desc ? desc->max_error : 0;
+    if (max_error != 0 && !(max_error > 0 && max_error <= 1)) {
+        pn_error("%s: max_error %g: expected 0 (off) or a mean error in (0, 1]", fn, (double)max_error);
+        free(in);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    if (max_error > 0 && light_count != 1) {
+        pn_error("%s: max_error chooses for one light; this call has %u", fn, light_count);
+        free(in);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
     if (count == 0) { // nothing to trace: the description and lights are checked all the same
         free(in);
         return pn_api_end(&call, PN_OK);
@@ -217,6 +290,8 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
         return pn_api_end(&call, PN_ERR_INVALID);
     }
     c.key.width = (uint32_t)width, c.key.height = (uint32_t)height;
+    if (max_error > 0)
+        r = choose(s, max_error, &in[0], &c);
     float *gp = NULL, *gn = NULL;
     size_t pixels = 0;
     // A frame takes PN_MAX_LIGHTS lights: more go in frames of their own.
@@ -254,9 +329,24 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
     }
     free(gp), free(gn), free(in);
     times.total_ms = pn_ms_since(t0);
-    if (r == PN_OK)
+    if (r == PN_OK) {
         s->times = times;
+        s->config = (penumbra_visibility_desc){.mode = pn_shadow_mode_get(c.key.mode)->name,
+                                               .traversal = pn_traversal_names[c.key.traversal],
+                                               .sampler = pn_sampler_names[c.key.sampler],
+                                               .spp = c.spp, .seed = c.seed,
+                                               .tree_n = (uint32_t)c.key.tree_n, .tree_d = (uint32_t)c.key.tree_d,
+                                               .width = c.key.width, .max_error = max_error};
+    }
     return pn_api_end(&call, r);
+}
+
+penumbra_status penumbra_scene_last_config(const penumbra_scene *s, penumbra_visibility_desc *out)
+{
+    if (!s || !out)
+        return PENUMBRA_ERROR_INVALID_ARGUMENT; // no context to hold a message: the status says it
+    *out = s->config;
+    return PENUMBRA_OK;
 }
 
 penumbra_status penumbra_scene_last_times(const penumbra_scene *s, penumbra_times *out)

@@ -8,7 +8,7 @@
 #include "apps/gbuffer_file.h"
 #include "shadow/metrics.h"
 #include "apps/options.h"
-#include "apps/quality.h"
+#include "shadow/quality.h"
 #include "apps/render_opts.h"
 #include "apps/render_output.h"
 #include "apps/render_sequence.h"
@@ -418,7 +418,7 @@ int pn_cmd_render(int argc, char **argv)
         } else if (o.auto_quality) {
             // The frame's filter says whether auto may choose one (--filter none: unfiltered only).
             pn_renderer_desc frame = pn_render_opts_setup(&o.r).frame;
-            if (pn_quality_choose(&dev, &scene, &cam, &prep.lights[0], &frame, o.max_error, o.r.max_bytes, 0, &choice) == PN_OK) {
+            if (pn_quality_choose(&dev, &scene, &cam, &prep.lights[0], &frame, o.max_error, o.r.max_bytes, 0, false, &choice) == PN_OK) {
                 o.r.mode = choice.mode;
                 o.r.spp = choice.spp;
                 o.r.spp_min = choice.spp_min;

@@ -20,7 +20,7 @@
 
 #include "apps/embree_peer.h"
 #include "shadow/metrics.h"
-#include "apps/quality.h"
+#include "shadow/quality.h"
 #include "apps/render_opts.h"
 #include "shadow/setup.h"
 

@@ -11,7 +11,7 @@
 #include "accel/alpha.h"
 #include "apps/bench/bench.h"
 #include "shadow/metrics.h"
-#include "apps/quality.h"
+#include "shadow/quality.h"
 #include "shadow/setup.h"
 #include "core/log.h"
 #include "core/timer.h"

@@ -8,7 +8,7 @@
 #include "apps/bench/bench.h"
 #include "core/log.h"
 #include "core/timer.h"
-#include "apps/quality.h"
+#include "shadow/quality.h"
 
 static bool push_quality(bench_rows *rows, const bench_quality *q)
 {
@@ -54,7 +54,7 @@ int pn_bench_check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_sce
         }
     }
     uint64_t t0 = pn_time_ns();
-    if (pn_quality_choose(dev, scene, cam, light, &qframe, budget, 0, o->reference_spp, &bq.choice) != PN_OK) {
+    if (pn_quality_choose(dev, scene, cam, light, &qframe, budget, 0, o->reference_spp, false, &bq.choice) != PN_OK) {
         pn_error("bench: %s: --quality auto at %g failed (see above)", bq.scene, budget);
         return PN_EXIT_FAILURE;
     }

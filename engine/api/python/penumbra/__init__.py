@@ -85,7 +85,7 @@ class Light(ctypes.Structure):
 class _VisDesc(ctypes.Structure):
     _fields_ = [("mode", ctypes.c_char_p), ("traversal", ctypes.c_char_p), ("sampler", ctypes.c_char_p),
                 ("spp", ctypes.c_uint32), ("seed", ctypes.c_uint32), ("tree_n", ctypes.c_uint32),
-                ("tree_d", ctypes.c_uint32), ("width", ctypes.c_uint32)]
+                ("tree_d", ctypes.c_uint32), ("width", ctypes.c_uint32), ("max_error", ctypes.c_float)]
 
 
 _P = ctypes.c_void_p
@@ -218,7 +218,7 @@ class Scene:
 
 
 def visibility(points, normals, scene, light, spp=0, mode=None, seed=0, traversal=None, sampler=None,
-               tree=(0, 0), width=0):
+               tree=(0, 0), width=0, max_error=0.0):
     """V per point (and light) as penumbra_visibility computes it; the arguments as its
     penumbra_visibility_desc (0 or None: the default)."""
     p, n = _f32(points, 3, "points"), _f32(normals, 3, "normals")
@@ -228,7 +228,7 @@ def visibility(points, normals, scene, light, spp=0, mode=None, seed=0, traversa
     lights = [light] if single else list(light)
     arr = (Light * len(lights))(*lights)
     desc = _VisDesc(mode.encode() if mode else None, traversal.encode() if traversal else None,
-                    sampler.encode() if sampler else None, spp, seed, tree[0], tree[1], width)
+                    sampler.encode() if sampler else None, spp, seed, tree[0], tree[1], width, max_error)
     v = np.empty((len(lights), p.shape[0]), dtype=np.float32)
     ctx = scene.context
     ctx._check(_lib.penumbra_visibility(ctx._h, scene._h, ctypes.byref(desc), arr, len(lights), p.ctypes.data,

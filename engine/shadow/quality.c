@@ -1,5 +1,5 @@
 // --quality auto: pilots of every configuration against a converged reference, and the pick.
-#include "apps/quality.h"
+#include "shadow/quality.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -411,7 +411,7 @@ static int candidate_trees(const pn_gpu_device *dev, const pn_scene *scene, pn_s
 
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
-                            pn_quality_choice *out)
+                            bool uniform_only, pn_quality_choice *out)
 {
     memset(out, 0, sizeof *out);
     reference_spp = reference_spp ? reference_spp : PN_REFERENCE_SPP;
@@ -423,7 +423,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     if (r == PN_OK)
         r = pilot_reference(dev, scene, cam, light, &pilot);
     if (r == PN_OK)
-        fprintf(stderr, "quality auto: the converged reference, %u spp at %ux%u, in %.1f s\n", reference_spp,
+        pn_info("quality auto: the converged reference, %u spp at %ux%u, in %.1f s", reference_spp,
                 pilot.sd.frame.width, pilot.sd.frame.height, pilot.reference_ms * 1e-3);
     out->pilot_width = pilot.sd.frame.width;
     out->pilot_height = pilot.sd.frame.height;
@@ -432,8 +432,8 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     // Adaptive samples need the stratified sampler's Sobol' draws, the even split and no ray dump
     // (pn_shadow_check_samples: the frame's own options must allow the pick), and a budget of 0 is
     // met by nothing.
-    bool adaptive = frame->sampler == PN_SAMPLER_STRATIFIED && frame->split == PN_SPLIT_EVEN && !frame->dump_rays &&
-                    max_error > 0 && !pn_light_is_point(light);
+    bool adaptive = !uniform_only && frame->sampler == PN_SAMPLER_STRATIFIED && frame->split == PN_SPLIT_EVEN &&
+                    !frame->dump_rays && max_error > 0 && !pn_light_is_point(light);
     // The penumbra filter, likewise: the frame must ask for a filter (render's default; --filter
     // none keeps auto to unfiltered configurations) and allow one (pn_renderer_check_split), and a
     // point light's V, exact at one ray, has nothing to filter.
@@ -497,11 +497,12 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
             pn_setup_destroy(dev, &s);
             done++;
             double elapsed = pn_ms_since(t_start) * 1e-3;
-            fprintf(stderr, "quality auto: %d/%d %s", done, total, info->name);
+            // Through the logger (the library's calls keep stderr quiet unless asked).
+            char tree[32] = "";
             if (info->needs.tree)
-                fprintf(stderr, " LS(%d,%d)", sd.tree_n, sd.tree_d);
-            fprintf(stderr, ": MAE %.4f at the last step; %.1f s elapsed, about %.1f s left\n", mae, elapsed,
-                    elapsed / done * (total - done));
+                snprintf(tree, sizeof tree, " LS(%d,%d)", sd.tree_n, sd.tree_d);
+            pn_info("quality auto: %d/%d %s%s: MAE %.4f at the last step; %.1f s elapsed, about %.1f s left", done,
+                    total, info->name, tree, mae, elapsed, elapsed / done * (total - done));
         }
     }
     if (r == PN_OK && !c.have) {

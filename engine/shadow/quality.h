@@ -1,5 +1,6 @@
 // --quality auto: choose the shadow mode, N-tree and samples per pixel for a scene, a light and an
-// error budget from pilot renders, instead of by hand.
+// error budget from pilot renders, instead of by hand. Used by render, bench and the library
+// (engine/api: penumbra_visibility_desc.max_error), so it lives with the set-ups it measures.
 #pragma once
 #include <stdio.h>
 
@@ -83,6 +84,7 @@ pn_result pn_quality_time_side_by_side(pn_renderer *const *r, int count, int war
 // the choice from the report, ties and margins included (tests/quality_rule.py).
 void pn_quality_write_tried(FILE *f, const pn_quality_choice *q);
 
+// uniform_only: no adaptive climb (the library's points have no neighbours to decide by).
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
-                            pn_quality_choice *out);
+                            bool uniform_only, pn_quality_choice *out);
