@@ -130,18 +130,8 @@ int main(void)
     pn_gpu_device_desc dd = pn_gpu_device_desc_from_env();
     if (pn_gpu_device_create(&dd, &g_host) != PN_OK)
         return 1;
-    const char *exts[6];
-    uint32_t ext_count = 0;
-    if (g_host.accel) {
-        exts[ext_count++] = VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
-        exts[ext_count++] = VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME;
-    }
-    if (g_host.ray_query)
-        exts[ext_count++] = VK_KHR_RAY_QUERY_EXTENSION_NAME;
-    if (g_host.ray_pipeline)
-        exts[ext_count++] = VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
-    if (g_host.memory_budget)
-        exts[ext_count++] = VK_EXT_MEMORY_BUDGET_EXTENSION_NAME;
+    const char *exts[PN_GPU_OPTIONAL_EXTENSIONS];
+    uint32_t ext_count = pn_gpu_device_extensions(&g_host, exts);
     penumbra_context *ctx = NULL;
     penumbra_vulkan_desc vk = {.instance = g_host.instance, .physical_device = g_host.physical, .device = g_host.device,
                                .queue_family = g_host.queue_family, .queue = g_host.queue,

@@ -23,14 +23,6 @@ struct penumbra_recorder {
     uint32_t samples;       // pn_shadow_samples of the light
 };
 
-static float scene_magnitude(const pn_scene *scene) // as the renderer bounds every vertex (renderer.c)
-{
-    float mag = 0;
-    for (int k = 0; k < 3; k++)
-        mag = fmaxf(mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
-    return mag;
-}
-
 static void recorder_free(penumbra_recorder *rec)
 {
     pn_gpu_device *dev = &rec->ctx->dev;
@@ -77,7 +69,7 @@ static pn_result recorder_make(penumbra_recorder *rec, const penumbra_scene *s, 
     rec->p = (pn_gpu_image){.view = d->position, .format = VK_FORMAT_R32G32B32A32_SFLOAT, .extent = extent, .mip_levels = 1};
     rec->n = (pn_gpu_image){.view = d->normal, .format = VK_FORMAT_R32G32B32A32_SFLOAT, .extent = extent, .mip_levels = 1};
     rec->v = (pn_gpu_image){.view = d->visibility, .format = VK_FORMAT_R32_SFLOAT, .extent = extent, .mip_levels = 1};
-    PN_TRY(pn_shadow_pass_create(dev, &rec->rd, &rec->p, &rec->n, &rec->v, scene_magnitude(&s->scene),
+    PN_TRY(pn_shadow_pass_create(dev, &rec->rd, &rec->p, &rec->n, &rec->v, pn_scene_magnitude(&s->scene),
                                  pn_alpha_masked_triangles(&s->scene) > 0, &rec->pass));
     rec->pass_made = true;
     rec->samples = pn_shadow_samples(rec->rd.spp, &rec->light);

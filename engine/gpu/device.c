@@ -492,6 +492,22 @@ pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *de
     return r;
 }
 
+uint32_t pn_gpu_device_extensions(const pn_gpu_device *dev, const char *out[PN_GPU_OPTIONAL_EXTENSIONS])
+{
+    uint32_t n = 0;
+    if (dev->accel) {
+        out[n++] = VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
+        out[n++] = VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME;
+    }
+    if (dev->ray_query)
+        out[n++] = VK_KHR_RAY_QUERY_EXTENSION_NAME;
+    if (dev->ray_pipeline)
+        out[n++] = VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
+    if (dev->memory_budget)
+        out[n++] = VK_EXT_MEMORY_BUDGET_EXTENSION_NAME;
+    return n;
+}
+
 pn_result pn_gpu_device_adopt(const pn_gpu_device_adopt_desc *desc, pn_gpu_device *dev)
 {
     memset(dev, 0, sizeof *dev);

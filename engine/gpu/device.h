@@ -99,6 +99,12 @@ typedef struct pn_gpu_device_adopt_desc {
     uint32_t extension_count;
 } pn_gpu_device_adopt_desc;
 
+// The optional device extensions dev has enabled (acceleration structures with their ray queries and
+// ray-tracing pipelines, the memory budget), as a host lists them to pn_gpu_device_adopt; returns
+// their count (at most PN_GPU_OPTIONAL_EXTENSIONS).
+enum { PN_GPU_OPTIONAL_EXTENSIONS = 5 };
+uint32_t pn_gpu_device_extensions(const pn_gpu_device *dev, const char *out[PN_GPU_OPTIONAL_EXTENSIONS]);
+
 // Takes the host's device as penumbra's: its properties, the entry points of the extensions listed,
 // a command pool of penumbra's own. pn_gpu_device_destroy then destroys the pool alone. Logs and
 // fails for a device below Vulkan 1.3 (PN_ERR_UNSUPPORTED) or a queue family without graphics,

@@ -64,15 +64,6 @@ static pn_result create_targets(pn_renderer *r)
     return PN_OK;
 }
 
-// The largest |coordinate| of the scene's bounds: it bounds every vertex's, which the shadow rays'
-// origin offset scales with (shadow_frame.glsl).
-static float scene_magnitude(const pn_scene *scene)
-{
-    float mag = 0;
-    for (int k = 0; k < 3; k++)
-        mag = fmaxf(mag, fmaxf(fabsf(scene->bounds_min[k]), fabsf(scene->bounds_max[k])));
-    return mag;
-}
 
 // ---------------------------------------------------------------------------------------------
 
@@ -170,7 +161,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     // includes the scene's upload and is left out.
     uint64_t t0 = pn_time_ns();
     if (r == PN_OK)
-        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, scene_magnitude(scene),
+        r = pn_shadow_pass_create(dev, desc, &out->p, &out->n, &out->v_raw, pn_scene_magnitude(scene),
                                   pn_alpha_masked_triangles(scene) > 0, &out->shadow);
     if (r == PN_OK)
         r = pn_penumbra_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->shadow.counts, &out->v,
@@ -194,7 +185,7 @@ pn_result pn_renderer_update_vertices(pn_renderer *r, const pn_scene *scene, uin
     // The queue is idle between frames (pn_renderer_render waits); the shadow pass writes its
     // parameters, scene_mag among them, at every frame (pn_shadow_pass_update).
     PN_TRY(pn_gbuffer_pass_update_vertices(r->dev, &r->gbuffer, scene, first, count));
-    r->shadow.scene_mag = scene_magnitude(scene);
+    r->shadow.scene_mag = pn_scene_magnitude(scene);
     return PN_OK;
 }
 

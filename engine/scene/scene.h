@@ -1,6 +1,7 @@
 // The scene as every stage sees it: one indexed triangle list in world space, split into draws by
 // material, plus materials, decoded textures, an optional camera and the bounds.
 #pragma once
+#include <math.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -140,6 +141,16 @@ const char *const *pn_builtin_names(void);
 void pn_scene_destroy(pn_scene *scene);
 
 static inline uint32_t pn_scene_triangle_count(const pn_scene *s) { return s->index_count / 3; }
+
+// The largest |coordinate| of the bounds, which bounds every vertex's: what the shadow rays' origin
+// offset scales with (ShadowParams.scene_mag; the renderer and the library's recorder).
+static inline float pn_scene_magnitude(const pn_scene *s)
+{
+    float mag = 0;
+    for (int k = 0; k < 3; k++)
+        mag = fmaxf(mag, fmaxf(fabsf(s->bounds_min[k]), fabsf(s->bounds_max[k])));
+    return mag;
+}
 
 // Recomputes bounds_min/max from the vertices referenced by indices.
 void pn_scene_update_bounds(pn_scene *scene);

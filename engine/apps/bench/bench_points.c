@@ -130,16 +130,8 @@ static void print_row(FILE *f, const points_row *r, bool csv)
 
 int pn_bench_points(const bench_opts *o, pn_gpu_device *dev)
 {
-    const char *exts[6];
-    uint32_t ext_count = 0;
-    if (dev->accel) {
-        exts[ext_count++] = VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
-        exts[ext_count++] = VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME;
-    }
-    if (dev->ray_query)
-        exts[ext_count++] = VK_KHR_RAY_QUERY_EXTENSION_NAME;
-    if (dev->ray_pipeline)
-        exts[ext_count++] = VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
+    const char *exts[PN_GPU_OPTIONAL_EXTENSIONS];
+    uint32_t ext_count = pn_gpu_device_extensions(dev, exts);
     penumbra_context *ctx = NULL;
     penumbra_vulkan_desc vk = {.instance = dev->instance, .physical_device = dev->physical, .device = dev->device,
                                .queue_family = dev->queue_family, .queue = dev->queue, .enabled_extensions = exts,
