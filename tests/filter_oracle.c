@@ -130,7 +130,7 @@ double filter_range_weight(double d, double spread)
 // relative, r^2 within u more and 1 - r^2 within u absolute (its result is at most 1); the clamp
 // makes it exactly 0 where the float r^2 is surely 1 or more. Every constant twice, for contraction
 // and reordering (as in filter_mean_tol).
-static void filter_range_weight_float(double d, double s_lo, double s_hi, double *lo, double *hi)
+void filter_range_weight_float(double d, double s_lo, double s_hi, double *lo, double *hi)
 {
     const double u = FLOAT_U;
     double r_lo = d / fmax(s_hi, 1e-30f) * (1 - 12 * u), r_hi = d / fmax(s_lo, 1e-30f) * (1 + 12 * u);

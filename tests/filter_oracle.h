@@ -72,5 +72,8 @@ double filter_spread(double m, uint32_t samples);
 void filter_spread_range(double m_lo, double m_hi, uint32_t samples, double *lo, double *hi);
 // filter.comp's range weight of a neighbour whose V_raw differs from the pixel's by d.
 double filter_range_weight(double d, double spread);
+// [*lo, *hi] holds the shader's float max(1 - (d / spread)^2, 0) for d != 0 (one float subtraction
+// away from the double d) and a float spread in [s_lo, s_hi] (penumbra_oracle.c's range weight too).
+void filter_range_weight_float(double d, double s_lo, double s_hi, double *lo, double *hi);
 // filter.comp at covered pixel (x, y): the window's weights, the filtered V and its bound.
 void filter_recompute(const filter_frame *f, int x, int y, filter_window *o);

@@ -8,10 +8,11 @@
 #include "test_util.h"
 
 // The default render filters (--filter penumbra), so its unfiltered V is there too, and the
-// penumbra filter's footprint.
+// penumbra filter's footprint and the V its Gaussian averaged.
 static const char *const CHANNELS[] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                        "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z", "shadow.V_raw",
-                                       "shadow.valid", "shadow.penumbra", "shadow.footprint"};
+                                       "shadow.valid", "shadow.penumbra", "shadow.footprint",
+                                       "shadow.V_window"};
 static const char *const ATTRS[] = {"penumbra.scene", "penumbra.mode", "penumbra.triangles",
                                     "penumbra.camera.pos", "penumbra.camera.target", "penumbra.camera.fov",
                                     "penumbra.light.pos", "penumbra.light.normal", "penumbra.light.up",
@@ -111,6 +112,9 @@ int main(void)
         // shadow.footprint: the penumbra filter's deviation in pixels, >= 0, 0 on the background
         float fp = ch[18][i];
         CHECK_MSG(fp >= 0 && (a == 1.0f || fp == 0), "shadow.footprint = %g at %d", fp, i);
+        // shadow.V_window: the interleaved filter's V, before the Gaussian: in [0, 1], 0 on the background
+        float vw = ch[19][i];
+        CHECK_MSG(vw >= 0 && vw <= 1 && (a == 1.0f || vw == 0), "shadow.V_window = %g at %d", vw, i);
         if (a == 1.0f) {
             covered++;
             double nl = sqrt(ch[8][i] * ch[8][i] + ch[9][i] * ch[9][i] + ch[10][i] * ch[10][i]);

@@ -32,7 +32,10 @@ void pn_print_render_help(void)
            "  --aovs                also write P.X/Y/Z, N.X/Y/Z, albedo.R/G/B, Z (view depth) and, with one\n"
            "                        light, shadow.valid (the rays above the horizon and in front of the light)\n"
            "                        and shadow.penumbra (the penumbra width at the mean blocker the filter\n"
-           "                        reads, in world units; 3.4e38 where no ray was blocked)\n"
+           "                        reads, in world units; 3.4e38 where no ray was blocked); with\n"
+           "                        --filter penumbra also shadow.footprint (its Gaussian's width,\n"
+           "                        pixels) and shadow.V_window (V before its Gaussian: the\n"
+           "                        interleaved filter's window's)\n"
            "  --preview FILE        tone-mapped sRGB PNG of the radiance\n"
            "  --exposure E          preview exposure multiplier (default 1)\n"
            "  --size WxH            image size (default 1280x720)\n"
@@ -235,6 +238,7 @@ static int render_frame(const render_opts *o, const char *output, pn_gpu_device 
     const pn_render_opts *p = &o->r;
     pn_setup_desc sd = pn_render_opts_setup(p);
     sd.frame.dump_rays = o->ray_dump != NULL;
+    sd.frame.keep_window = o->aovs; // shadow.V_window, with the penumbra filter
     sd.view = o->view_cull && !gb ? cam : NULL; // the camera sees none of a file's G-buffer
     sd.light_count = light_count;
     pn_setup s;

@@ -87,7 +87,7 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
                                               "shadow.valid", "shadow.penumbra"};
     // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs. With
     // several lights a V (and V_raw) per light, already planar.
-    pn_exr_channel ch[PLANES + ADAPTIVE + FOOTPRINT + 2 * PN_MAX_LIGHTS];
+    pn_exr_channel ch[PLANES + ADAPTIVE + FOOTPRINT + 1 + 2 * PN_MAX_LIGHTS]; // 1: shadow.V_window
     char light_names[PN_MAX_LIGHTS][2][32];
     int count = 0;
     for (int c = 0; c < PLANES; c++) {
@@ -122,6 +122,10 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     // pixel of its 3x3 had a blocker); the last light's.
     if (aovs && img->footprint && lights == 1)
         ch[count++] = (pn_exr_channel){"shadow.footprint", pl[19]};
+    // And the V its Gaussian averaged: the interleaved filter's window's (already planar; where
+    // the renderer kept it, desc.keep_window), for checks of the Gaussian alone.
+    if (aovs && img->v_window && lights == 1)
+        ch[count++] = (pn_exr_channel){"shadow.V_window", img->v_window};
     bool tree = pn_shadow_mode_get(o->mode)->needs.tree;
 #define V3(nm, v) {.name = nm, .type = PN_EXR_ATTR_V3F, .f = {(v)[0], (v)[1], (v)[2]}}
 #define F1(nm, v) {.name = nm, .type = PN_EXR_ATTR_FLOAT, .f = {(float)(v)}}

@@ -105,6 +105,7 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
     if (q->shard_n > 1)
         printf(", shard %d/%d renders %lld of them\n", q->shard_k, q->shard_n, mine);
     pn_setup_desc sd = pn_render_opts_setup(&o->r);
+    sd.frame.keep_window = o->aovs; // shadow.V_window, with the penumbra filter
     sd.view = o->view_cull ? &prep->camera : NULL;
     sd.light_count = prep->light_count;
     pn_setup s = {0};

@@ -58,6 +58,11 @@ typedef struct pn_renderer_desc {
     // draws frame after frame (the demo), where one slow frame after a switch is what is seen
     // anyway and an extra submission per switch only costs.
     bool no_warm_up;
+    // With the penumbra filter: keep V as the interleaved filter's window left it, the Gaussian's
+    // input (pn_frame_images.v_window; render --aovs writes it as shadow.V_window), so that its
+    // Gaussian can be checked against a recomputation (tests/penumbra_oracle.h). One more image
+    // copy per frame, inside the filter's time: off unless asked for.
+    bool keep_window;
 } pn_renderer_desc;
 
 // A tile edge as the passes use it: 0 (unset) means 3, the thesis' 3 x 3.
@@ -104,6 +109,9 @@ typedef struct pn_frame_images {
     // row pass and the footprint, its standard deviation in pixels (below 0.5: V is the
     // interleaved filter's); NULL with another filter.
     const float *footprint;
+    // With the penumbra filter and desc.keep_window: V before its Gaussian, as the interleaved
+    // filter's window left it (of the frame's last light); NULL otherwise.
+    const float *v_window;
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are
     // light 0's.
     uint32_t light_count;
