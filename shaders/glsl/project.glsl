@@ -364,12 +364,13 @@ void project_pixel(ivec2 px, vec3 p, vec3 nrm, bool mine)
         valid[w] = proj_blocked[w] = 0u;
     for (uint gi = 0u; gi < groups; gi++)
         proj_box[gi] = vec4(1.0, 1.0, 0.0, 0.0);
+    PixelSampler ps = pixel_sampler(uvec2(px));
     uint i;
     for (i = 0u; i < count; i++) {
         vec2 st;
         vec3 d;
         float dn;
-        bool ok = light_ray(pixel_begin + i, uvec2(px), o, nrm, box_lo, box_hi, st, d, dn);
+        bool ok = light_ray(pixel_begin + i, ps, o, nrm, box_lo, box_hi, st, d, dn);
         proj_dir[i] = d;
         valid[i / 32u] |= ok ? 1u << (i % 32u) : 0u;
         valid_count += ok ? 1u : 0u;

@@ -54,6 +54,42 @@ vec2 sobol_sample(uint k, uint shift)
     return vec2(float(x >> 8u), float(y >> 8u)) * (1.0 / 16777216.0);
 }
 
+// What light_sample draws alike for all of a pixel's samples: the tile's hash, the tile's shear of
+// the pixel's place in it, the R2 jitters' rotation and the Sobol' shift. Made once per pixel
+// (pixel_sampler) before its samples' loop instead of per sample, which hashed the tile 4 times
+// and the cell twice more for each sample even for a 1 x 1 tile, where only the rotation is used.
+// The same values, so the same samples bit for bit. Measured (bench, exact and linespace 6,3 on the
+// bunny, dragon and Sponza at 256 x 256, 1 / 4 / 16 spp, filter none and penumbra, 5 repeats, two
+// runs of each build taken in turn): the shadow pass's time over the 36 cells 2833 -> 2480 ms
+// (0.875x), 33 cells faster; exact 16 spp 0.77-0.96x.
+struct PixelSampler {
+    uint h;          // the tile's hash
+    uvec2 member;    // the pixel's place in its tile
+    uvec2 sheared;   // (u0, v0) below; 0 for a 1 x 1 tile
+    uint sobol;      // the Sobol' sequence's shift (budgeted split, adaptive)
+};
+
+PixelSampler pixel_sampler(uvec2 pixel)
+{
+    PixelSampler ps;
+    uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
+    uvec2 tile = pixel / tile_size;
+    ps.member = pixel % tile_size;
+    ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
+    ps.sobol = pcg(ps.h + chunk.light);
+    ps.sheared = uvec2(0u);
+    if (tile_size.x * tile_size.y > 1u) {
+        if ((pcg(ps.h ^ 0x2545f491u) & 1u) == 0u) {
+            ps.sheared.x = (ps.member.x + ps.member.y) % tile_size.x;
+            ps.sheared.y = (ps.member.y + ps.sheared.x) % tile_size.y;
+        } else {
+            ps.sheared.y = (ps.member.y + ps.member.x) % tile_size.y;
+            ps.sheared.x = (ps.member.x + ps.sheared.y) % tile_size.x;
+        }
+    }
+    return ps;
+}
+
 // Light sample k of this pixel as (s, t) in [0,1)^2 over the light's width and height.
 // Grid: the centres of a grid_u x grid_v grid, the paper's uniform grid (bilinear interpolation of the
 // corner directions is the same point). Stratified: one jittered point per grid cell; the jitters are
@@ -100,35 +136,28 @@ vec2 sobol_sample(uint k, uint shift)
 // sees spp * T samples spread over the sub-cells of every cell.
 // A 1 x 1 tile gives the per-pixel sampler exactly. chunk_rays maps (s, t) into the pixel's
 // horizon_box, which keeps the strata: they become the box's.
-vec2 light_sample(uint k, uvec2 pixel)
+vec2 light_sample(uint k, PixelSampler ps)
 {
     uint i = k % params.grid_u, j = k / params.grid_u;
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uint tiles = tile_size.x * tile_size.y;
-    uvec2 tile = pixel / tile_size, member = pixel % tile_size;
-    uint h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    // The pixel's sub-cell of cell (i, j) (above): the tile's shear, then its translation for the
-    // cell, reduced before the sum, which then cannot wrap. 0 for a 1 x 1 tile.
-    uint a = pcg(h ^ pcg(i + 0x68e31da4u)), b = pcg(h ^ pcg(j + 0xb5297a4du));
-    uvec2 shift = uvec2(j + a % tile_size.x, i + b % tile_size.y);
-    uvec2 sheared; // (u0, v0)
-    if ((pcg(h ^ 0x2545f491u) & 1u) == 0u) {
-        sheared.x = (member.x + member.y) % tile_size.x;
-        sheared.y = (member.y + sheared.x) % tile_size.y;
-    } else {
-        sheared.y = (member.y + member.x) % tile_size.y;
-        sheared.x = (member.x + sheared.y) % tile_size.x;
+    // The pixel's sub-cell of cell (i, j) (above): the tile's shear (pixel_sampler), then its
+    // translation for the cell, reduced before the sum, which then cannot wrap. 0 for a 1 x 1 tile.
+    uvec2 sub2 = uvec2(0u);
+    if (tiles > 1u) {
+        uint a = pcg(ps.h ^ pcg(i + 0x68e31da4u)), b = pcg(ps.h ^ pcg(j + 0xb5297a4du));
+        uvec2 shift = uvec2(j + a % tile_size.x, i + b % tile_size.y);
+        sub2 = (ps.sheared + shift) % tile_size;
     }
-    uvec2 sub2 = (sheared + shift) % tile_size;
     uint sub = sub2.x + tile_size.x * sub2.y;
     // Budgeted split and adaptive sampling: each pixel draws its own number of samples per light
     // (chunk_count, adaptive_decide), so there is no grid to stratify; the Sobol' sequence is
     // stratified at every power of two, and each half of it too (adaptive_decide's estimate).
     if (params.split == PN_SPLIT_BUDGET_ID || params.spp_min != 0u)
-        return sobol_sample(k, pcg(h + chunk.light));
+        return sobol_sample(k, ps.sobol);
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
-        vec2 rotation = vec2(float(h & 0xffffu), float(h >> 16u)) / 65536.0;
+        vec2 rotation = vec2(float(ps.h & 0xffffu), float(ps.h >> 16u)) / 65536.0;
         const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
     }

@@ -245,9 +245,9 @@ void light_box(vec3 o, vec3 nrm, out vec2 box_lo, out vec2 box_hi)
 // d's height over the receiver's plane; returns whether the ray carries light (above the receiver's
 // horizon, in front of a one-sided light: an OMNI light emits every way, none reaches inside a
 // sphere).
-bool light_ray(uint k, uvec2 pixel, vec3 o, vec3 nrm, vec2 box_lo, vec2 box_hi, out vec2 st, out vec3 d, out float dn)
+bool light_ray(uint k, PixelSampler ps, vec3 o, vec3 nrm, vec2 box_lo, vec2 box_hi, out vec2 st, out vec3 d, out float dn)
 {
-    st = light_warp(box_lo + light_sample(k, pixel) * (box_hi - box_lo));
+    st = light_warp(box_lo + light_sample(k, ps) * (box_hi - box_lo));
     d = light_point(st) - o;
     dn = dot(d, nrm);
     return dn > 0.0 && !patch_none && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(patch_normal, -d) > 0.0);
@@ -264,11 +264,12 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
     st_hi = vec2(0.0);
     vec2 box_lo, box_hi;
     light_box(o, nrm, box_lo, box_hi);
+    PixelSampler ps = pixel_sampler(pixel);
     for (i = 0u; i < count; i++) {
         vec2 st;
         vec3 d;
         float dn;
-        bool valid = light_ray(pixel_begin + i, pixel, o, nrm, box_lo, box_hi, st, d, dn);
+        bool valid = light_ray(pixel_begin + i, ps, o, nrm, box_lo, box_hi, st, d, dn);
         valid_rays |= valid ? (1u << i) : 0u;
         dir[i] = d;
         t_rise[i] = valid ? rise / dn : 2.0;
