@@ -30,7 +30,8 @@ double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, bool *is
     *is_own = own(f, i);
     if (*is_own || !covered(f, i)) // the background's footprint is 0 (filter.comp writes 0 there)
         return *is_own ? own_footprint(f, i) : 0.0;
-    // Without one: the widest of the 3 x 3 neighbours' own (clamped to the image), 0 if none.
+    // Without one: the widest of the 3 x 3 neighbours' own (clamped to the image), 0 if none, at
+    // most max_radius / RADIUS_SIGMAS of the pixel's own footprints (float's quotient and product).
     double widest = 0.0;
     for (int dy = -1; dy <= 1; dy++)
         for (int dx = -1; dx <= 1; dx++) {
@@ -40,7 +41,16 @@ double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, bool *is
             if (own(f, j))
                 widest = fmax(widest, own_footprint(f, j));
         }
-    return widest;
+    double limit = (float)((double)(float)(f->max_radius / PENUMBRA_RADIUS_SIGMAS) * pixel_footprint(f, i));
+    return fmin(widest, limit);
+}
+
+double penumbra_row_v(float stored) { return fabs((double)stored); }
+bool penumbra_row_lends(float stored) { return !signbit(stored); }
+
+bool penumbra_lends(const penumbra_frame *f, int i, bool rows)
+{
+    return covered(f, i) && (f->valid[i] > 0 || (!rows && f->reaches[i] != 0));
 }
 
 // The footprints each pass reads, world units, and a bound on their relative error against the
@@ -107,13 +117,15 @@ void penumbra_recompute(const penumbra_frame *f, int x, int y, bool rows, penumb
     const double u = FLOAT_U;
     int i = y * f->width + x;
     memset(o, 0, sizeof *o);
-    o->v_in = rows ? f->v_window[i] : f->scratch[2 * i];
+    o->v_in = rows ? f->v_window[i] : penumbra_row_v(f->scratch[2 * i]);
     o->v = o->v_in;
     bool own_p = false;
     double fp = pixel_footprint(f, i);
     o->footprint = rows ? penumbra_centre_footprint(f, x, y, &own_p) : column_footprint(f, i, true);
     double e_sigma = rows ? PENUMBRA_SIGMA_REL : 2 * u;
-    if (!covered(f, i))
+    // The background, and a pixel the light cannot reach (no valid ray, and the light below its
+    // horizon), keep their V.
+    if (!covered(f, i) || !penumbra_lends(f, i, false))
         return;
     // First over the pixel's footprint facing the camera, then over the world length of one pixel
     // along the pass: the nearer neighbour's distance (clamped to the image: the pixel itself, none),
@@ -157,11 +169,11 @@ void penumbra_recompute(const penumbra_frame *f, int x, int y, bool rows, penumb
         o->taps++;
         int j = qy * f->width + qx;
         filter_tap t;
-        // Background taps and (along rows) those without a valid ray lend nothing: along columns
-        // every covered pixel lends the row pass's V.
-        if (!filter_tap_at(&ff, x, y, qx - x, qy - y, &t) || (rows && f->valid[j] == 0))
+        // Background taps lend nothing, nor those without a valid ray: along rows none of them,
+        // along columns those the light cannot reach.
+        if (!filter_tap_at(&ff, x, y, qx - x, qy - y, &t) || !penumbra_lends(f, j, rows))
             continue;
-        double vq = rows ? f->v_window[j] : f->scratch[2 * j];
+        double vq = rows ? f->v_window[j] : penumbra_row_v(f->scratch[2 * j]);
         // The narrower of the two footprints, the centre's where the tap has none of its own.
         double fq = rows ? (own(f, j) ? own_footprint(f, j) : 0.0) : column_footprint(f, j, false);
         double sigma = fq > 0 ? fmin(o->footprint, fq) : o->footprint;

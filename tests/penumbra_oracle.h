@@ -25,9 +25,11 @@ typedef struct penumbra_frame {
     float pixel_angle;    // what penumbra_pass.c passes: (float) pn_pixel_angle(yfov, height)
     const float *p, *n;   // 4 floats per pixel: position and coverage; normal and view depth
     const float *v_raw;   // the shadow pass's V: below 1 where one of the pixel's valid rays was blocked
-    const uint32_t *valid; // valid rays per pixel (without one the pixel lends nothing)
+    const uint32_t *valid; // valid rays per pixel (without one the pixel lends nothing along rows)
+    const uint32_t *reaches; // whether the light reaches above the pixel's horizon (counts.z):
+                             // without a valid ray, it lends along columns the V its neighbours gave it
     const float *v_window; // the Gaussian's input: the interleaved filter's V
-    const float *scratch;  // 2 floats per pixel: the row pass's V and footprint (pixels)
+    const float *scratch;  // 2 floats per pixel: the row pass's V (penumbra_row_v) and footprint (pixels)
     const float *v;        // the column pass's V: the frame's
 } penumbra_frame;
 
@@ -51,12 +53,21 @@ typedef struct penumbra_pixel {
 
 // The footprint the Gaussian is centred with at (x, y), world units, as the row pass reads it: the
 // pixel's own where one of its valid rays was blocked, else the widest of its 3 x 3 neighbours'
-// own (0 if none has one); *own says which. Recovered from the row pass's footprint output
+// own (0 if none has one), at most max_radius / RADIUS_SIGMAS of the pixel's own pixels; *own
+// says which. Recovered from the row pass's footprint output
 // (pixels facing the camera) times the pixel's footprint, within PENUMBRA_SIGMA_REL.
 double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, bool *own);
 // The relative error of a footprint recovered that way: the shader's quotient (2.5 ulp, 5u) and
 // one more u for the product here.
 #define PENUMBRA_SIGMA_REL (6 * FLOAT_U)
+
+// The row pass's V as it stores it: -V where the pixel lends nothing along columns (no valid ray
+// of its own, and the light cannot reach it), the sign bit telling which (penumbra_filter.comp's
+// row_value).
+double penumbra_row_v(float stored);
+bool penumbra_row_lends(float stored);
+// Whether pixel i lends its V to the row pass (rows) or the column pass.
+bool penumbra_lends(const penumbra_frame *f, int i, bool rows);
 
 // The row pass (rows = true: window V -> scratch.x) or the column pass (scratch.x -> V) at (x, y).
 void penumbra_recompute(const penumbra_frame *f, int x, int y, bool rows, penumbra_pixel *o);

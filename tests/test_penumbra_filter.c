@@ -109,7 +109,8 @@ static double world_oracle(const frame *f, int i, int n)
 }
 
 // The footprint AOV's oracle (pixels facing the camera): the pixel's own where one of its rays was
-// blocked (V_raw < 1), else the widest of its 3 x 3 neighbours' own, over its pixel; 0 if none.
+// blocked (V_raw < 1), else the widest of its 3 x 3 neighbours' own, at most the pixel's own limit
+// (a neighbour's was clamped in the neighbour's pixels), over its pixel; 0 if none.
 static double footprint_oracle(const frame *f, int i, int n)
 {
     const double pi = 3.14159265358979323846;
@@ -126,7 +127,7 @@ static double footprint_oracle(const frame *f, int i, int n)
             if (f->a[j] == 1.0f && f->vraw[j] < 1.0f)
                 widest = fmax(widest, world_oracle(f, j, n));
         }
-    return widest / pixel;
+    return fmin(widest, 8.0 / 2.5 * pixel) / pixel;
 }
 
 // Contact sharpness (above): the camera looks down at the contacts from the front right.

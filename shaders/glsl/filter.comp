@@ -89,7 +89,11 @@ void main()
     float own_samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
     if (pc.narrow > 0.0) {
         float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);
-        imageStore(img_sigma, px, vec4(sigma, unknown ? 0.0 : 1.0, 0.0, 0.0));
+        // What the pixel lends the Gaussian (penumbra_filter.comp): 1 its V, an estimate of its own;
+        // 0.5 a V this window takes from its neighbours below (no valid ray, but the light reaches
+        // above its horizon), lent along columns only, after the row pass; 0 nothing (the light
+        // cannot reach it: V is the convention 1).
+        imageStore(img_sigma, px, vec4(sigma, unknown ? (counts_p.z != 0u ? 0.5 : 0.0) : 1.0, 0.0, 0.0));
     }
     if (unknown && counts_p.z == 0u) {
         imageStore(img_v, px, imageLoad(img_v_raw, px));

@@ -77,8 +77,11 @@ vec2 pixel_footprint(ivec2 px)
 
 // The same for the pixel the Gaussian is centred on: without a blocker of its own, the widest
 // footprint among its 3 x 3 neighbours that have one. Its rays all passed, but a neighbour's were
-// blocked: it lies at a penumbra's edge, where one pixel's few rays all pass by luck.
-vec2 centre_footprint(ivec2 px, ivec2 size)
+// blocked: it lies at a penumbra's edge, where one pixel's few rays all pass by luck. A neighbour's
+// footprint was clamped to max_radius / RADIUS_SIGMAS of that neighbour's pixels (filter.comp), so
+// at a step in depth it can exceed the clamp in this pixel's: clamped again here (footprint_p, this
+// pixel's footprint facing the camera), so that the reach always spans RADIUS_SIGMAS deviations.
+vec2 centre_footprint(ivec2 px, ivec2 size, float footprint_p)
 {
     vec2 s = imageLoad(img_sigma, px).xy;
     if (s.x >= 0.0)
@@ -89,8 +92,20 @@ vec2 centre_footprint(ivec2 px, ivec2 size)
             ivec2 q = clamp(px + ivec2(dx, dy), ivec2(0), size - 1);
             widest = max(widest, imageLoad(img_sigma, q).x);
         }
-    return vec2(widest, s.y);
+    return vec2(min(widest, float(pc.max_radius) / RADIUS_SIGMAS * footprint_p), s.y);
 }
+
+// The row pass's V as the column pass reads it, with whether the pixel lends it: the sign bit (V is
+// in [0, 1], so -V, -0 included, tells it exactly). Along rows, as in filter.comp's window, a pixel
+// lends only an estimate of its own (a valid ray: img_sigma's y = 1). Along columns also the V a
+// pixel without one took from its neighbours where the light reaches above its horizon (y = 0.5):
+// measured, leaving those out as well cost Sponza's 1 spp 0.0217 -> 0.0246 (bench, 512 x 512,
+// reference MAE). Where the light cannot reach (y = 0) V is the convention 1, no estimate of
+// anything: it neither lends nor is blurred (blur). Before, it was lent along columns and took its
+// neighbours' V.
+float row_value(float v, bool lends) { return lends ? v : -v; }
+float row_v(float stored) { return abs(stored); }
+bool row_lends(float stored) { return (floatBitsToUint(stored) >> 31u) == 0u; }
 
 // The Gaussian along rows (img_v -> scratch, with the pixel's footprint) or columns (scratch ->
 // img_v), over world distance on the pixel's surface: a surface seen at a grazing angle packs more
@@ -101,8 +116,9 @@ void blur(ivec2 px, ivec2 size, bool rows)
     vec4 n = imageLoad(img_n, px);
     float footprint_p = n.w * pc.pixel_angle;
     // The row pass leaves the footprint in pixels facing the camera (the EXR's): back to world units.
-    vec2 sp = rows ? centre_footprint(px, size) : vec2(imageLoad(img_scratch, px).y * footprint_p, 1.0);
-    float v_p = rows ? imageLoad(img_v, px).x : imageLoad(img_scratch, px).x;
+    vec2 sc = rows ? vec2(0.0) : imageLoad(img_scratch, px).xy;
+    vec2 sp = rows ? centre_footprint(px, size, footprint_p) : vec2(sc.y * footprint_p, row_lends(sc.x) ? 1.0 : 0.0);
+    float v_p = rows ? imageLoad(img_v, px).x : row_v(sc.x);
     // The world length of one pixel along the pass's direction: the nearer of the two neighbours
     // (the other may lie across an edge), at least the footprint facing the camera; so the
     // footprint over the latter bounds it in pixels, and most pixels (lit, umbra, contact) leave
@@ -115,9 +131,11 @@ void blur(ivec2 px, ivec2 size, bool rows)
         float db = b == px ? 1e30 : distance(imageLoad(img_p, b).xyz, p.xyz);
         sigma_px = sp.x / max(max(min(da, db), footprint_p), 1e-30);
     }
-    if (p.w <= 0.0 || sigma_px < MIN_SIGMA) {
+    // A pixel the light cannot reach (sp.y = 0) keeps the convention, as in filter.comp: its V
+    // carries no light, and one its neighbours gave it would only be read as an error.
+    if (p.w <= 0.0 || sp.y <= 0.0 || sigma_px < MIN_SIGMA) {
         if (rows)
-            imageStore(img_scratch, px, vec4(v_p, max(sp.x, 0.0) / max(footprint_p, 1e-30), 0.0, 0.0));
+            imageStore(img_scratch, px, vec4(row_value(v_p, sp.y > 0.0), max(sp.x, 0.0) / max(footprint_p, 1e-30), 0.0, 0.0));
         else
             imageStore(img_v, px, vec4(v_p));
         return;
@@ -139,10 +157,12 @@ void blur(ivec2 px, ivec2 size, bool rows)
         ivec2 q = px + k * dir;
         if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
             continue;
-        // Along columns the row pass's output: its V and footprint (it lent, or its V is its own).
+        // Along columns the row pass's output: its V, whether it lends it (row_value) and its
+        // footprint.
         vec4 qp = imageLoad(img_p, q), m = imageLoad(img_n, q);
-        vec2 sq = rows ? pixel_footprint(q) : vec2(imageLoad(img_scratch, q).y * m.w * pc.pixel_angle, 1.0);
-        float v_q = rows ? imageLoad(img_v, q).x : imageLoad(img_scratch, q).x;
+        vec2 sc = rows ? vec2(0.0) : imageLoad(img_scratch, q).xy;
+        vec2 sq = rows ? pixel_footprint(q) : vec2(sc.y * m.w * pc.pixel_angle, row_lends(sc.x) ? 1.0 : 0.0);
+        float v_q = rows ? imageLoad(img_v, q).x : row_v(sc.x);
         // The narrower of the two footprints: a pixel next to a contact shadow does not reach
         // into it, nor the contact shadow's pixels into the wide penumbra beside them. Distances
         // scaled by it before squaring, so that nothing overflows or underflows.
@@ -152,13 +172,13 @@ void blur(ivec2 px, ivec2 size, bool rows)
         float w = g * surface_weight(p.xyz, n.xyz, footprint_p, qp.xyz, m.xyz, m.w * pc.pixel_angle, float(abs(k)));
         float d = abs(v_q - v_p) / spread;
         w *= max(1.0 - d * d, 0.0);
-        w = qp.w > 0.0 && sq.y > 0.0 ? w : 0.0;
+        w = qp.w > 0.0 && sq.y >= 1.0 ? w : 0.0;
         sum += w * v_q;
         weight += w;
     }
     float v = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
     if (rows)
-        imageStore(img_scratch, px, vec4(v, sp.x / max(footprint_p, 1e-30), 0.0, 0.0));
+        imageStore(img_scratch, px, vec4(row_value(v, sp.y > 0.0), sp.x / max(footprint_p, 1e-30), 0.0, 0.0));
     else
         imageStore(img_v, px, vec4(v));
 }
