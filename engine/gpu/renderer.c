@@ -64,7 +64,6 @@ static pn_result create_targets(pn_renderer *r)
     return PN_OK;
 }
 
-
 // ---------------------------------------------------------------------------------------------
 
 // A budgeted split gives each pixel its own number of rays per light: no tile can share one set of

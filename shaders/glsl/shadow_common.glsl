@@ -54,8 +54,8 @@ vec2 sobol_sample(uint k, uint shift)
     return vec2(float(x >> 8u), float(y >> 8u)) * (1.0 / 16777216.0);
 }
 
-// What light_sample draws alike for all of a pixel's samples: the tile's hash, the tile's shear of
-// the pixel's place in it, the R2 jitters' rotation and the Sobol' shift. Made once per pixel
+// What light_sample draws alike for all of a pixel's samples: the tile's hash (which also gives the
+// R2 jitters' rotation), the tile's shear of the pixel's place in it and the Sobol' shift. Made once per pixel
 // (pixel_sampler) before its samples' loop instead of per sample, which hashed the tile 4 times
 // and the cell twice more for each sample even for a 1 x 1 tile, where only the rotation is used.
 // The same values, so the same samples bit for bit. Measured (bench, exact and linespace 6,3 on the
@@ -64,7 +64,6 @@ vec2 sobol_sample(uint k, uint shift)
 // (0.875x), 33 cells faster; exact 16 spp 0.77-0.96x.
 struct PixelSampler {
     uint h;          // the tile's hash
-    uvec2 member;    // the pixel's place in its tile
     uvec2 sheared;   // (u0, v0) below; 0 for a 1 x 1 tile
     uint sobol;      // the Sobol' sequence's shift (budgeted split, adaptive)
 };
@@ -73,18 +72,17 @@ PixelSampler pixel_sampler(uvec2 pixel)
 {
     PixelSampler ps;
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
-    uvec2 tile = pixel / tile_size;
-    ps.member = pixel % tile_size;
+    uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
     ps.sobol = pcg(ps.h + chunk.light);
     ps.sheared = uvec2(0u);
     if (tile_size.x * tile_size.y > 1u) {
         if ((pcg(ps.h ^ 0x2545f491u) & 1u) == 0u) {
-            ps.sheared.x = (ps.member.x + ps.member.y) % tile_size.x;
-            ps.sheared.y = (ps.member.y + ps.sheared.x) % tile_size.y;
+            ps.sheared.x = (member.x + member.y) % tile_size.x;
+            ps.sheared.y = (member.y + ps.sheared.x) % tile_size.y;
         } else {
-            ps.sheared.y = (ps.member.y + ps.member.x) % tile_size.y;
-            ps.sheared.x = (ps.member.x + ps.sheared.y) % tile_size.x;
+            ps.sheared.y = (member.y + member.x) % tile_size.y;
+            ps.sheared.x = (member.x + ps.sheared.y) % tile_size.x;
         }
     }
     return ps;
