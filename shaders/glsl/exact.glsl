@@ -62,20 +62,25 @@ bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out vec2 t
 vec2 hit_frac = vec2(1.0);
 float last_hit_t() { return hit_frac.x / hit_frac.y; }
 
-bool tri_hit(WRay r, uint tri, float t_min, float t_max)
+// The ray against a triangle whose vertices are loaded: a's w is its alpha record (alpha.glsl).
+bool tri_hit_at(WRay r, vec4 a, vec3 b, vec3 c, float t_min, float t_max)
 {
     if (COUNT_WORK)
         work.z++;
     vec2 t_frac;
     vec3 uvw;
-    vec4 a = params.tris.v[3u * tri];
-    bool hit = wt_hit(r, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz, t_min, t_max,
-                      t_frac, uvw);
+    bool hit = wt_hit(r, a.xyz, b, c, t_min, t_max, t_frac, uvw);
     uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // alpha_record: a masked triangle's hit may be on a cut-out texel
     if (hit && rec != 0u)
         hit = !alpha_cut(rec, uvw / t_frac.y);
     hit_frac = hit ? t_frac : hit_frac;
     return hit;
+}
+
+bool tri_hit(WRay r, uint tri, float t_min, float t_max)
+{
+    return tri_hit_at(r, params.tris.v[3u * tri], params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz,
+                      t_min, t_max);
 }
 
 // Slab test of the box against the ray's t range; the far distance is grown by 2 gamma(3) (Ize
@@ -341,6 +346,112 @@ uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)
                 uint hits = packet_leaf_tri(f, o, params.bvh_tris.ids[i], mask & live);
                 blocked |= hits;
                 live &= ~hits;
+            }
+        }
+        if (pop) {
+            done = sp == 0 || live == 0u;
+            if (!done) {
+                sp--;
+                first = first_stack[sp];
+                count = count_stack[sp];
+                mask = mask_stack[sp];
+            }
+        }
+    }
+    truncated = truncated || !done;
+    return blocked;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tile walk (exact's packet traversal at 1-4 rays a pixel): a pixel's few rays share little of
+// their walk (../shared/docs/PLATFORM.md: at 1 spp a ray cost 3.3x one at 16), so the walk is
+// shared by a 4 x 2 block of pixels instead: all the block's rays (each from its own pixel's
+// origin) walk the BVH together as above, a node loaded once for all the rays that entered it.
+// Each ray is tested as the pixel's own packet walk tests it (the slab test from its origin, the
+// triangle set up once per pixel in that origin's frame: packet_tri), so the blocked rays are the
+// same bit for bit (the packet walk's corner cull and umbra shortcut only decide what every ray's
+// own test would). llvmpipe: a step tests only the pixels of the block with a ray in the node's
+// mask (an `if` per pixel, skipped when no lane of the SIMD group has one), each pixel's rays
+// unrolled at constant indices (fact 5). Measured (512 x 512, penumbra filter, shadow ms, per
+// pixel -> per block; llvmpipe.md): bunny 1 / 2 / 4 spp 63 -> 46, 89 -> 68, 136 -> 115; dragon
+// 95 -> 69, 128 -> 105, 183 -> 168; Sponza 79 -> 46, 119 -> 79, 177 -> 130.
+const uint TILE_W = 4u, TILE_H = 2u, TILE_PIXELS = TILE_W * TILE_H; // the block's pixels
+// The block's rays: pixel k's in slots k * PACKET_RAYS .. (k + 1) * PACKET_RAYS - 1 (the tile walk
+// runs only where they fit the per-ray arrays: 8 * PACKET_RAYS <= MAX_CHUNK).
+const uint TILE_RAYS = TILE_PIXELS * PACKET_RAYS < MAX_CHUNK ? TILE_PIXELS * PACKET_RAYS : MAX_CHUNK;
+const uint PIXEL_RAYS = PACKET_RAYS < 32u ? (1u << PACKET_RAYS) - 1u : ~0u; // a pixel's slots, as a mask
+vec3 tile_o[TILE_PIXELS]; // each pixel's origin
+
+// The block's rays `live` through the BVH together; returns those blocked. `towards`: roughly the
+// light's direction, the near child entered first.
+uint bvh_tile_blocked(uint live, vec3 towards)
+{
+    vec3 inv_dir[TILE_RAYS];
+    [[unroll]] for (uint j = 0u; j < TILE_RAYS; j++)
+        inv_dir[j] = safe_inverse(dir[j]);
+    uint blocked = 0u;
+    int sp = 0;
+    BvhNode root = params.bvh.nodes[0];
+    uint first = root.first, count = root.count, mask = 0u;
+    [[unroll]] for (uint j = 0u; j < TILE_RAYS; j++)
+        mask |= ((live >> j) & 1u) != 0u && box_hit(root.min, root.max, tile_o[j / PACKET_RAYS], inv_dir[j], 0.0, 1.0)
+                    ? 1u << j : 0u;
+    bool done = mask == 0u;
+    while (!done) {
+        mask &= live;
+        bool pop = true;
+        if (count == 0u && mask != 0u) {
+            BvhNode a = params.bvh.nodes[first], b = params.bvh.nodes[first + 1u];
+            if (COUNT_WORK)
+                work = uvec4(work.x + 2u, work.yz, max(work.w, uint(sp)));
+            uint ma = 0u, mb = 0u;
+            [[unroll]] for (uint k = 0u; k < TILE_PIXELS; k++) {
+                if (((mask >> (k * PACKET_RAYS)) & PIXEL_RAYS) != 0u) {
+                    vec3 o = tile_o[k];
+                    [[unroll]] for (uint r = 0u; r < PACKET_RAYS; r++) {
+                        uint j = k * PACKET_RAYS + r;
+                        bool in_mask = ((mask >> j) & 1u) != 0u;
+                        ma |= in_mask && box_hit(a.min, a.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+                        mb |= in_mask && box_hit(b.min, b.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+                    }
+                }
+            }
+            bool b_first = dot((b.min + b.max) - (a.min + a.max), towards) < 0.0;
+            BvhNode near = b_first ? b : a, far = b_first ? a : b;
+            uint m_near = b_first ? mb : ma, m_far = b_first ? ma : mb;
+            if (m_near != 0u && m_far != 0u) {
+                first_stack[sp] = far.first; // depth <= BVH_STACK (bvh.c)
+                count_stack[sp] = far.count;
+                mask_stack[sp] = m_far;
+                sp++;
+            }
+            bool go_near = m_near != 0u;
+            first = go_near ? near.first : far.first;
+            count = go_near ? near.count : far.count;
+            mask = go_near ? m_near : m_far;
+            pop = mask == 0u;
+        } else if (mask != 0u) {
+            for (uint i = first; i < first + count && (mask & live) != 0u; i++) {
+                uint tri = params.bvh_tris.ids[i];
+                vec4 a = params.tris.v[3u * tri]; // w: the triangle's alpha record (alpha.glsl), 0 if opaque
+                vec3 b = params.tris.v[3u * tri + 1u].xyz, c = params.tris.v[3u * tri + 2u].xyz;
+                uint rec = ALPHA ? floatBitsToUint(a.w) : 0u, m = mask & live;
+                [[unroll]] for (uint k = 0u; k < TILE_PIXELS; k++) {
+                    if (((m >> (k * PACKET_RAYS)) & PIXEL_RAYS) != 0u) {
+                        if (COUNT_WORK)
+                            work.z++;
+                        PacketTri t = packet_tri(tile_o[k], a.xyz, b, c);
+                        [[unroll]] for (uint r = 0u; r < PACKET_RAYS; r++) {
+                            uint j = k * PACKET_RAYS + r;
+                            float s;
+                            bool hit = ((m >> j) & 1u) != 0u && packet_ray_hits(t, dir[j], rec, s);
+                            blocked |= hit ? 1u << j : 0u;
+                            if (hit)
+                                blocker_at(j, abs(t.det) / s);
+                        }
+                    }
+                }
+                live &= ~blocked;
             }
         }
         if (pop) {

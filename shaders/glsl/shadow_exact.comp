@@ -11,8 +11,58 @@ layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_I
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
+// The packet walk at 1-4 rays a pixel, shared by a 4 x 2 block of pixels (exact.glsl:
+// bvh_tile_blocked): invocation k of the work group's first 8 (one SIMD group, all its lanes busy)
+// takes block k of its 8 x 8 pixels; the others have no pixel. Only where every pixel's rays in
+// the dispatch are the chunk's (uniform samples over the image and adaptive sampling's first round,
+// not a budgeted split, not the later rounds over a list of pixels), so that 8 pixels' rays fit
+// the per-ray arrays.
+void tile_main()
+{
+    uint idx = gl_LocalInvocationIndex;
+    const uint across = PN_WORKGROUP / TILE_W;
+    if (idx >= across * (PN_WORKGROUP / TILE_H))
+        return;
+    ivec2 base = ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + ivec2((idx % across) * TILE_W, (idx / across) * TILE_H);
+    uint live = 0u, count[TILE_PIXELS], valid[TILE_PIXELS], ends[TILE_PIXELS];
+    bool has[TILE_PIXELS];
+    vec3 towards = vec3(0.0);
+    for (uint k = 0u; k < TILE_PIXELS; k++) {
+        ivec2 px = base + ivec2(k % TILE_W, k / TILE_W);
+        vec3 p, nrm;
+        has[k] = shadow_pixel(px, p, nrm);
+        count[k] = 0u;
+        valid[k] = 0u;
+        ends[k] = 0u;
+        if (has[k]) {
+            float rise;
+            vec3 o = shadow_origin(p, nrm, 0.0, rise);
+            tile_o[k] = o;
+            count[k] = chunk_count(p, nrm);
+            vec2 st_lo, st_hi;
+            valid[k] = chunk_rays_from(k * PACKET_RAYS, uvec2(px), o, nrm, rise, count[k], ends[k], st_lo, st_hi);
+            live |= valid[k] << (k * PACKET_RAYS);
+            towards += light_point(vec2(0.5)) - o;
+        }
+    }
+    uint blocked = live != 0u ? bvh_tile_blocked(live, towards) : 0u;
+    for (uint k = 0u; k < TILE_PIXELS; k++) {
+        if (has[k]) {
+            uint mine = (blocked >> (k * PACKET_RAYS)) & PIXEL_RAYS;
+            shadow_finish_from(k * PACKET_RAYS, base + ivec2(k % TILE_W, k / TILE_W), tile_o[k], count[k], valid[k], mine,
+                               ends[k] < count[k]);
+            work = uvec4(0u); // the walk's work counted once, at the block's first pixel
+        }
+    }
+}
+
 void main()
 {
+    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.split != PN_SPLIT_BUDGET_ID && chunk.list_in == 0u &&
+        TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK) {
+        tile_main();
+        return;
+    }
     // llvmpipe: 8 consecutive invocations run as one SIMD group; map them to a 4x2 block of
     // pixels (not a row of 8), whose walks are more alike.
     uint idx = gl_LocalInvocationIndex, block = idx / 8u, within = idx % 8u;

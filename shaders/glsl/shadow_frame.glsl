@@ -253,11 +253,14 @@ bool light_ray(uint k, PixelSampler ps, vec3 o, vec3 nrm, vec2 box_lo, vec2 box_
     return dn > 0.0 && !patch_none && (LIGHT_KIND == PN_LIGHT_OMNI_ID || dot(patch_normal, -d) > 0.0);
 }
 
-// Fills dir and t_rise for the chunk's rays; returns the mask of valid rays (those that carry
-// light: above the receiver's horizon and in front of the one-sided light). `i` ends at the ray
-// count (llvmpipe: unless the loop budget ran out). st_lo, st_hi: the box, in the light's (s, t),
-// of the valid samples that rise clear before the light (empty, lo > hi, if none does).
-uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i, out vec2 st_lo, out vec2 st_hi)
+// Fills dir and t_rise for the chunk's rays, from slot `base` of the per-ray arrays on (0 but in
+// exact's tile walk, which holds several pixels' rays); returns the mask of valid rays (those that
+// carry light: above the receiver's horizon and in front of the one-sided light), bit i for ray i
+// of the pixel. `i` ends at the ray count (llvmpipe: unless the loop budget ran out). st_lo, st_hi:
+// the box, in the light's (s, t), of the valid samples that rise clear before the light (empty,
+// lo > hi, if none does).
+uint chunk_rays_from(uint base, uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i, out vec2 st_lo,
+                     out vec2 st_hi)
 {
     uint valid_rays = 0u;
     st_lo = vec2(1.0);
@@ -271,14 +274,19 @@ uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint 
         float dn;
         bool valid = light_ray(pixel_begin + i, ps, o, nrm, box_lo, box_hi, st, d, dn);
         valid_rays |= valid ? (1u << i) : 0u;
-        dir[i] = d;
-        t_rise[i] = valid ? rise / dn : 2.0;
-        blocker_t[i] = 1.0;
-        bool rises = valid && t_rise[i] < 1.0;
+        dir[base + i] = d;
+        t_rise[base + i] = valid ? rise / dn : 2.0;
+        blocker_t[base + i] = 1.0;
+        bool rises = valid && t_rise[base + i] < 1.0;
         st_lo = rises ? min(st_lo, st) : st_lo;
         st_hi = rises ? max(st_hi, st) : st_hi;
     }
     return valid_rays;
+}
+
+uint chunk_rays(uvec2 pixel, vec3 o, vec3 nrm, float rise, uint count, out uint i, out vec2 st_lo, out vec2 st_hi)
+{
+    return chunk_rays_from(0u, pixel, o, nrm, rise, count, i, st_lo, st_hi);
 }
 
 // The width of the penumbra a blocker at segment parameter t casts at the receiver o: the light's
@@ -318,8 +326,10 @@ float counts_v(uvec2 counts) { return counts.y > 0u ? float(counts.x) / float(co
 
 void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float t_add, float nearest_t, bool cut_short);
 
-// Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid.
-void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
+// Adds the chunk's outcome to the pixel's counts; the last chunk writes V = visible / valid. The
+// pixel's rays are in slots base .. base + count - 1 of the per-ray arrays (chunk_rays_from); bit
+// i of valid_rays and blocked is its ray i.
+void shadow_finish_from(uint base, ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
 {
     if (params.dump_rays != 0u) {
         ivec2 size = imageSize(img_v);
@@ -327,7 +337,7 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
         params.dump.v[pixel] = vec4(o, 1.0);
         for (uint i = 0u; i < count; i++) {
             uint flags = ((valid_rays >> i) & 1u) | (((blocked >> i) & 1u) << 1u);
-            params.dump.v[pixels + pixel * params.spp + pixel_begin + i] = vec4(o + dir[i], uintBitsToFloat(flags));
+            params.dump.v[pixels + pixel * params.spp + pixel_begin + i] = vec4(o + dir[base + i], uintBitsToFloat(flags));
         }
     }
     // Adaptive sampling's error estimate compares the two halves of a pixel's target samples
@@ -340,11 +350,16 @@ void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, 
     uint first_half = valid_rays & (below >= 32u ? ~0u : (1u << below) - 1u);
     float t_add = 0.0, nearest = 1.0;
     for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u) {
-        t_add += blocker_t[findLSB(b)];
-        nearest = min(nearest, blocker_t[findLSB(b)]);
+        t_add += blocker_t[base + findLSB(b)];
+        nearest = min(nearest, blocker_t[base + findLSB(b)]);
     }
     shadow_store(px, o, count, uvec2(bitCount(valid_rays & ~blocked), bitCount(valid_rays)),
                  uvec2(bitCount(first_half & ~blocked), bitCount(first_half)), t_add, nearest, cut_short);
+}
+
+void shadow_finish(ivec2 px, vec3 o, uint count, uint valid_rays, uint blocked, bool cut_short)
+{
+    shadow_finish_from(0u, px, o, count, valid_rays, blocked, cut_short);
 }
 
 // Adds a dispatch's outcome at the pixel to its counts: `add` (visible, valid) rays, `half_add` of
