@@ -150,19 +150,21 @@ int main(void)
     if (!f)
         TEST_SKIP("%s missing (../shared/assets not beside the project)", bunny);
     fclose(f);
-    // exact both ways: the per-pixel packet walk (the default) and each ray alone. The packet
-    // walk's pipeline is sized to a dispatch's rays (PN_SPEC_PACKET_RAYS): 13 spp runs the one for
-    // 16 rays, 40 spp a chunk of 32 and one of 8 on the pipeline for 32.
+    // exact both ways: the packet walk (the default) and each ray alone. The packet walk's pipeline
+    // is sized to a dispatch's rays (PN_SPEC_PACKET_RAYS): 13 spp runs the one for 16 rays, 40 spp
+    // a chunk of 32 and one of 8 on the pipeline for 32 (a pixel walking alone).
     check_scene(bunny, "bunny", "exact", "packet", 16);
     check_scene(sponza, "sponza", "exact", "packet", 16);
     check_scene(bunny, "bunny", "exact", "packet", 13);
     check_scene(bunny, "bunny", "exact", "packet", 40);
-    // At 1-4 rays a pixel the packet walk is shared by a 4 x 2 block of pixels (exact.glsl:
-    // bvh_tile_blocked): 1 spp (8 rays a block), 3 spp on the pipeline for 4 rays (slots left
-    // empty) and 4 (32 rays), on sizes that are no multiple of the block (blocks cut by the edge).
+    // At 1-16 rays a pixel the packet walk is shared by a block of pixels (exact.glsl:
+    // bvh_tile_blocked): 4 x 2 at 1 spp (8 rays a block), at 3 spp on the pipeline for 4 rays
+    // (slots left empty) and at 4 (32 rays), 2 x 2 at 8, 2 x 1 at 13 and 16 (above); on sizes
+    // that are no multiple of the block (blocks cut by the image's edge).
     check_scene_at(bunny, "bunny", "exact", "packet", 1, 404, 398);
     check_scene_at(bunny, "bunny", "exact", "packet", 3, 245, 229);
     check_scene_at(sponza, "sponza", "exact", "packet", 4, 190, 187);
+    check_scene_at(bunny, "bunny", "exact", "packet", 8, 161, 141);
     check_scene(bunny, "bunny", "exact", "ray", 16);
     check_scene(sponza, "sponza", "exact", "ray", 16);
     // exact by projection (--traversal project): every sample's answer from the triangles projected

@@ -363,21 +363,24 @@ uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)
 }
 
 // ---------------------------------------------------------------------------------------------
-// Tile walk (exact's packet traversal at 1-4 rays a pixel): a pixel's few rays share little of
+// Tile walk (exact's packet traversal at 1-16 rays a pixel): a pixel's few rays share little of
 // their walk (../shared/docs/PLATFORM.md: at 1 spp a ray cost 3.3x one at 16), so the walk is
-// shared by a 4 x 2 block of pixels instead: all the block's rays (each from its own pixel's
-// origin) walk the BVH together as above, a node loaded once for all the rays that entered it.
-// Each ray is tested as the pixel's own packet walk tests it (the slab test from its origin, the
-// triangle set up once per pixel in that origin's frame: packet_tri), so the blocked rays are the
-// same bit for bit (the packet walk's corner cull and umbra shortcut only decide what every ray's
-// own test would). llvmpipe: a step tests only the pixels of the block with a ray in the node's
-// mask (an `if` per pixel, skipped when no lane of the SIMD group has one), each pixel's rays
-// unrolled at constant indices (fact 5). Measured (512 x 512, penumbra filter, shadow ms, per
-// pixel -> per block; llvmpipe.md): bunny 1 / 2 / 4 spp 63 -> 46, 89 -> 68, 136 -> 115; dragon
-// 95 -> 69, 128 -> 105, 183 -> 168; Sponza 79 -> 46, 119 -> 79, 177 -> 130.
-const uint TILE_W = 4u, TILE_H = 2u, TILE_PIXELS = TILE_W * TILE_H; // the block's pixels
+// shared by a block of pixels instead, 4 x 2 of them at up to 4 rays a pixel, 2 x 2 at 8 and 2 x 1
+// at 16 (the block's rays fill at most the per-ray arrays' MAX_CHUNK): all the block's rays (each
+// from its own pixel's origin) walk the BVH together as above, a node loaded once for all the rays
+// that entered it. Each ray is tested as the pixel's own packet walk tests it (the slab test from
+// its origin, the triangle set up once per pixel in that origin's frame: packet_tri), so the
+// blocked rays are the same bit for bit (the packet walk's corner cull and umbra shortcut only
+// decide what every ray's own test would); the blocker each records, the first its walk meets,
+// may be another. llvmpipe: a step tests only the pixels of the block
+// with a ray in the node's mask (an `if` per pixel, skipped when no lane of the SIMD group has
+// one), each pixel's rays unrolled at constant indices (fact 5). Measured (512 x 512, penumbra
+// filter, shadow ms, per pixel -> per block; llvmpipe.md): bunny 1 / 2 / 4 / 8 / 16 spp 63 -> 46,
+// 89 -> 68, 136 -> 115, 227 -> 190, 372 -> 349; dragon 95 -> 69, 128 -> 105, 183 -> 168,
+// 277 -> 263, 445 -> 451; Sponza 79 -> 46, 119 -> 79, 177 -> 130, 271 -> 199, 432 -> 382.
+const uint TILE_W = PACKET_RAYS <= 4u ? 4u : 2u, TILE_H = PACKET_RAYS <= 8u ? 2u : 1u, TILE_PIXELS = TILE_W * TILE_H;
 // The block's rays: pixel k's in slots k * PACKET_RAYS .. (k + 1) * PACKET_RAYS - 1 (the tile walk
-// runs only where they fit the per-ray arrays: 8 * PACKET_RAYS <= MAX_CHUNK).
+// runs only where they fit the per-ray arrays: TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK).
 const uint TILE_RAYS = TILE_PIXELS * PACKET_RAYS < MAX_CHUNK ? TILE_PIXELS * PACKET_RAYS : MAX_CHUNK;
 const uint PIXEL_RAYS = PACKET_RAYS < 32u ? (1u << PACKET_RAYS) - 1u : ~0u; // a pixel's slots, as a mask
 vec3 tile_o[TILE_PIXELS]; // each pixel's origin

@@ -11,12 +11,12 @@ layout(constant_id = PN_SPEC_TRAVERSAL) const int TRAVERSAL = PN_TRAVERSAL_RAY_I
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 
-// The packet walk at 1-4 rays a pixel, shared by a 4 x 2 block of pixels (exact.glsl:
-// bvh_tile_blocked): invocation k of the work group's first 8 (one SIMD group, all its lanes busy)
-// takes block k of its 8 x 8 pixels; the others have no pixel. Only where every pixel's rays in
-// the dispatch are the chunk's (uniform samples over the image and adaptive sampling's first round,
-// not a budgeted split, not the later rounds over a list of pixels), so that 8 pixels' rays fit
-// the per-ray arrays.
+// The packet walk at 1-16 rays a pixel, shared by a block of pixels (exact.glsl: bvh_tile_blocked):
+// invocation k of the work group takes block k of its 8 x 8 pixels (at 4 x 2 pixels a block, the
+// first 8 invocations: one SIMD group, all its lanes busy); the others have no pixel. Only where
+// every pixel's rays in the dispatch are the chunk's (uniform samples over the image and adaptive
+// sampling's first round, not a budgeted split, not the later rounds over a list of pixels), so
+// that the block's rays fit the per-ray arrays.
 void tile_main()
 {
     uint idx = gl_LocalInvocationIndex;
