@@ -75,24 +75,22 @@ vec2 pixel_footprint(ivec2 px)
     return vec2(max(s.x, 0.0), s.y);
 }
 
-// The same for the pixel the Gaussian is centred on: without a blocker of its own, the widest
-// footprint among its 3 x 3 neighbours that have one. Its rays all passed, but a neighbour's were
-// blocked: it lies at a penumbra's edge, where one pixel's few rays all pass by luck. A neighbour's
-// footprint was clamped to max_radius / RADIUS_SIGMAS of that neighbour's pixels (filter.comp), so
-// at a step in depth it can exceed the clamp in this pixel's: clamped again here (footprint_p, this
-// pixel's footprint facing the camera), so that the reach always spans RADIUS_SIGMAS deviations.
-vec2 centre_footprint(ivec2 px, ivec2 size, float footprint_p)
+// The widest footprint among a pixel's 3 x 3 neighbours (0 if none has one): the footprint of the
+// pixel the Gaussian is centred on where it has no blocker of its own. Its rays all passed, but a
+// neighbour's were blocked: it lies at a penumbra's edge, where one pixel's few rays all pass by
+// luck. A neighbour's footprint was clamped to max_radius / RADIUS_SIGMAS of that neighbour's
+// pixels (filter.comp), so at a step in depth it can exceed the clamp in this pixel's: blur clamps
+// it again (to this pixel's footprint facing the camera), so that the reach always spans
+// RADIUS_SIGMAS deviations.
+float widest_neighbour(ivec2 px, ivec2 size)
 {
-    vec2 s = imageLoad(img_sigma, px).xy;
-    if (s.x >= 0.0)
-        return s;
     float widest = 0.0;
     for (int dy = -1; dy <= 1; dy++)
         for (int dx = -1; dx <= 1; dx++) {
             ivec2 q = clamp(px + ivec2(dx, dy), ivec2(0), size - 1);
             widest = max(widest, imageLoad(img_sigma, q).x);
         }
-    return vec2(min(widest, float(pc.max_radius) / RADIUS_SIGMAS * footprint_p), s.y);
+    return widest;
 }
 
 // The row pass's V as the column pass reads it, with whether the pixel lends it: the sign bit (V is
@@ -112,13 +110,27 @@ bool row_lends(float stored) { return (floatBitsToUint(stored) >> 31u) == 0u; }
 // of it into a pixel, and a Gaussian over pixels would reach across its penumbra.
 void blur(ivec2 px, ivec2 size, bool rows)
 {
+    // The row pass leaves the footprint in pixels facing the camera (the EXR's): back to world units
+    // below. Along rows a pixel without a footprint of its own takes its neighbours' widest.
+    vec2 sc = rows ? vec2(0.0) : imageLoad(img_scratch, px).xy;
+    vec2 own = rows ? imageLoad(img_sigma, px).xy : vec2(sc.y, row_lends(sc.x) ? 1.0 : 0.0);
+    float widest = rows && own.x < 0.0 ? widest_neighbour(px, size) : 0.0;
+    float v_p = rows ? imageLoad(img_v, px).x : row_v(sc.x);
+    // Most pixels (lit, in umbra, contact shadows, the background) have no footprint: they keep
+    // their V before the positions and normals are loaded, as they would below (with filter.comp's
+    // lit and dark windows, the filter pass 0.72-0.80x on the bunny and the dragon: filter.comp).
+    if (!((own.x >= 0.0 ? own.x : widest) > 0.0)) {
+        if (rows)
+            imageStore(img_scratch, px, vec4(row_value(v_p, own.y > 0.0), 0.0, 0.0, 0.0));
+        else
+            imageStore(img_v, px, vec4(v_p));
+        return;
+    }
     vec4 p = imageLoad(img_p, px);
     vec4 n = imageLoad(img_n, px);
     float footprint_p = n.w * pc.pixel_angle;
-    // The row pass leaves the footprint in pixels facing the camera (the EXR's): back to world units.
-    vec2 sc = rows ? vec2(0.0) : imageLoad(img_scratch, px).xy;
-    vec2 sp = rows ? centre_footprint(px, size, footprint_p) : vec2(sc.y * footprint_p, row_lends(sc.x) ? 1.0 : 0.0);
-    float v_p = rows ? imageLoad(img_v, px).x : row_v(sc.x);
+    vec2 sp = !rows ? vec2(sc.y * footprint_p, own.y)
+                    : own.x >= 0.0 ? own : vec2(min(widest, float(pc.max_radius) / RADIUS_SIGMAS * footprint_p), own.y);
     // The world length of one pixel along the pass's direction: the nearer of the two neighbours
     // (the other may lie across an edge), at least the footprint facing the camera; so the
     // footprint over the latter bounds it in pixels, and most pixels (lit, umbra, contact) leave
