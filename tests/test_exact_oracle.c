@@ -159,12 +159,13 @@ int main(void)
     check_scene(bunny, "bunny", "exact", "packet", 40);
     // At 1-16 rays a pixel the packet walk is shared by a block of pixels (exact.glsl:
     // bvh_tile_blocked): 4 x 2 at 1 spp (8 rays a block), at 3 spp on the pipeline for 4 rays
-    // (slots left empty) and at 4 (32 rays), 2 x 2 at 8, 2 x 1 at 13 and 16 (above); on sizes
+    // (slots left empty) and at 4 (32 rays), 2 x 2 at 8, 2 x 1 at 13 (above) and 16; on sizes
     // that are no multiple of the block (blocks cut by the image's edge).
     check_scene_at(bunny, "bunny", "exact", "packet", 1, 404, 398);
     check_scene_at(bunny, "bunny", "exact", "packet", 3, 245, 229);
     check_scene_at(sponza, "sponza", "exact", "packet", 4, 190, 187);
     check_scene_at(bunny, "bunny", "exact", "packet", 8, 161, 141);
+    check_scene_at(bunny, "bunny", "exact", "packet", 16, 113, 103);
     check_scene(bunny, "bunny", "exact", "ray", 16);
     check_scene(sponza, "sponza", "exact", "ray", 16);
     // exact by projection (--traversal project): every sample's answer from the triangles projected

@@ -288,6 +288,9 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.scene_mag = s->scene_mag;
     sp.project_budget = pn_project_budget();
     sp.canary = 2; // llvmpipe: the loop-budget canary's iteration count (shadow_common.glsl)
+    // Exact's packet walk shares a block of pixels (shadow_exact.comp) until the loop budget once ran
+    // out (pn_shadow_pass_end_frame).
+    sp.block_walk = s->block_walk_off ? 0 : 1;
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;
@@ -563,6 +566,12 @@ pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry)
     // Both walks' chunks: the frame may have taken either (the projection's for its many samples).
     s->chunk = s->chunk > 1 ? s->chunk / 2 : 1;
     s->project_chunk = s->project_chunk > 1 ? s->project_chunk / 2 : 1;
+    // llvmpipe (Mesa 22.3): a block of pixels walks their rays together (shadow_exact.comp), and
+    // halving the chunk shrinks a block's walk too little (at one ray a pixel it still walks 8
+    // pixels' rays): from here on each pixel walks alone, as the halving assumes. The parameters
+    // are host memory, read by the frame recorded again.
+    s->block_walk_off = true;
+    ((pn_shadow_params *)s->params.mapped)->block_walk = 0;
     pn_info("shadow pass cut short by the shader loop budget: retrying with %u samples per dispatch", s->chunk);
     *retry = true;
     return PN_OK;

@@ -65,6 +65,7 @@ typedef struct pn_shadow_pass {
     uint32_t chunk;
     float scene_mag; // largest |coordinate| of the scene's bounds (ShadowParams.scene_mag)
     bool loop_budget; // llvmpipe: the device ends long-running shader loops; chunk and retry
+    bool block_walk_off; // llvmpipe: the budget ran out once: each pixel walks alone (shadow_exact.comp)
     bool one_tile;    // the renderer's warm-up frame: dispatches over the first tile only (renderer.c)
     uint32_t pipelines_made; // by pn_shadow_pass_prepare so far: the renderer warms new ones up
 } pn_shadow_pass;

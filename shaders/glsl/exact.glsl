@@ -62,25 +62,20 @@ bool wt_hit(WRay r, vec3 a, vec3 b, vec3 c, float t_min, float t_max, out vec2 t
 vec2 hit_frac = vec2(1.0);
 float last_hit_t() { return hit_frac.x / hit_frac.y; }
 
-// The ray against a triangle whose vertices are loaded: a's w is its alpha record (alpha.glsl).
-bool tri_hit_at(WRay r, vec4 a, vec3 b, vec3 c, float t_min, float t_max)
+bool tri_hit(WRay r, uint tri, float t_min, float t_max)
 {
     if (COUNT_WORK)
         work.z++;
     vec2 t_frac;
     vec3 uvw;
-    bool hit = wt_hit(r, a.xyz, b, c, t_min, t_max, t_frac, uvw);
+    vec4 a = params.tris.v[3u * tri];
+    bool hit = wt_hit(r, a.xyz, params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz, t_min, t_max,
+                      t_frac, uvw);
     uint rec = ALPHA ? floatBitsToUint(a.w) : 0u; // alpha_record: a masked triangle's hit may be on a cut-out texel
     if (hit && rec != 0u)
         hit = !alpha_cut(rec, uvw / t_frac.y);
     hit_frac = hit ? t_frac : hit_frac;
     return hit;
-}
-
-bool tri_hit(WRay r, uint tri, float t_min, float t_max)
-{
-    return tri_hit_at(r, params.tris.v[3u * tri], params.tris.v[3u * tri + 1u].xyz, params.tris.v[3u * tri + 2u].xyz,
-                      t_min, t_max);
 }
 
 // Slab test of the box against the ray's t range; the far distance is grown by 2 gamma(3) (Ize
@@ -394,7 +389,9 @@ uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)
 // filter, shadow ms, per pixel -> per block; llvmpipe.md): bunny 1 / 2 / 4 / 8 / 16 spp 63 -> 46,
 // 89 -> 68, 136 -> 115, 227 -> 190, 372 -> 349; dragon 95 -> 69, 128 -> 105, 183 -> 168,
 // 277 -> 263, 445 -> 451; Sponza 79 -> 46, 119 -> 79, 177 -> 130, 271 -> 199, 432 -> 382.
-const uint TILE_W = PACKET_RAYS <= 4u ? 4u : 2u, TILE_H = PACKET_RAYS <= 8u ? 2u : 1u, TILE_PIXELS = TILE_W * TILE_H;
+// At 32 rays (and in the pipeline for 32) a block of one pixel: no block walk (shadow_exact.comp).
+const uint TILE_W = PACKET_RAYS <= 4u ? 4u : PACKET_RAYS <= 16u ? 2u : 1u, TILE_H = PACKET_RAYS <= 8u ? 2u : 1u;
+const uint TILE_PIXELS = TILE_W * TILE_H;
 // The block's rays: pixel k's in slots k * PACKET_RAYS .. (k + 1) * PACKET_RAYS - 1 (the tile walk
 // runs only where they fit the per-ray arrays: TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK).
 const uint TILE_RAYS = TILE_PIXELS * PACKET_RAYS < MAX_CHUNK ? TILE_PIXELS * PACKET_RAYS : MAX_CHUNK;
@@ -444,8 +441,8 @@ uint bvh_tile_blocked(uint live, vec3 towards)
                 uint rec = ALPHA ? floatBitsToUint(a.w) : 0u, m = mask & live;
                 [[unroll]] for (uint k = 0u; k < TILE_PIXELS; k++) {
                     if (((m >> (k * PACKET_RAYS)) & PIXEL_RAYS) != 0u) {
-                        if (COUNT_WORK)
-                            work.z++;
+                        if (COUNT_WORK) // the set-up and each ray's test, as packet_leaf_tri counts them
+                            work.z += 1u + bitCount((m >> (k * PACKET_RAYS)) & PIXEL_RAYS);
                         PacketTri t = packet_tri(tile_o[k], a.xyz, b, c);
                         [[unroll]] for (uint r = 0u; r < PACKET_RAYS; r++) {
                             uint j = k * PACKET_RAYS + r;

@@ -316,7 +316,8 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
                                     // primitive of the acceleration structure's masked geometry (gpu/tlas.h)
     PN_FLOAT(project_budget)        // --traversal project: triangles a pixel may test per sample before its
                                     // remaining samples are traced as rays (project.glsl)
-    PN_UINT(pad0)
+    PN_UINT(block_walk)             // exact's packet walk may share a block of pixels (shadow_exact.comp:
+                                    // tile_main); 0 once the loop budget ran out (llvmpipe.md)
     PN_UINT(pad1)
     PN_UINT(pad2)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light

@@ -116,7 +116,7 @@ void blur(ivec2 px, ivec2 size, bool rows)
     vec2 own = rows ? imageLoad(img_sigma, px).xy : vec2(sc.y, row_lends(sc.x) ? 1.0 : 0.0);
     float widest = rows && own.x < 0.0 ? widest_neighbour(px, size) : 0.0;
     float v_p = rows ? imageLoad(img_v, px).x : row_v(sc.x);
-    // Most pixels (lit, in umbra, contact shadows, the background) have no footprint: they keep
+    // Most pixels (lit, contact shadows, the background) have no footprint: they keep
     // their V before the positions and normals are loaded, as they would below (with filter.comp's
     // lit and dark windows, the filter pass 0.72-0.80x on the bunny and the dragon: filter.comp).
     if (!((own.x >= 0.0 ? own.x : widest) > 0.0)) {

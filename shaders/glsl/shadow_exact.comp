@@ -16,7 +16,9 @@ layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 // first 8 invocations: one SIMD group, all its lanes busy); the others have no pixel. Only where
 // every pixel's rays in the dispatch are the chunk's (uniform samples over the image and adaptive
 // sampling's first round, not a budgeted split, not the later rounds over a list of pixels), so
-// that the block's rays fit the per-ray arrays.
+// that the block's rays fit the per-ray arrays; not in adaptive sampling's decisions (a pixel per
+// invocation, so that the pixel lists they write run in 4 x 2 groups), and not once the loop
+// budget ran out (params.block_walk: pn_shadow_pass_end_frame).
 void tile_main()
 {
     uint idx = gl_LocalInvocationIndex;
@@ -48,18 +50,28 @@ void tile_main()
     uint blocked = live != 0u ? bvh_tile_blocked(live, towards) : 0u;
     for (uint k = 0u; k < TILE_PIXELS; k++) {
         if (has[k]) {
+            // A sphere's patch faces the pixel (light_patch): the penumbra width shadow_store
+            // computes from it must be the pixel's own, not the block's last pixel's.
+            if (LIGHT_KIND == PN_LIGHT_SPHERE_ID)
+                light_patch(tile_o[k]);
             uint mine = (blocked >> (k * PACKET_RAYS)) & PIXEL_RAYS;
             shadow_finish_from(k * PACKET_RAYS, base + ivec2(k % TILE_W, k / TILE_W), tile_o[k], count[k], valid[k], mine,
                                ends[k] < count[k]);
-            work = uvec4(0u); // the walk's work counted once, at the block's first pixel
+            work = uvec4(0u); // the walk's work counted once, at the block's first pixel with geometry
         }
     }
+    // llvmpipe: shadow_store reports a loop budget spent, but runs inside the loop above, which the
+    // spent budget may end before any pixel of the block is stored.
+    if (truncated || budget_spent())
+        atomicOr(status.truncated, 1u);
 }
 
 void main()
 {
-    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.split != PN_SPLIT_BUDGET_ID && chunk.list_in == 0u &&
-        TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK) {
+    // The specialisation constants' tests last: a chain that starts with them made glslang emit an
+    // undefined id (the pipeline would not build).
+    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.block_walk != 0u && params.split != PN_SPLIT_BUDGET_ID &&
+        chunk.list_in == 0u && chunk.decide == 0u && TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK && TILE_PIXELS > 1u) {
         tile_main();
         return;
     }

@@ -211,7 +211,7 @@ void pn_print_bench_help(void)
            "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
            "                       stack; their distribution is printed and written as EXR layers work.*\n"
            "                       (exact's packet walk at 1-16 rays a pixel walks a block of pixels\n"
-           "                       together: a block's work is counted at its first pixel)\n"
+           "                       together: a block's work is counted at its first covered pixel)\n"
            "  --max-error E,...    also run --quality auto at each budget (reference MAE), render its pick at\n"
            "                       full size and compare it with the matrix's fastest cell within the budget\n"
            "  --quick              a small matrix (the bunny view or builtin:default, 256x256, 4 and 16 spp,\n"
