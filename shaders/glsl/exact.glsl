@@ -441,7 +441,8 @@ uint bvh_tile_blocked(uint live, vec3 towards)
                 uint rec = ALPHA ? floatBitsToUint(a.w) : 0u, m = mask & live;
                 [[unroll]] for (uint k = 0u; k < TILE_PIXELS; k++) {
                     if (((m >> (k * PACKET_RAYS)) & PIXEL_RAYS) != 0u) {
-                        if (COUNT_WORK) // the set-up and each ray's test, as packet_leaf_tri counts them
+                        // The set-up and each ray's test (packet_leaf_tri's, less the rays its corners decide).
+                        if (COUNT_WORK)
                             work.z += 1u + bitCount((m >> (k * PACKET_RAYS)) & PIXEL_RAYS);
                         PacketTri t = packet_tri(tile_o[k], a.xyz, b, c);
                         [[unroll]] for (uint r = 0u; r < PACKET_RAYS; r++) {

@@ -99,6 +99,9 @@ void main()
         imageStore(img_v, px, imageLoad(img_v_raw, px));
         return;
     }
+    // The window's first offset: odd tiles are centred, even ones reach one pixel further right and
+    // down. Scalars: the validation layer's folding of specialisation constants takes no vectors.
+    const int LO_X = -(TILE_W - 1) / 2, LO_Y = -(TILE_H - 1) / 2;
     // Lit or in umbra with its whole window: where every pixel of the window with an estimate saw
     // the pixel's V of 1 (or 0), every weighted mean of them below is that V, bit for bit (the sums
     // of w and of w V are the same numbers). The window's counts tell it (pixels off the image or
@@ -111,8 +114,8 @@ void main()
     // few windows all lit or all dark at 1-4 spp).
     if (!unknown && (counts_p.x == 0u || counts_p.x == counts_p.y)) {
         bool same = true;
-        for (int dy = -(TILE_H - 1) / 2; dy < -(TILE_H - 1) / 2 + TILE_H; dy++) {
-            for (int dx = -(TILE_W - 1) / 2; dx < -(TILE_W - 1) / 2 + TILE_W; dx++) {
+        for (int dy = LO_Y; dy < LO_Y + TILE_H; dy++) {
+            for (int dx = LO_X; dx < LO_X + TILE_W; dx++) {
                 uvec2 cq = imageLoad(img_counts, clamp(px + ivec2(dx, dy), ivec2(0), size - 1)).xy;
                 same = same && (cq.y == 0u || cq.x == (counts_p.x == 0u ? 0u : cq.y));
             }
@@ -132,9 +135,6 @@ void main()
     float narrow = -1.0;
     if (pc.narrow > 0.0 && pc.samples > 0u && !unknown)
         narrow = width_near >= PN_PENUMBRA_NONE ? -1.0 : pc.narrow * width_near * pow(own_samples, -0.75);
-    // The window's first offset: odd tiles are centred, even ones reach one pixel further right and
-    // down. Scalars: the validation layer's folding of specialisation constants takes no vectors.
-    const int LO_X = -(TILE_W - 1) / 2, LO_Y = -(TILE_H - 1) / 2;
     // First the geometry's weights (and the window's V under them), then V's own: see below.
     float wg[TILE_W * TILE_H], vq[TILE_W * TILE_H];
     float sum = 0.0, weight = 0.0;
