@@ -30,19 +30,20 @@ double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, bool *is
     *is_own = own(f, i);
     if (*is_own || !covered(f, i)) // the background's footprint is 0 (filter.comp writes 0 there)
         return *is_own ? own_footprint(f, i) : 0.0;
-    // Without one: the widest of the 3 x 3 neighbours' own (clamped to the image), 0 if none, at
-    // most max_radius / RADIUS_SIGMAS of the pixel's own footprints (float's quotient and product).
-    double widest = 0.0;
+    // Without one: the narrowest of the 3 x 3 neighbours' own (clamped to the image), 0 if none,
+    // at most max_radius / RADIUS_SIGMAS of the pixel's own footprints (float's quotient and
+    // product).
+    double narrowest = -1.0;
     for (int dy = -1; dy <= 1; dy++)
         for (int dx = -1; dx <= 1; dx++) {
             int qx = x + dx < 0 ? 0 : x + dx >= f->width ? f->width - 1 : x + dx;
             int qy = y + dy < 0 ? 0 : y + dy >= f->height ? f->height - 1 : y + dy;
             int j = qy * f->width + qx;
-            if (own(f, j))
-                widest = fmax(widest, own_footprint(f, j));
+            if (own(f, j) && (narrowest < 0.0 || own_footprint(f, j) < narrowest))
+                narrowest = own_footprint(f, j);
         }
     double limit = (float)((double)(float)(f->max_radius / PENUMBRA_RADIUS_SIGMAS) * pixel_footprint(f, i));
-    return fmin(widest, limit);
+    return fmin(fmax(narrowest, 0.0), limit);
 }
 
 double penumbra_row_v(float stored) { return fabs((double)stored); }

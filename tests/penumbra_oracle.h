@@ -52,7 +52,7 @@ typedef struct penumbra_pixel {
 } penumbra_pixel;
 
 // The footprint the Gaussian is centred with at (x, y), world units, as the row pass reads it: the
-// pixel's own where one of its valid rays was blocked, else the widest of its 3 x 3 neighbours'
+// pixel's own where one of its valid rays was blocked, else the narrowest of its 3 x 3 neighbours'
 // own (0 if none has one), at most max_radius / RADIUS_SIGMAS of the pixel's own pixels; *own
 // says which. Recovered from the row pass's footprint output
 // (pixels facing the camera) times the pixel's footprint, within PENUMBRA_SIGMA_REL.

@@ -11,7 +11,7 @@
 //    side foreshortened (its cosine from the pixel to the light's centre) times t / (1 - t) = 1/2,
 //    and the footprint is the width scale x that x n^-1/2 over the pixel's footprint (view depth x
 //    pixel angle), at most max_radius / 2.5 pixels (penumbra_filter.comp), where one of the pixel's
-//    rays was blocked (V_raw < 1); else the widest of its 3 x 3 neighbours' (a lit pixel at a
+//    rays was blocked (V_raw < 1); else the narrowest of its 3 x 3 neighbours' (a lit pixel at a
 //    penumbra's edge takes it), 0 where none has a blocked ray;
 //  - the error against the closed form at 1 and 4 spp: below the interleaved filter's, which
 //    averages 3x3 pixels only;
@@ -109,7 +109,7 @@ static double world_oracle(const frame *f, int i, int n)
 }
 
 // The footprint AOV's oracle (pixels facing the camera): the pixel's own where one of its rays was
-// blocked (V_raw < 1), else the widest of its 3 x 3 neighbours' own, at most the pixel's own limit
+// blocked (V_raw < 1), else the narrowest of its 3 x 3 neighbours' own, at most the pixel's own limit
 // (a neighbour's was clamped in the neighbour's pixels), over its pixel; 0 if none.
 static double footprint_oracle(const frame *f, int i, int n)
 {
@@ -118,16 +118,16 @@ static double footprint_oracle(const frame *f, int i, int n)
     if (f->vraw[i] < 1.0f)
         return world_oracle(f, i, n) / pixel;
     int x = i % SIZE, y = i / SIZE;
-    double widest = 0.0;
+    double narrowest = -1.0;
     for (int dy = -1; dy <= 1; dy++)
         for (int dx = -1; dx <= 1; dx++) {
             int qx = x + dx < 0 ? 0 : x + dx >= SIZE ? SIZE - 1 : x + dx;
             int qy = y + dy < 0 ? 0 : y + dy >= SIZE ? SIZE - 1 : y + dy;
             int j = qy * SIZE + qx;
-            if (f->a[j] == 1.0f && f->vraw[j] < 1.0f)
-                widest = fmax(widest, world_oracle(f, j, n));
+            if (f->a[j] == 1.0f && f->vraw[j] < 1.0f && (narrowest < 0.0 || world_oracle(f, j, n) < narrowest))
+                narrowest = world_oracle(f, j, n);
         }
-    return fmin(widest, 8.0 / 2.5 * pixel) / pixel;
+    return fmin(fmax(narrowest, 0.0), 8.0 / 2.5 * pixel) / pixel;
 }
 
 // Contact sharpness (above): the camera looks down at the contacts from the front right.

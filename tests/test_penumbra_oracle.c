@@ -6,7 +6,7 @@
 //
 // Each pass is checked from the floats it read, so that neither bound carries the other's error:
 //  - the footprint the row pass centres on: a pixel without a blocked ray of its own takes the
-//    widest of its 3 x 3 neighbours' (relative bound: the recovered footprints' 6u and the
+//    narrowest of its 3 x 3 neighbours' (relative bound: the recovered footprints' 6u and the
 //    quotient's 5u, twice);
 //  - the row pass's V (pn_frame_images.footprint's first channel) from the interleaved window's V
 //    (pn_frame_images.v_window, the renderer's desc.keep_window), and the column pass's V (the
@@ -178,7 +178,7 @@ static void check_pass(const char *name, const frame *f, bool rows, tally *t)
         }
 }
 
-// The row pass's footprint output: where the pixel has no blocked ray of its own, the widest of its
+// The row pass's footprint output: where the pixel has no blocked ray of its own, the narrowest of its
 // 3 x 3 neighbours' over its pixel's footprint (0 if none; 0 on the background). Returns how many
 // such pixels took a neighbour's.
 static uint64_t check_dilation(const char *name, const frame *f)
