@@ -70,7 +70,7 @@ layout(constant_id = PN_SPEC_TILE_H) const int TILE_H = 3;
 // 0.0136 / 0.0091 / 0.0058 -> 0.0125 / 0.0085 / 0.0057 (0.82 -> 0.93%), the buddha 0.0108 ->
 // 0.0104, Sponza and the canopy within 0.0002 (the canopy's leak 0.21 -> 0.44%); with --seed 2
 // alike (the bunny's leak 0.90 -> 0.98%). Refusing nowhere instead: the bunny 0.0147, the dragon
-// 0.0110 at 1 spp, but a leak of 2.4-2.9% on the meshes; only within 1 pixel of an edge (the
+// 0.0110 at 1 spp, but a leak of 1.4-2.9% on the meshes; only within 1 pixel of an edge (the
 // window itself): 1.45-1.66%.
 const float PENUMBRA_TOLERANCE = 0.5;
 const int CONTACT_REACH = 2;
