@@ -57,7 +57,9 @@ layout(constant_id = PN_SPEC_TILE_H) const int TILE_H = 3;
 // 3.2% / 0.0089; tolerance 1: 2.0% / 0.0088; 0.5: 0.8% / 0.0088; 0.25: 0.7% / 0.0091 (the
 // window no longer averages the noise away).
 //
-// Under the penumbra filter it acts only within CONTACT_REACH pixels of an edge of geometry. A
+// Under the penumbra filter it acts only near an edge of geometry: within the window (any
+// --tile; an even one reaches one pixel further right and down) or within CONTACT_REACH pixels (the
+// ring below, which adds nothing to windows of 5 x 5 and more). A
 // penumbra narrower than the window is cast by a blocker close to the receiver, and a blocker that
 // close shows in the picture beside it: at a contact, a crease or a step in depth the window
 // meets. Elsewhere the width comes from the nearest blocker of one pixel's few rays, which at 1-4
@@ -65,7 +67,8 @@ layout(constant_id = PN_SPEC_TILE_H) const int TILE_H = 3;
 // is smooth at the pixel's scale, and refusing the neighbours then leaves the pixel with its own
 // few samples. The Gaussian that follows (penumbra_filter.comp) still takes the narrower
 // footprint, and the range weight still refuses what the samples say differs. Measured (bench,
-// 512 x 512, exact, the five standard views, reference MAE at 1 / 2 / 4 spp, edge leak at 1 spp):
+// 512 x 512, exact, the default 3 x 3 window, the five standard views, reference MAE at 1 / 2 / 4
+// spp, edge leak at 1 spp; before: stop 53 with narrowest_neighbour, penumbra_filter.comp):
 // the bunny 0.0172 / 0.0109 / 0.0067 -> 0.0157 / 0.0100 / 0.0064 (leak 0.77 -> 0.86%), the dragon
 // 0.0136 / 0.0091 / 0.0058 -> 0.0125 / 0.0085 / 0.0057 (0.82 -> 0.93%), the buddha 0.0108 ->
 // 0.0104, Sponza and the canopy within 0.0002 (the canopy's leak 0.21 -> 0.44%); with --seed 2
@@ -74,9 +77,11 @@ layout(constant_id = PN_SPEC_TILE_H) const int TILE_H = 3;
 // window itself): 1.45-1.66%.
 const float PENUMBRA_TOLERANCE = 0.5;
 const int CONTACT_REACH = 2;
-// A neighbour whose surface weight (filter_common.glsl) is below this does not continue the
-// pixel's surface: their normals are more than 30 degrees apart, or it lies off the pixel's
-// tangent plane by more than half a footprint per pixel between them.
+// A neighbour whose surface weight (filter_common.glsl: (1 - rho^2) c^2) is below this does not
+// continue the pixel's surface: on its own, normals more than 30 degrees apart (c^2 < 3/4), or
+// either point off the other's tangent plane by more than half a footprint per pixel between them
+// (rho > 1/2); a mix of the two below either bound. The pixel's own tap counts only where its
+// normal is not a unit vector (a degenerate triangle's): the weight then acts as before stop 54.
 const float SURFACE_CONTINUES = 0.75;
 float penumbra_weight(vec3 p, uint width_p, vec3 q, uint width_q)
 {

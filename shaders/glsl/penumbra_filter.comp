@@ -23,8 +23,9 @@
 // 3 x 3 neighbours (the interleaving window) include one with a blocker takes the narrowest of
 // their footprints (narrowest_neighbour: the nearest blocker any of the window's rays met bounds
 // how fast V varies there, as a pixel's own nearest blocker does for it); and it lends its V to a
-// penumbra pixel under that pixel's footprint. Measured (bench,
-// the five standard views at 256 x 256, exact, reference MAE, 1 / 4 spp): against no dilation, the
+// penumbra pixel under that pixel's footprint. Measured with the widest of the footprints (the
+// rule before stop 54; bench, the five standard views at 256 x 256, exact, reference MAE, 1 / 4
+// spp): against no dilation, the
 // bunny 0.0215 / 0.0079 (0.0269 / 0.0090), the dragon 0.0177 / 0.0073 (0.0217 / 0.0077), the canopy
 // 0.0431 / 0.0253 (0.0641 / 0.0255), Sponza 0.0270 / 0.0063 (0.0290 / 0.0060); a 5 x 5 ring lost
 // on Sponza and the buddha at 1 spp (0.0332, 0.0178), and giving every pixel the widest footprint
@@ -87,10 +88,10 @@ vec2 pixel_footprint(ivec2 px)
 // Measured (bench, 512 x 512, exact, the five standard views, 1 / 2 / 4 spp, seeds 1 and 2): the
 // edge leak fell on every mesh (seed 1: the bunny 0.83 / 0.73 / 0.62% -> 0.77 / 0.62 / 0.54%, the
 // dragon 0.87 / 0.82 / 0.64% -> 0.82 / 0.68 / 0.53%; seed 2 alike), the canopy's stayed, and the
-// reference MAE is within 0.0001 of before in every cell. A neighbour's footprint was clamped to max_radius / RADIUS_SIGMAS of that neighbour's
-// pixels (filter.comp), so at a step in depth it can exceed the clamp in this pixel's: blur clamps
-// it again (to this pixel's footprint facing the camera), so that the reach always spans
-// RADIUS_SIGMAS deviations.
+// reference MAE is within 0.0001 of before in every cell. A neighbour's footprint was clamped to
+// max_radius / RADIUS_SIGMAS of that neighbour's pixels (filter.comp), so at a step in depth it
+// can exceed the clamp in this pixel's: blur clamps it again (to this pixel's footprint facing the
+// camera), so that the reach always spans RADIUS_SIGMAS deviations.
 float narrowest_neighbour(ivec2 px, ivec2 size)
 {
     // img_sigma: x the footprint (>= 0 with a blocker, -1 without), y 1 where the pixel has an
