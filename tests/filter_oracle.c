@@ -167,38 +167,160 @@ static double filter_mean_tol(double w, double dw)
 //    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
 //    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
 //
+// The relative error of the shader's float narrow = pc.narrow x width x pow(samples, -3/4): two
+// products (u each) and pow, which Vulkan lets inherit exp2(y log2 x)'s error: log2 within 3 ulp
+// outside [0.5, 2] and 2^-21 absolute inside, y times it (u), and exp2 within 3 + 2 |y log2 x| ulp.
+// An absolute error e in the exponent is a relative one of e ln 2 in the result. Twice the whole,
+// for contraction and reordering.
+static double filter_narrow_rel(uint32_t samples)
+{
+    const double u = FLOAT_U, y = 0.75, l = log2((double)samples);
+    double log_err = samples >= 1 && samples <= 2 ? 0x1p-21 : 3 * 2 * u * fabs(l);
+    double pow_rel = y * log_err * log(2.0) + u + (3 + 2 * y * fabs(l)) * 2 * u;
+    return 2 * (2 * u + pow_rel);
+}
+
+// The window's Gaussian weight exp(-|q - p|^2 / (2 narrow^2)) of a tap, and a bound on the float
+// evaluation's relative error: x^2 = |(q - p) / narrow|^2 rounds q - p per component (u), divides
+// (2.5 ulp: 5u) and sums (gamma_3: 3.1u), besides narrow's own error twice: within
+// 2 (narrow_rel + 6u) + 3.1u of x^2. That moves exp's argument a = x^2 / 2 by |a| times it, so the
+// exponential by expm1 of that, and exp adds 3 + 2 |a| ulp (Vulkan's bound). Twice, as above.
+// narrow = 0 (a contact: the width is 0) gives exactly 0 in both.
+static double filter_gauss(const float *p, const float *q, double narrow, double narrow_rel, double *rel)
+{
+    *rel = 0;
+    if (!(narrow > 0))
+        return 0;
+    double x2 = 0;
+    for (int k = 0; k < 3; k++) {
+        double x = ((double)q[k] - p[k]) / narrow;
+        x2 += x * x;
+    }
+    double a = 0.5 * x2, x2_rel = 2 * (narrow_rel + 6 * FLOAT_U) + 3.1 * FLOAT_U;
+    *rel = 2 * (expm1(a * x2_rel) + (3 + 2 * a) * 2 * FLOAT_U);
+    return exp(-a);
+}
+
+// A three-valued verdict: surely false, within rounding of its threshold, surely true.
+typedef enum { VERDICT_NO, VERDICT_MAYBE, VERDICT_YES } verdict;
+static verdict verdict_or(verdict a, verdict b) { return a > b ? a : b; }
+
+// Whether pixel (x + dx, y + dy), inside the image, shows an edge of geometry next to (x, y) as
+// filter.comp's edge rule sees it: the background, or a surface weight below SURFACE_CONTINUES
+// (within rounding of it: maybe). VERDICT_NO outside the image (the shader skips those).
+static verdict filter_edge_at(const filter_frame *f, int x, int y, int dx, int dy)
+{
+    int qx = x + dx, qy = y + dy;
+    if (qx < 0 || qy < 0 || qx >= f->width || qy >= f->height)
+        return VERDICT_NO;
+    filter_tap t;
+    if (!filter_tap_at(f, x, y, dx, dy, &t))
+        return VERDICT_YES; // the background
+    if (t.wgeo + t.err < FILTER_SURFACE_CONTINUES)
+        return VERDICT_YES;
+    return t.wgeo - t.err < FILTER_SURFACE_CONTINUES ? VERDICT_MAYBE : VERDICT_NO;
+}
+
+// filter.comp at pixel (x, y), covered. Both loops are weighted means of the window's V_raw
+// (filter_mean_tol): the first under the geometric weights, whose errors are filter_tap_at's; the
+// second under wg wr, whose errors follow from intervals:
+//  - the float mean lies within mean_tol of the double one, so its spread in filter_spread_range of
+//    that interval; the float spread adds relative rounding: 1 - mean (u), the product (u) and the
+//    division by samples (2.5 ulp: 5u) make 7u of sqrt's argument, half that after the sqrt, which
+//    adds 4.5 ulp (9u: Vulkan's sqrt inherits 1 / inversesqrt's precision, 2 + 2.5 ulp), and the
+//    product by RANGE_SIGMAS u: 13.5u, twice 27u. Denormals may flush to 0 (Vulkan allows it),
+//    which moves the argument by less than 2 FLT_MIN (the product's and the quotient's) and the
+//    spread by less than RANGE_SIGMAS sqrt(2 FLT_MIN) more. With samples = 0 the spread is exactly 0;
+//  - each tap's range weight then lies in filter_range_weight_float's interval (exactly 1 at
+//    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
+//    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
+//
+// Under the penumbra filter (f->narrow > 0) the geometric weight of each neighbour of a pixel with a
+// blocker of its own also falls as a Gaussian of world distance, narrow = pc.narrow x its nearest
+// blocker's penumbra width x samples^-3/4 wide, and the penumbra weight applies only where it would
+// refuse a usable neighbour and an edge of geometry lies within the window or on the ring of 8
+// pixels CONTACT_REACH away (filter.comp's edge rule); where that verdict lies within rounding of
+// a threshold, o->ambiguous says so and V is the verdict's (pen applies).
+//
 // A pixel without a valid ray keeps its V_raw where the light cannot reach it and otherwise takes
 // the geometric mean of its neighbours'; a neighbour without a valid ray is no tap.
 void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
 {
     int lo_x = -((f->tile_w - 1) / 2), lo_y = -((f->tile_h - 1) / 2), k = 0;
-    float v_p = f->v_raw[y * f->width + x];
-    bool unknown = f->valid[y * f->width + x] == 0;
+    int i = y * f->width + x;
+    float v_p = f->v_raw[i];
+    bool unknown = f->valid[i] == 0, penumbra = f->narrow > 0;
     double sum = 0, dw = 0;
     memset(o, 0, sizeof *o);
-    if (unknown && !f->reaches[y * f->width + x]) {
+    if (unknown && !f->reaches[i]) {
         o->v = v_p;
         return;
     }
+    // The window's Gaussian: only for a pixel with an estimate and a blocker of its own.
+    double narrow = -1, narrow_rel = 0;
+    if (penumbra && f->samples > 0 && !unknown && !(f->width_near[i] >= FLT_MAX)) {
+        narrow = (double)f->narrow * f->width_near[i] * pow((double)f->samples, -0.75);
+        narrow_rel = filter_narrow_rel(f->samples);
+    }
+    // First the taps, their penumbra weights and the edge rule's inputs, then the weights.
+    double pen_err[FILTER_MAX_TAPS] = {0};
+    verdict edge = VERDICT_NO, refuses = VERDICT_NO;
     for (int dy = lo_y; dy < lo_y + f->tile_h; dy++)
         for (int dx = lo_x; dx < lo_x + f->tile_w; dx++, k++) {
-            o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]) && f->valid[(y + dy) * f->width + x + dx] > 0;
-            if (!o->in[k])
+            int q = (y + dy) * f->width + x + dx;
+            if (penumbra)
+                edge = verdict_or(edge, filter_edge_at(f, x, y, dx, dy));
+            o->in[k] = filter_tap_at(f, x, y, dx, dy, &o->t[k]) && f->valid[q] > 0;
+            if (!o->in[k] || unknown)
                 continue;
-            if (!unknown) { // the penumbra weight, and its error next to the geometric weight's
-                filter_tap *t = &o->t[k];
-                double pen_err;
-                t->pen = filter_penumbra(f, y * f->width + x, (y + dy) * f->width + x + dx, &pen_err);
-                t->w = t->wgeo * t->pen;
-                t->err = t->err * t->pen + (t->wgeo + t->err) * pen_err + 2 * FLOAT_U * t->w;
-                o->pen_between = o->pen_between || (t->wgeo > 1e-3 && filter_between(t->pen));
-            }
-            o->v_raw[k] = f->v_raw[(y + dy) * f->width + x + dx];
-            o->d[k] = fabs((double)o->v_raw[k] - v_p);
-            sum += o->t[k].w * o->v_raw[k];
-            o->wg += o->t[k].w;
-            dw += o->t[k].err;
+            filter_tap *t = &o->t[k];
+            t->pen = filter_penumbra(f, i, q, &pen_err[k]);
+            // It refuses below 1. The float 1 - r^2 is below 1 once r^2 is more than half an ulp of 1
+            // (2^-24) and within filter_penumbra's 2u or so of the double: surely beyond 2^-22;
+            // exactly 1 at r = 0 (the pixel itself).
+            double below = 1 - t->pen; // r^2, or 1 once r^2 >= 1
+            refuses = verdict_or(refuses, below == 0 ? VERDICT_NO : below > 0x1p-22 ? VERDICT_YES : VERDICT_MAYBE);
         }
+    // The edge rule: the ring is read only where the window showed no edge.
+    verdict ring = VERDICT_NO;
+    if (penumbra && refuses != VERDICT_NO && edge != VERDICT_YES)
+        for (int dy = -FILTER_CONTACT_REACH; dy <= FILTER_CONTACT_REACH; dy += FILTER_CONTACT_REACH)
+            for (int dx = -FILTER_CONTACT_REACH; dx <= FILTER_CONTACT_REACH; dx += FILTER_CONTACT_REACH)
+                if (dx != 0 || dy != 0)
+                    ring = verdict_or(ring, filter_edge_at(f, x, y, dx, dy));
+    verdict applies = !penumbra ? VERDICT_YES : verdict_or(edge, ring);
+    if (penumbra && refuses != VERDICT_NO) {
+        o->refuses = refuses == VERDICT_YES;
+        o->ambiguous = refuses == VERDICT_MAYBE || applies == VERDICT_MAYBE;
+        o->lifted = o->refuses && applies == VERDICT_NO;
+        o->ring = o->refuses && edge == VERDICT_NO && ring == VERDICT_YES;
+    }
+    // Without a refusal every usable tap's penumbra weight is 1: applying it changes nothing.
+    bool pen_on = !unknown && applies != VERDICT_NO;
+    int self = -lo_y * f->tile_w - lo_x;
+    for (k = 0; k < f->tile_w * f->tile_h; k++) {
+        if (!o->in[k])
+            continue;
+        filter_tap *t = &o->t[k];
+        int dx = lo_x + k % f->tile_w, dy = lo_y + k / f->tile_w;
+        const float *pp = &f->p[4 * i], *pq = &f->p[4 * ((y + dy) * f->width + x + dx)];
+        // The weight's factors as intervals (all >= 0): the surface weight, the Gaussian, the
+        // penumbra weight; each float product adds u, twice.
+        double g = 1, g_rel = 0, pen = pen_on ? t->pen : 1, pe = pen_on ? pen_err[k] : 0;
+        if (narrow >= 0 && k != self)
+            g = filter_gauss(pp, pq, narrow, narrow_rel, &g_rel);
+        double w_lo = fmax(t->wgeo - t->err, 0) * fmax(g * (1 - g_rel) - FLT_MIN, 0) * fmax(pen - pe, 0);
+        double w_hi = (t->wgeo + t->err) * fmin(g * (1 + g_rel) + FLT_MIN, 1) * fmin(pen + pe, 1);
+        t->w = t->wgeo * g * pen;
+        t->err = fmax(w_hi * (1 + 4 * FLOAT_U) - t->w, t->w - w_lo * (1 - 4 * FLOAT_U));
+        o->pen_between = o->pen_between || (pen_on && t->wgeo > 1e-3 && filter_between(t->pen));
+        o->gauss_between = o->gauss_between || (narrow >= 0 && t->wgeo > 1e-3 && filter_between(g));
+        o->v_raw[k] = f->v_raw[(y + dy) * f->width + x + dx];
+        o->d[k] = fabs((double)o->v_raw[k] - v_p);
+        sum += t->w * o->v_raw[k];
+        o->wg += t->w;
+        dw += t->err;
+    }
     o->mean = o->wg > 0 ? fmin(fmax(sum / o->wg, 0), 1) : v_p;
     o->mean_tol = filter_mean_tol(o->wg, dw);
     if (unknown) {

@@ -12,6 +12,8 @@
 #define FILTER_RANGE_SIGMAS 2.5 // filter.comp's RANGE_SIGMAS
 
 #define FILTER_PENUMBRA_TOLERANCE 0.5 // filter.comp's PENUMBRA_TOLERANCE
+#define FILTER_SURFACE_CONTINUES 0.75 // filter.comp's SURFACE_CONTINUES
+#define FILTER_CONTACT_REACH 2        // filter.comp's CONTACT_REACH
 #define FILTER_MAX_TAPS (PN_FILTER_MAX_TILE * PN_FILTER_MAX_TILE)
 
 // A filtered frame as the filter pass saw it (pn_frame_images and the frame's settings).
@@ -27,6 +29,11 @@ typedef struct filter_frame {
     const uint32_t *valid;  // valid rays per pixel (a pixel without one has no V of its own)
     const bool *reaches;    // whether the light reaches above the pixel's horizon
     const float *penumbra;  // the penumbra width at the pixel's mean blocker (filter.comp's penumbra_weight)
+    // Under the penumbra filter, filter.comp's pc.narrow (> 0: the window's Gaussian and its edge
+    // rule for the penumbra weight) and per pixel the penumbra width of its nearest blocker
+    // (pn_frame_images.blockers' second channel); 0 and NULL under the interleaved filter.
+    float narrow;
+    const float *width_near;
 } filter_frame;
 
 // One neighbour q of a pixel p in its window, as filter.comp weighs it, evaluated in double from the
@@ -57,7 +64,13 @@ typedef struct filter_window {
     double w, v, tol;          // second loop: the sum of the weights wg wr, the filtered V and a
                                // bound on |V - the shader's float V|
     bool range_between;        // a tap the geometry keeps has a range weight between 0 and 1
-    bool pen_between;          // ... a penumbra weight between 0 and 1
+    bool pen_between;          // ... a penumbra weight between 0 and 1 that applies
+    // Under the penumbra filter (filter_frame.narrow > 0):
+    bool gauss_between; // a tap the geometry keeps has a Gaussian weight between 0 and 1
+    bool refuses;       // the penumbra weight would refuse a usable neighbour (below 1)
+    bool lifted;        // ... and it does not apply: no edge of geometry within CONTACT_REACH
+    bool ring;          // ... it applies, and only the ring CONTACT_REACH away saw the edge
+    bool ambiguous;     // whether it applies lies within rounding of a threshold: no verdict
 } filter_window;
 
 // A weight strictly between 0 and 1 (neither keeping nor dropping its tap), beyond every rounding

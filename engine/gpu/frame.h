@@ -59,9 +59,10 @@ typedef struct pn_renderer_desc {
     // anyway and an extra submission per switch only costs.
     bool no_warm_up;
     // With the penumbra filter: keep V as the interleaved filter's window left it, the Gaussian's
-    // input (pn_frame_images.v_window; render --aovs writes it as shadow.V_window), so that its
-    // Gaussian can be checked against a recomputation (tests/penumbra_oracle.h). One more image
-    // copy per frame, inside the filter's time: off unless asked for.
+    // input (pn_frame_images.v_window; render --aovs writes it as shadow.V_window), and the nearest
+    // blockers the window read (pn_frame_images.blockers), so that both the window and the
+    // Gaussian can be checked against recomputations (tests/filter_oracle.h, penumbra_oracle.h).
+    // Two more image copies per frame, inside the filter's time: off unless asked for.
     bool keep_window;
 } pn_renderer_desc;
 
@@ -112,6 +113,10 @@ typedef struct pn_frame_images {
     // With the penumbra filter and desc.keep_window: V before its Gaussian, as the interleaved
     // filter's window left it (of the frame's last light); NULL otherwise.
     const float *v_window;
+    // With the penumbra filter and desc.keep_window: per pixel (rg, of the frame's last light) the
+    // nearest blocker's segment parameter t and the penumbra width it casts (world units;
+    // PN_PENUMBRA_NONE where no ray was blocked), as the window read them; NULL otherwise.
+    const float *blockers;
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are
     // light 0's.
     uint32_t light_count;

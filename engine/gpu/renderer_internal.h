@@ -11,11 +11,12 @@ enum { TS_START, TS_GBUFFER, TS_LIGHT, TS_SHADOW = 0, TS_FILTER = 1, TS_SHADE = 
 
 // The frame's images in the readback buffer, in floats per pixel: P, N, albedo and radiance (rgba),
 // V and V_raw, the shadow pass's counts and its adaptive rays image (rgba32ui), the penumbra
-// filter's footprint (rg) and, with desc.keep_window, its Gaussian's input (one float); with
-// several lights each light's V and V_raw follow (pn_renderer_images).
+// filter's footprint (rg) and, with desc.keep_window, its Gaussian's input (one float) and the
+// shadow pass's nearest blockers (rg); with several lights each light's V and V_raw follow
+// (pn_renderer_images).
 enum { PN_READBACK_COUNTS = 4 * 4 + 2, PN_READBACK_RAYS = PN_READBACK_COUNTS + 4,
        PN_READBACK_FOOTPRINT = PN_READBACK_RAYS + 4, PN_READBACK_V_WINDOW = PN_READBACK_FOOTPRINT + 2,
-       PN_READBACK_FLOATS_PER_PIXEL = PN_READBACK_V_WINDOW + 1 };
+       PN_READBACK_BLOCKERS = PN_READBACK_V_WINDOW + 1, PN_READBACK_FLOATS_PER_PIXEL = PN_READBACK_BLOCKERS + 2 };
 
 static inline bool filtered(const pn_renderer *r) { return r->desc.filter != PN_FILTER_NONE; }
 
@@ -34,7 +35,8 @@ pn_result pn_renderer_reserve_readback(pn_renderer *r, uint32_t light_count);
 // Records the copies of the frame's images to the readback buffer, made visible to the host.
 void pn_renderer_record_readback(pn_renderer *r, VkCommandBuffer cmd);
 // Records the copy of V as the interleaved filter left it, before the penumbra filter's Gaussian
-// rewrites it, to its place in the readback buffer (desc.keep_window).
+// rewrites it, and of the shadow pass's nearest blockers, which the window read, to their places in
+// the readback buffer (desc.keep_window).
 void pn_renderer_record_window_copy(pn_renderer *r, VkCommandBuffer cmd);
 // Records the copy of light i's V (and V_raw with a filter) to its place in the readback buffer.
 void pn_renderer_record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t i);

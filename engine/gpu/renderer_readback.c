@@ -83,25 +83,36 @@ void pn_renderer_record_readback(pn_renderer *r, VkCommandBuffer cmd)
 
 // Copies V as the interleaved filter wrote it to its place in the readback buffer: after the filter
 // pass's writes, and before the penumbra pass's, which read it and rewrite it in place, in GENERAL
-// (the layout the passes keep it in) again. The readback's last barrier makes the copy visible to
-// the host with the others.
+// (the layout the passes keep it in) again. And the shadow pass's nearest blockers, which the
+// filter pass read (its window's weights), back to GENERAL for the next light's or frame's shadow
+// pass. The readback's last barrier makes the copies visible to the host with the others.
 void pn_renderer_record_window_copy(pn_renderer *r, VkCommandBuffer cmd)
 {
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
     const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL, SRC = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
     const VkAccessFlags2 WRITE = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, READ = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-    VkImageMemoryBarrier2 before = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COPY, VK_ACCESS_2_TRANSFER_READ_BIT,
-                                                         GENERAL, SRC);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &before);
-    VkBufferImageCopy copy = {
-        .bufferOffset = (VkDeviceSize)PN_READBACK_V_WINDOW * 4 * pn_renderer_readback_plane(r),
-        .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-        .imageExtent = {r->width, r->height, 1},
+    const pn_gpu_image *src[2] = {&r->v, &r->shadow.blockers};
+    const VkDeviceSize plane = pn_renderer_readback_plane(r), floats[2] = {PN_READBACK_V_WINDOW, PN_READBACK_BLOCKERS};
+    // V: written by the filter pass. The blockers: written by the shadow pass, read by the filter
+    // pass (the copy must not overtake either).
+    VkImageMemoryBarrier2 before[2] = {
+        pn_gpu_image_barrier(src[0], COMPUTE, WRITE, COPY, VK_ACCESS_2_TRANSFER_READ_BIT, GENERAL, SRC),
+        pn_gpu_image_barrier(src[1], COMPUTE, WRITE | READ, COPY, VK_ACCESS_2_TRANSFER_READ_BIT, GENERAL, SRC),
     };
-    vkCmdCopyImageToBuffer(cmd, r->v.image, SRC, r->readback.buffer, 1, &copy);
-    VkImageMemoryBarrier2 after = pn_gpu_image_barrier(&r->v, COPY, VK_ACCESS_2_NONE, COMPUTE, READ | WRITE, SRC,
-                                                        GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &after);
+    pn_gpu_cmd_barrier(cmd, NULL, 2, before);
+    for (int k = 0; k < 2; k++) {
+        VkBufferImageCopy copy = {
+            .bufferOffset = floats[k] * 4 * plane,
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageExtent = {r->width, r->height, 1},
+        };
+        vkCmdCopyImageToBuffer(cmd, src[k]->image, SRC, r->readback.buffer, 1, &copy);
+    }
+    VkImageMemoryBarrier2 after[2] = {
+        pn_gpu_image_barrier(src[0], COPY, VK_ACCESS_2_NONE, COMPUTE, READ | WRITE, SRC, GENERAL),
+        pn_gpu_image_barrier(src[1], COPY, VK_ACCESS_2_NONE, COMPUTE, READ | WRITE, SRC, GENERAL),
+    };
+    pn_gpu_cmd_barrier(cmd, NULL, 2, after);
 }
 
 // Copies light `i`'s V (and V_raw with a filter) to its place after the readback's images
@@ -164,6 +175,7 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->footprint = r->desc.filter == PN_FILTER_PENUMBRA ? base + PN_READBACK_FOOTPRINT * px : NULL;
     bool window = r->desc.filter == PN_FILTER_PENUMBRA && r->desc.keep_window;
     out->v_window = window ? base + PN_READBACK_V_WINDOW * px : NULL;
+    out->blockers = window ? base + PN_READBACK_BLOCKERS * px : NULL;
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;

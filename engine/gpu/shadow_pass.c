@@ -219,7 +219,9 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                                      .format = VK_FORMAT_R32G32_SFLOAT,
                                                      .width = desc->width,
                                                      .height = desc->height,
-                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT},
+                                                     // read back with keep_window (pn_frame_images.blockers)
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT |
+                                                              VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
                                 &out->blockers);
     if (r != PN_OK) {
         pn_shadow_pass_destroy(dev, out);

@@ -83,6 +83,9 @@ const int CONTACT_REACH = 2;
 // (rho > 1/2); a mix of the two below either bound. The pixel's own tap counts only where its
 // normal is not a unit vector (a degenerate triangle's): the weight then acts as before stop 54.
 const float SURFACE_CONTINUES = 0.75;
+// Whether a pixel inside the image (coverage q.w, surface weight w against the pixel's) shows an
+// edge of geometry: the background, or a surface that does not continue the pixel's.
+bool shows_edge(float coverage, float w) { return coverage <= 0.0 || w < SURFACE_CONTINUES; }
 float penumbra_weight(vec3 p, uint width_p, vec3 q, uint width_q)
 {
     float width = min(uintBitsToFloat(width_p), uintBitsToFloat(width_q)) * PENUMBRA_TOLERANCE;
@@ -179,7 +182,7 @@ void main()
             float pixels = float(max(abs(dx), abs(dy)));
             // On the pixel's own surface (filter_common.glsl).
             float w = surface_weight(p.xyz, n.xyz, footprint_p, q.xyz, m.xyz, m.w * pc.pixel_angle, pixels);
-            near_edge = near_edge || (qx == px + ivec2(dx, dy) && (q.w <= 0.0 || w < SURFACE_CONTINUES));
+            near_edge = near_edge || (qx == px + ivec2(dx, dy) && shows_edge(q.w, w));
             // A pixel without an estimate of its own takes its neighbours' V however steep: any of
             // it is nearer than the convention's 1.
             pw[k] = unknown ? 1.0 : penumbra_weight(p.xyz, counts_p.w, q.xyz, counts_q.w);
@@ -211,7 +214,7 @@ void main()
                 vec4 q = imageLoad(img_p, qx), m = imageLoad(img_n, qx);
                 float w = surface_weight(p.xyz, n.xyz, footprint_p, q.xyz, m.xyz, m.w * pc.pixel_angle,
                                          float(max(abs(dx), abs(dy))));
-                near_edge = near_edge || q.w <= 0.0 || w < SURFACE_CONTINUES;
+                near_edge = near_edge || shows_edge(q.w, w);
             }
         }
     }
