@@ -153,42 +153,32 @@ static double filter_mean_tol(double w, double dw)
     return den > 0 ? 2 * ((dw + 2 * g10 * w) / den + 5 * FLOAT_U) : 1;
 }
 
-// filter.comp at pixel (x, y), covered. Both loops are weighted means of the window's V_raw
-// (filter_mean_tol): the first under the geometric weights, whose errors are filter_tap_at's; the
-// second under wg wr, whose errors follow from intervals:
-//  - the float mean lies within mean_tol of the double one, so its spread in filter_spread_range of
-//    that interval; the float spread adds relative rounding: 1 - mean (u), the product (u) and the
-//    division by samples (2.5 ulp: 5u) make 7u of sqrt's argument, half that after the sqrt, which
-//    adds 4.5 ulp (9u: Vulkan's sqrt inherits 1 / inversesqrt's precision, 2 + 2.5 ulp), and the
-//    product by RANGE_SIGMAS u: 13.5u, twice 27u. Denormals may flush to 0 (Vulkan allows it),
-//    which moves the argument by less than 2 FLT_MIN (the product's and the quotient's) and the
-//    spread by less than RANGE_SIGMAS sqrt(2 FLT_MIN) more. With samples = 0 the spread is exactly 0;
-//  - each tap's range weight then lies in filter_range_weight_float's interval (exactly 1 at
-//    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
-//    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
-//
 // The relative error of the shader's float narrow = pc.narrow x width x pow(samples, -3/4): two
 // products (u each) and pow, which Vulkan lets inherit exp2(y log2 x)'s error: log2 within 3 ulp
-// outside [0.5, 2] and 2^-21 absolute inside, y times it (u), and exp2 within 3 + 2 |y log2 x| ulp.
-// An absolute error e in the exponent is a relative one of e ln 2 in the result. Twice the whole,
-// for contraction and reordering.
+// outside [0.5, 2] and 2^-21 absolute inside, y times it (u of the product, y |log2 x| u
+// absolute), and exp2 within 3 + 2 |y log2 x| ulp. An absolute error e in the exponent is a
+// relative one of e ln 2 in the result. Twice the whole, for contraction and reordering. Uniform
+// samples only (the shader's pc.adaptive = 0): under adaptive sampling a pixel's own valid rays
+// count instead.
 static double filter_narrow_rel(uint32_t samples)
 {
     const double u = FLOAT_U, y = 0.75, l = log2((double)samples);
     double log_err = samples >= 1 && samples <= 2 ? 0x1p-21 : 3 * 2 * u * fabs(l);
-    double pow_rel = y * log_err * log(2.0) + u + (3 + 2 * y * fabs(l)) * 2 * u;
+    double pow_rel = (y * log_err + y * fabs(l) * u) * log(2.0) + (3 + 2 * y * fabs(l)) * 2 * u;
     return 2 * (2 * u + pow_rel);
 }
 
-// The window's Gaussian weight exp(-|q - p|^2 / (2 narrow^2)) of a tap, and a bound on the float
-// evaluation's relative error: x^2 = |(q - p) / narrow|^2 rounds q - p per component (u), divides
+// The window's Gaussian weight exp(-|q - p|^2 / (2 narrow^2)) of a tap, and [*lo, *hi] holding the
+// shader's float evaluation: x^2 = |(q - p) / narrow|^2 rounds q - p per component (u), divides
 // (2.5 ulp: 5u) and sums (gamma_3: 3.1u), besides narrow's own error twice: within
-// 2 (narrow_rel + 6u) + 3.1u of x^2. That moves exp's argument a = x^2 / 2 by |a| times it, so the
-// exponential by expm1 of that, and exp adds 3 + 2 |a| ulp (Vulkan's bound). Twice, as above.
-// narrow = 0 (a contact: the width is 0) gives exactly 0 in both.
-static double filter_gauss(const float *p, const float *q, double narrow, double narrow_rel, double *rel)
+// r = 2 (narrow_rel + 6u) + 3.1u of x^2, relative, twice for contraction and reordering. So exp's
+// argument a = x^2 / 2 lies in [a (1 - 2r), a (1 + 2r)], and exp adds 3 + 2 |a| ulp (Vulkan's bound,
+// which does not keep exp of a negative below 1), twice; below, a denormal result may flush to 0.
+// The ends are computed apart, so that a far tap (exp underflows) gives [0, FLT_MIN], not a
+// product of 0 and infinity. narrow = 0 (a contact: the width is 0) gives exactly 0 in both.
+static double filter_gauss(const float *p, const float *q, double narrow, double narrow_rel, double *lo, double *hi)
 {
-    *rel = 0;
+    *lo = *hi = 0;
     if (!(narrow > 0))
         return 0;
     double x2 = 0;
@@ -196,8 +186,10 @@ static double filter_gauss(const float *p, const float *q, double narrow, double
         double x = ((double)q[k] - p[k]) / narrow;
         x2 += x * x;
     }
-    double a = 0.5 * x2, x2_rel = 2 * (narrow_rel + 6 * FLOAT_U) + 3.1 * FLOAT_U;
-    *rel = 2 * (expm1(a * x2_rel) + (3 + 2 * a) * 2 * FLOAT_U);
+    double a = 0.5 * x2, r = 2 * (2 * (narrow_rel + 6 * FLOAT_U) + 3.1 * FLOAT_U);
+    double a_lo = a * (1 - r), a_hi = a * (1 + r), ulps = 2 * (3 + 2 * a_hi) * 2 * FLOAT_U;
+    *lo = fmax(exp(-a_hi) * (1 - ulps) - FLT_MIN, 0);
+    *hi = exp(-a_lo) * (1 + ulps) + FLT_MIN;
     return exp(-a);
 }
 
@@ -275,9 +267,10 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
                 continue;
             filter_tap *t = &o->t[k];
             t->pen = filter_penumbra(f, i, q, &pen_err[k]);
-            // It refuses below 1. The float 1 - r^2 is below 1 once r^2 is more than half an ulp of 1
-            // (2^-24) and within filter_penumbra's 2u or so of the double: surely beyond 2^-22;
-            // exactly 1 at r = 0 (the pixel itself).
+            // It refuses below 1. The float 1 - r^2 is below 1 once r^2 is more than half an ulp
+            // below 1 (2^-25) and within filter_penumbra's 2u or so of the double: surely beyond
+            // 2^-22; exactly 1 at r = 0 (the pixel itself). Within that: ambiguous (cautious: a
+            // refusal that small changes V by less than the bound, applied or not).
             double below = 1 - t->pen; // r^2, or 1 once r^2 >= 1
             refuses = verdict_or(refuses, below == 0 ? VERDICT_NO : below > 0x1p-22 ? VERDICT_YES : VERDICT_MAYBE);
         }
@@ -306,11 +299,11 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         const float *pp = &f->p[4 * i], *pq = &f->p[4 * ((y + dy) * f->width + x + dx)];
         // The weight's factors as intervals (all >= 0): the surface weight, the Gaussian, the
         // penumbra weight; each float product adds u, twice.
-        double g = 1, g_rel = 0, pen = pen_on ? t->pen : 1, pe = pen_on ? pen_err[k] : 0;
+        double g = 1, g_lo = 1, g_hi = 1, pen = pen_on ? t->pen : 1, pe = pen_on ? pen_err[k] : 0;
         if (narrow >= 0 && k != self)
-            g = filter_gauss(pp, pq, narrow, narrow_rel, &g_rel);
-        double w_lo = fmax(t->wgeo - t->err, 0) * fmax(g * (1 - g_rel) - FLT_MIN, 0) * fmax(pen - pe, 0);
-        double w_hi = (t->wgeo + t->err) * fmin(g * (1 + g_rel) + FLT_MIN, 1) * fmin(pen + pe, 1);
+            g = filter_gauss(pp, pq, narrow, narrow_rel, &g_lo, &g_hi);
+        double w_lo = fmax(t->wgeo - t->err, 0) * g_lo * fmax(pen - pe, 0);
+        double w_hi = (t->wgeo + t->err) * g_hi * fmin(pen + pe, 1);
         t->w = t->wgeo * g * pen;
         t->err = fmax(w_hi * (1 + 4 * FLOAT_U) - t->w, t->w - w_lo * (1 - 4 * FLOAT_U));
         o->pen_between = o->pen_between || (pen_on && t->wgeo > 1e-3 && filter_between(t->pen));

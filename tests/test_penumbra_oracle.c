@@ -11,7 +11,7 @@
 //    (pn_frame_images.blockers), every covered pixel within the oracle's bound; the rule must both
 //    lift refusals and keep some that only its ring of pixels 2 away justifies. Written against the
 //    old rule (the weight everywhere), without the window's Gaussian or without the ring, the
-//    oracle puts 476-602 pixels of builtin:default at 1 spp off the shader;
+//    oracle puts 356-602 pixels of builtin:default at 1 spp off the shader;
 //  - the footprint the row pass centres on: a pixel without a blocked ray of its own takes the
 //    narrowest of its 3 x 3 neighbours' (relative bound: the recovered footprints' 6u and the
 //    quotient's 5u, twice);

@@ -92,8 +92,9 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
             if (penumbra) {
+                // The Gaussian's input and the window's blockers, for their oracles.
                 if (r->desc.keep_window && !one_tile && i + 1 == light_count)
-                    pn_renderer_record_window_copy(r, cmd); // the Gaussian's input, for its oracle
+                    pn_renderer_record_window_copy(r, cmd);
                 pn_penumbra_pass_record(cmd, &r->penumbra, noise_samples[i],
                                         pn_shadow_adaptive(&r->shadow, samples[i]), yfov_deg); // V -> V
                 pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
