@@ -55,7 +55,7 @@ float pn_penumbra_width_scale(void)
 {
     const char *e = getenv("PN_PENUMBRA_WIDTH_SCALE");
     float s = e ? strtof(e, NULL) : 0.0f;
-    return s > 0.0f && isfinite(s) ? s : 0.35f;
+    return s > 0.0f && isfinite(s) ? s : 0.25f; // penumbra_pass.h
 }
 
 float pn_penumbra_window_scale(void) { return 2.0f; }
