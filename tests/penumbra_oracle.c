@@ -4,6 +4,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 // The shader's footprint of a pixel (view depth x pixel angle): one float product, which the
@@ -24,24 +25,29 @@ static double own_footprint(const penumbra_frame *f, int i)
     return (double)f->scratch[2 * i + 1] * pixel_footprint(f, i);
 }
 
-double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, bool *is_own)
+double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, int *ring)
 {
     int i = y * f->width + x;
-    *is_own = own(f, i);
-    if (*is_own || !covered(f, i)) // the background's footprint is 0 (filter.comp writes 0 there)
-        return *is_own ? own_footprint(f, i) : 0.0;
-    // Without one: the narrowest of the 3 x 3 neighbours' own (clamped to the image), 0 if none,
-    // at most max_radius / RADIUS_SIGMAS of the pixel's own footprints (float's quotient and
-    // product).
+    *ring = own(f, i) ? 0 : -1;
+    if (*ring == 0 || !covered(f, i)) // the background's footprint is 0 (filter.comp writes 0 there)
+        return *ring == 0 ? own_footprint(f, i) : 0.0;
+    // Without one: the narrowest of the 3 x 3 neighbours' own, else of the 16 pixels 2 away (clamped
+    // to the image), 0 if none, at most max_radius / RADIUS_SIGMAS of the pixel's own footprints
+    // (float's quotient and product).
     double narrowest = -1.0;
-    for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++) {
-            int qx = x + dx < 0 ? 0 : x + dx >= f->width ? f->width - 1 : x + dx;
-            int qy = y + dy < 0 ? 0 : y + dy >= f->height ? f->height - 1 : y + dy;
-            int j = qy * f->width + qx;
-            if (own(f, j) && (narrowest < 0.0 || own_footprint(f, j) < narrowest))
-                narrowest = own_footprint(f, j);
-        }
+    for (int r = 1; r <= 2 && narrowest < 0.0; r++) {
+        for (int dy = -r; dy <= r; dy++)
+            for (int dx = -r; dx <= r; dx++) {
+                if (abs(dx) != r && abs(dy) != r)
+                    continue; // inside the ring
+                int qx = x + dx < 0 ? 0 : x + dx >= f->width ? f->width - 1 : x + dx;
+                int qy = y + dy < 0 ? 0 : y + dy >= f->height ? f->height - 1 : y + dy;
+                int j = qy * f->width + qx;
+                if (own(f, j) && (narrowest < 0.0 || own_footprint(f, j) < narrowest))
+                    narrowest = own_footprint(f, j);
+            }
+        *ring = narrowest < 0.0 ? -1 : r;
+    }
     double limit = (float)((double)(float)(f->max_radius / PENUMBRA_RADIUS_SIGMAS) * pixel_footprint(f, i));
     return fmin(fmax(narrowest, 0.0), limit);
 }
@@ -120,9 +126,9 @@ void penumbra_recompute(const penumbra_frame *f, int x, int y, bool rows, penumb
     memset(o, 0, sizeof *o);
     o->v_in = rows ? f->v_window[i] : penumbra_row_v(f->scratch[2 * i]);
     o->v = o->v_in;
-    bool own_p = false;
+    int ring_p = -1;
     double fp = pixel_footprint(f, i);
-    o->footprint = rows ? penumbra_centre_footprint(f, x, y, &own_p) : column_footprint(f, i, true);
+    o->footprint = rows ? penumbra_centre_footprint(f, x, y, &ring_p) : column_footprint(f, i, true);
     double e_sigma = rows ? PENUMBRA_SIGMA_REL : 2 * u;
     // The background, and a pixel the light cannot reach (no valid ray, and the light below its
     // horizon), keep their V.

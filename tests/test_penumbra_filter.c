@@ -11,8 +11,8 @@
 //    side foreshortened (its cosine from the pixel to the light's centre) times t / (1 - t) = 1/2,
 //    and the footprint is the width scale x that x n^-1/2 over the pixel's footprint (view depth x
 //    pixel angle), at most max_radius / 2.5 pixels (penumbra_filter.comp), where one of the pixel's
-//    rays was blocked (V_raw < 1); else the narrowest of its 3 x 3 neighbours' (a lit pixel at a
-//    penumbra's edge takes it), 0 where none has a blocked ray;
+//    rays was blocked (V_raw < 1); else the narrowest of its 3 x 3 neighbours', failing them of the
+//    16 pixels 2 away (a lit pixel at a penumbra's edge takes it), 0 where none has a blocked ray;
 //  - the error against the closed form at 1 and 4 spp: below the interleaved filter's, which
 //    averages 3x3 pixels only;
 //  - contact sharpness, on builtin:default (a cube, a sphere and table legs resting on the
@@ -109,7 +109,8 @@ static double world_oracle(const frame *f, int i, int n)
 }
 
 // The footprint AOV's oracle (pixels facing the camera): the pixel's own where one of its rays was
-// blocked (V_raw < 1), else the narrowest of its 3 x 3 neighbours' own, at most the pixel's own limit
+// blocked (V_raw < 1), else the narrowest of its 3 x 3 neighbours' own, failing them of the 16
+// pixels 2 away, at most the pixel's own limit
 // (a neighbour's was clamped in the neighbour's pixels), over its pixel; 0 if none.
 static double footprint_oracle(const frame *f, int i, int n)
 {
@@ -119,14 +120,17 @@ static double footprint_oracle(const frame *f, int i, int n)
         return world_oracle(f, i, n) / pixel;
     int x = i % SIZE, y = i / SIZE;
     double narrowest = -1.0;
-    for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++) {
-            int qx = x + dx < 0 ? 0 : x + dx >= SIZE ? SIZE - 1 : x + dx;
-            int qy = y + dy < 0 ? 0 : y + dy >= SIZE ? SIZE - 1 : y + dy;
-            int j = qy * SIZE + qx;
-            if (f->a[j] == 1.0f && f->vraw[j] < 1.0f && (narrowest < 0.0 || world_oracle(f, j, n) < narrowest))
-                narrowest = world_oracle(f, j, n);
-        }
+    for (int r = 1; r <= 2 && narrowest < 0.0; r++)
+        for (int dy = -r; dy <= r; dy++)
+            for (int dx = -r; dx <= r; dx++) {
+                if (abs(dx) != r && abs(dy) != r)
+                    continue; // inside the ring
+                int qx = x + dx < 0 ? 0 : x + dx >= SIZE ? SIZE - 1 : x + dx;
+                int qy = y + dy < 0 ? 0 : y + dy >= SIZE ? SIZE - 1 : y + dy;
+                int j = qy * SIZE + qx;
+                if (f->a[j] == 1.0f && f->vraw[j] < 1.0f && (narrowest < 0.0 || world_oracle(f, j, n) < narrowest))
+                    narrowest = world_oracle(f, j, n);
+            }
     return fmin(fmax(narrowest, 0.0), 8.0 / 2.5 * pixel) / pixel;
 }
 

@@ -6,14 +6,14 @@
 //
 // Each pass is checked from the floats it read, so that neither bound carries the other's error:
 //  - the interleaved window before it (filter.comp under the penumbra filter: its Gaussian over
-//    the nearest blocker's penumbra, and the penumbra weight only within CONTACT_REACH pixels of an
-//    edge of geometry) against filter_oracle.c, from the frame's P, N, counts and nearest blockers
+//    the nearest blocker's penumbra, at least WINDOW_FLOOR pixels wide, which the contacts must
+//    reach, and the penumbra weight only within CONTACT_REACH pixels of an edge of geometry) against filter_oracle.c, from the frame's P, N, counts and nearest blockers
 //    (pn_frame_images.blockers), every covered pixel within the oracle's bound; the rule must both
 //    lift refusals and keep some that only its ring of pixels 2 away justifies. Written against the
 //    old rule (the weight everywhere), without the window's Gaussian or without the ring, the
 //    oracle puts 356-602 pixels of builtin:default at 1 spp off the shader;
 //  - the footprint the row pass centres on: a pixel without a blocked ray of its own takes the
-//    narrowest of its 3 x 3 neighbours' (relative bound: the recovered footprints' 6u and the
+//    narrowest of its 3 x 3 neighbours', failing them of the 16 pixels 2 away (relative bound: the recovered footprints' 6u and the
 //    quotient's 5u, twice);
 //  - the row pass's V (pn_frame_images.footprint's first channel) from the interleaved window's V
 //    (pn_frame_images.v_window, the renderer's desc.keep_window), and the column pass's V (the
@@ -226,6 +226,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
 {
     const filter_frame *w = &f->window;
     uint64_t covered = 0, compared = 0, ambiguous = 0, off = 0, lifted = 0, kept = 0, ring = 0, gauss = 0, pen = 0;
+    uint64_t floored = 0;
     double diff_max = 0, tol_max = 0;
     for (int y = 0; y < w->height; y++)
         for (int x = 0; x < w->width; x++) {
@@ -241,7 +242,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
             }
             compared++;
             lifted += o.lifted, kept += o.refuses && !o.lifted, ring += o.ring;
-            gauss += o.gauss_between, pen += o.pen_between;
+            gauss += o.gauss_between, pen += o.pen_between, floored += o.floored;
             double d = fabs(w->v[i] - o.v);
             diff_max = fmax(diff_max, d), tol_max = fmax(tol_max, o.tol);
             if (d > o.tol && off++ < 5)
@@ -251,10 +252,10 @@ static void check_window(const char *name, const frame *f, bool analytic)
     fprintf(stderr,
             "%s, window: %llu covered pixels compared, %llu ambiguous; max |V - oracle| %.3g, max bound %.3g; the penumbra "
             "weight would refuse at %llu, applies at %llu (the ring's edge %llu), lifted at %llu; taps strictly weighted: "
-            "Gaussian %llu, penumbra %llu\n",
+            "Gaussian %llu (at its floor %llu), penumbra %llu\n",
             name, (unsigned long long)compared, (unsigned long long)ambiguous, diff_max, tol_max,
             (unsigned long long)(kept + lifted), (unsigned long long)kept, (unsigned long long)ring,
-            (unsigned long long)lifted, (unsigned long long)gauss, (unsigned long long)pen);
+            (unsigned long long)lifted, (unsigned long long)gauss, (unsigned long long)floored, (unsigned long long)pen);
     CHECK_MSG(off == 0, "%s, window: %llu pixels off the oracle", name, (unsigned long long)off);
     CHECK_MSG(ambiguous * 1000 < covered, "%s, window: %llu of %llu pixels ambiguous", name,
               (unsigned long long)ambiguous, (unsigned long long)covered);
@@ -264,37 +265,44 @@ static void check_window(const char *name, const frame *f, bool analytic)
     // penumbra's blocker is far, which at 1 spp leaves it far wider than the window.
     CHECK_MSG((analytic || gauss > 0) && pen > 0, "%s, window: the Gaussian (%llu) or the penumbra weight (%llu) never acted",
               name, (unsigned long long)gauss, (unsigned long long)pen);
+    // Its contacts also hold pixels whose nearest blocker casts a penumbra under WINDOW_FLOOR
+    // pixels, where the Gaussian takes its floor.
+    CHECK_MSG(analytic || floored > 0, "%s, window: the Gaussian never took its floor", name);
 }
 
 // The row pass's footprint output: where the pixel has no blocked ray of its own, the narrowest of its
-// 3 x 3 neighbours' over its pixel's footprint (0 if none; 0 on the background). Returns how many
-// such pixels took a neighbour's.
-static uint64_t check_dilation(const char *name, const frame *f)
+// 3 x 3 neighbours', else of the 16 pixels 2 away, over its pixel's footprint (0 if none; 0 on the
+// background). Counts the pixels that took a neighbour's, from either ring.
+static void check_dilation(const char *name, const frame *f, uint64_t dilated[2])
 {
     const penumbra_frame *v = &f->view;
-    uint64_t off = 0, dilated = 0;
+    uint64_t off = 0;
+    dilated[0] = dilated[1] = 0;
     for (int y = 0; y < v->height; y++)
         for (int x = 0; x < v->width; x++) {
             int i = y * v->width + x;
-            bool own = false;
+            int ring = -1;
             double fp = (float)((double)v->n[4 * i + 3] * v->pixel_angle);
-            double want = penumbra_centre_footprint(v, x, y, &own);
+            double want = penumbra_centre_footprint(v, x, y, &ring);
             want = v->p[4 * i + 3] > 0 ? want / fp : 0.0;
-            if (own)
+            if (ring == 0)
                 continue; // the footprint is the pixel's own: recovered from this very output
             double got = v->scratch[2 * i + 1];
-            dilated += want > 0;
+            if (want > 0)
+                dilated[ring - 1]++;
             if (fabs(got - want) > 2 * (PENUMBRA_SIGMA_REL + 5 * FLOAT_U) * want && off++ < 5)
-                fprintf(stderr, "  %s (%d, %d): footprint %.9g px, oracle %.9g\n", name, x, y, got, want);
+                fprintf(stderr, "  %s (%d, %d): footprint %.9g px, oracle %.9g (ring %d)\n", name, x, y, got, want, ring);
         }
+    fprintf(stderr, "%s: footprints from the 3 x 3 neighbours %llu, from the ring 2 away %llu\n", name,
+            (unsigned long long)dilated[0], (unsigned long long)dilated[1]);
     CHECK_MSG(off == 0, "%s: %llu dilated footprints off their oracle", name, (unsigned long long)off);
-    return dilated;
 }
 
 static void check_frame(const char *name, const frame *f, bool analytic)
 {
     check_window(name, f, analytic);
-    uint64_t dilated = check_dilation(name, f);
+    uint64_t dilated[2];
+    check_dilation(name, f, dilated);
     tally r = {0}, c = {0};
     check_pass(name, f, true, &r);
     check_pass(name, f, false, &c);
@@ -327,7 +335,8 @@ static void check_frame(const char *name, const frame *f, bool analytic)
     // builtin:default's sphere and table legs turn away from the light: pixels that lend nothing.
     fprintf(stderr, "%s: %llu covered pixels lend nothing along columns\n", name, (unsigned long long)r.no_lend);
     CHECK_MSG(analytic || r.no_lend > 0, "%s: no pixel the light cannot reach", name);
-    CHECK_MSG(dilated > 0, "%s: no pixel took a neighbour's footprint", name);
+    CHECK_MSG(dilated[0] > 0 && dilated[1] > 0, "%s: no pixel took a footprint from the 3 x 3 (%llu) or the ring 2 away (%llu)",
+              name, (unsigned long long)dilated[0], (unsigned long long)dilated[1]);
 }
 
 int main(void)
