@@ -153,9 +153,9 @@ static double filter_mean_tol(double w, double dw)
     return den > 0 ? 2 * ((dw + 2 * g10 * w) / den + 5 * FLOAT_U) : 1;
 }
 
-// The relative error of the shader's float narrow = max(pc.narrow x width, WINDOW_FLOOR x view
-// depth x pixel angle) x pow(samples, -3/4): two products (u each; the floor's product by 2 is
-// exact, and the max is one of its arguments) and pow, which Vulkan lets inherit exp2(y log2 x)'s error: log2 within 3 ulp
+// The relative error of the shader's float narrow = pc.narrow x max(width, view depth x pixel
+// angle) x pow(samples, -3/4): two products (u each; the footprint's own product rounds by u too,
+// which the factor 2 below covers, and the max is one of its arguments) and pow, which Vulkan lets inherit exp2(y log2 x)'s error: log2 within 3 ulp
 // outside [0.5, 2] and 2^-21 absolute inside, y times it (u of the product, y |log2 x| u
 // absolute), and exp2 within 3 + 2 |y log2 x| ulp. An absolute error e in the exponent is a
 // relative one of e ln 2 in the result. Twice the whole, for contraction and reordering. Uniform
@@ -230,7 +230,7 @@ static verdict filter_edge_at(const filter_frame *f, int x, int y, int dx, int d
 //
 // Under the penumbra filter (f->narrow > 0) the geometric weight of each neighbour of a pixel with a
 // blocker of its own also falls as a Gaussian of world distance, narrow = pc.narrow x its nearest
-// blocker's penumbra width (at least FILTER_WINDOW_FLOOR pixels) x samples^-3/4 wide, and the
+// blocker's penumbra width (at least the pixel's footprint) x samples^-3/4 wide, and the
 // penumbra weight applies only where it would refuse a usable neighbour and an edge of geometry
 // lies within the window or on the ring of 8 pixels CONTACT_REACH away (filter.comp's edge rule); where that verdict lies within rounding of
 // a threshold, o->ambiguous says so and V is the verdict's (pen applies).
@@ -253,10 +253,10 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
     double narrow = -1, narrow_rel = 0;
     bool floored = false;
     if (penumbra && f->samples > 0 && !unknown && !(f->width_near[i] >= FLT_MAX)) {
-        // At least FILTER_WINDOW_FLOOR of the pixel's footprints (view depth x pixel angle).
-        double least = FILTER_WINDOW_FLOOR * ((double)f->n[4 * i + 3] * f->pixel_angle);
-        narrow = fmax((double)f->narrow * f->width_near[i], least) * pow((double)f->samples, -0.75);
-        floored = least > (double)f->narrow * f->width_near[i];
+        // The penumbra at least the pixel's footprint wide (view depth x pixel angle).
+        double least = (double)f->n[4 * i + 3] * f->pixel_angle;
+        narrow = (double)f->narrow * fmax(f->width_near[i], least) * pow((double)f->samples, -0.75);
+        floored = least > f->width_near[i];
         narrow_rel = filter_narrow_rel(f->samples);
     }
     // First the taps, their penumbra weights and the edge rule's inputs, then the weights.

@@ -14,7 +14,6 @@
 #define FILTER_PENUMBRA_TOLERANCE 0.5 // filter.comp's PENUMBRA_TOLERANCE
 #define FILTER_SURFACE_CONTINUES 0.75 // filter.comp's SURFACE_CONTINUES
 #define FILTER_CONTACT_REACH 2        // filter.comp's CONTACT_REACH
-#define FILTER_WINDOW_FLOOR 2.0       // filter.comp's WINDOW_FLOOR
 #define FILTER_MAX_TAPS (PN_FILTER_MAX_TILE * PN_FILTER_MAX_TILE)
 
 // A filtered frame as the filter pass saw it (pn_frame_images and the frame's settings).
@@ -68,7 +67,7 @@ typedef struct filter_window {
     bool pen_between;          // ... a penumbra weight between 0 and 1 that applies
     // Under the penumbra filter (filter_frame.narrow > 0):
     bool gauss_between; // a tap the geometry keeps has a Gaussian weight between 0 and 1
-    bool floored;       // ... and that Gaussian is WINDOW_FLOOR pixels wide, wider than the blocker's
+    bool floored;       // ... and the penumbra under it counts as a pixel wide, wider than the blocker's
     bool refuses;       // the penumbra weight would refuse a usable neighbour (below 1)
     bool lifted;        // ... and it does not apply: no edge of geometry within CONTACT_REACH
     bool ring;          // ... it applies, and only the ring CONTACT_REACH away saw the edge

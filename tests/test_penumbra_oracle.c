@@ -6,7 +6,7 @@
 //
 // Each pass is checked from the floats it read, so that neither bound carries the other's error:
 //  - the interleaved window before it (filter.comp under the penumbra filter: its Gaussian over
-//    the nearest blocker's penumbra, at least WINDOW_FLOOR pixels wide, which the contacts must
+//    the nearest blocker's penumbra, taken as at least a pixel wide, which the contacts must
 //    reach, and the penumbra weight only within CONTACT_REACH pixels of an edge of geometry) against filter_oracle.c, from the frame's P, N, counts and nearest blockers
 //    (pn_frame_images.blockers), every covered pixel within the oracle's bound; the rule must both
 //    lift refusals and keep some that only its ring of pixels 2 away justifies. Written against the
@@ -265,8 +265,8 @@ static void check_window(const char *name, const frame *f, bool analytic)
     // penumbra's blocker is far, which at 1 spp leaves it far wider than the window.
     CHECK_MSG((analytic || gauss > 0) && pen > 0, "%s, window: the Gaussian (%llu) or the penumbra weight (%llu) never acted",
               name, (unsigned long long)gauss, (unsigned long long)pen);
-    // Its contacts also hold pixels whose nearest blocker casts a penumbra under WINDOW_FLOOR
-    // pixels, where the Gaussian takes its floor.
+    // Its contacts also hold pixels whose nearest blocker casts a penumbra under a pixel, which
+    // the Gaussian takes as a pixel wide.
     CHECK_MSG(analytic || floored > 0, "%s, window: the Gaussian never took its floor", name);
 }
 

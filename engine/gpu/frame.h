@@ -62,7 +62,8 @@ typedef struct pn_renderer_desc {
     // input (pn_frame_images.v_window; render --aovs writes it as shadow.V_window), and the nearest
     // blockers the window read (pn_frame_images.blockers), so that both the window and the
     // Gaussian can be checked against recomputations (tests/filter_oracle.h, penumbra_oracle.h).
-    // Two more image copies per frame, inside the filter's time: off unless asked for.
+    // Two more image copies per frame, inside the filter's time, and 12 bytes a pixel more of the
+    // readback buffer: off unless asked for.
     bool keep_window;
 } pn_renderer_desc;
 

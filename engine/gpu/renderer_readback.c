@@ -132,7 +132,7 @@ void pn_renderer_record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t
     VkDeviceSize px = pn_renderer_readback_plane(r);
     for (uint32_t k = 0; k < count; k++) {
         VkBufferImageCopy copy = {
-            .bufferOffset = (PN_READBACK_FLOATS_PER_PIXEL + 2 * i + k) * 4 * px,
+            .bufferOffset = (pn_renderer_readback_floats(r) + 2 * i + k) * 4 * px,
             .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
             .imageExtent = {r->width, r->height, 1},
         };
@@ -151,7 +151,7 @@ void pn_renderer_record_light_copy(pn_renderer *r, VkCommandBuffer cmd, uint32_t
 pn_result pn_renderer_reserve_readback(pn_renderer *r, uint32_t light_count)
 {
     VkDeviceSize px = pn_renderer_readback_plane(r);
-    VkDeviceSize bytes = px * 4 * (PN_READBACK_FLOATS_PER_PIXEL + (light_count > 1 ? 2 * light_count : 0));
+    VkDeviceSize bytes = px * 4 * (pn_renderer_readback_floats(r) + (light_count > 1 ? 2 * light_count : 0));
     if (r->readback.size >= bytes)
         return PN_OK;
     pn_gpu_buffer_destroy(r->dev, &r->readback);
@@ -173,9 +173,8 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->counts = (const uint32_t *)(base + PN_READBACK_COUNTS * px);
     out->rays = r->rays_written ? (const uint32_t *)(base + PN_READBACK_RAYS * px) : NULL;
     out->footprint = r->desc.filter == PN_FILTER_PENUMBRA ? base + PN_READBACK_FOOTPRINT * px : NULL;
-    bool window = r->desc.filter == PN_FILTER_PENUMBRA && r->desc.keep_window;
-    out->v_window = window ? base + PN_READBACK_V_WINDOW * px : NULL;
-    out->blockers = window ? base + PN_READBACK_BLOCKERS * px : NULL;
+    out->v_window = keeps_window(r) ? base + PN_READBACK_V_WINDOW * px : NULL;
+    out->blockers = keeps_window(r) ? base + PN_READBACK_BLOCKERS * px : NULL;
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;
@@ -184,7 +183,7 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     }
     // Several lights: each one's V and V_raw after the images (pn_renderer_record_light_copy); V is light 0's.
     for (uint32_t i = 0; i < out->light_count; i++) {
-        out->v_light[i] = base + (PN_READBACK_FLOATS_PER_PIXEL + 2 * i) * px;
+        out->v_light[i] = base + (pn_renderer_readback_floats(r) + 2 * i) * px;
         out->v_raw_light[i] = filtered(r) ? out->v_light[i] + px : NULL;
     }
     out->v = out->v_light[0];

@@ -163,28 +163,27 @@ void main()
     // fixed window's MAE was 0.0037 against unfiltered's 0.0029, narrowing 0.0024). A pixel
     // without a blocker of its own (or with no estimate) keeps the window.
     //
-    // Never narrower than WINDOW_FLOOR pixels x n^-3/4 (since stop 56): at 1 spp two pixels, at 4
-    // spp 0.7 (the neighbours' weight 0.37 along the axes), from 16 spp a quarter of a pixel, which
-    // leaves the neighbours nothing (exp(-8)), so convergence is as before. The nearest blocker of a
-    // pixel's few rays may lie a hair away (a bump's or a crease's own shadow: a penumbra under a
-    // pixel wide) where V is smooth at the pixel's scale, and the window then kept the pixel's one
-    // ray: on the dragon at 1 spp 9.7% of the reference error sat in pixels away from an edge of
-    // geometry whose blocker cast under half a pixel, at V 0.02 where the reference is 0.27. Where
-    // the shadow is truly that sharp a blocker that close shows beside it, and the penumbra weight
-    // refuses there (the edge rule below); the range weight refuses what the samples say differs.
-    // Measured (bench, 512 x 512, exact, the five standard views, reference MAE at 1 / 2 / 4 spp,
-    // seed 1, with the Gaussian's ring 2 pixels away, penumbra_filter.comp): the bunny 0.0139 /
-    // 0.0092 / 0.0061 -> 0.0131 / 0.0086 / 0.0056, the dragon 0.0115 / 0.0081 / 0.0054 -> 0.0111 /
-    // 0.0076 / 0.0051, the buddha 0.0101 / 0.0062 / 0.0041 -> 0.0098 / 0.0061 / 0.0039, Sponza and
-    // the canopy within 0.0001; 8 and 16 spp within 0.0001; the edge leak at 1 spp at most 0.85%
-    // (seed 2: 0.94%, the bunny). 1 pixel gains only at 1 spp; 3 and 4 no more than 2, with more
-    // leak; 2 pixels x n^-1/2 the same as n^-3/4 at 1-4 spp.
-    const float WINDOW_FLOOR = 2.0;
+    // The penumbra counts as at least a pixel wide (since stop 56): the window's Gaussian is never
+    // narrower than pc.narrow = 2 pixels x n^-3/4 (at 1 spp two pixels, at 4 spp 0.7: the
+    // neighbours' weight 0.37 along the axes; from 16 spp a quarter of a pixel, which leaves the
+    // neighbours nothing, exp(-8), so convergence is as before; the demo's accumulation narrows it
+    // with pc.narrow). The nearest blocker of a pixel's few rays may lie a hair away (a bump's or a
+    // crease's own shadow: a penumbra under a pixel wide) where V is smooth at the pixel's scale,
+    // and the window then kept the pixel's one ray: on the dragon at 1 spp 9.7% of the reference
+    // error sat in pixels away from an edge of geometry whose blocker cast under half a pixel, at V
+    // 0.02 where the reference is 0.27. Where the shadow is truly that sharp a blocker that close
+    // shows beside it, and the penumbra weight refuses there (the edge rule below); the range
+    // weight refuses what the samples say differs. Measured (bench, 512 x 512, exact, the five
+    // standard views, reference MAE at 1 / 2 / 4 spp, seed 1, with the Gaussian's ring 2 pixels
+    // away, penumbra_filter.comp): the bunny 0.0139 / 0.0092 / 0.0061 -> 0.0131 / 0.0086 / 0.0056,
+    // the dragon 0.0115 / 0.0081 / 0.0054 -> 0.0111 / 0.0076 / 0.0051, the buddha 0.0101 / 0.0062
+    // / 0.0041 -> 0.0098 / 0.0061 / 0.0039, Sponza and the canopy within 0.0001; 8 and 16 spp
+    // within 0.0001; the edge leak at 1 spp at most 0.85% (seed 2: 0.94%, the bunny). Half a pixel
+    // gains only at 1 spp; 1.5 and 2 pixels no more than 1, with more leak; 2 pixels x n^-1/2 the
+    // same as n^-3/4 at 1-4 spp.
     float narrow = -1.0;
     if (pc.narrow > 0.0 && pc.samples > 0u && !unknown)
-        narrow = width_near >= PN_PENUMBRA_NONE
-                     ? -1.0
-                     : max(pc.narrow * width_near, WINDOW_FLOOR * footprint_p) * pow(own_samples, -0.75);
+        narrow = width_near >= PN_PENUMBRA_NONE ? -1.0 : pc.narrow * max(width_near, footprint_p) * pow(own_samples, -0.75);
     // First the geometry's weights (and the window's V under them), then V's own: see below.
     float wg[TILE_W * TILE_H], vq[TILE_W * TILE_H], pw[TILE_W * TILE_H];
     bool refuses = false, near_edge = false;
