@@ -176,7 +176,8 @@ static double filter_narrow_rel(uint32_t samples)
 // argument a = x^2 / 2 lies in [a (1 - 2r), a (1 + 2r)], and exp adds 3 + 2 |a| ulp (Vulkan's bound,
 // which does not keep exp of a negative below 1), twice; below, a denormal result may flush to 0.
 // The ends are computed apart, so that a far tap (exp underflows) gives [0, FLT_MIN], not a
-// product of 0 and infinity. narrow = 0 (a contact: the width is 0) gives exactly 0 in both.
+// product of 0 and infinity. narrow = 0 would give exactly 0 in both (no longer met: the penumbra
+// counts as at least a pixel wide).
 static double filter_gauss(const float *p, const float *q, double narrow, double narrow_rel, double *lo, double *hi)
 {
     *lo = *hi = 0;

@@ -53,7 +53,7 @@ typedef struct penumbra_pixel {
 
 // The footprint the Gaussian is centred with at (x, y), world units, as the row pass reads it: the
 // pixel's own where one of its valid rays was blocked, else the narrowest of its 3 x 3 neighbours'
-// own, else of the 16 pixels 2 away (0 if none has one), at most max_radius / RADIUS_SIGMAS of the
+// own, else of the 5 x 5's outer ring (0 if none has one), at most max_radius / RADIUS_SIGMAS of the
 // pixel's own pixels; *ring says which: 0 its own, 1 or 2 the ring it came from, -1 none.
 // Recovered from the row pass's footprint output
 // (pixels facing the camera) times the pixel's footprint, within PENUMBRA_SIGMA_REL.

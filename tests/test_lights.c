@@ -5,7 +5,8 @@
 //     rounding of the shading pass's one addition per light: all terms are >= 0, so a relative
 //     error of 2^-24 per addition, far under the 1e-4 required on every pixel. Each light's V in
 //     the pair's frame must equal its single frame's V bit for bit. Every tracing mode is checked
-//     with and without the filter; the line-space modes over one tree built for the set {A, B}
+//     with and without the interleaved filter, exact also with the penumbra filter, its window kept
+//     or not (where the lights' planes lie in the readback buffer); the line-space modes over one tree built for the set {A, B}
 //     (the tree depends on the set of lights, not on which of them a frame traces).
 //  2. The tree of a set of lights: a triangle may be left out only when it cannot block a ray to
 //     any light of the set. The default scene's ground plane cannot block rays to a light above
@@ -64,10 +65,11 @@ static void light_at(const float pos[3], const float normal[3], float w, float h
 
 // Linearity for one mode and filter: frames of A, B and {A, B} over one set-up.
 static void check_linearity(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light ab[2],
-                            pn_shadow_mode mode, pn_filter filter)
+                            pn_shadow_mode mode, pn_filter filter, bool keep_window)
 {
     const char *name = pn_shadow_mode_get(mode)->name;
-    pn_setup_desc sd = {.frame = {.width = W, .height = H, .mode = mode, .spp = 4, .seed = 7, .filter = filter},
+    pn_setup_desc sd = {.frame = {.width = W, .height = H, .mode = mode, .spp = 4, .seed = 7, .filter = filter,
+                                  .keep_window = keep_window},
                         .tree_n = 6, .tree_d = 2, .light_count = 2};
     pn_setup s;
     pn_result r = pn_setup_create(dev, scene, ab, &sd, &s);
@@ -96,9 +98,9 @@ static void check_linearity(pn_gpu_device *dev, const pn_scene *scene, const pn_
             // Covered pixels (alpha) in some light's shadow: the background has V = 0 too.
             shadowed += fab.radiance[4 * i + 3] > 0 && (fa.v[0][i] < 1 || fb.v[0][i] < 1);
         }
-        fprintf(stderr, "%-9s filter %-11s: worst relative difference %.2e over %d px (%llu lit by A, %llu by B, "
+        fprintf(stderr, "%-9s filter %-11s%s: worst relative difference %.2e over %d px (%llu lit by A, %llu by B, "
                         "%llu with some shadow); V per light off on %llu px\n",
-                name, pn_filter_names[filter], worst, W * H, (unsigned long long)lit_a, (unsigned long long)lit_b,
+                name, pn_filter_names[filter], keep_window ? " (window kept)" : "", worst, W * H, (unsigned long long)lit_a, (unsigned long long)lit_b,
                 (unsigned long long)shadowed, (unsigned long long)v_off);
         CHECK_MSG(off == 0, "%s filter %s: %llu channels differ from the sum of the single-light frames by more "
                   "than 1e-4 relative", name, pn_filter_names[filter], (unsigned long long)off);
@@ -314,9 +316,13 @@ int main(void)
             fprintf(stderr, "%s: not on this device (%s)\n", pn_shadow_mode_get(modes[m])->name, lack);
             continue;
         }
-        check_linearity(&dev, &scene, &cam, ab, modes[m], PN_FILTER_NONE);
-        check_linearity(&dev, &scene, &cam, ab, modes[m], PN_FILTER_INTERLEAVED);
+        check_linearity(&dev, &scene, &cam, ab, modes[m], PN_FILTER_NONE, false);
+        check_linearity(&dev, &scene, &cam, ab, modes[m], PN_FILTER_INTERLEAVED, false);
     }
+    // The penumbra filter, with and without its window kept (keep_window: three more planes of the
+    // readback buffer before the lights' own, pn_renderer_images).
+    check_linearity(&dev, &scene, &cam, ab, PN_SHADOW_EXACT, PN_FILTER_PENUMBRA, false);
+    check_linearity(&dev, &scene, &cam, ab, PN_SHADOW_EXACT, PN_FILTER_PENUMBRA, true);
 
     // 3. The budgeted split.
     check_budget_counts(&dev, &scene, &cam, ab, PN_SHADOW_EXACT);

@@ -12,7 +12,7 @@
 //    and the footprint is the width scale x that x n^-1/2 over the pixel's footprint (view depth x
 //    pixel angle), at most max_radius / 2.5 pixels (penumbra_filter.comp), where one of the pixel's
 //    rays was blocked (V_raw < 1); else the narrowest of its 3 x 3 neighbours', failing them of the
-//    16 pixels 2 away (a lit pixel at a penumbra's edge takes it), 0 where none has a blocked ray;
+//    5 x 5's outer ring (a lit pixel at a penumbra's edge takes it), 0 where none has a blocked ray;
 //  - the error against the closed form at 1 and 4 spp: below the interleaved filter's, which
 //    averages 3x3 pixels only;
 //  - contact sharpness, on builtin:default (a cube, a sphere and table legs resting on the

@@ -13,8 +13,8 @@
 //    old rule (the weight everywhere), without the window's Gaussian or without the ring, the
 //    oracle puts 356-602 pixels of builtin:default at 1 spp off the shader;
 //  - the footprint the row pass centres on: a pixel without a blocked ray of its own takes the
-//    narrowest of its 3 x 3 neighbours', failing them of the 16 pixels 2 away (relative bound: the recovered footprints' 6u and the
-//    quotient's 5u, twice);
+//    narrowest of its 3 x 3 neighbours', failing them of the 5 x 5's outer ring (relative bound:
+//    the recovered footprints' 6u and the quotient's 5u, twice);
 //  - the row pass's V (pn_frame_images.footprint's first channel) from the interleaved window's V
 //    (pn_frame_images.v_window, the renderer's desc.keep_window), and the column pass's V (the
 //    frame's) from the row pass's V and footprint; where the Gaussian does not run (a deviation
@@ -271,7 +271,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
 }
 
 // The row pass's footprint output: where the pixel has no blocked ray of its own, the narrowest of its
-// 3 x 3 neighbours', else of the 16 pixels 2 away, over its pixel's footprint (0 if none; 0 on the
+// 3 x 3 neighbours', else of the 5 x 5's outer ring, over its pixel's footprint (0 if none; 0 on the
 // background). Counts the pixels that took a neighbour's, from either ring.
 static void check_dilation(const char *name, const frame *f, uint64_t dilated[2])
 {
@@ -293,7 +293,7 @@ static void check_dilation(const char *name, const frame *f, uint64_t dilated[2]
             if (fabs(got - want) > 2 * (PENUMBRA_SIGMA_REL + 5 * FLOAT_U) * want && off++ < 5)
                 fprintf(stderr, "  %s (%d, %d): footprint %.9g px, oracle %.9g (ring %d)\n", name, x, y, got, want, ring);
         }
-    fprintf(stderr, "%s: footprints from the 3 x 3 neighbours %llu, from the ring 2 away %llu\n", name,
+    fprintf(stderr, "%s: footprints from the 3 x 3 neighbours %llu, from the 5 x 5's outer ring %llu\n", name,
             (unsigned long long)dilated[0], (unsigned long long)dilated[1]);
     CHECK_MSG(off == 0, "%s: %llu dilated footprints off their oracle", name, (unsigned long long)off);
 }
@@ -335,7 +335,7 @@ static void check_frame(const char *name, const frame *f, bool analytic)
     // builtin:default's sphere and table legs turn away from the light: pixels that lend nothing.
     fprintf(stderr, "%s: %llu covered pixels lend nothing along columns\n", name, (unsigned long long)r.no_lend);
     CHECK_MSG(analytic || r.no_lend > 0, "%s: no pixel the light cannot reach", name);
-    CHECK_MSG(dilated[0] > 0 && dilated[1] > 0, "%s: no pixel took a footprint from the 3 x 3 (%llu) or the ring 2 away (%llu)",
+    CHECK_MSG(dilated[0] > 0 && dilated[1] > 0, "%s: no pixel took a footprint from the 3 x 3 (%llu) or the 5 x 5's outer ring (%llu)",
               name, (unsigned long long)dilated[0], (unsigned long long)dilated[1]);
 }
 

@@ -35,7 +35,7 @@ void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f);
 float pn_penumbra_width_scale(void);
 // The interleaved filter's window under the penumbra filter: its weights fall as a Gaussian of
 // this many widths of the nearest blocker's penumbra times n^-3/4 (pn_filter_pass_record's
-// narrow; filter.comp). n^-3/4, not the Gaussian's n^-1/2: a stratified estimate's error at an
+// narrow; filter.comp), the penumbra taken as at least a pixel wide (since stop 56). n^-3/4, not the Gaussian's n^-1/2: a stratified estimate's error at an
 // edge falls as n^-3/4, and the window's bias must fall as fast for the filtered V to converge
 // with it (on the analytic penumbra, tests/test_penumbra_filter.c, at 256 spp: n^-1/2 left 0.000212
 // against unfiltered's 0.000187, n^-3/4 0.000174). Measured (bench, bunny, canopy and Sponza at

@@ -75,6 +75,8 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
 pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,
                                     uint32_t light_count, pn_frame_times *times);
 
+// The last frame's images in the readback buffer (pn_frame_images), valid until the next frame or
+// pn_renderer_set_filter (which moves the planes: the penumbra filter's window is kept only with it).
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
 
 // With desc.count_work, after a frame: per pixel 4 counts over all its shadow rays: nodes visited

@@ -118,7 +118,6 @@ void main()
     float own_samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
     if (pc.narrow > 0.0) {
         float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);
-
         // What the pixel lends the Gaussian (penumbra_filter.comp): 1 its V, an estimate of its own;
         // 0.5 a V this window takes from its neighbours below (no valid ray, but the light reaches
         // above its horizon), lent along columns only, after the row pass; 0 nothing (the light
@@ -164,7 +163,7 @@ void main()
     // without a blocker of its own (or with no estimate) keeps the window.
     //
     // The penumbra counts as at least a pixel wide (since stop 56): the window's Gaussian is never
-    // narrower than pc.narrow = 2 pixels x n^-3/4 (at 1 spp two pixels, at 4 spp 0.7: the
+    // narrower than pc.narrow (2) pixels x n^-3/4 (at 1 spp two pixels, at 4 spp 0.7: the
     // neighbours' weight 0.37 along the axes; from 16 spp a quarter of a pixel, which leaves the
     // neighbours nothing, exp(-8), so convergence is as before; the demo's accumulation narrows it
     // with pc.narrow). The nearest blocker of a pixel's few rays may lie a hair away (a bump's or a

@@ -20,7 +20,7 @@
 //
 // Pixels whose rays met no blocker have no footprint of their own. At a penumbra's edge one
 // pixel's few rays all pass by luck, and left alone it shows as a lit speck: such a pixel whose
-// 3 x 3 neighbours (the interleaving window; failing them, the ring 2 pixels away) include one
+// 3 x 3 neighbours (the interleaving window; failing them, the outer ring of the 5 x 5) include one
 // with a blocker takes the narrowest of their footprints (narrowest_neighbour: the nearest blocker any of the window's rays met bounds
 // how fast V varies there, as a pixel's own nearest blocker does for it); and it lends its V to a
 // penumbra pixel under that pixel's footprint. Measured with the widest of the footprints (the
@@ -79,7 +79,7 @@ vec2 pixel_footprint(ivec2 px)
 }
 
 // The narrowest footprint among a pixel's 3 x 3 neighbours with a blocker of their own, or where
-// none has one among the 16 pixels 2 away (0 if none of those has one either): the footprint of
+// none has one among the 16 pixels of the 5 x 5's outer ring (0 if none of those has one either): the footprint of
 // the pixel the Gaussian is centred on where it has no blocker of its own. Its rays all passed, but a neighbour's were blocked: it lies at a penumbra's edge, where one
 // pixel's few rays all pass by luck. The nearest of the neighbours' blockers bounds how fast V can
 // vary around it, as the pixel's own nearest blocker would. Before, the widest of them: where a
@@ -93,16 +93,16 @@ vec2 pixel_footprint(ivec2 px)
 // can exceed the clamp in this pixel's: blur clamps it again (to this pixel's footprint facing the
 // camera), so that the reach always spans RADIUS_SIGMAS deviations.
 //
-// The ring 2 pixels away, since stop 56: on the lit side of a penumbra (V about 0.9) all nine of
+// The 5 x 5's outer ring, since stop 56: on the lit side of a penumbra (V about 0.9) all nine of
 // a window's rays pass at 1 spp with a probability of about 0.9^9 = 0.39, and such a pixel kept
 // V = 1 (on the dragon at 1 spp, 19.6% of the reference error sat in those pixels, 0.094 each).
 // Only where the 3 x 3 has no blocker, and the narrowest of the ring's, so that no pixel's
 // footprint is wider than before. Measured (bench, 512 x 512, exact, the five standard views,
 // reference MAE at 1 / 2 / 4 spp, seed 1): the bunny 0.0158 / 0.0099 / 0.0064 -> 0.0139 / 0.0092 /
 // 0.0061, the dragon 0.0124 / 0.0084 / 0.0055 -> 0.0115 / 0.0081 / 0.0054, the buddha 0.0105 /
-// 0.0064 -> 0.0101 / 0.0062, Sponza and the canopy within 0.0002 (seed 2 alike); the edge leak at
-// 1 spp at most 0.84% (seed 2: 0.91%, the bunny), the filter pass within noise (+0-2 ms). A
-// ring 3 or 4 pixels away further out gains under 0.0003 more. The 5 x 5 ring that lost before
+// 0.0064 / 0.0041 -> 0.0101 / 0.0062 / 0.0041, Sponza and the canopy within 0.0002 (seed 2 alike); the edge leak at
+// 1 spp at most 0.84% (seed 2: 0.91%, the bunny), the filter pass 1-3 ms more (the ring's 16 loads). The
+// rings 3 and 4 pixels away further out gain under 0.0003 more. The 5 x 5 ring that lost before
 // (above) took the widest footprint of all 24 pixels, for every pixel.
 float narrowest_neighbour(ivec2 px, ivec2 size)
 {
