@@ -155,12 +155,12 @@ static double filter_mean_tol(double w, double dw)
 
 // The relative error of the shader's float narrow = pc.narrow x max(width, view depth x pixel
 // angle) x pow(samples, -3/4): two products (u each; the footprint's own product rounds by u too,
-// which the factor 2 below covers, and the max is one of its arguments) and pow, which Vulkan lets inherit exp2(y log2 x)'s error: log2 within 3 ulp
-// outside [0.5, 2] and 2^-21 absolute inside, y times it (u of the product, y |log2 x| u
-// absolute), and exp2 within 3 + 2 |y log2 x| ulp. An absolute error e in the exponent is a
-// relative one of e ln 2 in the result. Twice the whole, for contraction and reordering. Uniform
-// samples only (the shader's pc.adaptive = 0): under adaptive sampling a pixel's own valid rays
-// count instead.
+// which the factor 2 below covers, and the max is one of its arguments) and pow, which Vulkan lets
+// inherit exp2(y log2 x)'s error: log2 within 3 ulp outside [0.5, 2] and 2^-21 absolute inside, y
+// times it (u of the product, y |log2 x| u absolute), and exp2 within 3 + 2 |y log2 x| ulp. An
+// absolute error e in the exponent is a relative one of e ln 2 in the result. Twice the whole, for
+// contraction and reordering. Uniform samples only (the shader's pc.adaptive = 0): under adaptive
+// sampling a pixel's own valid rays count instead.
 static double filter_narrow_rel(uint32_t samples)
 {
     const double u = FLOAT_U, y = 0.75, l = log2((double)samples);
@@ -229,12 +229,13 @@ static verdict filter_edge_at(const filter_frame *f, int x, int y, int dx, int d
 //    d = 0), its geometric weight within err of t.w, and their float product within 2u (u, twice)
 //    of the product of the intervals (all >= 0); the weight's error is the farther end's distance.
 //
-// Under the penumbra filter (f->narrow > 0) the geometric weight of each neighbour of a pixel with a
-// blocker of its own also falls as a Gaussian of world distance, narrow = pc.narrow x its nearest
-// blocker's penumbra width (at least the pixel's footprint) x samples^-3/4 wide, and the
-// penumbra weight applies only where it would refuse a usable neighbour and an edge of geometry
-// lies within the window or on the ring of 8 pixels CONTACT_REACH away (filter.comp's edge rule); where that verdict lies within rounding of
-// a threshold, o->ambiguous says so and V is the verdict's (pen applies).
+// Under the penumbra filter (f->narrow > 0) the geometric weight of each neighbour of a pixel with
+// a blocker of its own also falls as a Gaussian of world distance, narrow = pc.narrow x its nearest
+// blocker's penumbra width (at least the pixel's footprint) x samples^-3/4 wide, and the penumbra
+// weight applies only where it would refuse a usable neighbour and an edge of geometry lies within
+// the window or on the ring of 8 pixels CONTACT_REACH away (filter.comp's edge rule); where that
+// verdict lies within rounding of a threshold, o->ambiguous says so and V is the verdict's (pen
+// applies).
 //
 // A pixel without a valid ray keeps its V_raw where the light cannot reach it and otherwise takes
 // the geometric mean of its neighbours'; a neighbour without a valid ray is no tap.
@@ -313,8 +314,9 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         t->w = t->wgeo * g * pen;
         t->err = fmax(w_hi * (1 + 4 * FLOAT_U) - t->w, t->w - w_lo * (1 - 4 * FLOAT_U));
         o->pen_between = o->pen_between || (pen_on && t->wgeo > 1e-3 && filter_between(t->pen));
-        o->gauss_between = o->gauss_between || (narrow >= 0 && t->wgeo > 1e-3 && filter_between(g));
-        o->floored = o->floored || (floored && narrow >= 0 && t->wgeo > 1e-3 && filter_between(g));
+        bool between = narrow >= 0 && t->wgeo > 1e-3 && filter_between(g);
+        o->gauss_between = o->gauss_between || between;
+        o->floored = o->floored || (floored && between);
         o->v_raw[k] = f->v_raw[(y + dy) * f->width + x + dx];
         o->d[k] = fabs((double)o->v_raw[k] - v_p);
         sum += t->w * o->v_raw[k];

@@ -31,9 +31,9 @@ double penumbra_centre_footprint(const penumbra_frame *f, int x, int y, int *rin
     *ring = own(f, i) ? 0 : -1;
     if (*ring == 0 || !covered(f, i)) // the background's footprint is 0 (filter.comp writes 0 there)
         return *ring == 0 ? own_footprint(f, i) : 0.0;
-    // Without one: the narrowest of the 3 x 3 neighbours' own, else of the 16 of the 5 x 5's outer ring (clamped
-    // to the image), 0 if none, at most max_radius / RADIUS_SIGMAS of the pixel's own footprints
-    // (float's quotient and product).
+    // Without one: the narrowest of the 3 x 3 neighbours' own, else of the 16 of the 5 x 5's outer
+    // ring (clamped to the image), 0 if none, at most max_radius / RADIUS_SIGMAS of the pixel's own
+    // footprints (float's quotient and product).
     double narrowest = -1.0;
     for (int r = 1; r <= 2 && narrowest < 0.0; r++) {
         for (int dy = -r; dy <= r; dy++)

@@ -33,17 +33,18 @@ void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f);
 // 2: 0.98 -> 0.85%, 0.96 -> 0.77%); 0.18 and 0.12 lose at 1 spp (the dragon 0.0127, 0.0134; the
 // canopy 0.0286, 0.0338), 0.5 and 0.7 too, with the leak past 1% (the dragon 1.42%, 2.07%).
 float pn_penumbra_width_scale(void);
-// The interleaved filter's window under the penumbra filter: its weights fall as a Gaussian of
-// this many widths of the nearest blocker's penumbra times n^-3/4 (pn_filter_pass_record's
-// narrow; filter.comp), the penumbra taken as at least a pixel wide (since stop 56). n^-3/4, not the Gaussian's n^-1/2: a stratified estimate's error at an
-// edge falls as n^-3/4, and the window's bias must fall as fast for the filtered V to converge
-// with it (on the analytic penumbra, tests/test_penumbra_filter.c, at 256 spp: n^-1/2 left 0.000212
-// against unfiltered's 0.000187, n^-3/4 0.000174). Measured (bench, bunny, canopy and Sponza at
-// 256 x 256, exact, 4 / 16 / 256 spp, reference MAE; the scale as 1.4 n^-1/2 at 4 spp, which is
-// 2 n^-3/4 there): 0.35 n^-1/2 cost the canopy at 4 and 16 spp (0.0313 / 0.0169 against 0.0248 /
-// 0.0129 with a fixed window); 2 n^-3/4 keeps 4 and 16 spp within 3% of the fixed window and
-// cuts 256 spp's (canopy 0.0024 against 0.0037, unfiltered 0.0029; Sponza 0.00072 against 0.00082,
-// unfiltered 0.00103); 16 times that no longer narrowed the canopy's at 256 spp (0.0032).
+// The interleaved filter's window under the penumbra filter: its weights fall as a Gaussian of this
+// many widths of the nearest blocker's penumbra times n^-3/4 (pn_filter_pass_record's narrow;
+// filter.comp), the penumbra taken as at least a pixel wide (since stop 56). n^-3/4, not the
+// Gaussian's n^-1/2: a stratified estimate's error at an edge falls as n^-3/4, and the window's
+// bias must fall as fast for the filtered V to converge with it (on the analytic penumbra,
+// tests/test_penumbra_filter.c, at 256 spp: n^-1/2 left 0.000212 against unfiltered's 0.000187,
+// n^-3/4 0.000174). Measured (bench, bunny, canopy and Sponza at 256 x 256, exact, 4 / 16 / 256
+// spp, reference MAE; the scale as 1.4 n^-1/2 at 4 spp, which is 2 n^-3/4 there): 0.35 n^-1/2 cost
+// the canopy at 4 and 16 spp (0.0313 / 0.0169 against 0.0248 / 0.0129 with a fixed window); 2
+// n^-3/4 keeps 4 and 16 spp within 3% of the fixed window and cuts 256 spp's (canopy 0.0024 against
+// 0.0037, unfiltered 0.0029; Sponza 0.00072 against 0.00082, unfiltered 0.00103); 16 times that no
+// longer narrowed the canopy's at 256 spp (0.0032).
 float pn_penumbra_window_scale(void);
 // The most pixels a tap lies from its pixel: the frame's budget, growing with the image's height
 // (a penumbra spans more pixels at a higher resolution) within [8, 32].

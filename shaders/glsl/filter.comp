@@ -182,7 +182,8 @@ void main()
     // same as n^-3/4 at 1-4 spp.
     float narrow = -1.0;
     if (pc.narrow > 0.0 && pc.samples > 0u && !unknown)
-        narrow = width_near >= PN_PENUMBRA_NONE ? -1.0 : pc.narrow * max(width_near, footprint_p) * pow(own_samples, -0.75);
+        narrow = width_near >= PN_PENUMBRA_NONE ? -1.0
+                                                : pc.narrow * max(width_near, footprint_p) * pow(own_samples, -0.75);
     // First the geometry's weights (and the window's V under them), then V's own: see below.
     float wg[TILE_W * TILE_H], vq[TILE_W * TILE_H], pw[TILE_W * TILE_H];
     bool refuses = false, near_edge = false;

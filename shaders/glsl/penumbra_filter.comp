@@ -18,20 +18,20 @@
 // leaves the footprint below half a pixel there. A contact shadow, whose blocker touches the
 // receiver, has W -> 0 and stays sharp; a point light's V (samples 0) is exact and is left alone.
 //
-// Pixels whose rays met no blocker have no footprint of their own. At a penumbra's edge one
-// pixel's few rays all pass by luck, and left alone it shows as a lit speck: such a pixel whose
-// 3 x 3 neighbours (the interleaving window; failing them, the outer ring of the 5 x 5) include one
-// with a blocker takes the narrowest of their footprints (narrowest_neighbour: the nearest blocker any of the window's rays met bounds
-// how fast V varies there, as a pixel's own nearest blocker does for it); and it lends its V to a
-// penumbra pixel under that pixel's footprint. Measured with the widest of the footprints (the
-// rule before stop 54; bench, the five standard views at 256 x 256, exact, reference MAE, 1 / 4
-// spp): against no dilation, the
-// bunny 0.0215 / 0.0079 (0.0269 / 0.0090), the dragon 0.0177 / 0.0073 (0.0217 / 0.0077), the canopy
-// 0.0431 / 0.0253 (0.0641 / 0.0255), Sponza 0.0270 / 0.0063 (0.0290 / 0.0060); a 5 x 5 ring lost
-// on Sponza and the buddha at 1 spp (0.0332, 0.0178), and giving every pixel the widest footprint
-// whose Gaussian reaches it (a dilation per 8 x 8 tile) more (at 1 spp the buddha 0.028 against
-// 0.0175, Sponza 0.044 against 0.029): lit pixels beside an umbra whose nearest blocker casts a
-// wide penumbra are pulled down, where one ray's noise leaves the range weight nothing to refuse.
+// Pixels whose rays met no blocker have no footprint of their own. At a penumbra's edge one pixel's
+// few rays all pass by luck, and left alone it shows as a lit speck: such a pixel whose 3 x 3
+// neighbours (the interleaving window; failing them, the outer ring of the 5 x 5) include one with
+// a blocker takes the narrowest of their footprints (narrowest_neighbour: the nearest blocker any
+// of the window's rays met bounds how fast V varies there, as a pixel's own nearest blocker does
+// for it); and it lends its V to a penumbra pixel under that pixel's footprint. Measured with the
+// widest of the footprints (the rule before stop 54; bench, the five standard views at 256 x 256,
+// exact, reference MAE, 1 / 4 spp): against no dilation, the bunny 0.0215 / 0.0079 (0.0269 /
+// 0.0090), the dragon 0.0177 / 0.0073 (0.0217 / 0.0077), the canopy 0.0431 / 0.0253 (0.0641 /
+// 0.0255), Sponza 0.0270 / 0.0063 (0.0290 / 0.0060); a 5 x 5 ring lost on Sponza and the buddha at
+// 1 spp (0.0332, 0.0178), and giving every pixel the widest footprint whose Gaussian reaches it (a
+// dilation per 8 x 8 tile) more (at 1 spp the buddha 0.028 against 0.0175, Sponza 0.044 against
+// 0.029): lit pixels beside an umbra whose nearest blocker casts a wide penumbra are pulled down,
+// where one ray's noise leaves the range weight nothing to refuse.
 //
 // The Gaussian is separable, rows then columns, each tap weighted as the interleaved filter weighs
 // its window (the same surface: filter_common.glsl) and by V itself (a neighbour whose V differs
@@ -79,30 +79,31 @@ vec2 pixel_footprint(ivec2 px)
 }
 
 // The narrowest footprint among a pixel's 3 x 3 neighbours with a blocker of their own, or where
-// none has one among the 16 pixels of the 5 x 5's outer ring (0 if none of those has one either): the footprint of
-// the pixel the Gaussian is centred on where it has no blocker of its own. Its rays all passed, but a neighbour's were blocked: it lies at a penumbra's edge, where one
-// pixel's few rays all pass by luck. The nearest of the neighbours' blockers bounds how fast V can
-// vary around it, as the pixel's own nearest blocker would. Before, the widest of them: where a
-// far blocker's wide penumbra overlaps a near one's sharp shadow (a bumpy surface lit at a grazing
+// none has one among the 16 pixels of the 5 x 5's outer ring (0 if none of those has one either):
+// the footprint of the pixel the Gaussian is centred on where it has no blocker of its own. Its
+// rays all passed, but a neighbour's were blocked: it lies at a penumbra's edge, where one pixel's
+// few rays all pass by luck. The nearest of the neighbours' blockers bounds how fast V can vary
+// around it, as the pixel's own nearest blocker would. Before, the widest of them: where a far
+// blocker's wide penumbra overlaps a near one's sharp shadow (a bumpy surface lit at a grazing
 // angle), a lit pixel took the wide footprint and its Gaussian reached into the sharp shadow.
 // Measured (bench, 512 x 512, exact, the five standard views, 1 / 2 / 4 spp, seeds 1 and 2): the
 // edge leak fell on every mesh (seed 1: the bunny 0.83 / 0.73 / 0.62% -> 0.77 / 0.62 / 0.54%, the
 // dragon 0.87 / 0.82 / 0.64% -> 0.82 / 0.68 / 0.53%; seed 2 alike), the canopy's stayed, and the
 // reference MAE is within 0.0001 of before in every cell. A neighbour's footprint was clamped to
-// max_radius / RADIUS_SIGMAS of that neighbour's pixels (filter.comp), so at a step in depth it
-// can exceed the clamp in this pixel's: blur clamps it again (to this pixel's footprint facing the
+// max_radius / RADIUS_SIGMAS of that neighbour's pixels (filter.comp), so at a step in depth it can
+// exceed the clamp in this pixel's: blur clamps it again (to this pixel's footprint facing the
 // camera), so that the reach always spans RADIUS_SIGMAS deviations.
 //
-// The 5 x 5's outer ring, since stop 56: on the lit side of a penumbra (V about 0.9) all nine of
-// a window's rays pass at 1 spp with a probability of about 0.9^9 = 0.39, and such a pixel kept
-// V = 1 (on the dragon at 1 spp, 19.6% of the reference error sat in those pixels, 0.094 each).
-// Only where the 3 x 3 has no blocker, and the narrowest of the ring's, so that no pixel's
-// footprint is wider than before. Measured (bench, 512 x 512, exact, the five standard views,
-// reference MAE at 1 / 2 / 4 spp, seed 1): the bunny 0.0158 / 0.0099 / 0.0064 -> 0.0139 / 0.0092 /
-// 0.0061, the dragon 0.0124 / 0.0084 / 0.0055 -> 0.0115 / 0.0081 / 0.0054, the buddha 0.0105 /
-// 0.0064 / 0.0041 -> 0.0101 / 0.0062 / 0.0041, Sponza and the canopy within 0.0002 (seed 2 alike); the edge leak at
-// 1 spp at most 0.84% (seed 2: 0.91%, the bunny), the filter pass 1-3 ms more (the ring's 16 loads). The
-// rings 3 and 4 pixels away further out gain under 0.0003 more. The 5 x 5 ring that lost before
+// The 5 x 5's outer ring, since stop 56: on the lit side of a penumbra (V about 0.9) all nine of a
+// window's rays pass at 1 spp with a probability of about 0.9^9 = 0.39, and such a pixel kept V = 1
+// (on the dragon at 1 spp, 19.6% of the reference error sat in those pixels, 0.094 each). Only
+// where the 3 x 3 has no blocker, and the narrowest of the ring's, so that no pixel's footprint is
+// wider than before. Measured (bench, 512 x 512, exact, the five standard views, reference MAE at 1
+// / 2 / 4 spp, seed 1): the bunny 0.0158 / 0.0099 / 0.0064 -> 0.0139 / 0.0092 / 0.0061, the dragon
+// 0.0124 / 0.0084 / 0.0055 -> 0.0115 / 0.0081 / 0.0054, the buddha 0.0105 / 0.0064 / 0.0041 ->
+// 0.0101 / 0.0062 / 0.0041, Sponza and the canopy within 0.0002 (seed 2 alike); the edge leak at 1
+// spp at most 0.84% (seed 2: 0.91%, the bunny), the filter pass 1-3 ms more (the ring's 16 loads).
+// The rings 3 and 4 pixels away further out gain under 0.0003 more. The 5 x 5 ring that lost before
 // (above) took the widest footprint of all 24 pixels, for every pixel.
 float narrowest_neighbour(ivec2 px, ivec2 size)
 {
