@@ -237,6 +237,10 @@ static verdict filter_edge_at(const filter_frame *f, int x, int y, int dx, int d
 // verdict lies within rounding of a threshold, o->ambiguous says so and V is the verdict's (pen
 // applies).
 //
+// At one sample a pixel, where the penumbra weight would not apply (no edge of geometry near), the
+// range weight's spread is that of V's largest variance, a mean of 1/2, whatever the window's mean
+// (o->widest; within rounding of the edge rule's threshold: ambiguous).
+//
 // A pixel without a valid ray keeps its V_raw where the light cannot reach it and otherwise takes
 // the geometric mean of its neighbours'; a neighbour without a valid ray is no tap.
 void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
@@ -295,6 +299,14 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         o->lifted = o->refuses && applies == VERDICT_NO;
         o->ring = o->refuses && edge == VERDICT_NO && ring == VERDICT_YES;
     }
+    // One sample a pixel away from edges of geometry (where the penumbra weight would not apply:
+    // filter.comp's near_edge): the spread of V's largest variance, 1/4 (a mean of 1/2). Where that
+    // verdict lies within rounding: no verdict.
+    verdict widest = VERDICT_NO;
+    if (penumbra && f->samples == 1 && !unknown)
+        widest = applies == VERDICT_NO ? VERDICT_YES : applies == VERDICT_MAYBE ? VERDICT_MAYBE : VERDICT_NO;
+    o->widest = widest == VERDICT_YES;
+    o->ambiguous = o->ambiguous || widest == VERDICT_MAYBE;
     // Without a refusal every usable tap's penumbra weight is 1: applying it changes nothing.
     bool pen_on = !unknown && applies != VERDICT_NO;
     int self = -lo_y * f->tile_w - lo_x;
@@ -330,9 +342,10 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         o->tol = o->wg > 0 ? o->mean_tol : 0;
         return;
     }
-    o->spread = filter_spread(o->mean, f->samples);
+    double m = o->widest ? 0.5 : o->mean, m_tol = o->widest ? 0 : o->mean_tol;
+    o->spread = filter_spread(m, f->samples);
     double s_lo, s_hi;
-    filter_spread_range(fmax(o->mean - o->mean_tol, 0), fmin(o->mean + o->mean_tol, 1), f->samples, &s_lo, &s_hi);
+    filter_spread_range(fmax(m - m_tol, 0), fmin(m + m_tol, 1), f->samples, &s_lo, &s_hi);
     const double rel = 27 * FLOAT_U, flush = FILTER_RANGE_SIGMAS * sqrt(2 * FLT_MIN);
     s_lo = f->samples ? fmax(s_lo * (1 - rel) - flush, 0) : 0;
     s_hi = f->samples ? s_hi * (1 + rel) + flush : 0;
@@ -355,6 +368,7 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         o->w += w;
         dw += fmax(w_hi - w, w - w_lo);
         o->range_between = o->range_between || (t->w > 1e-3 && filter_between(o->wr[k]));
+        o->widest_acted = o->widest_acted || (o->widest && t->w > 1e-3 && o->d[k] != 0);
     }
     o->v = o->w > 0 ? fmin(fmax(sum / o->w, 0), 1) : v_p;
     o->tol = filter_mean_tol(o->w, dw);

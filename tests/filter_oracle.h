@@ -60,7 +60,7 @@ typedef struct filter_window {
     double wr[FILTER_MAX_TAPS];    // its range weight (filter_range_weight of the spread below)
     double wg, mean, mean_tol; // first loop: the sum of the geometric weights, V_raw's mean under
                                // them and a bound on |mean - the shader's float mean|
-    double spread;             // filter_spread(mean)
+    double spread;             // filter_spread(mean), or of a mean of 1/2 where widest
     double w, v, tol;          // second loop: the sum of the weights wg wr, the filtered V and a
                                // bound on |V - the shader's float V|
     bool range_between;        // a tap the geometry keeps has a range weight between 0 and 1
@@ -72,6 +72,9 @@ typedef struct filter_window {
     bool lifted;        // ... and it does not apply: no edge of geometry within CONTACT_REACH
     bool ring;          // ... it applies, and only the ring CONTACT_REACH away saw the edge
     bool ambiguous;     // whether it applies lies within rounding of a threshold: no verdict
+    bool widest;        // one sample a pixel, no edge of geometry near: the range weight takes V's
+                        // variance at its largest, 1/4, whatever the mean
+    bool widest_acted;  // ... and some tap it weighs differs from the pixel's V
 } filter_window;
 
 // A weight strictly between 0 and 1 (neither keeping nor dropping its tap), beyond every rounding

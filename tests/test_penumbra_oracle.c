@@ -226,7 +226,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
 {
     const filter_frame *w = &f->window;
     uint64_t covered = 0, compared = 0, ambiguous = 0, off = 0, lifted = 0, kept = 0, ring = 0, gauss = 0, pen = 0;
-    uint64_t floored = 0;
+    uint64_t floored = 0, widest = 0, widest_acted = 0;
     double diff_max = 0, tol_max = 0;
     for (int y = 0; y < w->height; y++)
         for (int x = 0; x < w->width; x++) {
@@ -243,6 +243,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
             compared++;
             lifted += o.lifted, kept += o.refuses && !o.lifted, ring += o.ring;
             gauss += o.gauss_between, pen += o.pen_between, floored += o.floored;
+            widest += o.widest, widest_acted += o.widest_acted;
             double d = fabs(w->v[i] - o.v);
             diff_max = fmax(diff_max, d), tol_max = fmax(tol_max, o.tol);
             if (d > o.tol && off++ < 5)
@@ -252,10 +253,11 @@ static void check_window(const char *name, const frame *f, bool analytic)
     fprintf(stderr,
             "%s, window: %llu covered pixels compared, %llu ambiguous; max |V - oracle| %.3g, max bound %.3g; the penumbra "
             "weight would refuse at %llu, applies at %llu (the ring's edge %llu), lifted at %llu; taps strictly weighted: "
-            "Gaussian %llu (at its floor %llu), penumbra %llu\n",
+            "Gaussian %llu (at its floor %llu), penumbra %llu; V's variance at its largest %llu (a tap differing %llu)\n",
             name, (unsigned long long)compared, (unsigned long long)ambiguous, diff_max, tol_max,
             (unsigned long long)(kept + lifted), (unsigned long long)kept, (unsigned long long)ring,
-            (unsigned long long)lifted, (unsigned long long)gauss, (unsigned long long)floored, (unsigned long long)pen);
+            (unsigned long long)lifted, (unsigned long long)gauss, (unsigned long long)floored, (unsigned long long)pen,
+            (unsigned long long)widest, (unsigned long long)widest_acted);
     CHECK_MSG(off == 0, "%s, window: %llu pixels off the oracle", name, (unsigned long long)off);
     CHECK_MSG(ambiguous * 1000 < covered, "%s, window: %llu of %llu pixels ambiguous", name,
               (unsigned long long)ambiguous, (unsigned long long)covered);
@@ -268,6 +270,9 @@ static void check_window(const char *name, const frame *f, bool analytic)
     // Its contacts also hold pixels whose nearest blocker casts a penumbra under a pixel, which
     // the Gaussian takes as a pixel wide.
     CHECK_MSG(analytic || floored > 0, "%s, window: the Gaussian never took its floor", name);
+    // At one sample, away from edges of geometry, the range weight takes V's largest variance:
+    // it must meet neighbours whose V differs from the pixel's (at more samples it never acts).
+    CHECK_MSG(w->samples != 1 || widest_acted > 0, "%s, window: V's variance never taken at its largest", name);
 }
 
 // The row pass's footprint output: where the pixel has no blocked ray of its own, the narrowest of its
