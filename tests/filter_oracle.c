@@ -237,9 +237,10 @@ static verdict filter_edge_at(const filter_frame *f, int x, int y, int dx, int d
 // verdict lies within rounding of a threshold, o->ambiguous says so and V is the verdict's (pen
 // applies).
 //
-// At one sample a pixel, where the penumbra weight would not apply (no edge of geometry near), the
-// range weight's spread is that of V's largest variance, a mean of 1/2, whatever the window's mean
-// (o->widest; within rounding of the edge rule's threshold: ambiguous).
+// At one sample a pixel, where the penumbra weight would not apply (filter.comp's near_edge is
+// false: no edge of geometry in the window, nor on the ring, which it reads only where the penumbra
+// weight would refuse), the range weight's spread is that of V's largest variance, a mean of 1/2,
+// whatever the window's mean (o->widest; within rounding of the edge rule's threshold: ambiguous).
 //
 // A pixel without a valid ray keeps its V_raw where the light cannot reach it and otherwise takes
 // the geometric mean of its neighbours'; a neighbour without a valid ray is no tap.
@@ -299,9 +300,9 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         o->lifted = o->refuses && applies == VERDICT_NO;
         o->ring = o->refuses && edge == VERDICT_NO && ring == VERDICT_YES;
     }
-    // One sample a pixel away from edges of geometry (where the penumbra weight would not apply:
-    // filter.comp's near_edge): the spread of V's largest variance, 1/4 (a mean of 1/2). Where that
-    // verdict lies within rounding: no verdict.
+    // One sample a pixel where the penumbra weight would not apply (filter.comp's near_edge is
+    // false): the spread of V's largest variance, 1/4 (a mean of 1/2). Where that verdict lies
+    // within rounding: no verdict.
     verdict widest = VERDICT_NO;
     if (penumbra && f->samples == 1 && !unknown)
         widest = applies == VERDICT_NO ? VERDICT_YES : applies == VERDICT_MAYBE ? VERDICT_MAYBE : VERDICT_NO;

@@ -72,8 +72,8 @@ typedef struct filter_window {
     bool lifted;        // ... and it does not apply: no edge of geometry within CONTACT_REACH
     bool ring;          // ... it applies, and only the ring CONTACT_REACH away saw the edge
     bool ambiguous;     // whether it applies lies within rounding of a threshold: no verdict
-    bool widest;        // one sample a pixel, no edge of geometry near: the range weight takes V's
-                        // variance at its largest, 1/4, whatever the mean
+    bool widest;        // one sample a pixel, the penumbra weight not applying (filter.comp's
+                        // near_edge false): the range weight takes V's largest variance, 1/4
     bool widest_acted;  // ... and some tap it weighs differs from the pixel's V
 } filter_window;
 
