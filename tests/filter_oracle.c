@@ -369,7 +369,9 @@ void filter_recompute(const filter_frame *f, int x, int y, filter_window *o)
         o->w += w;
         dw += fmax(w_hi - w, w - w_lo);
         o->range_between = o->range_between || (t->w > 1e-3 && filter_between(o->wr[k]));
-        o->widest_acted = o->widest_acted || (o->widest && t->w > 1e-3 && o->d[k] != 0);
+        // The rule changed this tap's range weight from the window mean's (beyond rounding).
+        o->widest_acted = o->widest_acted || (o->widest && t->w > 1e-3 && o->d[k] != 0 &&
+                                              fabs(o->wr[k] - filter_range_weight(o->d[k], filter_spread(o->mean, f->samples))) > 1e-3);
     }
     o->v = o->w > 0 ? fmin(fmax(sum / o->w, 0), 1) : v_p;
     o->tol = filter_mean_tol(o->w, dw);

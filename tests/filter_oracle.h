@@ -74,7 +74,7 @@ typedef struct filter_window {
     bool ambiguous;     // whether it applies lies within rounding of a threshold: no verdict
     bool widest;        // one sample a pixel, the penumbra weight not applying (filter.comp's
                         // near_edge false): the range weight takes V's largest variance, 1/4
-    bool widest_acted;  // ... and some tap it weighs differs from the pixel's V
+    bool widest_acted;  // ... and it changed a tap's range weight from the window mean's
 } filter_window;
 
 // A weight strictly between 0 and 1 (neither keeping nor dropping its tap), beyond every rounding

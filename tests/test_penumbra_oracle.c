@@ -253,7 +253,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
     fprintf(stderr,
             "%s, window: %llu covered pixels compared, %llu ambiguous; max |V - oracle| %.3g, max bound %.3g; the penumbra "
             "weight would refuse at %llu, applies at %llu (the ring's edge %llu), lifted at %llu; taps strictly weighted: "
-            "Gaussian %llu (at its floor %llu), penumbra %llu; V's variance at its largest %llu (a tap differing %llu)\n",
+            "Gaussian %llu (at its floor %llu), penumbra %llu; V's variance at its largest %llu (a weight changed %llu)\n",
             name, (unsigned long long)compared, (unsigned long long)ambiguous, diff_max, tol_max,
             (unsigned long long)(kept + lifted), (unsigned long long)kept, (unsigned long long)ring,
             (unsigned long long)lifted, (unsigned long long)gauss, (unsigned long long)floored, (unsigned long long)pen,
@@ -271,7 +271,7 @@ static void check_window(const char *name, const frame *f, bool analytic)
     // the Gaussian takes as a pixel wide.
     CHECK_MSG(analytic || floored > 0, "%s, window: the Gaussian never took its floor", name);
     // At one sample, away from edges of geometry, the range weight takes V's largest variance:
-    // it must meet neighbours whose V differs from the pixel's (at more samples it never acts).
+    // it must change some neighbour's weight from the window mean's (at more samples it never acts).
     CHECK_MSG(w->samples != 1 || widest_acted > 0, "%s, window: V's variance never taken at its largest", name);
 }
 
