@@ -13,12 +13,19 @@
 //  5. Bad input: MAX not MIN x 2^k, the budgeted split, the grid sampler: a message and exit 2.
 //  6. Where nothing is sampled adaptively (mode none; a point light, whose one sample is exact) the
 //     EXR has no shadow.rays or shadow.V_stderr: there is no such estimate to give.
+//  7. Under the penumbra filter (4:16): the first round is the uniform frame's, interleaved over the
+//     filter's tile (every pixel that took 4 rays has the V_raw of --spp 4 with the same seed, bit
+//     for bit); more rays go only where the filter cannot average (every pixel that took more has
+//     its nearest blocker's penumbra under 2 pixels wide, from shadow.footprint: the Gaussian's
+//     deviation, width scale x width / sqrt(valid rays)), and some pixels take them; and there the
+//     filtered V is closer to the converged reference than the uniform frame's.
 // The scene is the Stanford bunny from ../shared/assets (builtin:default without it), 128 x 96.
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "gpu/penumbra_pass.h"
 #include "io/exr.h"
 #include "test_util.h"
 
@@ -185,6 +192,60 @@ static void check_not_adaptive(const char *label, const char *args)
     pn_exr_image_free(&x);
 }
 
+// 7. Adaptive samples under the penumbra filter, against uniform ones and the reference of 2-4.
+static void check_under_filter(void)
+{
+    const char *ref_path = pn_test_tmp("adaptive_ref.exr"), *ad_path = pn_test_tmp("adaptive_filter_4_16.exr");
+    const char *un_path = pn_test_tmp("adaptive_filter_4.exr");
+    if (!render(ad_path, "--mode exact --spp 4:16 --pixel-error 0.02 --filter penumbra --aovs --seed 3") ||
+        !render(un_path, "--mode exact --spp 4 --filter penumbra --seed 3"))
+        return;
+    pn_exr_image ref = {0}, ad = {0}, un = {0}; // a failed read leaves its image zeroed
+    if (pn_exr_read(ref_path, &ref) != PN_OK || pn_exr_read(ad_path, &ad) != PN_OK || pn_exr_read(un_path, &un) != PN_OK)
+        CHECK_MSG(0, "filtered: cannot read the renders (the reference is check_against_reference's)");
+    const float *vr = channel(&ref, "shadow.V"), *va = channel(&ad, "shadow.V"), *vu = channel(&un, "shadow.V");
+    const float *raw_a = channel(&ad, "shadow.V_raw"), *raw_u = channel(&un, "shadow.V_raw");
+    const float *rays = channel(&ad, "shadow.rays"), *valid = channel(&ad, "shadow.valid");
+    const float *footprint = channel(&ad, "shadow.footprint"), *alpha = channel(&ad, "A");
+    if (ref.data && ad.data && un.data && vr && va && vu && raw_a && raw_u && rays && valid && footprint && alpha) {
+        size_t px = (size_t)ad.width * ad.height, first = 0, differ = 0, refined = 0, wide = 0, bad_rays = 0;
+        double err_a = 0, err_u = 0;
+        const float scale = pn_penumbra_width_scale();
+        for (size_t i = 0; i < px; i++) {
+            if (alpha[i] <= 0)
+                continue;
+            bad_rays += rays[i] != 4 && rays[i] != 8 && rays[i] != 16;
+            if (rays[i] == 4) {
+                first++;
+                differ += memcmp(&raw_a[i], &raw_u[i], sizeof(float)) != 0;
+                continue;
+            }
+            refined++;
+            // The nearest blocker's penumbra in pixels facing the camera, from the Gaussian's
+            // deviation over its valid rays (penumbra_footprint); it only narrows as rays are added,
+            // so the decision's was at least as wide. A relative margin for the float rounding.
+            float width = footprint[i] * sqrtf(valid[i]) / scale;
+            wide += !(width < 2.0f * (1.0f + 1e-4f));
+            err_a += fabs((double)va[i] - vr[i]);
+            err_u += fabs((double)vu[i] - vr[i]);
+        }
+        fprintf(stderr, "filtered 4:16: %zu pixels stopped after the first round (%zu V_raw differ from uniform 4), "
+                "%zu refined (%zu with a penumbra 2 pixels wide or more); over those, MAE %.4f against uniform "
+                "4's %.4f\n", first, differ, refined, wide, refined ? err_a / (double)refined : 0.0,
+                refined ? err_u / (double)refined : 0.0);
+        CHECK_MSG(bad_rays == 0, "filtered: %zu pixels took a ray count that is not 4, 8 or 16", bad_rays);
+        CHECK_MSG(differ == 0, "filtered: %zu of %zu pixels that stopped at 4 rays have another V_raw than uniform 4",
+                  differ, first);
+        CHECK_MSG(refined > 0, "filtered: no pixel took more than 4 rays");
+        CHECK_MSG(wide == 0, "filtered: %zu of %zu refined pixels have a penumbra 2 pixels wide or more", wide, refined);
+        CHECK_MSG(err_a < err_u, "filtered: the refined pixels' MAE %.4f is not below uniform 4's %.4f",
+                  refined ? err_a / (double)refined : 0.0, refined ? err_u / (double)refined : 0.0);
+    }
+    pn_exr_image_free(&ref);
+    pn_exr_image_free(&ad);
+    pn_exr_image_free(&un);
+}
+
 int main(void)
 {
     pn_test_scene(g_scene, sizeof g_scene, "stanford-bunny-69k.glb");
@@ -192,6 +253,7 @@ int main(void)
     check_rounds_add_up("exact");
     check_rounds_add_up("linespace");
     check_against_reference();
+    check_under_filter();
     check_not_adaptive("mode none", "--mode none --spp 4:32");
     check_not_adaptive("point light", "--mode exact --spp 4:32 --light-size 0,0");
     return pn_test_result();

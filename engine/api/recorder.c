@@ -75,7 +75,8 @@ static pn_result recorder_make(penumbra_recorder *rec, const penumbra_scene *s, 
     rec->samples = pn_shadow_samples(rec->rd.spp, &rec->light);
     // Its pipelines now, not while the host records.
     pn_light_gpu l = pn_light_to_gpu(&rec->light);
-    pn_shadow_pass_update(&rec->pass, &rec->rd, &l, 1);
+    // No camera: the pixel angle serves only adaptive sampling under a filter, which it has neither of.
+    pn_shadow_pass_update(&rec->pass, &rec->rd, &l, 1, 0.0f);
     return pn_shadow_pass_prepare(dev, &rec->pass, rec->samples);
 }
 
@@ -123,7 +124,7 @@ penumbra_status penumbra_recorder_record(penumbra_recorder *rec, VkCommandBuffer
     rec->rd.seed = seed;
     pn_light_gpu l = pn_light_to_gpu(&rec->light);
     // The parameters are host-written: the previous recording has completed (the header's contract).
-    pn_shadow_pass_update(&rec->pass, &rec->rd, &l, 1);
+    pn_shadow_pass_update(&rec->pass, &rec->rd, &l, 1, 0.0f);
     pn_result r = pn_shadow_pass_prepare(&rec->ctx->dev, &rec->pass, rec->samples); // a chunk halved: its pipeline
     if (r == PN_OK) {
         pn_shadow_pass_begin_frame(&rec->pass);

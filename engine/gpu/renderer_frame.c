@@ -169,7 +169,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         noise_samples[i] = pn_filter_noise_samples(spp, &lights[i]);
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
-    pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count);
+    pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count, (float)pn_pixel_angle(camera->yfov_deg, r->height));
     uint64_t t0 = pn_time_ns();
     for (uint32_t i = 0; i < light_count; i++)
         PN_TRY(pn_shadow_pass_prepare(dev, &r->shadow, samples[i]));

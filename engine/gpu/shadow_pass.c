@@ -266,7 +266,7 @@ void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
 }
 
 void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *lights,
-                           uint32_t light_count)
+                           uint32_t light_count, float pixel_angle)
 {
     pn_shadow_params sp = {0};
     if (desc->pools)
@@ -283,7 +283,8 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.light_count = light_count;
     sp.split = (uint32_t)desc->split;
     sp.budget = pn_shadow_budget(sp.spp, light_count); // at least the light count: budget_rays relies on it
-    pn_sample_grid(sp.spp, &sp.grid_u, &sp.grid_v);
+    // Adaptive under a filter: the grid of the first round, the tile's interleaved strata (light_sample).
+    pn_sample_grid(desc->spp_min && desc->filter != PN_FILTER_NONE ? desc->spp_min : sp.spp, &sp.grid_u, &sp.grid_v);
     sp.sampler_kind = (uint32_t)desc->sampler;
     sp.seed = desc->seed;
     sp.leaf_size = (float)desc->leaf_size;
@@ -293,6 +294,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     // Exact's packet walk shares a block of pixels (shadow_exact.comp) until the loop budget once ran
     // out (pn_shadow_pass_end_frame).
     sp.block_walk = s->block_walk_off ? 0 : 1;
+    sp.pixel_angle = pixel_angle;
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;
@@ -312,9 +314,9 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.pixel_error = desc->pixel_error;
     sp.tiles_across = s->tiles_across;
     sp.tile_total = s->tile_total;
-    // Interleaved sampling only where a filter gathers the tile's samples again, and each pixel
-    // draws as many as the others (not adaptively).
-    bool tiled = desc->filter != PN_FILTER_NONE && !desc->spp_min;
+    // Interleaved sampling only where a filter gathers the tile's samples again: every pixel's
+    // samples under uniform sampling, the first round's under adaptive (light_sample).
+    bool tiled = desc->filter != PN_FILTER_NONE;
     sp.tile_w = tiled ? pn_filter_tile(desc->tile_w) : 1;
     sp.tile_h = tiled ? pn_filter_tile(desc->tile_h) : 1;
     memcpy(s->params.mapped, &sp, sizeof sp);

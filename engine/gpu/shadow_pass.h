@@ -95,9 +95,10 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                 pn_shadow_pass *out);
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
 
-// Writes the frame's parameters (its 1..PN_MAX_LIGHTS lights, samples, pools); the queue must be idle.
+// Writes the frame's parameters (its 1..PN_MAX_LIGHTS lights, samples, pools, the camera's pixel
+// angle: pn_pixel_angle); the queue must be idle.
 void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, const pn_light_gpu *lights,
-                           uint32_t light_count);
+                           uint32_t light_count, float pixel_angle);
 
 // After pn_shadow_pass_update, for each light's `samples` (pn_shadow_samples): makes the pipelines
 // its dispatches want that are not made yet (by_rays; nothing for other modes).

@@ -318,7 +318,8 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
                                     // remaining samples are traced as rays (project.glsl)
     PN_UINT(block_walk)             // exact's packet walk may share a block of pixels (shadow_exact.comp:
                                     // tile_main); 0 once the loop budget ran out (llvmpipe.md)
-    PN_UINT(pad1)
+    PN_FLOAT(pixel_angle)           // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
+                                    // (adaptive_decide under a filter)
     PN_UINT(pad2)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)

@@ -151,7 +151,13 @@ vec2 light_sample(uint k, PixelSampler ps)
     // Budgeted split and adaptive sampling: each pixel draws its own number of samples per light
     // (chunk_count, adaptive_decide), so there is no grid to stratify; the Sobol' sequence is
     // stratified at every power of two, and each half of it too (adaptive_decide's estimate).
-    if (params.split == PN_SPLIT_BUDGET_ID || params.spp_min != 0u)
+    // Adaptive sampling under a filter (an interleaved tile) keeps the tile for its first round, the
+    // spp_min samples every pixel takes (the grid is spp_min's then: shadow_pass.c), so that the
+    // filter's window sees the same stratified set as a uniform frame of spp_min: the round is that
+    // frame's rays, bit for bit. The samples a pixel adds beyond it are its own Sobol' points from
+    // spp_min on, drawn independently of the first round: each is uniform over the light, so their
+    // mean with the first round's is unbiased.
+    if (params.split == PN_SPLIT_BUDGET_ID || (params.spp_min != 0u && (tiles == 1u || k >= params.spp_min)))
         return sobol_sample(k, ps.sobol);
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
