@@ -17,8 +17,10 @@
 //     filter's tile (every pixel that took 4 rays has the V_raw of --spp 4 with the same seed, bit
 //     for bit); more rays go only where the filter cannot average (every pixel that took more has
 //     its nearest blocker's penumbra under 2 pixels wide, from shadow.footprint: the Gaussian's
-//     deviation, width scale x width / sqrt(valid rays)), and some pixels take them; and there the
-//     filtered V is closer to the converged reference than the uniform frame's.
+//     deviation, width scale x width / sqrt(valid rays)), and some pixels take them; there the
+//     filtered V is closer to the converged reference than the uniform frame's; and a pixel no
+//     refined pixel's samples can reach through the filter is filtered as in the uniform frame, V
+//     bit for bit (the filter counts a pixel's samples as at least the first round's).
 // The scene is the Stanford bunny from ../shared/assets (builtin:default without it), 128 x 96.
 #include <math.h>
 #include <stdio.h>
@@ -209,6 +211,7 @@ static void check_under_filter(void)
     const float *footprint = channel(&ad, "shadow.footprint"), *alpha = channel(&ad, "A");
     if (ref.data && ad.data && un.data && vr && va && vu && raw_a && raw_u && rays && valid && footprint && alpha) {
         size_t px = (size_t)ad.width * ad.height, first = 0, differ = 0, refined = 0, wide = 0, bad_rays = 0;
+        size_t apart = 0, apart_partial = 0, apart_differ = 0;
         double err_a = 0, err_u = 0;
         const float scale = pn_penumbra_width_scale();
         for (size_t i = 0; i < px; i++) {
@@ -229,6 +232,32 @@ static void check_under_filter(void)
             err_a += fabs((double)va[i] - vr[i]);
             err_u += fabs((double)vu[i] - vr[i]);
         }
+        // Beyond the filter's reach of every refined pixel: the Gaussian's rows then columns
+        // (max_radius each way), the footprints they take from the window pass's 5 x 5 ring and
+        // the window itself (2 and 1 more): a box of max_radius + 3 pixels, one pixel to spare.
+        int reach = (int)pn_penumbra_max_radius((uint32_t)ad.height) + 4;
+        for (int y = 0; y < ad.height; y++) {
+            for (int x = 0; x < ad.width; x++) {
+                size_t i = (size_t)y * ad.width + x;
+                if (alpha[i] <= 0)
+                    continue;
+                bool near = false;
+                for (int qy = y - reach; qy <= y + reach && !near; qy++)
+                    for (int qx = x - reach; qx <= x + reach && !near; qx++)
+                        near = qy >= 0 && qy < ad.height && qx >= 0 && qx < ad.width &&
+                               rays[(size_t)qy * ad.width + qx] > 4;
+                if (near)
+                    continue;
+                apart++;
+                apart_partial += raw_u[i] > 0 && raw_u[i] < 1;
+                apart_differ += memcmp(&va[i], &vu[i], sizeof(float)) != 0;
+            }
+        }
+        fprintf(stderr, "filtered 4:16: %zu pixels beyond the filter's reach of a refined one (%zu with partial "
+                "V_raw), %zu V differ from uniform 4\n", apart, apart_partial, apart_differ);
+        CHECK_MSG(apart_partial > 0, "filtered: no pixel with a partial V_raw lies beyond the reach of the refined");
+        CHECK_MSG(apart_differ == 0, "filtered: %zu of %zu pixels beyond the reach of a refined one have another V "
+                  "than uniform 4's", apart_differ, apart);
         fprintf(stderr, "filtered 4:16: %zu pixels stopped after the first round (%zu V_raw differ from uniform 4), "
                 "%zu refined (%zu with a penumbra 2 pixels wide or more); over those, MAE %.4f against uniform "
                 "4's %.4f\n", first, differ, refined, wide, refined ? err_a / (double)refined : 0.0,

@@ -166,7 +166,11 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         samples[i] = r->desc.split == PN_SPLIT_BUDGET && !pn_light_is_point(&lights[i])
                          ? pn_shadow_budget(spp, light_count)
                          : pn_shadow_samples(spp, &lights[i]);
-        noise_samples[i] = pn_filter_noise_samples(spp, &lights[i]);
+        // Adaptive: the first round's, which every pixel took (the filter counts a pixel's own rays
+        // where it took more).
+        // (The shadow pass takes spp_min from the desc below: pn_shadow_pass_update.)
+        bool adaptive = r->desc.spp_min && samples[i] > r->desc.spp_min;
+        noise_samples[i] = pn_filter_noise_samples(adaptive ? r->desc.spp_min : spp, &lights[i]);
     }
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count, (float)pn_pixel_angle(camera->yfov_deg, r->height));

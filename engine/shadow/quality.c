@@ -464,8 +464,9 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
             r = uniform_climb(&c, &s, &sd, info, &met, &last_spp, &mae);
             // The same climb with the penumbra filter, on the same set-up (the filter is the
             // renderer's to switch), then back to none for the adaptive climb: adaptive samples
-            // already spend their rays where V is uncertain, and their pixels draw samples of their
-            // own number, which interleaving cannot share.
+            // already spend their rays where V is uncertain. Under the filter they would refine only
+            // where it cannot average (adaptive_decide, shadow_frame.glsl), a configuration this
+            // climb does not try yet.
             if (r == PN_OK && filtered) {
                 bool fmet;
                 uint32_t flast;

@@ -115,7 +115,10 @@ void main()
     // The penumbra filter's: from the nearest blocker's penumbra (-1 without a blocker, and without
     // a valid ray); a pixel lends its V where it has an estimate.
     float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).y : PN_PENUMBRA_NONE;
-    float own_samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
+    // Adaptive: the pixel's valid rays, at least the first round's (as uniform samples count a pixel
+    // whose rays fell partly below its horizon), so that a pixel no round refined is filtered as in
+    // the uniform frame of MIN samples, whose rays its first round's are.
+    float own_samples = pc.adaptive != 0u ? float(max(counts_p.y, pc.samples)) : float(pc.samples);
     if (pc.narrow > 0.0) {
         float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);
         // What the pixel lends the Gaussian (penumbra_filter.comp): 1 its V, an estimate of its own;
@@ -266,16 +269,17 @@ void main()
     const float RANGE_SIGMAS = 2.5;
     float mean = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
     // samples = 0: V has no noise (a point light), so only equal V averages and V stays as it is.
-    // Adaptive sampling: each pixel's own valid rays (at least one: the pixel has an estimate).
-    float samples = pc.adaptive != 0u ? float(counts_p.y) : float(pc.samples);
+    // Adaptive sampling: each pixel's own valid rays, at least the first round's (own_samples).
+    float samples = own_samples;
     // One sample a pixel (since stop 57), under the penumbra filter and away from edges of geometry
     // (the edge rule's near_edge): V is 0 or 1, and two pixels that see the same V differ by 1 with
     // a probability of 2 V (1 - V), one in five at V = 0.9. The window's mean over 9 single samples
     // cannot tell that V: at a mean of 0.9 the test above refused a neighbour that differs by 1
     // (weight 0.11), so a pixel whose one ray passed by luck on the lit side of a penumbra kept its
     // 1. There V's variance is taken at its largest, 1/4, whatever the mean: such a neighbour
-    // weighs 0.68. Uniform samples only (under adaptive sampling a neighbour's V is the mean of its
-    // own number of samples). Measured (bench, 512 x 512, exact, the five standard views, reference
+    // weighs 0.68. Under adaptive sampling (1:MAX) for a pixel its first round left at one sample:
+    // its neighbours mostly hold one too, and a refined one's V is nearer its mean, which 1/4
+    // bounds the variance of as well. Measured (bench, 512 x 512, exact, the five standard views, reference
     // MAE at 1 spp, seeds 1 / 2): the bunny 0.0131 / 0.0131 -> 0.0123 / 0.0122, the dragon 0.0111 /
     // 0.0112 -> 0.0108 / 0.0109, the buddha 0.0098 / 0.0099 -> 0.0098 / 0.0098, Sponza 0.0150 /
     // 0.0151 -> 0.0137 / 0.0138, the canopy 0.0264 / 0.0258 -> 0.0267 / 0.0261; the edge leak at
@@ -285,7 +289,7 @@ void main()
     // edges, Sponza 0.0117 but the canopy 0.0278 and the dragon's leak 1.03%; near edges too, leaks
     // of 1.1-1.3%.
     float var = mean * (1.0 - mean);
-    if (pc.narrow > 0.0 && pc.adaptive == 0u && pc.samples == 1u && !near_edge)
+    if (pc.narrow > 0.0 && pc.samples == 1u && own_samples == 1.0 && !near_edge)
         var = 0.25;
     float spread = pc.samples == 0u ? 0.0 : RANGE_SIGMAS * sqrt(2.0 * var / samples);
     sum = 0.0;

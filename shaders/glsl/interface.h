@@ -329,9 +329,10 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
 PN_STRUCT(FilterPush, pn_filter_push) {
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
     PN_UINT(samples)      // light samples per pixel (the shadow pass's): the noise of one pixel's V;
-                          // 0 for a point light, whose V has none
+                          // 0 for a point light, whose V has none; adaptive: the first round's, MIN
     PN_UINT(adaptive)     // 1: pixels took samples of their own number (adaptive sampling): the
-                          // noise of each pixel's V is that of its own valid rays
+                          // noise of each pixel's V is that of its own valid rays, or of MIN where
+                          // fewer (a pixel's first round, as uniform samples count it)
     PN_FLOAT(narrow)      // > 0 (the penumbra filter's window scale): the window's weights also fall as
                           // a Gaussian of the nearest blocker's penumbra, narrowing with the samples;
                           // and the pass writes the penumbra filter's footprints
@@ -346,7 +347,8 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_UINT(stage)        // PN_PENUMBRA_STAGE_*
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
     PN_UINT(samples)      // light samples per pixel (FilterPush.samples); 0 for a point light
-    PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead (FilterPush.adaptive)
+    PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead, at least `samples`
+                          // (FilterPush.adaptive)
     PN_UINT(max_radius)   // the most pixels a tap may lie from the pixel (the frame's budget)
     PN_UINT(pad0)
     PN_UINT(pad1)

@@ -68,8 +68,12 @@ const float WINDOW_SAMPLES = 3.0;
 
 int reach(float sigma) { return min(int(ceil(RADIUS_SIGMAS * sigma)), int(pc.max_radius)); }
 
-// The samples one pixel's V is the mean of (adaptive sampling: its own valid rays).
-float pixel_samples(ivec2 px) { return pc.adaptive != 0u ? float(max(imageLoad(img_counts, px).y, 1u)) : float(pc.samples); }
+// The samples one pixel's V is the mean of (adaptive sampling: its own valid rays, at least the first
+// round's, as filter.comp counts them).
+float pixel_samples(ivec2 px)
+{
+    return pc.adaptive != 0u ? float(max(imageLoad(img_counts, px).y, max(pc.samples, 1u))) : float(pc.samples);
+}
 
 // A pixel's footprint (world units, 0 without a blocker of its own) and whether it lends its V.
 vec2 pixel_footprint(ivec2 px)
