@@ -279,15 +279,15 @@ void main()
     // 1. There V's variance is taken at its largest, 1/4, whatever the mean: such a neighbour
     // weighs 0.68. Under adaptive sampling (1:MAX) for a pixel its first round left at one sample:
     // its neighbours mostly hold one too, and a refined one's V is nearer its mean, which 1/4
-    // bounds the variance of as well. Measured (bench, 512 x 512, exact, the five standard views, reference
-    // MAE at 1 spp, seeds 1 / 2): the bunny 0.0131 / 0.0131 -> 0.0123 / 0.0122, the dragon 0.0111 /
-    // 0.0112 -> 0.0108 / 0.0109, the buddha 0.0098 / 0.0099 -> 0.0098 / 0.0098, Sponza 0.0150 /
-    // 0.0151 -> 0.0137 / 0.0138, the canopy 0.0264 / 0.0258 -> 0.0267 / 0.0261; the edge leak at
-    // most 0.97% (the dragon, seed 1; the bunny, seed 2). Tried and dropped: the same at 2 samples
-    // as well, the bunny and Sponza lower but the buddha 0.0061 -> 0.0063, and at 4, higher on
-    // three views (the buddha 0.0039 -> 0.0042); no range weight at all at one sample away from
-    // edges, Sponza 0.0117 but the canopy 0.0278 and the dragon's leak 1.03%; near edges too, leaks
-    // of 1.1-1.3%.
+    // bounds the variance of as well. Measured (bench, 512 x 512, exact, the five standard views,
+    // reference MAE at 1 spp, seeds 1 / 2): the bunny 0.0131 / 0.0131 -> 0.0123 / 0.0122, the
+    // dragon 0.0111 / 0.0112 -> 0.0108 / 0.0109, the buddha 0.0098 / 0.0099 -> 0.0098 / 0.0098,
+    // Sponza 0.0150 / 0.0151 -> 0.0137 / 0.0138, the canopy 0.0264 / 0.0258 -> 0.0267 / 0.0261; the
+    // edge leak at most 0.97% (the dragon, seed 1; the bunny, seed 2). Tried and dropped: the same
+    // at 2 samples as well, the bunny and Sponza lower but the buddha 0.0061 -> 0.0063, and at 4,
+    // higher on three views (the buddha 0.0039 -> 0.0042); no range weight at all at one sample
+    // away from edges, Sponza 0.0117 but the canopy 0.0278 and the dragon's leak 1.03%; near edges
+    // too, leaks of 1.1-1.3%.
     float var = mean * (1.0 - mean);
     if (pc.narrow > 0.0 && pc.samples == 1u && own_samples == 1.0 && !near_edge)
         var = 0.25;

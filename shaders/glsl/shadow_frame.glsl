@@ -489,11 +489,13 @@ void adaptive_decide(ivec2 px)
     // whose nearest blocker cast under half a pixel held 20% of the reference error, 88% of them
     // with the light across their horizon, where the reference itself varies pixel to pixel (by 0.23
     // from its 3 x 3 mean, against 0.016 in the other penumbra pixels): detail, not noise. The
-    // width only shrinks as rays are added (the nearest of them all), so a pixel that stops for it
-    // stays stopped. Measured (bench, 512 x 512, exact, penumbra filter, --pixel-error 0.02,
-    // reference MAE, mean rays; uniform 4 spp: the dragon 0.00515, the bunny 0.00564): 4:16 with
-    // REFINE_PIXELS 1 / 2 / 4, the dragon 0.00463 / 0.00450 / 0.00446 at 4.18 / 4.23 / 4.31 rays,
-    // the bunny 0.00521 / 0.00518 / 0.00518 at 4.23 / 4.28 / 4.34.
+    // width only narrows as rays are added (the nearest blocker of them all), so a pixel refined
+    // once stays eligible in the rounds that follow. Measured (bench, 512 x 512, exact, penumbra
+    // filter, --pixel-error 0.02, reference MAE, mean rays; uniform 4 spp: the dragon 0.00515, the
+    // bunny 0.00564): 4:16 with REFINE_PIXELS 1 / 2 / 4, the dragon 0.00463 / 0.00450 / 0.00446 at
+    // 4.18 / 4.23 / 4.31 rays, the bunny 0.00521 / 0.00518 / 0.00518 at 4.23 / 4.28 / 4.34 (before
+    // the filter counted a pixel's samples as at least the first round's, filter.comp, which took
+    // 2's to 0.00451 and 0.00513). A 1 x 1 tile (--tile 1x1) refines by the error alone.
     if (params.tile_w * params.tile_h > 1u) {
         const float REFINE_PIXELS = 2.0;
         float width = imageLoad(img_blockers, px).y; // PN_PENUMBRA_NONE without a blocker: V is smooth
