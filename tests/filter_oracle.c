@@ -160,7 +160,7 @@ static double filter_mean_tol(double w, double dw)
 // times it (u of the product, y |log2 x| u absolute), and exp2 within 3 + 2 |y log2 x| ulp. An
 // absolute error e in the exponent is a relative one of e ln 2 in the result. Twice the whole, for
 // contraction and reordering. Uniform samples only (the shader's pc.adaptive = 0): under adaptive
-// sampling a pixel's own valid rays count instead.
+// sampling a pixel's own valid rays count instead, at least the first round's.
 static double filter_narrow_rel(uint32_t samples)
 {
     const double u = FLOAT_U, y = 0.75, l = log2((double)samples);

@@ -55,7 +55,7 @@ void main()
     put(uvec2(params.objects)); put(uvec2(params.top)); put(uvec2(params.top_ids)); put(params.light_count); put(params.budget);
     put(params.spp_min); put(params.pixel_error); put(params.tiles_across); put(params.tile_total);
     put(uvec2(params.alpha_bits)); put(uvec2(params.masked_tris)); put(params.project_budget);
-    put(params.block_walk); put(params.pixel_angle); put(params.pad2);
+    put(params.block_walk); put(params.pixel_angle); put(params.refine_narrow);
     for (int i = 0; i < PN_MAX_LIGHTS; i++)
         put_light(params.lights[i]);
 

@@ -28,7 +28,7 @@ pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_
 
 // yfov_deg: the camera's vertical field of view, which with the height gives a pixel's footprint
 // per unit of depth; samples: the shadow pass's light samples per pixel, which set the noise one
-// pixel's V carries; narrow: 0, or under the penumbra filter pn_penumbra_window_scale, with which the
+// pixel's V carries (adaptive: the first round's, MIN; a pixel's own valid rays count where more); narrow: 0, or under the penumbra filter pn_penumbra_window_scale, with which the
 // window's weights fall as a Gaussian of the pixel's footprint (filter.comp), so that its 3 x 3
 // average narrows as the samples grow, and the pass writes the penumbra filter's footprints to
 // `sigma` (width_scale: its pn_penumbra_width_scale); sigma must then be in the GENERAL layout

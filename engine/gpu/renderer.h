@@ -38,6 +38,7 @@ typedef struct pn_renderer {
     uint32_t accumulated; // pn_renderer_set_accumulated (0 or 1: this frame alone)
     bool continue_next;
     uint32_t continuable_spp, continuable_spp_min, continuable_seed;
+    uint32_t continuable_tile; // the first round's interleaved tile (w << 8 | h; 0: none, no filter)
     bool resumed;
     // Pipelines not run yet (at creation, after pn_renderer_set_filter, or when the shadow pass made
     // one): the next frame first runs over one tile (warm_up), and reports that and

@@ -198,7 +198,10 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
     // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).
     bool adaptive_one = r->rays_written && light_count == 1;
-    bool same = r->continuable_spp_min == r->desc.spp_min && r->continuable_seed == r->desc.seed;
+    // The first round's samples depend on the filter's tile too (interleaved under a filter).
+    uint32_t tile = r->desc.filter != PN_FILTER_NONE ? r->desc.tile_w << 8 | r->desc.tile_h : 0;
+    bool same = r->continuable_spp_min == r->desc.spp_min && r->continuable_seed == r->desc.seed &&
+                r->continuable_tile == tile;
     r->shadow.resume_from = r->continue_next && adaptive_one && same && r->continuable_spp &&
                                     samples[0] > r->continuable_spp
                                 ? r->continuable_spp
@@ -227,7 +230,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         r->shadow.resume_from = 0;
     }
     r->continuable_spp = adaptive_one ? samples[0] : 0;
-    r->continuable_spp_min = r->desc.spp_min, r->continuable_seed = r->desc.seed;
+    r->continuable_spp_min = r->desc.spp_min, r->continuable_seed = r->desc.seed, r->continuable_tile = tile;
 
     uint64_t ts[TS_COUNT];
     uint32_t used = TS_LIGHT + 3 * light_count;

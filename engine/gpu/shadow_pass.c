@@ -295,6 +295,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     // out (pn_shadow_pass_end_frame).
     sp.block_walk = s->block_walk_off ? 0 : 1;
     sp.pixel_angle = pixel_angle;
+    sp.refine_narrow = desc->filter == PN_FILTER_PENUMBRA;
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;
@@ -540,7 +541,7 @@ static void record(VkCommandBuffer cmd, const pn_shadow_pass *s, uint32_t sample
         between_dispatches(cmd, s);
         // The last decision only reports (.last): a pixel's rays are the samples it took.
         dispatch(cmd, s,
-                 &(pn_shadow_chunk){.light = light, .decide = 1, .list_in = list_in, .list_out = out,
+                 &(pn_shadow_chunk){.light = light, .decide = resume ? 2 : 1, .list_in = list_in, .list_out = out,
                                     .first = resume && decision == 1, .last = decision > rounds},
                  false);
         if (decision > rounds)

@@ -279,7 +279,8 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
 // The shadow pass's uniform block (std140). 240 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
-    PN_UINT(spp)           // rays per pixel = grid_u * grid_v
+    PN_UINT(spp)           // rays per pixel = grid_u * grid_v (adaptive: the most; the grid is then
+                           // spp_min's under a filter's tile, the first round's)
     PN_UINT(grid_u)        // samples across the light's width
     PN_UINT(grid_v)        // samples across its height
     PN_UINT(sampler_kind)  // PN_SAMPLER_*_ID
@@ -319,8 +320,9 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_UINT(block_walk)             // exact's packet walk may share a block of pixels (shadow_exact.comp:
                                     // tile_main); 0 once the loop budget ran out (llvmpipe.md)
     PN_FLOAT(pixel_angle)           // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
-                                    // (adaptive_decide under a filter)
-    PN_UINT(pad2)
+                                    // (adaptive_decide under the penumbra filter)
+    PN_UINT(refine_narrow)          // 1: the penumbra filter: adaptive rounds refine only where it cannot
+                                    // average (adaptive_decide)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
@@ -366,7 +368,8 @@ PN_STRUCT(ShadowChunk, pn_shadow_chunk) {
                           // which only reports (a pixel's rays: the samples it took)
     PN_UINT(light)        // the light of ShadowParams.lights whose visibility this dispatch computes
     PN_UINT(decide)       // adaptive: 1 = no rays; decide which pixels go on after the round just
-                          // ended (adaptive_decide)
+                          // ended (adaptive_decide); 2 the same in a frame that continues the
+                          // previous one's, where no refine_narrow rule applies
     PN_UINT(list_in)      // 0: a work group per tile of the image; 1 + k: an invocation per pixel of
                           // list k (indirect)
     PN_UINT(list_out)     // decide: the list (0 or 1) that gets the pixels that go on

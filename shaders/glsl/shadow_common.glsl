@@ -74,7 +74,11 @@ PixelSampler pixel_sampler(uvec2 pixel)
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    ps.sobol = pcg(ps.h + chunk.light);
+    // The Sobol' shift is the pixel's own (for a 1 x 1 tile the tile's hash, as before tiles met
+    // adaptive sampling): under an interleaved tile the samples a pixel adds beyond the first round
+    // must not be its tile-mates' (they would err together, in blocks of the tile).
+    bool one = tile_size.x * tile_size.y == 1u;
+    ps.sobol = pcg((one ? ps.h : pcg(pixel.x + pcg(pixel.y + pcg(params.seed)))) + chunk.light);
     ps.sheared = uvec2(0u);
     if (tile_size.x * tile_size.y > 1u) {
         if ((pcg(ps.h ^ 0x2545f491u) & 1u) == 0u) {
@@ -149,14 +153,16 @@ vec2 light_sample(uint k, PixelSampler ps)
     }
     uint sub = sub2.x + tile_size.x * sub2.y;
     // Budgeted split and adaptive sampling: each pixel draws its own number of samples per light
-    // (chunk_count, adaptive_decide), so there is no grid to stratify; the Sobol' sequence is
-    // stratified at every power of two, and each half of it too (adaptive_decide's estimate).
+    // (chunk_count, adaptive_decide), so there is no grid to stratify (but in the first round under
+    // a tile, below); the Sobol' sequence is stratified at every power of two, and each half of it
+    // too (adaptive_decide's estimate).
     // Adaptive sampling under a filter (an interleaved tile) keeps the tile for its first round, the
     // spp_min samples every pixel takes (the grid is spp_min's then: shadow_pass.c), so that the
     // filter's window sees the same stratified set as a uniform frame of spp_min: the round is that
     // frame's rays, bit for bit. The samples a pixel adds beyond it are its own Sobol' points from
-    // spp_min on, drawn independently of the first round: each is uniform over the light, so their
-    // mean with the first round's is unbiased.
+    // spp_min on (pixel_sampler's shift is the pixel's), drawn independently of the first round:
+    // each is uniform over the light, so their mean with the first round's is unbiased, though the
+    // whole is not one nested net as a Sobol' prefix is.
     if (params.split == PN_SPLIT_BUDGET_ID || (params.spp_min != 0u && (tiles == 1u || k >= params.spp_min)))
         return sobol_sample(k, ps.sobol);
     vec2 jitter = vec2(0.5);

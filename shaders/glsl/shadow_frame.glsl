@@ -320,6 +320,17 @@ float penumbra_width(vec3 o, float t)
                              LIGHT.normal.xyz, o, t);
 }
 
+// Adaptive sampling's first round under an interleaved tile draws the tile's grid cells in order
+// (light_sample), so the first half of its samples by index would be the light's lower rows of cells
+// and the second its upper ones: their difference would measure how V varies across the light, not
+// its noise. There the halves are the cells of the grid's two checkerboard colours instead, each
+// spread over the whole light as a Sobol' sequence's halves are (adaptive_decide). Each half's counts
+// are then kept in img_adapt from the round's first chunk on (shadow_store).
+bool halves_by_parity()
+{
+    return params.spp_min != 0u && params.tile_w * params.tile_h > 1u && pixel_target == params.spp_min;
+}
+
 // V from the pixel's (visible, valid) counts: 1 without a valid ray (the light does not reach it,
 // or its rays missed the sliver that does; shadow_finish tells the two apart for the filter).
 float counts_v(uvec2 counts) { return counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0; }
@@ -344,10 +355,19 @@ void shadow_finish_from(uint base, ivec2 px, vec3 o, uint count, uint valid_rays
     // (adaptive_decide): the counts over its first pixel_target / 2, taken as they pass. Up to there
     // every earlier sample lies in the first half (a target is at least twice the samples the
     // pixel had when it was set), so those counts are the earlier ones plus this chunk's part;
-    // beyond, they are what the chunk that reached the half kept (shadow_store).
+    // beyond, they are what the chunk that reached the half kept (shadow_store). Except in the first
+    // round under an interleaved tile (halves_by_parity).
     uint half_n = params.spp_min != 0u ? pixel_target / 2u : 0u;
     uint below = half_n - min(half_n, pixel_begin); // this chunk's rays in the first half
     uint first_half = valid_rays & (below >= 32u ? ~0u : (1u << below) - 1u);
+    if (halves_by_parity()) {
+        uint even = 0u;
+        for (uint i = 0u; i < count; i++) {
+            uint k = pixel_begin + i;
+            even |= (((k % params.grid_u) + (k / params.grid_u)) & 1u) == 0u ? 1u << i : 0u;
+        }
+        first_half = valid_rays & even;
+    }
     float t_add = 0.0, nearest = 1.0;
     for (uint b = valid_rays & blocked; b != 0u; b &= b - 1u) {
         t_add += blocker_t[base + findLSB(b)];
@@ -391,7 +411,7 @@ void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float
     float t_sum = uintBitsToFloat(adapt.z) + t_add;
     uint blocked_rays = counts.y - counts.x;
     uint half_n = params.spp_min != 0u ? pixel_target / 2u : 0u;
-    uvec2 half_counts = (pixel_begin <= half_n ? earlier.xy : adapt.xy) + half_add;
+    uvec2 half_counts = (pixel_begin <= half_n && !halves_by_parity() ? earlier.xy : adapt.xy) + half_add;
     // Uniform samples' last chunk carries nothing on: no store.
     if (params.spp_min != 0u || !pixel_last)
         imageStore(img_adapt, px, uvec4(half_counts, floatBitsToUint(t_sum), pixel_begin + count));
@@ -428,7 +448,10 @@ void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float
 // And one whose samples all agree (V 0 or 1) stops only if every neighbour's V is the same 0 or 1:
 // a thin penumbra, or a small blocker between the samples, that its neighbours saw sends it on.
 // A pixel with no valid ray in either half takes its neighbours' estimate; with none at all, it
-// goes on while the light reaches above its horizon (counts.z).
+// goes on while the light reaches above its horizon (counts.z). Under an interleaved tile the
+// first round's halves are the grid's two checkerboard colours instead (halves_by_parity), each
+// spread over the whole light; and under the penumbra filter a pixel goes on only where the
+// filter cannot average (below).
 //
 // The target: twice the samples the pixel has (the rounds double), at most MAX. Measured, going
 // straight to the count the estimate asks for instead (n (stderr / E)^(4/3) or ^2, rounded up to
@@ -477,30 +500,35 @@ void adaptive_decide(ivec2 px)
     }
     float stderr = estimates > 0u ? sqrt(var_sum / float(estimates)) : (c.z != 0u ? 1.0 : 0.0);
     bool stop = done >= params.spp || (stderr < params.pixel_error && (!unanimous || agree));
-    // Under a filter (an interleaved tile: shadow_pass.c) only where the filter cannot average. It
+    // Under the penumbra filter (params.refine_narrow) only where the filter cannot average. It
     // averages a pixel's neighbours over the penumbra its nearest blocker casts (filter.comp,
     // penumbra_filter.comp), so where that penumbra spans pixels more rays buy what the filter gives
     // for free; where it is under REFINE_PIXELS pixels wide (facing the camera, as the filters
-    // measure it) the filter leaves the pixel its own samples (its Gaussian's deviation is a quarter
-    // of the width over sqrt(n): under an eighth of a pixel at 4 samples), and only rays lower its
-    // error. That is a contact, a crease, and above all the terminator of a curved surface, where
-    // the horizon of the interpolated normal cuts the light and the mesh's own facets block the
-    // rays just above it: on the dragon at 4 spp (512 x 512, exact, penumbra filter) the pixels
-    // whose nearest blocker cast under half a pixel held 20% of the reference error, 88% of them
-    // with the light across their horizon, where the reference itself varies pixel to pixel (by 0.23
-    // from its 3 x 3 mean, against 0.016 in the other penumbra pixels): detail, not noise. The
-    // width only narrows as rays are added (the nearest blocker of them all), so a pixel refined
-    // once stays eligible in the rounds that follow. Measured (bench, 512 x 512, exact, penumbra
-    // filter, --pixel-error 0.02, reference MAE, mean rays; uniform 4 spp: the dragon 0.00515, the
-    // bunny 0.00564): 4:16 with REFINE_PIXELS 1 / 2 / 4, the dragon 0.00463 / 0.00450 / 0.00446 at
-    // 4.18 / 4.23 / 4.31 rays, the bunny 0.00521 / 0.00518 / 0.00518 at 4.23 / 4.28 / 4.34 (before
-    // the filter counted a pixel's samples as at least the first round's, filter.comp, which took
-    // 2's to 0.00451 and 0.00513). A 1 x 1 tile (--tile 1x1) refines by the error alone.
-    if (params.tile_w * params.tile_h > 1u) {
+    // measure it) the filter leaves the pixel about its own samples: its Gaussian's deviation is a
+    // quarter of the width over sqrt(n), a quarter of a pixel at 4 samples (the Gaussian acts from
+    // half a pixel on, so from 4 pixels wide at 4 samples; the window averages below that), and
+    // only rays lower its error. That is a contact, a crease, and above all the terminator of a
+    // curved surface, where the horizon of the interpolated normal cuts the light and the mesh's own
+    // facets block the rays just above it: on the dragon at 4 spp (512 x 512, exact, penumbra
+    // filter) the pixels whose nearest blocker cast under half a pixel held 20% of the reference
+    // error, 88% of them with the light across their horizon, where the reference itself varies
+    // pixel to pixel (by 0.23 from its 3 x 3 mean, against 0.016 in the other penumbra pixels):
+    // detail, not noise. The width only narrows as rays are added (the nearest blocker of them
+    // all), so a pixel refined once stays eligible in the rounds that follow. A pixel without a
+    // valid ray where the light reaches above its horizon has no width and goes on as before.
+    // Measured (bench, 512 x 512, exact, penumbra filter, --pixel-error 0.02, reference MAE, mean
+    // rays; uniform 4 spp: the dragon 0.00515, the bunny 0.00564): 4:16 with REFINE_PIXELS 1 / 2 /
+    // 4, the dragon 0.00463 / 0.00450 / 0.00446 at 4.18 / 4.23 / 4.31 rays, the bunny 0.00521 /
+    // 0.00518 / 0.00518 at 4.23 / 4.28 / 4.34 (before the filter counted a pixel's samples as at
+    // least the first round's, filter.comp, which took 2's to 0.00451 and 0.00513). Not in a frame
+    // that continues the previous one's (the demo's progressive refinement, chunk.decide 2): there
+    // every uncertain pixel goes on, so that the picture converges as the rounds add up; and not
+    // under the interleaved filter, whose fixed window averages no wider penumbra.
+    if (params.refine_narrow != 0u && chunk.decide == 1u) {
         const float REFINE_PIXELS = 2.0;
         float width = imageLoad(img_blockers, px).y; // PN_PENUMBRA_NONE without a blocker: V is smooth
         float pixel = imageLoad(img_n, px).w * params.pixel_angle;
-        stop = stop || !(width < REFINE_PIXELS * pixel);
+        stop = stop || !(width < REFINE_PIXELS * pixel || (c.y == 0u && c.z != 0u));
     }
     // The frame's last decision (chunk.last) sets no target: no round follows it, so the rays image
     // holds the samples the pixel took. In a frame that continues the previous one's, a pixel that
