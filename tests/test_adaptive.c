@@ -225,13 +225,18 @@ static void check_under_filter(void)
                 continue;
             }
             refined++;
+            err_a += fabs((double)va[i] - vr[i]);
+            err_u += fabs((double)vu[i] - vr[i]);
+            // The rule's one exception: a pixel with no valid ray in the first round where the light
+            // reaches goes on whatever its width (it has none); such a pixel has at most rays - 4
+            // valid ones, and is left out of the width's check.
+            if (valid[i] + 4.0f <= rays[i])
+                continue;
             // The nearest blocker's penumbra in pixels facing the camera, from the Gaussian's
             // deviation over its valid rays (penumbra_footprint); it only narrows as rays are added,
             // so the decision's was at least as wide. A relative margin for the float rounding.
             float width = footprint[i] * sqrtf(fmaxf(valid[i], 4.0f)) / scale; // as filter.comp counts them
             wide += !(width < 2.0f * (1.0f + 1e-4f));
-            err_a += fabs((double)va[i] - vr[i]);
-            err_u += fabs((double)vu[i] - vr[i]);
         }
         // Beyond the filter's reach of every refined pixel: the Gaussian's rows then columns
         // (max_radius each way), the footprints they take from the window pass's 5 x 5 ring and

@@ -12,14 +12,14 @@
 //     and some stop, or the check proves nothing.
 //  3. The picture converges: against a converged reference (exact, 1024 samples, another seed), the
 //     MAE of V falls from the first frame to the third continued one.
+//  4. Continuing is only ever a choice: a uniform frame, one that does not raise the most samples, or
+//     one of another seed, asked to continue, is a frame of its own (pn_renderer.resumed false, and
+//     bit for bit where the samples are the same); in 1. the continued frame did resume.
 //  5. Under the penumbra filter, a frame refines only where the filter cannot average (a penumbra
 //     under 2 pixels: adaptive_decide), but a continued one by the error alone: more pixels that
 //     stopped at 4 rays in the first frame go on in the continued one than the first frame refined
 //     (the wide penumbrae's; with the rule in the continued frame too, 16 against 302), so that the
 //     picture keeps converging as the demo's refinement adds frames.
-//  4. Continuing is only ever a choice: a uniform frame, one that does not raise the most samples, or
-//     one of another seed, asked to continue, is a frame of its own (pn_renderer.resumed false, and
-//     bit for bit where the samples are the same); in 1. the continued frame did resume.
 // The scene is the Stanford bunny from ../shared/assets (builtin:default without it) on its ground,
 // 128 x 96; validation layer on, any message fails.
 #include "shadow/metrics.h"

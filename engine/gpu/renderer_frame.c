@@ -199,7 +199,9 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     // Continued: the last frame's counts stay and its rounds go on (pn_shadow_pass_record).
     bool adaptive_one = r->rays_written && light_count == 1;
     // The first round's samples depend on the filter's tile too (interleaved under a filter).
-    uint32_t tile = r->desc.filter != PN_FILTER_NONE ? r->desc.tile_w << 8 | r->desc.tile_h : 0;
+    uint32_t tile = r->desc.filter != PN_FILTER_NONE
+                        ? pn_filter_tile(r->desc.tile_w) << 8 | pn_filter_tile(r->desc.tile_h)
+                        : 0;
     bool same = r->continuable_spp_min == r->desc.spp_min && r->continuable_seed == r->desc.seed &&
                 r->continuable_tile == tile;
     r->shadow.resume_from = r->continue_next && adaptive_one && same && r->continuable_spp &&

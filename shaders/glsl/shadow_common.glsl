@@ -74,11 +74,12 @@ PixelSampler pixel_sampler(uvec2 pixel)
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
-    // The Sobol' shift is the pixel's own (for a 1 x 1 tile the tile's hash, as before tiles met
-    // adaptive sampling): under an interleaved tile the samples a pixel adds beyond the first round
-    // must not be its tile-mates' (they would err together, in blocks of the tile).
-    bool one = tile_size.x * tile_size.y == 1u;
-    ps.sobol = pcg((one ? ps.h : pcg(pixel.x + pcg(pixel.y + pcg(params.seed)))) + chunk.light);
+    // The Sobol' shift is the pixel's own: under an interleaved tile the samples an adaptive pixel
+    // adds beyond the first round must not be its tile-mates' (they would err together, in blocks
+    // of the tile). For a 1 x 1 tile the tile's hash is the pixel's; a uniform frame under a tile
+    // draws no Sobol' point, so only adaptive sampling pays for the second hash.
+    bool own = tile_size.x * tile_size.y > 1u && params.spp_min != 0u;
+    ps.sobol = pcg((own ? pcg(pixel.x + pcg(pixel.y + pcg(params.seed))) : ps.h) + chunk.light);
     ps.sheared = uvec2(0u);
     if (tile_size.x * tile_size.y > 1u) {
         if ((pcg(ps.h ^ 0x2545f491u) & 1u) == 0u) {

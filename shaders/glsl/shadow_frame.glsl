@@ -324,7 +324,8 @@ float penumbra_width(vec3 o, float t)
 // (light_sample), so the first half of its samples by index would be the light's lower rows of cells
 // and the second its upper ones: their difference would measure how V varies across the light, not
 // its noise. There the halves are the cells of the grid's two checkerboard colours instead, each
-// spread over the whole light as a Sobol' sequence's halves are (adaptive_decide). Each half's counts
+// spread over the whole light as a Sobol' sequence's halves are (adaptive_decide); a grid of one
+// column (MIN = 2, or a prime MIN) has no better split than its two ends. Each half's counts
 // are then kept in img_adapt from the round's first chunk on (shadow_store).
 bool halves_by_parity()
 {
