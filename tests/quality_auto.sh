@@ -13,7 +13,8 @@
 #    and line space stops before 256 spp;
 #  - adaptive samples (4:256 down a ladder of pixel errors) are climbed by the configurations the
 #    rule names, and at 0.005 by exact at least; with render's default filter (penumbra) every
-#    configuration climbs its uniform samples filtered too, and the render takes its pick's filter;
+#    configuration climbs its uniform samples filtered too, then adaptive samples under the filter
+#    (1:4, 2:8, ... as the rule names), and the render takes its pick's filter;
 #  - an unreachable budget (0) warns and takes the least error found.
 # Arguments: the budgets to try (default 0.05 0.02 0.005 0; the fast tier tries 0.05 alone).
 set -u

@@ -12,6 +12,7 @@ RUNOFF_MAX = 4
 MAX_SPP = 256
 ADAPTIVE_MIN = 4      # quality.h: PN_QUALITY_ADAPTIVE_MIN
 ADAPTIVE_STEPS = 6    # PN_QUALITY_ADAPTIVE_STEPS
+FILTERED_STEPS = 7    # PN_QUALITY_FILTERED_STEPS: adaptive MIN:4 MIN under the filter, MIN = 1 .. 64
 EXACT_MODES = ("exact", "exact-ls", "rayquery", "rtpipeline")
 
 
@@ -23,6 +24,11 @@ def f32(x):
 def adaptive_error(budget, k):
     """quality.c: adaptive_error, the adaptive climb's k-th pixel error."""
     return f32(budget * 32.0 / (1 << k))
+
+
+def filtered_pixel_error(budget):
+    """quality.c: filtered_pixel_error, the pixel error of adaptive samples under the filter."""
+    return f32(2.0 * budget)
 
 
 def key(t):
@@ -77,16 +83,25 @@ def check(tried, pick, runoff, candidates, budget, all_set_up=True, adaptive=Tru
     # (by 10% a doubling), or at the last spp.
     # Adaptive climbs (spp_min > 0) go from 4 up to 256 samples down the pixel errors 32, 16, 8, 4,
     # 2, 1 times the budget, after the same configuration's uniform climb, with the same reasons to end.
-    # A filtered climb (the penumbra filter) is uniform, after the same configuration's unfiltered one.
+    # A filtered climb (the penumbra filter) is uniform, after the same configuration's unfiltered
+    # one; then adaptive under the filter, MIN:4 MIN for MIN = 1, 2, 4, ... at twice the budget's
+    # pixel error, while MIN is below the samples the filtered uniform climb ended at.
     configs = {}
     for i, t in enumerate(tried):
         configs.setdefault((t["mode"], str(t["tree"]), t.get("spp_min", 0) > 0, t.get("filter", "none")), []).append(i)
     for c, idx in configs.items():
         if c[3] != "none":
-            assert c[3] == "penumbra" and not c[2], c
+            assert c[3] == "penumbra", c
             unfiltered = configs.get((c[0], c[1], False, "none"), [])
             assert unfiltered and unfiltered[-1] < idx[0], (c, idx)
-        if c[2]:
+        if c[2] and c[3] != "none":
+            filtered = configs.get((c[0], c[1], False, c[3]), [])
+            assert filtered and filtered[-1] < idx[0], (c, idx)   # after the filtered uniform climb
+            flast = tried[filtered[-1]]["spp"]
+            assert [tried[i]["spp_min"] for i in idx] == [1 << k for k in range(len(idx))], (c, idx)
+            assert all(tried[i]["spp"] == 4 * tried[i]["spp_min"] < 4 * flast for i in idx), (c, idx, flast)
+            assert all(f32(tried[i]["pixel_error"]) == filtered_pixel_error(budget) for i in idx), (c, idx)
+        elif c[2]:
             assert [tried[i]["spp_min"] for i in idx] == [ADAPTIVE_MIN] * len(idx), (c, idx)
             assert [tried[i]["spp"] for i in idx] == [MAX_SPP] * len(idx), (c, idx)
             assert [f32(tried[i]["pixel_error"]) for i in idx] == [adaptive_error(budget, k) for k in range(len(idx))], (c, idx)
@@ -98,14 +113,22 @@ def check(tried, pick, runoff, candidates, budget, all_set_up=True, adaptive=Tru
         before = [tried[i] for i in range(idx[-1]) if tried[i]["within"]]
         slower = before and last["pilot_shadow_ms"] >= min(t["pilot_shadow_ms"] for t in before)
         flat = len(idx) > 1 and last["pilot_mae"] > 0.9 * tried[idx[-2]]["pilot_mae"] and c[0] not in EXACT_MODES
-        at_end = last["spp"] == MAX_SPP if not c[2] else len(idx) == ADAPTIVE_STEPS
+        if not c[2]:
+            at_end = last["spp"] == MAX_SPP
+        elif c[3] == "none":
+            at_end = len(idx) == ADAPTIVE_STEPS
+        else:
+            flast = tried[configs[(c[0], c[1], False, c[3])][-1]]["spp"]
+            at_end = len(idx) == FILTERED_STEPS or 2 * last["spp_min"] >= flast
         assert last["within"] or slower or flat or at_end, (c, last)
-    # Which configurations climb adaptive samples: those whose uniform climb went past 4 samples,
-    # exact modes always, a biased mode only where its uniform climb met the budget.
+    # Which configurations climb adaptive samples: those whose uniform climb went past 4 samples
+    # (under the filter: past 1), exact modes always, a biased mode only where that uniform climb
+    # met the budget.
     for (mode, tree, is_adaptive, filt), idx in configs.items():
-        if is_adaptive or filt != "none":
+        if is_adaptive:
             continue
         met = any(tried[i]["within"] for i in idx)
-        expected = adaptive and budget > 0 and tried[idx[-1]]["spp"] > ADAPTIVE_MIN and (mode in EXACT_MODES or met)
-        assert ((mode, tree, True, "none") in configs) == expected, (mode, tree, expected)
+        least = ADAPTIVE_MIN if filt == "none" else 1
+        expected = adaptive and budget > 0 and tried[idx[-1]]["spp"] > least and (mode in EXACT_MODES or met)
+        assert ((mode, tree, True, filt) in configs) == expected, (mode, tree, filt, expected)
     return best

@@ -12,8 +12,11 @@
 // PN_QUALITY_ADAPTIVE_MIN up to PN_QUALITY_MAX_SPP samples at PN_QUALITY_ADAPTIVE_STEPS pixel
 // errors, so that none is left out of the record or the run-off.
 enum { PN_QUALITY_MAX_SPP = 256, PN_QUALITY_MAX_TREES = 4, PN_QUALITY_ADAPTIVE_MIN = 4, PN_QUALITY_ADAPTIVE_STEPS = 6 };
-// And every uniform step once more with the penumbra filter.
-enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES * (2 * 9 + PN_QUALITY_ADAPTIVE_STEPS) };
+// And every uniform step once more with the penumbra filter, then adaptive samples under it, MIN:4 MIN
+// for MIN = 1, 2, ... 64 (PN_QUALITY_FILTERED_STEPS).
+enum { PN_QUALITY_FILTERED_STEPS = 7 };
+enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES *
+                              (2 * 9 + PN_QUALITY_ADAPTIVE_STEPS + PN_QUALITY_FILTERED_STEPS) };
 
 // One configuration a pilot rendered.
 typedef struct pn_quality_tried {
@@ -27,7 +30,7 @@ typedef struct pn_quality_tried {
     double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
     bool within;        // judged within the budget
     double final_ms;    // its shadow (and filter) pass at the frame's size in the run-off, or -1 if not a finalist
-    pn_filter filter;   // none, or penumbra (uniform samples only); its times include the filter pass
+    pn_filter filter;   // none, or penumbra; its times include the filter pass
 } pn_quality_tried;
 
 typedef struct pn_quality_choice {
@@ -67,8 +70,11 @@ typedef struct pn_quality_choice {
 // frame has a filter (frame->filter, not none: it chooses between none and penumbra, whichever
 // filter the frame named) and allows one (the even split) and the light has an area, each
 // configuration climbs its uniform samples once more with the penumbra filter (its times include
-// the filter pass): the filter is a choice like the samples. When nothing meets the budget, the
-// least error found (within = false).
+// the filter pass): the filter is a choice like the samples. Where adaptive samples are allowed
+// too, and that filtered climb went past one sample (an exact mode, or the climb met the budget),
+// adaptive samples under the filter follow: MIN:4 MIN for MIN = 1, 2, 4, ... below where it ended,
+// at a pixel error of twice the budget (quality.c, filtered_adaptive_climb). When nothing meets the
+// budget, the least error found (within = false).
 // Pilots within the budget and within 1.5x of the fastest one's time (at most 4) are then timed at
 // the frame's size side by side, and the fastest there is the pick (final_ms; quality.c, runoff).
 // reference_spp: the reference's samples (0: PN_REFERENCE_SPP).
