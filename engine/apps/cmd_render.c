@@ -328,9 +328,10 @@ static void print_summary(const render_opts *o, const char *output, const pn_sce
             const pn_quality_choice *q = &st->quality;
             printf("\"quality\": {\"max_error\": %.6g, \"within\": %s, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, "
                    "\"pilot_shadow_ms\": %.17g, \"pilot_reference_ms\": %.4f, \"reference_spp\": %d, \"candidates\": %d, "
-                   "\"runoff\": %d, \"pilot\": [%u, %u], \"filter\": \"%s\", \"tried\": ",
+                   "\"runoff\": %d, \"pilot\": [%u, %u], \"frame_sample\": [%u, %u], \"filter\": \"%s\", \"tried\": ",
                    o->max_error, q->within ? "true" : "false", q->pilot_mae, q->pilot_se, q->pilot_ms, q->reference_ms,
-                   PN_REFERENCE_SPP, q->candidates, q->runoff, q->pilot_width, q->pilot_height,
+                   PN_REFERENCE_SPP, q->candidates, q->runoff, q->pilot_width, q->pilot_height, q->frame_sample_width,
+                   q->frame_sample_height,
                    pn_filter_names[q->filter]);
             pn_quality_write_tried(stdout, q);
             printf("}, ");

@@ -85,7 +85,10 @@ static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, d
     memset(p, 0, sizeof *p);
     p->used = true;
     p->scale = scale;
-    p->sd = (pn_setup_desc){.frame = *frame, .max_bytes = max_bytes, .view = cam}; // as render builds it
+    // As render builds it, the tree keeping what the frame's pixels see (a filtered pilot renders
+    // those on it: frame_sample).
+    p->sd = (pn_setup_desc){.frame = *frame, .max_bytes = max_bytes, .view = cam, .view_width = frame->width,
+                            .view_height = frame->height};
     p->sd.frame.width = (uint32_t)fmax(1.0, round(frame->width * scale));
     p->sd.frame.height = (uint32_t)fmax(1.0, round(frame->height * scale));
     p->sd.frame.dump_rays = false;
@@ -103,25 +106,146 @@ static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, d
 
 static void pilot_size_free(pilot_size *p) { free(p->ref), free(p->v), free(p->mask); }
 
-// The converged reference at this size: exact, reference_spp stratified samples, its own seed.
-static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                                 pilot_size *p)
+// The converged reference of a pilot size's frame desc sd: exact, reference_spp stratified samples,
+// its own seed; over the G-buffer gp, gn where given (pn_renderer_set_gbuffer), else the raster's.
+static pn_result render_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                                  const pn_light *light, const pn_setup_desc *sd, uint32_t reference_spp,
+                                  const float *gp, const float *gn, size_t px, float *ref, uint8_t *mask, double *ms)
 {
-    if (p->ready)
-        return PN_OK;
-    pn_setup_desc rd = p->sd;
+    pn_setup_desc rd = *sd;
     rd.frame.mode = PN_SHADOW_REFERENCE;
     rd.frame.sampler = PN_SAMPLER_STRATIFIED;
-    rd.frame.spp = p->reference_spp;
+    rd.frame.spp = reference_spp;
     rd.frame.seed = PN_REFERENCE_SEED;
     rd.frame.filter = PN_FILTER_NONE; // converged: the pixel's own samples, nothing borrowed
     rd.view = NULL;
     pn_setup s;
     PN_TRY(pn_setup_create(dev, scene, light, &rd, &s));
-    pn_result r = pilot_frame(&s, cam, light, p->px, false, 1, p->ref, p->mask, &p->reference_ms);
+    pn_result r = gp ? pn_renderer_set_gbuffer(&s.renderer, gp, gn) : PN_OK;
+    if (r == PN_OK)
+        r = pilot_frame(&s, cam, light, px, false, 1, ref, mask, ms);
     pn_setup_destroy(dev, &s);
+    return r;
+}
+
+static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
+                                 pilot_size *p)
+{
+    if (p->ready)
+        return PN_OK;
+    pn_result r = render_reference(dev, scene, cam, light, &p->sd, p->reference_spp, NULL, NULL, p->px, p->ref,
+                                   p->mask, &p->reference_ms);
     p->ready = r == PN_OK;
     return r;
+}
+
+// A filtered configuration is judged at the frame's own size. The filter averages over a footprint
+// as wide as the penumbra in the frame's pixels; a pilot whose pixels are 4x as wide (128x128 for a
+// 512x512 frame) averages a 16th as many samples under it, and measured about twice the frame's
+// error (the dragon view, exact, penumbra filter, pilot against frame: 1 spp 0.0221 / 0.0108, 4 spp
+// 0.0095 / 0.0051; unfiltered 0.0476 / 0.0480 and 0.0179 / 0.0177, as a pixel's own noise does not
+// depend on the scale): --quality auto took exact 4 spp filtered for MAE 0.01 where 2 spp reached
+// 0.0076 in 0.6x its time. So the configuration renders the frame itself, on the pilot's tree, and
+// its error is measured at one pixel drawn at random in each cell of a grid of the pilot's size,
+// against the converged reference at those pixels alone (their positions and normals uploaded as
+// the G-buffer: pn_renderer_set_gbuffer): as many reference rays as the pilot's. A stratified
+// sample, so its MAE estimates the frame's (without bias where the pilot's size divides the
+// frame's; else the cells differ by a pixel across, a few percent of their weight), with a standard
+// error as the pilot's, conservative for a stratified sample.
+typedef struct frame_sample {
+    bool used, ready;
+    uint32_t width, height;    // the frame's
+    uint32_t cells_w, cells_h; // the grid: the pilot's size
+    size_t count;
+    uint32_t *index; // each cell's pixel in the frame
+    float *ref, *v;
+    uint8_t *mask;
+    double reference_ms;
+} frame_sample;
+
+// A cell's pixel: a fixed hash of the cell (Wellons' lowbias32), the same in every run.
+static uint32_t cell_hash(uint32_t x)
+{
+    x ^= x >> 16, x *= 0x7feb352du, x ^= x >> 15, x *= 0x846ca68bu, x ^= x >> 16;
+    return x;
+}
+
+static pn_result frame_sample_init(frame_sample *fs, const pn_renderer_desc *frame, const pilot_size *pilot)
+{
+    memset(fs, 0, sizeof *fs);
+    fs->used = pilot->scale < 1.0;
+    fs->width = frame->width, fs->height = frame->height;
+    fs->cells_w = pilot->sd.frame.width, fs->cells_h = pilot->sd.frame.height;
+    fs->count = (size_t)fs->cells_w * fs->cells_h;
+    if (!fs->used)
+        return PN_OK;
+    fs->index = malloc(fs->count * sizeof *fs->index);
+    fs->ref = malloc(fs->count * sizeof *fs->ref);
+    fs->v = malloc(fs->count * sizeof *fs->v);
+    fs->mask = malloc(fs->count);
+    if (!fs->index || !fs->ref || !fs->v || !fs->mask)
+        return PN_ERR_MEMORY;
+    // Cell (i, j) spans columns [i W / cw, (i + 1) W / cw) and rows alike: the pilot is no larger
+    // than the frame, so every cell holds a pixel.
+    for (uint32_t j = 0; j < fs->cells_h; j++)
+        for (uint32_t i = 0; i < fs->cells_w; i++) {
+            uint64_t x0 = (uint64_t)i * fs->width / fs->cells_w, x1 = (uint64_t)(i + 1) * fs->width / fs->cells_w;
+            uint64_t y0 = (uint64_t)j * fs->height / fs->cells_h, y1 = (uint64_t)(j + 1) * fs->height / fs->cells_h;
+            uint32_t h = cell_hash(cell_hash(j * fs->cells_w + i) ^ PN_REFERENCE_SEED);
+            uint64_t x = x0 + (h & 0xffffu) % (x1 - x0), y = y0 + (h >> 16) % (y1 - y0);
+            fs->index[(size_t)j * fs->cells_w + i] = (uint32_t)(y * fs->width + x);
+        }
+    return PN_OK;
+}
+
+static void frame_sample_free(frame_sample *fs) { free(fs->index), free(fs->ref), free(fs->v), free(fs->mask); }
+
+// The reference at the sampled pixels, once: the frame's G-buffer (mode none traces nothing), its
+// positions and normals at those pixels, and the reference over them.
+static pn_result frame_sample_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
+                                        const pn_light *light, const pilot_size *pilot, frame_sample *fs)
+{
+    if (fs->ready)
+        return PN_OK;
+    pn_renderer_desc gd = {.width = fs->width, .height = fs->height, .mode = PN_SHADOW_NONE, .spp = 1};
+    pn_renderer g;
+    PN_TRY(pn_renderer_create(dev, scene, &gd, &g));
+    float *gp = malloc(fs->count * 4 * sizeof *gp), *gn = malloc(fs->count * 4 * sizeof *gn);
+    pn_frame_times t;
+    pn_result r = gp && gn ? pn_renderer_render(&g, cam, light, &t) : PN_ERR_MEMORY;
+    if (r == PN_OK) {
+        pn_frame_images img;
+        pn_renderer_images(&g, &img);
+        for (size_t k = 0; k < fs->count; k++) {
+            memcpy(gp + 4 * k, img.p + 4 * (size_t)fs->index[k], 4 * sizeof *gp);
+            memcpy(gn + 4 * k, img.n + 4 * (size_t)fs->index[k], 4 * sizeof *gn);
+        }
+    }
+    pn_renderer_destroy(&g);
+    if (r == PN_OK)
+        r = render_reference(dev, scene, cam, light, &pilot->sd, pilot->reference_spp, gp, gn, fs->count, fs->ref,
+                             fs->mask, &fs->reference_ms);
+    free(gp), free(gn);
+    fs->ready = r == PN_OK;
+    return r;
+}
+
+// The error of a configuration's frame (r: a renderer of the frame's size) at the sampled pixels.
+static pn_result frame_sample_error(pn_renderer *r, const pn_camera *cam, const pn_light *light, frame_sample *fs,
+                                    double *mae, double *se)
+{
+    pn_frame_times t;
+    PN_TRY(pn_renderer_render(r, cam, light, &t));
+    pn_frame_images img;
+    pn_renderer_images(r, &img);
+    for (size_t k = 0; k < fs->count; k++)
+        fs->v[k] = img.v[fs->index[k]];
+    pn_error_metrics e;
+    if (!pn_error_compare(fs->v, fs->ref, fs->mask, fs->count, NULL, &e))
+        return PN_ERR_MEMORY;
+    *mae = e.mae;
+    *se = sqrt(fmax(e.rmse * e.rmse - e.mae * e.mae, 0.0) / (double)(e.pixels ? e.pixels : 1));
+    return PN_OK;
 }
 
 // The error of the set-up's current frame at pilot size p: MAE against p's reference and the
@@ -148,9 +272,9 @@ static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *
 // outside. *confirm_mae: the confirming MAE, or -1 when none was needed.
 static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                         const pn_setup_desc *cfg, double mae, double se, double budget, pilot_size *big, bool *within,
-                        double *confirm_mae)
+                        double *confirm_mae, double *confirm_se)
 {
-    *confirm_mae = -1;
+    *confirm_mae = -1, *confirm_se = 0;
     *within = mae + 2 * se <= budget;
     if (*within || mae - 2 * se > budget || !big->used)
         return PN_OK;
@@ -166,10 +290,10 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     pn_setup s;
     if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
         return PN_OK; // outside, as undecided
-    double se2, ms;
-    pn_result r = pilot_error(&s, cam, light, big, false, false, confirm_mae, &se2, &ms); // only its error counts
+    double ms;
+    pn_result r = pilot_error(&s, cam, light, big, false, false, confirm_mae, confirm_se, &ms); // only its error counts
     pn_setup_destroy(dev, &s);
-    *within = r == PN_OK && *confirm_mae + 2 * se2 <= budget;
+    *within = r == PN_OK && *confirm_mae + 2 * *confirm_se <= budget;
     return r;
 }
 
@@ -280,6 +404,7 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
 
 void pn_quality_write_tried(FILE *f, const pn_quality_choice *q)
 {
+    static const char *const CONFIRM_NAMES[] = {"none", "double", "frame"};
     fputc('[', f);
     for (int i = 0; i < q->candidates && i < PN_QUALITY_MAX_TRIED; i++) {
         const pn_quality_tried *c = &q->tried[i];
@@ -288,9 +413,9 @@ void pn_quality_write_tried(FILE *f, const pn_quality_choice *q)
             fprintf(f, "[%d, %d]", c->tree_n, c->tree_d);
         else
             fprintf(f, "null");
-        fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"pixel_error\": %.9g, \"filter\": \"%s\", \"mean_rays\": %.6g, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, \"confirm_mae\": %.17g, \"within\": %s, "
+        fprintf(f, ", \"spp\": %u, \"spp_min\": %u, \"pixel_error\": %.9g, \"filter\": \"%s\", \"mean_rays\": %.6g, \"pilot_mae\": %.17g, \"pilot_se\": %.17g, \"confirm_mae\": %.17g, \"confirm_se\": %.17g, \"confirm_at\": \"%s\", \"within\": %s, "
                    "\"pilot_shadow_ms\": %.17g, \"final_shadow_ms\": %.17g}",
-                c->spp, c->spp_min, (double)c->pixel_error, pn_filter_names[c->filter], c->mean_rays, c->pilot_mae, c->pilot_se, c->confirm_mae, c->within ? "true" : "false", c->pilot_ms, c->final_ms);
+                c->spp, c->spp_min, (double)c->pixel_error, pn_filter_names[c->filter], c->mean_rays, c->pilot_mae, c->pilot_se, c->confirm_mae, c->confirm_se, CONFIRM_NAMES[c->confirm_at], c->within ? "true" : "false", c->pilot_ms, c->final_ms);
     }
     fputc(']', f);
 }
@@ -313,6 +438,8 @@ typedef struct climb {
     const pn_light *light;
     double max_error;
     pilot_size *pilot, *big;
+    frame_sample *sample;
+    pn_renderer *frame; // the configuration's frame, filtered, where sample is used; else NULL
     pn_quality_choice *out;
     bool have;
 } climb;
@@ -337,12 +464,24 @@ static pn_result climb_step(climb *c, pn_setup *s, const pn_setup_desc *sd, bool
                 rays += img.rays[4 * i], covered++;
         mean_rays = covered ? (double)rays / (double)covered : 0;
     }
-    PN_TRY(decide(c->dev, c->scene, c->cam, c->light, sd, *mae, se, c->max_error, c->big, within, &confirm_mae));
+    pn_quality_confirm confirm_at = PN_QUALITY_CONFIRM_NONE;
+    double confirm_se = 0;
+    if (f->filter != PN_FILTER_NONE && c->frame) {
+        // Filtered, the pilot cannot tell (frame_sample): the frame's own pixels decide.
+        PN_TRY(pn_renderer_set_adaptive(c->frame, f->spp_min, f->spp, f->pixel_error));
+        PN_TRY(frame_sample_error(c->frame, c->cam, c->light, c->sample, &confirm_mae, &confirm_se));
+        *within = confirm_mae + 2 * confirm_se <= c->max_error;
+        confirm_at = PN_QUALITY_CONFIRM_FRAME;
+    } else {
+        PN_TRY(decide(c->dev, c->scene, c->cam, c->light, sd, *mae, se, c->max_error, c->big, within, &confirm_mae,
+                      &confirm_se));
+        confirm_at = confirm_mae >= 0 ? PN_QUALITY_CONFIRM_DOUBLE : PN_QUALITY_CONFIRM_NONE;
+    }
     pn_quality_choice *out = c->out;
     if (out->candidates < PN_QUALITY_MAX_TRIED)
         out->tried[out->candidates] = (pn_quality_tried){f->mode, sd->tree_n, sd->tree_d, f->spp, f->spp_min,
                                                          f->pixel_error, mean_rays, *mae, se, *ms, confirm_mae,
-                                                         *within, -1, f->filter};
+                                                         confirm_se, *within, -1, f->filter, confirm_at};
     out->candidates++;
     pn_debug("quality: %s LS(%d,%d) %u:%u spp (E %g, %.1f rays), filter %s: pilot MAE %.4f +- %.4f in %.2f ms%s",
              pn_shadow_mode_get(f->mode)->name, sd->tree_n, sd->tree_d, f->spp_min, f->spp, (double)f->pixel_error,
@@ -458,7 +597,10 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     out->pilot_width = pilot.sd.frame.width;
     out->pilot_height = pilot.sd.frame.height;
     out->reference_ms = pilot.reference_ms;
-    climb c = {dev, scene, cam, light, max_error, &pilot, &big, out, false};
+    frame_sample sample = {0};
+    if (r == PN_OK)
+        r = frame_sample_init(&sample, frame, &pilot);
+    climb c = {dev, scene, cam, light, max_error, &pilot, &big, &sample, NULL, out, false};
     // Adaptive samples need the stratified sampler's Sobol' draws, the even split and no ray dump
     // (pn_shadow_check_samples: the frame's own options must allow the pick), and a budget of 0 is
     // met by nothing.
@@ -501,12 +643,29 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 double fmae;
                 r = pn_renderer_set_filter(&s.renderer, PN_FILTER_PENUMBRA, frame->tile_w, frame->tile_h);
                 sd.frame.filter = PN_FILTER_PENUMBRA;
+                // The frame itself, on the pilot's tree, for the filtered pilots' errors
+                // (frame_sample); one that does not fit leaves them to the pilots, which judge
+                // them too strictly, not too leniently.
+                pn_renderer frame_r;
+                if (r == PN_OK && sample.used)
+                    r = frame_sample_reference(dev, scene, cam, light, &pilot, &sample);
+                if (r == PN_OK && sample.used) {
+                    pn_renderer_desc fd = s.renderer.desc;
+                    fd.width = frame->width, fd.height = frame->height;
+                    pn_log_level level = pn_log_get_level();
+                    pn_log_set_level(PN_LOG_ERROR);
+                    c.frame = pn_renderer_create(dev, scene, &fd, &frame_r) == PN_OK ? &frame_r : NULL;
+                    pn_log_set_level(level);
+                }
                 if (r == PN_OK)
                     r = uniform_climb(&c, &s, &sd, info, &fmet, &flast, &fmae);
                 // Adaptive samples under the filter, from one sample up: as the unfiltered
                 // adaptive climb, only for an exact mode or where the climb met the budget.
                 if (r == PN_OK && adaptive && flast > 1 && (info->exact || fmet))
                     r = filtered_adaptive_climb(&c, &s, &sd, info, flast);
+                if (c.frame)
+                    pn_renderer_destroy(c.frame);
+                c.frame = NULL;
                 sd.frame.filter = PN_FILTER_NONE;
                 if (r == PN_OK)
                     r = pn_renderer_set_filter(&s.renderer, PN_FILTER_NONE, frame->tile_w, frame->tile_h);
@@ -550,7 +709,10 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 max_error, PN_QUALITY_MAX_SPP, out->pilot_mae);
     if (big.ready)
         out->confirm_width = big.sd.frame.width, out->confirm_height = big.sd.frame.height;
+    if (sample.ready)
+        out->frame_sample_width = sample.cells_w, out->frame_sample_height = sample.cells_h;
     pilot_size_free(&pilot);
     pilot_size_free(&big);
+    frame_sample_free(&sample);
     return r;
 }

@@ -18,6 +18,13 @@ enum { PN_QUALITY_FILTERED_STEPS = 7 };
 enum { PN_QUALITY_MAX_TRIED = PN_SHADOW_MODE_COUNT * PN_QUALITY_MAX_TREES *
                               (2 * 9 + PN_QUALITY_ADAPTIVE_STEPS + PN_QUALITY_FILTERED_STEPS) };
 
+// Where a pilot's error was confirmed (pn_quality_tried.confirm_mae).
+typedef enum pn_quality_confirm {
+    PN_QUALITY_CONFIRM_NONE,   // the pilot decided
+    PN_QUALITY_CONFIRM_DOUBLE, // at twice the pilot's width and height (or the frame itself)
+    PN_QUALITY_CONFIRM_FRAME,  // filtered: at the frame's size, over one pixel per pilot pixel (quality.c, frame_sample)
+} pn_quality_confirm;
+
 // One configuration a pilot rendered.
 typedef struct pn_quality_tried {
     pn_shadow_mode mode;
@@ -27,10 +34,12 @@ typedef struct pn_quality_tried {
     float pixel_error;    // adaptive: the target standard error of a pixel's V (--pixel-error)
     double mean_rays;     // the rays a covered pixel of the pilot took, on average (spp when uniform)
     double pilot_mae, pilot_se, pilot_ms; // se: standard error of the MAE as an estimate of the picture's
-    double confirm_mae; // at the confirming size, where the pilot could not decide; else -1
+    double confirm_mae; // where confirmed (confirm_at), its MAE there; else -1
+    double confirm_se;  // that MAE's standard error as an estimate of the frame's (0 at the frame itself)
     bool within;        // judged within the budget
     double final_ms;    // its shadow (and filter) pass at the frame's size in the run-off, or -1 if not a finalist
     pn_filter filter;   // none, or penumbra; its times include the filter pass
+    pn_quality_confirm confirm_at;
 } pn_quality_tried;
 
 typedef struct pn_quality_choice {
@@ -51,6 +60,9 @@ typedef struct pn_quality_choice {
     pn_quality_tried tried[PN_QUALITY_MAX_TRIED]; // the first of them, in the order tried
     uint32_t pilot_width, pilot_height;
     uint32_t confirm_width, confirm_height; // 0 when no pilot needed confirming
+    // The pixels of the frame a filtered pilot's error was measured at, a grid of cells with one
+    // each (PN_QUALITY_CONFIRM_FRAME); 0 when the frame is its own pilot or none was filtered.
+    uint32_t frame_sample_width, frame_sample_height;
 } pn_quality_choice;
 
 // Renders a pilot (the frame's framing at about 128x128 pixels, or the frame itself when smaller)
@@ -73,8 +85,11 @@ typedef struct pn_quality_choice {
 // the filter pass): the filter is a choice like the samples. Where adaptive samples are allowed
 // too, and that filtered climb went past one sample (an exact mode, or the climb met the budget),
 // adaptive samples under the filter follow: MIN:4 MIN for MIN = 1, 2, 4, ... below where it ended,
-// at a pixel error of twice the budget (quality.c, filtered_adaptive_climb). When nothing meets the
-// budget, the least error found (within = false).
+// at a pixel error of twice the budget (quality.c, filtered_adaptive_climb). Where the pilot is
+// smaller than the frame, a filtered configuration's error is the frame's own: the frame rendered
+// on the pilot's tree, at one pixel per pilot pixel, against the reference there (quality.c,
+// frame_sample; PN_QUALITY_CONFIRM_FRAME). When nothing meets the budget, the least error found
+// (within = false).
 // Pilots within the budget and within 1.5x of the fastest one's time (at most 4) are then timed at
 // the frame's size side by side, and the fastest there is the pick (final_ms; quality.c, runoff).
 // reference_spp: the reference's samples (0: PN_REFERENCE_SPP).

@@ -151,7 +151,10 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
     float box[6];
     pn_result r = PN_OK;
     if (desc->view && ad.needs.tree && !ad.per_object) {
-        r = pn_view_box(dev, scene, desc->view, light, ad.light_count, &desc->frame, box);
+        pn_renderer_desc view = desc->frame;
+        view.width = desc->view_width ? desc->view_width : view.width;
+        view.height = desc->view_height ? desc->view_height : view.height;
+        r = pn_view_box(dev, scene, desc->view, light, ad.light_count, &view, box);
         ad.keep_box = box;
     }
     if (r == PN_OK)

@@ -67,6 +67,9 @@ typedef struct pn_setup_desc {
     // Model only what the picture needs: with a camera, the tree leaves out triangles outside the
     // box of the visible receivers (from a G-buffer pass) and the lights, which holds every shadow ray.
     const pn_camera *view;
+    // The size of that G-buffer pass (0: the frame's): a pilot smaller than the frame keeps what the
+    // frame keeps (shadow/quality.c), so that it can render the frame's pixels on the same tree.
+    uint32_t view_width, view_height;
     uint32_t light_count; // lights at pn_setup_create's `light` (0 counts as 1)
     bool per_object;      // the tree as per-object trees (pn_shadow_accel_desc.per_object)
 } pn_setup_desc;

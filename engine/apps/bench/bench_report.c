@@ -452,10 +452,10 @@ bool pn_bench_write_json(const char *dir, const bench_opts *o, const bench_conte
                 q->pilot_mae, q->shadow_ms);
         json_metrics(f, "reference", &q->ref);
         fprintf(f,
-                "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], "
+                "}, \"choose_ms\": %.1f, \"runoff\": %d, \"pilot\": [%u, %u], \"confirm\": [%u, %u], \"frame_sample\": [%u, %u], "
                 "\"candidates\": %d, \"tried\": ",
                 q->choose_ms, q->choice.runoff, q->choice.pilot_width, q->choice.pilot_height, q->choice.confirm_width,
-                q->choice.confirm_height, q->choice.candidates);
+                q->choice.confirm_height, q->choice.frame_sample_width, q->choice.frame_sample_height, q->choice.candidates);
         pn_quality_write_tried(f, &q->choice);
         fprintf(f, ", \"front\": ");
         if (q->has_best && q->best_ms > 0) {
