@@ -23,6 +23,7 @@ typedef enum pn_quality_confirm {
     PN_QUALITY_CONFIRM_NONE,   // the pilot decided
     PN_QUALITY_CONFIRM_DOUBLE, // at twice the pilot's width and height (or the frame itself)
     PN_QUALITY_CONFIRM_FRAME,  // filtered: at the frame's size, over one pixel per pilot pixel (quality.c, frame_sample)
+    PN_QUALITY_CONFIRM_BOUND,  // filtered: outside by the frame's error predicted from the pilot's (confirm_mae)
 } pn_quality_confirm;
 
 // One configuration a pilot rendered.
