@@ -139,6 +139,13 @@ static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, cons
     return r;
 }
 
+// The standard error of an MAE over a sample of the picture's pixels, taking their errors as
+// independent (neighbouring penumbra pixels are not quite).
+static double mae_se(const pn_error_metrics *e)
+{
+    return sqrt(fmax(e->rmse * e->rmse - e->mae * e->mae, 0.0) / (double)(e->pixels ? e->pixels : 1));
+}
+
 // A filtered configuration is judged at the frame's own size. The filter averages over a footprint
 // as wide as the penumbra in the frame's pixels; a pilot whose pixels are 4x as wide (128x128 for a
 // 512x512 frame) averages a 16th as many samples under it, and measured about twice the frame's
@@ -180,10 +187,12 @@ static uint32_t cell_hash(uint32_t x)
     return x;
 }
 
-static pn_result frame_sample_init(frame_sample *fs, const pn_renderer_desc *frame, const pilot_size *pilot)
+// used: some pilot is filtered (the pilot's own pixels serve where it is the frame).
+static pn_result frame_sample_init(frame_sample *fs, const pn_renderer_desc *frame, const pilot_size *pilot,
+                                   bool filtered)
 {
     memset(fs, 0, sizeof *fs);
-    fs->used = pilot->scale < 1.0;
+    fs->used = filtered && pilot->scale < 1.0;
     fs->width = frame->width, fs->height = frame->height;
     fs->cells_w = pilot->sd.frame.width, fs->cells_h = pilot->sd.frame.height;
     fs->count = (size_t)fs->cells_w * fs->cells_h;
@@ -254,7 +263,7 @@ static pn_result frame_sample_error(pn_renderer *r, const pn_camera *cam, const 
     if (!pn_error_compare(fs->v, fs->ref, fs->mask, fs->count, NULL, &e))
         return PN_ERR_MEMORY;
     *mae = e.mae;
-    *se = sqrt(fmax(e.rmse * e.rmse - e.mae * e.mae, 0.0) / (double)(e.pixels ? e.pixels : 1));
+    *se = mae_se(&e);
     return PN_OK;
 }
 
@@ -270,7 +279,7 @@ static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *
     if (!pn_error_compare(p->v, p->ref, p->mask, p->px, NULL, &e))
         return PN_ERR_MEMORY;
     *mae = e.mae;
-    *se = p->scale < 1.0 ? sqrt(fmax(e.rmse * e.rmse - e.mae * e.mae, 0.0) / (double)(e.pixels ? e.pixels : 1)) : 0.0;
+    *se = p->scale < 1.0 ? mae_se(&e) : 0.0;
     return PN_OK;
 }
 
@@ -624,8 +633,6 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     out->pilot_height = pilot.sd.frame.height;
     out->reference_ms = pilot.reference_ms;
     frame_sample sample = {0};
-    if (r == PN_OK)
-        r = frame_sample_init(&sample, frame, &pilot);
     climb c = {dev, scene, cam, light, max_error, &pilot, &big, &sample, NULL, {0}, out, false};
     // Adaptive samples need the stratified sampler's Sobol' draws, the even split and no ray dump
     // (pn_shadow_check_samples: the frame's own options must allow the pick), and a budget of 0 is
@@ -637,6 +644,8 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     // point light's V, exact at one ray, has nothing to filter.
     bool filtered = frame->filter != PN_FILTER_NONE && frame->split == PN_SPLIT_EVEN && !pn_light_is_point(light) &&
                     max_error > 0;
+    if (r == PN_OK)
+        r = frame_sample_init(&sample, frame, &pilot, filtered);
     pn_setup_desc sd = pilot.sd;
     pn_setup s;
     // The configurations to climb, for the progress lines: a mode's trees, or the mode once.
