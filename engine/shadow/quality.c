@@ -13,8 +13,7 @@
 #include "scene/view.h"
 
 // The standard trees, coarse to fine; a mode tries the first pn_shadow_mode_info.auto_trees of
-// them, modes in table order (cheapest first). A tree that does not fit max_bytes (or float
-// precision) is skipped.
+// them, modes in climb_order. A tree that does not fit max_bytes (or float precision) is skipped.
 static const int TREES[][2] = {{6, 3}, {7, 3}, {8, 3}, {5, 4}};
 _Static_assert(sizeof TREES / sizeof TREES[0] <= PN_QUALITY_MAX_TREES, "quality.h's PN_QUALITY_MAX_TRIED counts the trees");
 _Static_assert(1 << 8 == PN_QUALITY_MAX_SPP, "quality.h's PN_QUALITY_MAX_TRIED counts 9 spp steps");
@@ -613,6 +612,22 @@ static int candidate_trees(const pn_gpu_device *dev, const pn_scene *scene, pn_s
     return info->auto_trees < most ? info->auto_trees : most;
 }
 
+// The k-th mode to climb: exact first, then the others in table order (cheapest first). A climb
+// ends once slower than a pick within the budget (climb_ends), and exact reaches any budget (its
+// error is noise), so with its pick in hand the biased modes' climbs end where they get slower,
+// instead of running to PN_QUALITY_MAX_SPP where they never meet the budget (a view whose
+// penumbrae line space cannot resolve, such as the canopy's, had every tree climb 256 spp
+// filtered before exact's turn came). Where a configuration's time grows with its samples the
+// pilots' fastest within the budget is the same in either order: what a climb no longer tries is
+// its steps after one already slower than a pick within it.
+static pn_shadow_mode climb_order(int k)
+{
+    if (k == 0)
+        return PN_SHADOW_EXACT;
+    return (pn_shadow_mode)(k <= PN_SHADOW_EXACT ? k - 1 : k);
+}
+_Static_assert(PN_SHADOW_EXACT > 0 && PN_SHADOW_EXACT < PN_SHADOW_MODE_COUNT, "climb_order");
+
 pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
                             const pn_renderer_desc *frame, double max_error, uint64_t max_bytes, uint32_t reference_spp,
                             bool uniform_only, pn_quality_choice *out)
@@ -653,11 +668,12 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     uint64_t t_start = pn_time_ns();
     for (int m = 0; m < PN_SHADOW_MODE_COUNT; m++)
         total += candidate_trees(dev, scene, (pn_shadow_mode)m);
-    for (int m = 0; r == PN_OK && m < PN_SHADOW_MODE_COUNT; m++) {
-        const pn_shadow_mode_info *info = pn_shadow_mode_get((pn_shadow_mode)m);
-        int trees = candidate_trees(dev, scene, (pn_shadow_mode)m); // 0: not a candidate here (rayquery, rtpipeline on a device without them)
+    for (int o = 0; r == PN_OK && o < PN_SHADOW_MODE_COUNT; o++) {
+        pn_shadow_mode m = climb_order(o);
+        const pn_shadow_mode_info *info = pn_shadow_mode_get(m);
+        int trees = candidate_trees(dev, scene, m); // 0: not a candidate here (rayquery, rtpipeline on a device without them)
         for (int t = 0; r == PN_OK && t < trees; t++) {
-            sd.frame.mode = (pn_shadow_mode)m;
+            sd.frame.mode = m;
             sd.frame.spp = 1;
             sd.frame.spp_min = 0;
             sd.frame.pixel_error = 0;
