@@ -95,11 +95,11 @@ static double mean_tol(double w, double dw, int n)
 }
 
 // The shader's step and reach for a deviation of sigma_px pixels (penumbra_filter.comp's reach():
-// ceil(RADIUS_SIGMAS sigma), at most max_radius; taps every max(floor(sigma / 2), 1) pixels, the
+// ceil(TAP_SIGMAS sigma), at most max_radius; taps every max(floor(sigma / 2), 1) pixels, the
 // reach a multiple of the step).
 static void taps_of(double sigma_px, uint32_t max_radius, int *step, int *reach)
 {
-    double r = ceil(PENUMBRA_RADIUS_SIGMAS * sigma_px);
+    double r = ceil(PENUMBRA_TAP_SIGMAS * sigma_px);
     *step = (int)fmax(floor(0.5 * sigma_px), 1);
     *reach = (int)fmin(r, max_radius) / *step * *step;
 }
@@ -108,7 +108,7 @@ static void taps_of(double sigma_px, uint32_t max_radius, int *step, int *reach)
 //  - sigma_px: the footprint's (PENUMBRA_SIGMA_REL along rows, 2u along columns), a distance
 //    (sqrt of a dot product: 6u before it, 3u after; sqrt 4.5 ulp, 9u, as Vulkan's
 //    1 / inversesqrt: 12u) and the quotient (5u); twice that. A threshold inside
-//    sigma_px (1 +- that) makes the pixel ambiguous (RADIUS_SIGMAS sigma adds u);
+//    sigma_px (1 +- that) makes the pixel ambiguous (TAP_SIGMAS sigma adds nothing: a power of two);
 //  - the spread: 1 - V (u), the product (u), 1 / samples and / samples (5u each) make 12u of sqrt's
 //    argument, 6u after the sqrt, which adds 9u, and the product by RANGE_SIGMAS u: 16u, twice 32u
 //    (the argument is at least 1 / samples^2: nothing flushes);

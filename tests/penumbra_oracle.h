@@ -10,7 +10,8 @@
 
 #include "filter_oracle.h" // FLOAT_U, filter_tap_at
 
-#define PENUMBRA_RADIUS_SIGMAS 2.5  // PN_PENUMBRA_RADIUS_SIGMAS: the reach, in deviations
+#define PENUMBRA_RADIUS_SIGMAS 2.5  // PN_PENUMBRA_RADIUS_SIGMAS: max_radius over it bounds the deviation
+#define PENUMBRA_TAP_SIGMAS 2.0     // PN_PENUMBRA_TAP_SIGMAS: the reach, in deviations
 #define PENUMBRA_MIN_SIGMA 0.5      // penumbra_filter.comp's MIN_SIGMA, pixels
 #define PENUMBRA_RANGE_SIGMAS 2.5   // ... RANGE_SIGMAS
 #define PENUMBRA_WINDOW_SAMPLES 3.0 // ... WINDOW_SAMPLES
