@@ -104,7 +104,7 @@ static double world_oracle(const frame *f, int i, int n)
     double cos_l = dy / sqrt(dx * dx + dy * dy + dz * dz);
     double width = 0.5 * cos_l * 0.5; // the side, foreshortened, times t / (1 - t) at t = 1/3
     double pixel = f->z[i] * pixel_angle;
-    double limit = 8.0 / 2.5 * pixel; // pn_penumbra_max_radius(128) over the radius in deviations
+    double limit = 8.0 / 2.5 * pixel; // pn_penumbra_max_radius(128) over PN_PENUMBRA_RADIUS_SIGMAS (the clamp's)
     return fmin(0.25 / sqrt(n) * width, limit); // pn_penumbra_width_scale's 0.25
 }
 

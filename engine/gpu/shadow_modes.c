@@ -15,8 +15,9 @@
 #define SHADER(name) .spirv = pn_spv_##name, .spirv_size = sizeof pn_spv_##name
 
 // In enum order; the cheapest first among those that trace, which is the order --quality auto
-// tries them in after exact (shadow/quality.c: climb_order). auto_trees counts the configurations --quality auto tries per mode: the first
-// that many standard trees (apps/quality.c), or 1 for a mode without a tree; 0 never tries it.
+// tries them in after exact (shadow/quality.c: climb_order). auto_trees counts the configurations
+// --quality auto tries per mode: the first that many standard trees (apps/quality.c), or 1 for a
+// mode without a tree; 0 never tries it.
 static const pn_shadow_mode_info MODES[PN_SHADOW_MODE_COUNT] = {
     [PN_SHADOW_NONE] = {.name = "none", .help = "unshadowed (V = 1)", SHADER(shadow_none_comp)},
     [PN_SHADOW_LINESPACE] = {.name = "linespace",

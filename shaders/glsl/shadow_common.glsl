@@ -173,16 +173,17 @@ vec2 light_sample(uint k, PixelSampler ps)
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
     }
     uvec2 c = uvec2(i * tile_size.x + sub2.x, j * tile_size.y + sub2.y);
-    // A sample count twice a square (2, 8, 32, 128: shadow_pass.c makes a u x 2u grid) has cells
-    // twice as wide as they are tall, stratified along t only at the scale of their width. So the
-    // two cells (of the sub-cells' grid, the tile's union) that make a square take opposite halves
-    // of their width, the pair's choice drawn per square and tile: a two-point net per square, each
-    // sample still uniform over its cell. Measured (bench, 512 x 512, exact, the five standard
+    // A count whose grid is u x 2u (shadow_pass.c: 2, 8, 32, 128, ...) has cells twice as wide as
+    // they are tall, stratified along their width only at its scale. So the two cells (of the
+    // sub-cells' grid, the tile's union) that make a square take opposite halves of their width,
+    // the pair's choice drawn per square and tile: a two-point net per square, each sample still
+    // uniform over its cell. Only under a square tile, whose sub-cells keep the cells' shape (a
+    // 2 x 3 tile's are three times as wide as tall). Measured (bench, 512 x 512, exact, the five standard
     // views, reference MAE; tests/sample_strata.sh checks the nets): unfiltered 2 spp 2-12% lower,
     // 32 spp 2.5-28% (the canopy .0158 -> .0113: before, its 32 spp lay far above the line through
     // 16 and 64), 8 spp 0.2-1.2%; under the penumbra filter, whose 3 x 3 window already mixes nine
     // pixels' strata, -1.4% to +1.0%; square counts unchanged, bit for bit.
-    if (params.sampler_kind == SAMPLER_STRATIFIED && params.grid_v == 2u * params.grid_u) {
+    if (params.sampler_kind == SAMPLER_STRATIFIED && params.grid_v == 2u * params.grid_u && tile_size.x == tile_size.y) {
         uint half_x = (pcg(ps.h ^ pcg(c.x + pcg(c.y >> 1u) + 0x3c6ef372u)) ^ c.y) & 1u;
         jitter.x = (float(half_x) + jitter.x) * 0.5;
     }
