@@ -21,6 +21,7 @@ PACKAGES=(
   assimp-testmodels
   python3 python3-numpy
   clang-14 clang libclang-rt-14-dev llvm-14
+  gcovr
 )
 
 MESA=${PN_MESA:-backports}

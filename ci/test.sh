@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Set-up and the whole test suite: installs what is missing, builds, runs ctest. Every GPU test
 # runs on lavapipe with the Khronos validation layer and synchronization validation on.
-# Then the same suite again in a second build with AddressSanitizer and UndefinedBehaviorSanitizer
-# (clang, build-asan/, with device-allocation faults injected), which must report nothing; a third
+# Then the tests labelled `sanitize` (the fast tier, which runs every module, the fault injection
+# and the fuzzers' corpora) again in a second build with AddressSanitizer and
+# UndefinedBehaviorSanitizer (clang, build-asan/, with device-allocation faults injected), which
+# must report nothing; a third
 # build with ThreadSanitizer (clang, build-tsan/, the penumbra executable alone) runs its one test,
 # a scripted demo session with tree builds on the worker thread (tests/demo_tsan.sh), which must
 # report nothing; then each libFuzzer target for a bounded time.
@@ -10,9 +12,11 @@
 #   PN_SANITIZERS=0     skip the sanitizer builds, their tests and the fuzzing
 #   PN_FUZZ_SECONDS=N   fuzzing time per target (default 60; 0 skips fuzzing); five targets,
 #                       two at a time: the step takes about 3 x N seconds
+#   PN_COVERAGE=1       instead of the suite, line coverage of engine/ per stage (ci/coverage.sh)
 # How the sanitizer run is set up, and why: tests/sanitizers.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+[ "${PN_COVERAGE:-0}" = 1 ] && exec ./ci/coverage.sh
 ./ci/build.sh
 step() { echo "== $1 ($(date +%T))"; }
 t0=$SECONDS
@@ -29,8 +33,10 @@ cmake --build build-asan --parallel "$(nproc)"
 echo "== sanitizer build: $((SECONDS - t0)) s"
 
 t0=$SECONDS
-step "tests under the sanitizers"
-(cd build-asan && ctest --output-on-failure --timeout 1800 -j"$(nproc)" "$@")
+step "tests under the sanitizers (label sanitize: the fast tier, the fault injection, the fuzzers' corpora)"
+# What covers the code, at small sizes: the long statistical tests and sweeps run in the plain pass
+# alone (tests/CMakeLists.txt, tests/README.md).
+(cd build-asan && ctest --output-on-failure --timeout 1800 -j"$(nproc)" -L sanitize "$@")
 echo "== tests under the sanitizers: $((SECONDS - t0)) s"
 
 t0=$SECONDS

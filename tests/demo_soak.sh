@@ -15,7 +15,9 @@
 #   exact in float (below) and R restores the light bit for bit; the configuration and the
 #   tree's pool bytes are checked equal too, so a mismatch names what changed. A leaked or
 #   doubled buffer, image or pool shows as a difference of at least one allocation.
-# - resident memory and malloc'd bytes: growth from the first cycle after warm-up to the last,
+# - resident memory and malloc'd bytes (the demo hands malloc's free pages back before each sample,
+#   demo_stats.c: without that, where long-lived allocations fell moved the figure by 16-23 MiB
+#   once the device kept its pipelines): growth from the first cycle after warm-up to the last,
 #   at the same points of the cycle (the median over the points for the resident figure, which
 #   moves by +-7 MiB at one point; every point for the malloc'd bytes), under 4 MiB plus 1 MiB per
 #   cycle after warm-up (12 MiB). The 4 MiB: pages the allocator, lavapipe and LLVM touch once and keep

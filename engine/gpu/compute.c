@@ -1,7 +1,48 @@
 // Compute pipelines: shader module, set layout, pipeline, descriptors and dispatches.
 #include "gpu/compute.h"
 
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include "core/log.h"
+#include "core/timer.h"
+
+uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < bytes; i++)
+        h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+uint64_t pn_gpu_variant_hash_spec(uint64_t h, const VkSpecializationInfo *spec)
+{
+    if (!spec)
+        return h;
+    for (uint32_t i = 0; i < spec->mapEntryCount; i++) {
+        const VkSpecializationMapEntry *e = &spec->pMapEntries[i];
+        h = pn_gpu_variant_hash(h, &e->constantID, sizeof e->constantID);
+        h = pn_gpu_variant_hash(h, (const char *)spec->pData + e->offset, e->size);
+    }
+    return h;
+}
+
+void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
+                         uint64_t start_ns)
+{
+    if (!dev->pipeline_log)
+        return;
+    double ms = pn_ms_since(start_ns);
+    // One short write in append mode: the processes of a test (a script's commands) share the file.
+    FILE *f = fopen(dev->pipeline_log, "a");
+    if (!f) {
+        pn_warn("PN_PIPELINE_LOG: cannot append to %s", dev->pipeline_log);
+        return;
+    }
+    fprintf(f, "%s %016llx %zu %.1f\n", kind, (unsigned long long)variant, spirv_bytes, ms);
+    fclose(f);
+}
 
 pn_result pn_gpu_shader_module(pn_gpu_device *dev, const uint32_t *spirv, size_t bytes, VkShaderModule *out)
 {
@@ -37,36 +78,141 @@ pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, 
     return PN_OK;
 }
 
-pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, VkPipelineLayout layout, const uint32_t *spirv, size_t spirv_size,
-                                  const VkSpecializationInfo *spec, VkPipeline *out)
+// Appends `size` bytes to the key; false where it would exceed `cap`.
+static bool key_put(uint8_t *key, size_t *n, size_t cap, const void *bytes, size_t size)
 {
-    VkShaderModule module = VK_NULL_HANDLE;
-    PN_TRY(pn_gpu_shader_module(dev, spirv, spirv_size, &module));
-    VkComputePipelineCreateInfo ci = {
-        .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                  .stage = VK_SHADER_STAGE_COMPUTE_BIT,
-                  .module = module,
-                  .pName = "main",
-                  .pSpecializationInfo = spec},
-        .layout = layout,
-    };
-    VkResult vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, out);
-    vkDestroyShaderModule(dev->device, module, NULL);
-    if (vr != VK_SUCCESS) {
-        pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
-        return PN_ERR_VULKAN;
+    if (*n + size > cap)
+        return false;
+    memcpy(key + *n, bytes, size);
+    *n += size;
+    return true;
+}
+
+// The key of a pipeline for c's layout with `spec`: the set layout's bindings, the push constants'
+// size and stages, each specialisation constant's id and bytes. 0 where it exceeds `cap`.
+static size_t pipeline_key(const pn_gpu_compute *c, const VkSpecializationInfo *spec, uint8_t *key, size_t cap)
+{
+    size_t n = 0;
+    uint32_t spec_count = spec ? spec->mapEntryCount : 0;
+    bool ok = key_put(key, &n, cap, &c->binding_count, sizeof c->binding_count);
+    for (uint32_t i = 0; ok && i < c->binding_count; i++) {
+        const VkDescriptorSetLayoutBinding *b = &c->bindings[i];
+        uint32_t v[4] = {b->binding, (uint32_t)b->descriptorType, b->descriptorCount, b->stageFlags};
+        ok = !b->pImmutableSamplers && key_put(key, &n, cap, v, sizeof v); // compute passes have none
     }
+    uint32_t v[3] = {c->push_size, c->stages, spec_count};
+    ok = ok && key_put(key, &n, cap, v, sizeof v);
+    for (uint32_t i = 0; ok && i < spec_count; i++) {
+        const VkSpecializationMapEntry *e = &spec->pMapEntries[i];
+        uint32_t head[2] = {e->constantID, (uint32_t)e->size};
+        ok = key_put(key, &n, cap, head, sizeof head) &&
+             key_put(key, &n, cap, (const char *)spec->pData + e->offset, e->size);
+    }
+    return ok ? n : 0;
+}
+
+pn_result pn_gpu_pipeline_find(pn_gpu_device *dev, const pn_gpu_compute *c, const VkSpecializationInfo *spec,
+                               pn_gpu_pipeline_entry *e, VkPipeline *found)
+{
+    *found = VK_NULL_HANDLE;
+    e->key_size = pipeline_key(c, spec, e->key, sizeof e->key);
+    if (!e->key_size) {
+        pn_error("a pipeline's layout and specialisation exceed %d bytes of key", PN_GPU_PIPELINE_KEY_MAX);
+        return PN_ERR_INVALID;
+    }
+    e->variant = PN_GPU_VARIANT_SEED;
+    for (int k = 0; k < 4; k++)
+        e->variant = pn_gpu_variant_hash(e->variant, e->spirv[k], e->spirv_size[k]);
+    e->variant = pn_gpu_variant_hash(e->variant, e->key, e->key_size);
+    for (uint32_t i = 0; i < dev->pipeline_count; i++) {
+        const pn_gpu_pipeline_entry *m = &dev->pipelines[i];
+        bool same = m->variant == e->variant && m->key_size == e->key_size && !memcmp(m->key, e->key, e->key_size);
+        for (int k = 0; same && k < 4; k++)
+            same = m->spirv_size[k] == e->spirv_size[k] &&
+                   (m->spirv[k] == e->spirv[k] || !memcmp(m->spirv[k], e->spirv[k], e->spirv_size[k]));
+        if (same) {
+            *found = m->pipeline;
+            return PN_OK;
+        }
+    }
+    return PN_OK;
+}
+
+pn_result pn_gpu_pipeline_begin(pn_gpu_device *dev, const pn_gpu_compute *c, pn_gpu_pipeline_entry *e)
+{
+    pn_gpu_pipeline_entry *grown = realloc(dev->pipelines, (dev->pipeline_count + 1) * sizeof *grown);
+    if (!grown)
+        return PN_ERR_MEMORY;
+    dev->pipelines = grown;
+    pn_result r = pn_gpu_set_layout(dev, c->bindings, c->binding_count, &e->set_layout);
+    if (r == PN_OK)
+        r = pn_gpu_pipeline_layout(dev, e->set_layout, c->stages, c->push_size, &e->layout);
+    if (r != PN_OK)
+        pn_gpu_pipeline_end(dev, e, r);
+    return r;
+}
+
+pn_result pn_gpu_pipeline_end(pn_gpu_device *dev, pn_gpu_pipeline_entry *e, pn_result r)
+{
+    if (r == PN_OK && e->pipeline) {
+        dev->pipelines[dev->pipeline_count++] = *e; // room made by pn_gpu_pipeline_begin
+        return PN_OK;
+    }
+    if (e->pipeline)
+        vkDestroyPipeline(dev->device, e->pipeline, NULL);
+    if (e->layout)
+        vkDestroyPipelineLayout(dev->device, e->layout, NULL);
+    if (e->set_layout)
+        vkDestroyDescriptorSetLayout(dev->device, e->set_layout, NULL);
+    e->pipeline = VK_NULL_HANDLE, e->layout = VK_NULL_HANDLE, e->set_layout = VK_NULL_HANDLE;
+    return r;
+}
+
+pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, const pn_gpu_compute *c, const uint32_t *spirv,
+                                  size_t spirv_size, const VkSpecializationInfo *spec, VkPipeline *out)
+{
+    pn_gpu_pipeline_entry e = {.spirv = {spirv}, .spirv_size = {spirv_size}};
+    PN_TRY(pn_gpu_pipeline_find(dev, c, spec, &e, out));
+    if (*out)
+        return PN_OK;
+    PN_TRY(pn_gpu_pipeline_begin(dev, c, &e));
+    VkShaderModule module = VK_NULL_HANDLE;
+    pn_result r = pn_gpu_shader_module(dev, spirv, spirv_size, &module);
+    if (r == PN_OK) {
+        VkComputePipelineCreateInfo ci = {
+            .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+            .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                      .stage = VK_SHADER_STAGE_COMPUTE_BIT,
+                      .module = module,
+                      .pName = "main",
+                      .pSpecializationInfo = spec},
+            .layout = e.layout,
+        };
+        uint64_t t0 = pn_time_ns();
+        VkResult vr = vkCreateComputePipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, &e.pipeline);
+        vkDestroyShaderModule(dev->device, module, NULL);
+        if (vr == VK_SUCCESS) {
+            pn_gpu_pipeline_log(dev, "compute", e.variant, spirv_size, t0);
+        } else {
+            pn_error("creating a compute pipeline failed: %s", pn_vk_result_str(vr));
+            e.pipeline = VK_NULL_HANDLE;
+            r = PN_ERR_VULKAN;
+        }
+    }
+    PN_TRY(pn_gpu_pipeline_end(dev, &e, r));
+    *out = e.pipeline;
     return PN_OK;
 }
 
 pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out)
 {
     memset(out, 0, sizeof *out);
-    VkDescriptorSetLayoutBinding b[16];
-    VkDescriptorPoolSize sizes[16];
-    if (desc->binding_count > 16)
+    VkDescriptorSetLayoutBinding *b = out->bindings;
+    VkDescriptorPoolSize sizes[PN_GPU_MAX_BINDINGS];
+    if (desc->binding_count > PN_GPU_MAX_BINDINGS)
         return PN_ERR_INVALID;
+    out->binding_count = desc->binding_count;
+    out->push_size = desc->push_size;
     out->stages = desc->stages ? desc->stages : VK_SHADER_STAGE_COMPUTE_BIT;
     out->bind_point = desc->stages & ~VK_SHADER_STAGE_COMPUTE_BIT ? VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR
                                                                   : VK_PIPELINE_BIND_POINT_COMPUTE;
@@ -82,7 +228,7 @@ pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *d
     if (r == PN_OK)
         r = pn_gpu_pipeline_layout(dev, out->set_layout, out->stages, desc->push_size, &out->layout);
     if (r == PN_OK && desc->spirv)
-        r = pn_gpu_compute_pipeline(dev, out->layout, desc->spirv, desc->spirv_size, desc->spec, &out->pipeline);
+        r = pn_gpu_compute_pipeline(dev, out, desc->spirv, desc->spirv_size, desc->spec, &out->pipeline);
     if (r == PN_OK && desc->binding_count) {
         VkDescriptorPoolCreateInfo pi = {
             .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
@@ -111,9 +257,7 @@ pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *d
 
 void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c)
 {
-    if (c->pipeline)
-        vkDestroyPipeline(dev->device, c->pipeline, NULL);
-    if (c->layout)
+    if (c->layout) // c->pipeline is the device's
         vkDestroyPipelineLayout(dev->device, c->layout, NULL);
     if (c->pool)
         vkDestroyDescriptorPool(dev->device, c->pool, NULL);

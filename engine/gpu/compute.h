@@ -12,10 +12,17 @@ pn_result pn_gpu_set_layout(pn_gpu_device *dev, const VkDescriptorSetLayoutBindi
 pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, VkShaderStageFlags stages,
                                  uint32_t push_size, VkPipelineLayout *out);
 
-// A compute pipeline of `spirv` with `layout` (spec may be NULL): pn_gpu_compute_create's, or
-// another specialisation of the same shader sharing a pass's layout and set.
-pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, VkPipelineLayout layout, const uint32_t *spirv, size_t spirv_size,
-                                  const VkSpecializationInfo *spec, VkPipeline *out);
+// The pipeline log (PN_PIPELINE_LOG, pn_gpu_device.pipeline_log): each pipeline created appends
+// "<kind> <variant> <SPIR-V bytes> <ms>" to the file, the variant a hash of its SPIR-V and
+// specialisation (the same variant twice: the second a cache hit, or a pipeline made again), ms
+// the creation's wall-clock time. Mesa's disk cache makes a cold creation seconds and a warm one
+// milliseconds on llvmpipe, so the log tells what a test compiled (tests/timings.sh).
+// pn_gpu_variant_hash folds `bytes` of `data` into h (FNV-1a; start from PN_GPU_VARIANT_SEED).
+#define PN_GPU_VARIANT_SEED 14695981039346656037ull
+uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes);
+uint64_t pn_gpu_variant_hash_spec(uint64_t h, const VkSpecializationInfo *spec); // spec may be NULL
+void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
+                         uint64_t start_ns);
 
 typedef struct pn_gpu_compute_desc {
     const uint32_t *spirv; // NULL: no pipeline (the caller makes its own with the layout: gpu/raytrace.h)
@@ -29,15 +36,38 @@ typedef struct pn_gpu_compute_desc {
     VkShaderStageFlags stages;
 } pn_gpu_compute_desc;
 
+enum { PN_GPU_MAX_BINDINGS = 16 };
 typedef struct pn_gpu_compute {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout layout;
-    VkPipeline pipeline;
+    VkPipeline pipeline; // the device's (pn_gpu_compute_pipeline)
+    // The layout's definition, as created (stageFlags and counts filled in): what the device's
+    // pipelines for this pass are keyed by and their own layouts are made from.
+    VkDescriptorSetLayoutBinding bindings[PN_GPU_MAX_BINDINGS];
+    uint32_t binding_count;
+    uint32_t push_size;
     VkDescriptorPool pool;
     VkDescriptorSet set; // allocated, not written: see pn_gpu_compute_write_*
     VkShaderStageFlags stages;       // desc.stages (compute if 0)
     VkPipelineBindPoint bind_point; // compute, or ray tracing for ray-tracing stages
 } pn_gpu_compute;
+
+// A compute pipeline of `spirv` for c's layout (spec may be NULL): pn_gpu_compute_create's, or
+// another specialisation of the same shader sharing a pass's layout and set. The device's own
+// (pn_gpu_device.pipelines): made once per device for each SPIR-V, specialisation and layout
+// definition, shared by every pass that asks for it, destroyed with the device, never by a pass.
+// spirv must outlive the device (the engine's shaders are static arrays).
+pn_result pn_gpu_compute_pipeline(pn_gpu_device *dev, const pn_gpu_compute *c, const uint32_t *spirv,
+                                  size_t spirv_size, const VkSpecializationInfo *spec, VkPipeline *out);
+
+// The device's pipelines, for each kind of pipeline: e->spirv and e->spirv_size set (unused
+// stages NULL and 0), find fills e's key and *found with the device's pipeline, VK_NULL_HANDLE if
+// none; then begin makes e's own layouts (e->layout, to create e->pipeline with) and end keeps e
+// where r is PN_OK and e->pipeline was made, and otherwise destroys what e holds and returns r.
+pn_result pn_gpu_pipeline_find(pn_gpu_device *dev, const pn_gpu_compute *c, const VkSpecializationInfo *spec,
+                               pn_gpu_pipeline_entry *e, VkPipeline *found);
+pn_result pn_gpu_pipeline_begin(pn_gpu_device *dev, const pn_gpu_compute *c, pn_gpu_pipeline_entry *e);
+pn_result pn_gpu_pipeline_end(pn_gpu_device *dev, pn_gpu_pipeline_entry *e, pn_result r);
 
 pn_result pn_gpu_compute_create(pn_gpu_device *dev, const pn_gpu_compute_desc *desc, pn_gpu_compute *out);
 void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c);

@@ -60,9 +60,11 @@ pn_gpu_device_desc pn_gpu_device_desc_from_env(void)
 {
     const char *v = getenv("PN_VALIDATION");
     const char *d = getenv("PN_DEVICE");
+    const char *log = getenv("PN_PIPELINE_LOG");
     pn_gpu_device_desc desc = {
         .validation = v && *v && strcmp(v, "0") != 0,
         .selector = d && *d ? d : NULL,
+        .pipeline_log = log && *log ? log : NULL,
     };
 #ifdef PN_FAULT_INJECTION
     const char *k = getenv("PN_FAULT_ALLOC");
@@ -481,6 +483,7 @@ pn_result pn_gpu_device_create(const pn_gpu_device_desc *desc, pn_gpu_device *de
     memset(dev, 0, sizeof *dev);
     dev->validation = desc->validation;
     dev->present = desc->present;
+    dev->pipeline_log = desc->pipeline_log;
 #ifdef PN_FAULT_INJECTION
     dev->fault = desc->fault;
 #endif
@@ -568,6 +571,16 @@ void pn_gpu_device_destroy(pn_gpu_device *dev)
                  dev->memory_allocations, (double)dev->memory_bytes / 1048576.0);
         dev->validation_messages++;
     }
+    if (dev->device) {
+        vkQueueWaitIdle(dev->queue); // no work of penumbra's may still use a pipeline
+        for (uint32_t i = 0; i < dev->pipeline_count; i++) {
+            vkDestroyPipeline(dev->device, dev->pipelines[i].pipeline, NULL);
+            vkDestroyPipelineLayout(dev->device, dev->pipelines[i].layout, NULL);
+            vkDestroyDescriptorSetLayout(dev->device, dev->pipelines[i].set_layout, NULL);
+        }
+    }
+    free(dev->pipelines);
+    dev->pipelines = NULL, dev->pipeline_count = 0;
     if (dev->device && dev->adopted) {
         // The host's device: only what penumbra made on it goes (its queue idle first: the host may
         // still have work of its own on it, which it waits for as it likes).

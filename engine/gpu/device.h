@@ -32,7 +32,27 @@ typedef struct pn_gpu_device_desc {
     uint32_t instance_extension_count;
     pn_gpu_present_query can_present;
     pn_gpu_fault_desc fault;
+    // A file each pipeline creation appends one line to (pn_gpu_pipeline_log in gpu/compute.h):
+    // what the suite's timing table counts (tests/timings.sh). NULL: none. Outlives the device.
+    const char *pipeline_log;
 } pn_gpu_device_desc;
+
+// A pipeline the device keeps for every pass that asks for the same one (pn_gpu_compute_pipeline
+// and pn_gpu_ray_pipeline_create): the same SPIR-V (the engine's static arrays, which outlive any device), the
+// same specialisation and a layout of the same definition (key: its bytes). It has a layout of its
+// own, defined as its users' and so compatible with theirs (pipeline layout compatibility: layouts
+// created from identical definitions), and lives until the device is destroyed.
+enum { PN_GPU_PIPELINE_KEY_MAX = 512 };
+typedef struct pn_gpu_pipeline_entry {
+    uint64_t variant; // pn_gpu_variant_hash of the SPIR-V and the key
+    const uint32_t *spirv[4]; // its stages' (compute: one; ray tracing: up to four)
+    size_t spirv_size[4];
+    uint8_t key[PN_GPU_PIPELINE_KEY_MAX]; // the set layout's bindings, push constants, specialisation
+    size_t key_size;
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout layout;
+    VkPipeline pipeline;
+} pn_gpu_pipeline_entry;
 
 typedef struct pn_gpu_device {
     VkInstance instance;
@@ -72,6 +92,13 @@ typedef struct pn_gpu_device {
         PFN_vkCmdTraceRaysKHR trace;
     } rt;
     unsigned validation_messages; // warnings and errors reported by the layer so far
+    const char *pipeline_log;     // desc.pipeline_log
+    // The pipelines made so far, shared by every pass that asks for one of them: a renderer made
+    // again (a bench cell, a test's sweep, the library's next scene, the demo's mode switched back)
+    // takes them as they are, where llvmpipe would run its shader passes again even on a warm
+    // disk cache (0.3-0.6 s for each shadow pipeline) and compile again at the first dispatch.
+    pn_gpu_pipeline_entry *pipelines;
+    uint32_t pipeline_count;
     pn_gpu_fault_desc fault;      // as given, in PN_FAULT_INJECTION builds; zero in others
     uint64_t fault_count;         // allocations so far, with fault.count
     // penumbra's live VkDeviceMemory (every allocation goes through gpu/resources.c): bytes and

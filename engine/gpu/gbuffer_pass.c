@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/timer.h"
 #include "gbuffer_frag.h"
 #include "gbuffer_vert.h"
 
@@ -161,10 +162,14 @@ static pn_result create_pipeline(pn_gpu_device *dev, pn_gbuffer_pass *r)
         .pDynamicState = &dy,
         .layout = r->layout,
     };
+    uint64_t t0 = pn_time_ns();
     VkResult vr = vkCreateGraphicsPipelines(dev->device, VK_NULL_HANDLE, 1, &ci, NULL, &r->pipeline);
     vkDestroyShaderModule(dev->device, vs, NULL);
     vkDestroyShaderModule(dev->device, fs, NULL);
     VK_CHECK(vr);
+    uint64_t variant = pn_gpu_variant_hash(PN_GPU_VARIANT_SEED, pn_spv_gbuffer_vert, sizeof pn_spv_gbuffer_vert);
+    variant = pn_gpu_variant_hash_spec(pn_gpu_variant_hash(variant, pn_spv_gbuffer_frag, sizeof pn_spv_gbuffer_frag), &spec);
+    pn_gpu_pipeline_log(dev, "graphics", variant, sizeof pn_spv_gbuffer_vert + sizeof pn_spv_gbuffer_frag, t0);
     return PN_OK;
 }
 

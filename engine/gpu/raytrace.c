@@ -4,10 +4,11 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "core/timer.h"
 
 static VkDeviceSize align_up(VkDeviceSize v, VkDeviceSize a) { return a ? (v + a - 1) / a * a : v; }
 
-pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, VkPipelineLayout layout, const pn_gpu_ray_shaders *shaders,
+pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, const pn_gpu_compute *c, const pn_gpu_ray_shaders *shaders,
                                      const VkSpecializationInfo *spec, pn_gpu_ray_pipeline *out)
 {
     memset(out, 0, sizeof *out);
@@ -20,10 +21,17 @@ pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, VkPipelineLayout layout
     const VkShaderStageFlagBits stage[4] = {VK_SHADER_STAGE_RAYGEN_BIT_KHR, VK_SHADER_STAGE_MISS_BIT_KHR,
                                             VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR, VK_SHADER_STAGE_ANY_HIT_BIT_KHR};
     uint32_t count = shaders->any_hit ? 4 : 3;
+    // The device's pipeline for these shaders, or a new one kept there (pn_gpu_pipeline_find).
+    pn_gpu_pipeline_entry e = {0};
+    for (uint32_t i = 0; i < count; i++)
+        e.spirv[i] = code[i], e.spirv_size[i] = size[i];
+    PN_TRY(pn_gpu_pipeline_find(dev, c, spec, &e, &out->pipeline));
+    if (!out->pipeline)
+        PN_TRY(pn_gpu_pipeline_begin(dev, c, &e));
     VkShaderModule modules[4] = {VK_NULL_HANDLE};
     VkPipelineShaderStageCreateInfo stages[4];
     pn_result r = PN_OK;
-    for (uint32_t i = 0; i < count && r == PN_OK; i++) {
+    for (uint32_t i = 0; i < count && r == PN_OK && !out->pipeline; i++) {
         r = pn_gpu_shader_module(dev, code[i], size[i], &modules[i]);
         stages[i] = (VkPipelineShaderStageCreateInfo){.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
                                                       .stage = stage[i],
@@ -50,18 +58,24 @@ pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, VkPipelineLayout layout
                                             .groupCount = 3,
                                             .pGroups = groups,
                                             .maxPipelineRayRecursionDepth = 1,
-                                            .layout = layout};
-    if (r == PN_OK) {
-        VkResult vr = dev->rt.create(dev->device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &ci, NULL, &out->pipeline);
+                                            .layout = e.layout};
+    if (!out->pipeline) {
+        uint64_t t0 = pn_time_ns();
+        VkResult vr = r == PN_OK ? dev->rt.create(dev->device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &ci, NULL, &e.pipeline)
+                                 : VK_SUCCESS;
         if (vr != VK_SUCCESS) {
-            out->pipeline = VK_NULL_HANDLE;
+            e.pipeline = VK_NULL_HANDLE;
             pn_error("creating a ray-tracing pipeline failed: %s", pn_vk_result_str(vr));
             r = PN_ERR_VULKAN;
+        } else if (r == PN_OK) {
+            pn_gpu_pipeline_log(dev, "raytracing", e.variant, size[0] + size[1] + size[2] + size[3], t0);
         }
+        for (uint32_t i = 0; i < count; i++)
+            if (modules[i])
+                vkDestroyShaderModule(dev->device, modules[i], NULL);
+        r = pn_gpu_pipeline_end(dev, &e, r);
+        out->pipeline = r == PN_OK ? e.pipeline : VK_NULL_HANDLE;
     }
-    for (uint32_t i = 0; i < count; i++)
-        if (modules[i])
-            vkDestroyShaderModule(dev->device, modules[i], NULL);
     // The binding table: each region starts at a multiple of shaderGroupBaseAlignment, each record
     // is a handle rounded up to shaderGroupHandleAlignment (no record data).
     const VkPhysicalDeviceRayTracingPipelinePropertiesKHR *rp = &dev->rt_props;
@@ -103,9 +117,7 @@ pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, VkPipelineLayout layout
 
 void pn_gpu_ray_pipeline_destroy(pn_gpu_device *dev, pn_gpu_ray_pipeline *p)
 {
-    if (p->pipeline)
-        vkDestroyPipeline(dev->device, p->pipeline, NULL);
-    pn_gpu_buffer_destroy(dev, &p->table);
+    pn_gpu_buffer_destroy(dev, &p->table); // p->pipeline is the device's
     memset(p, 0, sizeof *p);
 }
 

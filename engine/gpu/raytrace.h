@@ -23,9 +23,10 @@ typedef struct pn_gpu_ray_pipeline {
     PFN_vkCmdTraceRaysKHR trace; // the device's (recording needs no device)
 } pn_gpu_ray_pipeline;
 
-// A pipeline of `shaders` with `layout` (spec, may be NULL, for every stage) and a recursion depth
-// of 1 (no shader traces rays), and its binding table. Needs pn_gpu_device.ray_pipeline.
-pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, VkPipelineLayout layout, const pn_gpu_ray_shaders *shaders,
+// A pipeline of `shaders` for c's layout (spec, may be NULL, for every stage) and a recursion depth
+// of 1 (no shader traces rays), and its binding table. Needs pn_gpu_device.ray_pipeline. The
+// pipeline is the device's (pn_gpu_compute_pipeline says how), the binding table the caller's.
+pn_result pn_gpu_ray_pipeline_create(pn_gpu_device *dev, const pn_gpu_compute *c, const pn_gpu_ray_shaders *shaders,
                                      const VkSpecializationInfo *spec, pn_gpu_ray_pipeline *out);
 void pn_gpu_ray_pipeline_destroy(pn_gpu_device *dev, pn_gpu_ray_pipeline *p);
 

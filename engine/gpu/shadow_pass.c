@@ -172,7 +172,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         sizeof pn_spv_shadow_rtpipeline_rmiss, sizeof pn_spv_shadow_rtpipeline_rchit,
         sizeof pn_spv_shadow_rtpipeline_rahit};
     if (r == PN_OK && ray)
-        r = pn_gpu_ray_pipeline_create(dev, out->compute.layout, &shaders, &spec, &out->ray);
+        r = pn_gpu_ray_pipeline_create(dev, &out->compute, &shaders, &spec, &out->ray);
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "shadow pass's parameters", sizeof(pn_shadow_params), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD,
                                  &out->params);
@@ -245,12 +245,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
 
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)
 {
-    for (int k = 0; k < PN_PACKET_RAY_SIZES; k++)
-        if (s->by_rays[k])
-            vkDestroyPipeline(dev->device, s->by_rays[k], NULL);
-    for (int k = 0; k < PN_PROJECT_SIZES; k++)
-        if (s->by_samples[k])
-            vkDestroyPipeline(dev->device, s->by_samples[k], NULL);
+    // by_rays and by_samples are the device's pipelines (pn_gpu_compute_pipeline).
     pn_gpu_ray_pipeline_destroy(dev, &s->ray);
     pn_gpu_compute_destroy(dev, &s->compute);
     pn_gpu_image_destroy(dev, &s->counts);
@@ -356,7 +351,7 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         data[5] = (int32_t)(32u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
         s->pipelines_made++;
-        return pn_gpu_compute_pipeline(dev, s->compute.layout, pn_spv_shadow_project_comp,
+        return pn_gpu_compute_pipeline(dev, &s->compute, pn_spv_shadow_project_comp,
                                        sizeof pn_spv_shadow_project_comp, &spec, &s->by_samples[k]);
     }
     if (!s->sized_rays)
@@ -372,7 +367,7 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         data[3] = (int32_t)(1u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
         s->pipelines_made++;
-        PN_TRY(pn_gpu_compute_pipeline(dev, s->compute.layout, s->spirv, s->spirv_size, &spec, &s->by_rays[k]));
+        PN_TRY(pn_gpu_compute_pipeline(dev, &s->compute, s->spirv, s->spirv_size, &spec, &s->by_rays[k]));
     }
     return PN_OK;
 }
