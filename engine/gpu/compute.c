@@ -16,18 +16,6 @@ uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes)
     return h;
 }
 
-uint64_t pn_gpu_variant_hash_spec(uint64_t h, const VkSpecializationInfo *spec)
-{
-    if (!spec)
-        return h;
-    for (uint32_t i = 0; i < spec->mapEntryCount; i++) {
-        const VkSpecializationMapEntry *e = &spec->pMapEntries[i];
-        h = pn_gpu_variant_hash(h, &e->constantID, sizeof e->constantID);
-        h = pn_gpu_variant_hash(h, (const char *)spec->pData + e->offset, e->size);
-    }
-    return h;
-}
-
 void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
                          uint64_t start_ns)
 {

@@ -13,14 +13,13 @@ pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, 
                                  uint32_t push_size, VkPipelineLayout *out);
 
 // The pipeline log (PN_PIPELINE_LOG, pn_gpu_device.pipeline_log): each pipeline created appends
-// "<kind> <variant> <SPIR-V bytes> <ms>" to the file, the variant a hash of its SPIR-V and
-// specialisation (the same variant twice: the second a cache hit, or a pipeline made again), ms
+// "<kind> <variant> <SPIR-V bytes> <ms>" to the file, the variant a hash of its SPIR-V,
+// specialisation and layout (the same variant twice: a pipeline made again by another device), ms
 // the creation's wall-clock time. Mesa's disk cache makes a cold creation seconds and a warm one
 // milliseconds on llvmpipe, so the log tells what a test compiled (tests/timings.sh).
 // pn_gpu_variant_hash folds `bytes` of `data` into h (FNV-1a; start from PN_GPU_VARIANT_SEED).
 #define PN_GPU_VARIANT_SEED 14695981039346656037ull
 uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes);
-uint64_t pn_gpu_variant_hash_spec(uint64_t h, const VkSpecializationInfo *spec); // spec may be NULL
 void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
                          uint64_t start_ns);
 
