@@ -1,15 +1,16 @@
 #!/usr/bin/env bash
 # One run that says whether penumbra works on this machine's Vulkan device, and how fast:
-#   gpu-check.sh OUT_DIR [--size N] [--quick] [--skip-bench] [--bench-args "ARGS"]
+#   gpu-check.sh OUT_DIR [--size N] [--quick] [--skip-bench] [--bench-args "ARGS"] [--scenes LIST]
 # From the bundle (ci/bundle.sh: ./gpu-check.sh at its root) or from the repository
 # (ci/gpu-check.sh, with build/penumbra; PN_BIN overrides either). Everything goes under OUT_DIR.
 #  1. the device and driver (penumbra info);
 #  2. every mode, and exact's per-ray and projection walks, against exact on the same pixels and
 #     samples (render --filter none, same seed;
 #     penumbra diff's mean |V - exact's|) on builtin:default, the bunny and builtin:canopy (alpha-
-#     masked), within the documented bound: exact-ls, rayquery, rtpipeline are exact (<= 1e-3: at
-#     most a ray grazing an edge may go the other way, engine/shadow/README.md); the line-space
-#     modes <= 0.05 (tests/test_light_kinds.c's bound; their bias is 0.001-0.03 there);
+#     masked; --scenes names a subset, comma-separated: default, bunny, canopy), within the
+#     documented bound: exact-ls, rayquery, rtpipeline are exact (<= 1e-3: at most a ray grazing an
+#     edge may go the other way, engine/shadow/README.md); the line-space modes <= 0.05
+#     (tests/test_light_kinds.c's bound; their bias is 0.001-0.03 there);
 #  3. exact (and rayquery, rtpipeline where the device has them) against Embree 3 ray by ray on
 #     the same rays (--ray-dump), by the project's oracles tests/test_exact_oracle.c (bunny, Sponza;
 #     >= 99.99% agreement, the rest within 1e-5 of an edge) and tests/test_alpha_oracle.c
@@ -34,17 +35,22 @@ usage() {
 out=$1
 shift
 case $out in -*) usage ;; esac
-size="" quick=0 skip_bench=0 bench_args=""
+size="" quick=0 skip_bench=0 bench_args="" scene_names="default,bunny,canopy"
 while [ $# -gt 0 ]; do
   case $1 in
     --size) [ $# -ge 2 ] || usage; size=$2; shift 2 ;;
     --quick) quick=1; shift ;;
     --skip-bench) skip_bench=1; shift ;;
     --bench-args) [ $# -ge 2 ] || usage; bench_args=$2; shift 2 ;;
+    --scenes) [ $# -ge 2 ] || usage; scene_names=$2; shift 2 ;;
     -h | --help) usage ;;
     *) echo "gpu-check.sh: unknown argument '$1'" >&2; usage ;;
   esac
 done
+if ! [[ ,$scene_names, =~ ^(,(default|bunny|canopy))+,$ ]]; then
+  echo "gpu-check.sh: --scenes takes a comma-separated list of default, bunny and canopy, got '$scene_names'" >&2
+  exit 2
+fi
 if [ -n "$size" ] && ! [[ $size =~ ^[0-9]+$ && $size -ge 16 && $size -le 8192 ]]; then
   echo "gpu-check.sh: --size takes a number of pixels from 16 to 8192, got '$size'" >&2
   exit 2
@@ -154,7 +160,14 @@ bound_of() {
 
 # --- 2. Every mode against exact -----------------------------------------------------------------
 step "every mode against exact, same samples (${check_size}x${check_size}, 16 spp, unfiltered)"
-scenes=("builtin:default" "$PN_ASSETS/stanford-bunny-69k.glb" "builtin:canopy")
+# The scenes of steps 2 and 4 (--scenes).
+scenes=()
+for nm in ${scene_names//,/ }; do
+  case $nm in
+    bunny) scenes+=("$PN_ASSETS/stanford-bunny-69k.glb") ;;
+    *) scenes+=("builtin:$nm") ;;
+  esac
+done
 cdir=$out/modes
 mkdir -p "$cdir"
 for sc in "${scenes[@]}"; do
@@ -231,7 +244,7 @@ if [ $vrc != 0 ] && grep -q "not installed" "$vdir/info.txt"; then
 else
   [ $vrc = 0 ] || { vfail=1; cat "$vdir/info.txt"; record FAIL "validation: penumbra info under the layer exited $vrc"; }
   vsize=$([ $quick = 1 ] && echo 64 || echo 128)
-  for sc in builtin:default builtin:canopy "$PN_ASSETS/stanford-bunny-69k.glb"; do
+  for sc in "${scenes[@]}"; do
     nm=$(basename "$sc" .glb | sed 's/^builtin://')
     [[ $sc == builtin:* ]] || [ -f "$sc" ] || continue
     for m in exact "${modes[@]}"; do
@@ -256,7 +269,7 @@ else
     >"$vdir/bench.log" 2>&1 || rc=$?
   [ $rc = 0 ] || { vfail=1; tail -n 5 "$vdir/bench.log"; record FAIL "validation: bench exited $rc ($vdir/bench.log)"; }
   if [ $vfail = 0 ]; then
-    record PASS "validation layer: no message on exact and ${#modes[@]} other modes (3 scenes) and a bench run"
+    record PASS "validation layer: no message on exact and ${#modes[@]} other modes (${#scenes[@]} scenes) and a bench run"
   fi
 fi
 

@@ -16,7 +16,8 @@
 #    configuration climbs its uniform samples filtered too, then adaptive samples under the filter
 #    (1:4, 2:8, ... as the rule names), and the render takes its pick's filter;
 #  - an unreachable budget (0) warns and takes the least error found.
-# Arguments: the budgets to try (default 0.05 0.02 0.005 0; the fast tier tries 0.05 alone).
+# Arguments: the budgets to try (default 0.05 0.02 0.005 0; ctest runs 0.05 as quality_auto_fast, in
+# the fast tier, and the other three as quality_auto).
 set -u
 BIN=${PN_BIN:?PN_BIN not set}
 T=${PN_TEST_TMP:-/tmp}/quality_auto${1:+_$1}

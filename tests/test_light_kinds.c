@@ -296,7 +296,10 @@ static double edge_offset(int k, double e, double x, double z)
 // exact's error was (0.02 at 256 samples, plus the rounding), and an omni light's edge is hard at
 // either end of it. The occluder's other edges are 0.19 or more from the rays of the pixels read
 // (|z| < 0.1).
-static void check_extremes(void)
+// Which of the sweep's renders: every one, the covering design below, or the others alone.
+typedef enum sweep_part { SWEEP_ALL, SWEEP_COVERING, SWEEP_REST } sweep_part;
+
+static void check_extremes(sweep_part part)
 {
     const double cases[4][2] = {{1e-4, 0}, {1e6, 0}, {1, 1e4}, {1e3, 1e7}};
     // exact walks by projection at 256 spp (auto's choice); the packet walk too, by name.
@@ -311,17 +314,18 @@ static void check_extremes(void)
         printf("rayquery at the extremes: skipped, the device has no VK_KHR_ray_query\n");
     if (!ray_pipeline)
         printf("rtpipeline at the extremes: skipped, the device has no VK_KHR_ray_tracing_pipeline\n");
-    // Under a sanitizer (the sanitizer pass, tests/README.md) each mode and case takes one kind,
-    // kind (case + mode) mod 4: every mode still meets every kind (over the four cases) and every
-    // case every kind (over the modes), so every host path of the 144 renders runs, in 36; the
-    // sanitizers check the host code, which no more of the sweep's points reach (the shaders run
-    // uninstrumented in lavapipe). The plain pass renders the whole sweep.
-    const char *sanitizer = getenv("PN_SANITIZER");
-    bool covering = sanitizer && *sanitizer;
+    // The covering design: each mode and case takes one kind, kind (case + mode) mod 4, so every
+    // mode still meets every kind (over the four cases) and every case every kind (over the modes):
+    // every host path of the 144 renders runs, in 36. The fast tier and the sanitizer pass render it
+    // (the sanitizers check host code, which no more of the sweep's points reach: the shaders run
+    // uninstrumented in lavapipe); the plain pass renders the other 108 too, in a test of their own
+    // (test_light_kinds_rest, tests/CMakeLists.txt), so that it renders each point once.
     for (int c = 0; c < 4; c++) {
         double sc = cases[c][0], t = cases[c][1];
         char name[64];
-        snprintf(name, sizeof name, "kinds_extreme_%d.gltf", c);
+        // The rest's files apart from the covering's: ctest runs the two tests at once.
+        const char *part_name = part == SWEEP_REST ? "_rest" : "";
+        snprintf(name, sizeof name, "kinds_extreme%s_%d.gltf", part_name, c);
         // pn_test_tmp's names are reused after a few calls: the scene's path is copied.
         const char *written = write_penumbra_gltf(name, sc, t);
         CHECK(written != NULL);
@@ -339,7 +343,8 @@ static void check_extremes(void)
             bool exact = tree ? strcmp(modes[m], "exact-ls") == 0 : true;
             double leaf = (0.5 + 8 * ulp) / 16, e_far = 0.25 + (exact ? 0 : 4 * leaf + 8 * ulp);
             for (int k = 0; k < 4; k++) {
-                if (covering && k != (c + (int)m) % 4)
+                bool in_design = k == (c + (int)m) % 4;
+                if ((part == SWEEP_COVERING && !in_design) || (part == SWEEP_REST && in_design))
                     continue;
                 char light[256], args[2048];
                 const char *kind = k == 0 ? "sun" : k == 1 ? "sphere" : k == 2 ? "disk" : "omni";
@@ -352,7 +357,9 @@ static void check_extremes(void)
                              t, 0.3 * sc);
                 else
                     snprintf(light, sizeof light, "omni:%.9g,%.9g,%.9g:5", t, t + 2 * sc, t);
-                const char *exr = pn_test_tmp("kinds_extreme.exr");
+                char exr_name[64];
+                snprintf(exr_name, sizeof exr_name, "kinds_extreme%s.exr", part_name);
+                const char *exr = pn_test_tmp(exr_name);
                 snprintf(args, sizeof args,
                          "render %s --no-ground --size 160x112 --camera-pos %.9g,%.9g,%.9g --camera-target "
                          "%.9g,%.9g,%.9g --fov 30 --mode %s %s --spp %d --filter none --aovs --light %s -o %s >/dev/null",
@@ -403,13 +410,28 @@ static void check_extremes(void)
     }
 }
 
-int main(void)
+// Arguments: none, every check and the whole sweep at the extremes; "covering", every check and
+// the sweep's covering design (check_extremes); "rest", the sweep's other renders and nothing else.
+int main(int argc, char **argv)
 {
+    sweep_part part = SWEEP_ALL;
+    if (argc > 1 && !strcmp(argv[1], "covering"))
+        part = SWEEP_COVERING;
+    else if (argc > 1 && !strcmp(argv[1], "rest"))
+        part = SWEEP_REST;
+    else if (argc > 1) {
+        fprintf(stderr, "usage: %s [covering|rest]\n", argv[0]);
+        return 2;
+    }
+    if (part == SWEEP_REST) {
+        check_extremes(part);
+        return pn_test_result();
+    }
     check_sun_irradiance();
     check_sphere_irradiance();
     check_disk_irradiance();
     check_spot_falloff();
-    check_extremes();
+    check_extremes(part);
 
     // A sun of 10 degrees straight down: its penumbra at the edge is 2 x 0.5 tan(5 deg) = 0.087 wide.
     // 256 stratified samples: V's error per pixel is below 0.01.

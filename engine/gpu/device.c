@@ -88,7 +88,12 @@ bool pn_gpu_fault(pn_gpu_device *dev, const char *call, const char *what, uint64
     }
     if (!dev->fault.count)
         return false;
-    if (++dev->fault_count != dev->fault.fail_at)
+    ++dev->fault_count;
+    // PN_FAULT_ALLOC=0 fails none and lists each allocation: a sweep picks its K from the list
+    // (tests/device_memory_faults.sh fails each distinct allocation at its first and last turn).
+    if (dev->fault.fail_at == 0)
+        pn_info("fault injection: allocation %llu is %s of the %s", (unsigned long long)dev->fault_count, call, what);
+    if (dev->fault_count != dev->fault.fail_at)
         return false;
     pn_info("fault injection: allocation %llu (%s of the %s) fails", (unsigned long long)dev->fault_count, call, what);
     return true;
