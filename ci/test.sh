@@ -3,12 +3,12 @@
 # runs on lavapipe with the Khronos validation layer and synchronization validation on.
 # Then the tests labelled `sanitize` (the fast tier, which runs every module, and the fault
 # injection) again in a second build with AddressSanitizer and UndefinedBehaviorSanitizer (clang,
-# build-asan/, with device-allocation faults injected), which must report nothing; a third build
-# with ThreadSanitizer (clang, build-tsan/, the penumbra executable alone) runs its one test, a
-# scripted demo session with tree builds on the worker thread (tests/demo_tsan.sh), which must
-# report nothing; then the libFuzzer targets (clang, build-fuzz/, the same sanitizers and
-# libFuzzer's coverage instrumentation, the targets alone) replay their corpora and each fuzzes for
-# a bounded time. (The fuzzers' instrumentation is a build of its own because it doubles the time
+# build-asan/, with device-allocation faults injected), which must report nothing; then the
+# libFuzzer targets (clang, build-fuzz/, the same sanitizers and libFuzzer's coverage
+# instrumentation, the targets alone) replay their corpora and each fuzzes for a bounded time,
+# two at a time, the last beside a build with ThreadSanitizer (clang, build-tsan/, the penumbra
+# executable alone) and its one test, a scripted demo session with tree builds on the worker
+# thread (tests/demo_tsan.sh), which must report nothing. (The fuzzers' instrumentation is a build of its own because it doubles the time
 # of instrumented code: a tree build of the bunny at LS(7,3) took 4.4 s under it, 2.2 s without,
 # 0.85 s plain; the tests need the sanitizers, not the fuzzers' counters. Issue 62.)
 # Arguments go to the first two ctest runs (e.g. -R hostile). Environment:
@@ -42,18 +42,21 @@ step "tests under the sanitizers (label sanitize: the fast tier, the fault injec
 (cd build-asan && ctest --output-on-failure --timeout 1800 -j"$(nproc)" -L sanitize "$@")
 echo "== tests under the sanitizers: $((SECONDS - t0)) s"
 
-t0=$SECONDS
-step "ThreadSanitizer build (build-tsan/, clang, -fsanitize=thread, penumbra alone)"
-cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  -DPN_TSAN=ON >/dev/null
-cmake --build build-tsan --parallel "$(nproc)"
-echo "== ThreadSanitizer build: $((SECONDS - t0)) s"
-
-t0=$SECONDS
-step "the demo under ThreadSanitizer"
-# Every other test is registered there but disabled (its program is not built): ctest runs demo_tsan.
-(cd build-tsan && ctest --output-on-failure --timeout 1800)
-echo "== the demo under ThreadSanitizer: $((SECONDS - t0)) s"
+# The ThreadSanitizer stage, which the fuzzing's last round (one target, one core) runs beside.
+tsan_stage() {
+  local t0=$SECONDS
+  step "ThreadSanitizer build (build-tsan/, clang, -fsanitize=thread, penumbra alone)"
+  # (called where set -e does not reach into it: each step's failure returns)
+  cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+    -DPN_TSAN=ON >/dev/null || return 1
+  cmake --build build-tsan --parallel "$(nproc)" || return 1
+  echo "== ThreadSanitizer build: $((SECONDS - t0)) s"
+  t0=$SECONDS
+  step "the demo under ThreadSanitizer"
+  # Every other test is registered there but disabled (its program is not built): ctest runs demo_tsan.
+  (cd build-tsan && ctest --output-on-failure --timeout 1800) || return 1
+  echo "== the demo under ThreadSanitizer: $((SECONDS - t0)) s"
+}
 
 t0=$SECONDS
 step "fuzzer build (build-fuzz/, clang, -fsanitize=address,undefined,fuzzer-no-link, the libFuzzer targets)"
@@ -68,10 +71,14 @@ step "the fuzzers' corpora, replayed"
 echo "== the fuzzers' corpora: $((SECONDS - t0)) s"
 
 seconds=${PN_FUZZ_SECONDS:-60}
-[ "$seconds" -gt 0 ] || exit 0
+if [ "$seconds" -le 0 ]; then
+  tsan_stage
+  exit 0
+fi
 t0=$SECONDS
-step "fuzzing, ${seconds} s per target"
-# Five targets on two cores: two at a time, one core each, so the step takes about 3 x seconds.
+step "fuzzing, ${seconds} s per target (the last beside the ThreadSanitizer stage)"
+# Five targets on two cores: two at a time, one core each; the fifth beside the ThreadSanitizer
+# build and demo (about 45 s), so the step takes about 3 x seconds, that stage included.
 # New inputs go to build-fuzz/fuzz/<target>/new, never into the corpus in tests/fuzz; a crash
 # leaves its input in build-fuzz/fuzz/<target>/ as crash-*.
 dict_of() {
@@ -92,6 +99,10 @@ for pair in "scene cli" "exr script" "api"; do
       "tests/fuzz/corpus_$target" >"$dir/log.txt" 2>&1 &
     pids+=($!)
   done
+  tsan_status=0
+  if [ ${#targets[@]} -eq 1 ]; then
+    tsan_stage || tsan_status=$?
+  fi
   for i in "${!targets[@]}"; do
     target=${targets[$i]}
     if wait "${pids[$i]}"; then
@@ -104,6 +115,10 @@ for pair in "scene cli" "exr script" "api"; do
       echo "tests/fuzz/corpus_$target/ as regress_<what>, so that ctest replays it (tests/sanitizers.md)."
     fi
   done
+  if [ "$tsan_status" -ne 0 ]; then
+    echo "FAIL: the ThreadSanitizer stage exited $tsan_status"
+    status=1
+  fi
 done
-echo "== fuzzing: $((SECONDS - t0)) s"
+echo "== fuzzing and the ThreadSanitizer stage: $((SECONDS - t0)) s"
 exit $status

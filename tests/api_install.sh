@@ -2,8 +2,11 @@
 # The library as a user gets it (engine/api): `cmake --install` into a fresh prefix, then
 #  - the installed files, and the shared library's exports: the API's symbols and nothing else
 #    (nm -D), every function the header declares among them;
-#  - the README's C example, exactly as the README has it, built with pkg-config and with a CMake
-#    project's find_package (shared and static), all three printing the same V;
+#  - the README's C example and the commands after it, exactly as the README has them (its own
+#    install into ~/.local, with HOME a new folder; nothing else set: the program must find the
+#    library by the run path pkg-config gives), printing exactly the output the README shows; the
+#    example built with a CMake project's find_package (shared and static) too, printing the same;
+#  - the installed penumbra command (the library's messages name `penumbra info`);
 #  - that V against render's for the same points (render --gbuffer over an EXR of them), which
 #    traces them as pixels: equal to the 9 decimals both print;
 #  - the Python module from the build tree and from the prefix, printing the same V.
@@ -36,17 +39,40 @@ missing=$(comm -23 "$T/declared" "$T/exports")
 [ -z "$missing" ] || fail "declared in penumbra.h, not exported: $missing"
 echo "exports: $(wc -l < "$T/exports") symbols, all the API's"
 
-# --- the README's example, as it stands there
-awk '/<!-- api-example/ {f = 1; next} f && /^```c/ {g = 1; next} g && /^```/ {exit} g {print}' \
-  "$SRC/README.md" > "$T/example.c"
+[ -x "$PREFIX/bin/penumbra" ] || fail "not installed: bin/penumbra"
+"$PREFIX/bin/penumbra" info > "$T/info.txt" 2>&1 || fail "the installed penumbra info: $(tail -n 3 "$T/info.txt")"
+"$PREFIX/bin/penumbra" --help 2>&1 | grep -q render || fail "the installed penumbra --help does not list render"
+
+# --- the README's example and its commands, as they stand there, in a new HOME
+block() { # the fenced block after the README's line matching $1
+  awk -v m="$1" 'index($0, m) {f = 1; next} f && /^```/ && !g {g = 1; next} g && /^```/ {exit} g {print}' "$SRC/README.md"
+}
+block "<!-- api-example" > "$T/example.c"
+block "<!-- api-commands" > "$T/commands.sh"
+block "<!-- api-output" > "$T/expected.txt"
 [ "$(wc -l < "$T/example.c")" -gt 10 ] || fail "no C example after <!-- api-example --> in README.md"
+grep -q "cmake --install build" "$T/commands.sh" || fail "no install command after <!-- api-commands --> in README.md"
+[ "$(wc -l < "$T/expected.txt")" -eq 4 ] || fail "README.md shows $(wc -l < "$T/expected.txt") lines of output, not 4"
+# Where the README's reader is: the repository's folder, with build/ and example.c in it.
+mkdir -p "$T/reader/home"
+ln -s "$BUILD" "$T/reader/build"
+cp "$T/example.c" "$T/reader/example.c"
+cp "$T/commands.sh" "$T/reader/commands.sh"
+# Nothing from this environment but Mesa's shader cache folder (as bundle_check: the new HOME's
+# empty cache would only make the run compile its pipelines again).
+cache=${MESA_SHADER_CACHE_DIR:-${XDG_CACHE_HOME:-${HOME:-/nonexistent}/.cache}}
+(cd "$T/reader" && env -i HOME="$T/reader/home" PATH=/usr/bin:/bin MESA_SHADER_CACHE_DIR="$cache" \
+  bash -euo pipefail commands.sh) > "$T/out_readme.txt" 2> "$T/readme.err" ||
+  { cat "$T/readme.err"; fail "the README's commands failed"; }
+grep -v '^-- ' "$T/out_readme.txt" > "$T/out_pc.txt" || true # cmake --install's lines, if any
+cat "$T/out_pc.txt"
+diff "$T/expected.txt" "$T/out_pc.txt" || fail "the README's example printed other than the README shows"
+readelf -d "$T/reader/example" | grep -qE "\(RUNPATH\)|\(RPATH\)" || fail "the README's program has no run path"
+# The example is clean C17 under strict warnings, with the flags pkg-config gives.
 export PKG_CONFIG_PATH="$LIBDIR/pkgconfig"
 # shellcheck disable=SC2046
-cc -std=c17 -Wall -Wextra -Werror "$T/example.c" $(pkg-config --cflags --libs penumbra) -o "$T/example_pc" \
-  || fail "the README example does not build with pkg-config"
-LD_LIBRARY_PATH="$LIBDIR" "$T/example_pc" > "$T/out_pc.txt" || fail "the README example failed"
-cat "$T/out_pc.txt"
-[ "$(wc -l < "$T/out_pc.txt")" -eq 4 ] || fail "the example printed $(wc -l < "$T/out_pc.txt") lines, not 4"
+cc -std=c17 -Wall -Wextra -Wpedantic -Werror "$T/example.c" $(pkg-config --cflags --libs penumbra) -o "$T/example_pc" \
+  || fail "the README example does not build with -std=c17 -Wall -Wextra -Wpedantic -Werror"
 
 mkdir -p "$T/consumer"
 cp "$T/example.c" "$T/consumer/"

@@ -60,22 +60,88 @@ static void against_render(const char *mode, const char *light_args, const penum
             CHECK_MSG(rv, "%s: no layer for light %u", exr, l);
             continue;
         }
-        size_t differ = 0, geometry = 0, partial = 0;
+        // Where no ray of a pixel carries light (render's shadow.valid 0: below its horizon or
+        // behind the light), render writes the convention 1 and the library 0 (penumbra.h); with
+        // several lights render writes no shadow.valid, and such a pixel is one where render's 1
+        // is the library's 0.
+        const float *valid = nlights == 1 ? pn_exr_image_channel(&img, "shadow.valid") : NULL;
+        CHECK_MSG(nlights > 1 || valid, "%s: no shadow.valid layer", exr);
+        size_t differ = 0, geometry = 0, partial = 0, unreached = 0;
         for (size_t i = 0; i < px; i++) {
             if (!(a[i] > 0))
                 continue;
             geometry++;
             partial += rv[i] > 0 && rv[i] < 1;
-            differ += memcmp(&rv[i], &v[l * px + i], sizeof(float)) != 0;
+            float mine = v[l * px + i];
+            if (valid ? valid[i] == 0 : (rv[i] == 1.0f && mine == 0.0f)) {
+                unreached++;
+                differ += mine != 0.0f || rv[i] != 1.0f;
+                continue;
+            }
+            differ += memcmp(&rv[i], &mine, sizeof(float)) != 0;
         }
-        fprintf(stderr, "mode %s, light %u: %zu of %zu pixels differ from render (%zu in penumbra)\n", mode, l, differ,
-                geometry, partial);
+        fprintf(stderr, "mode %s, light %u: %zu of %zu pixels differ from render (%zu in penumbra, %zu unreached)\n",
+                mode, l, differ, geometry, partial, unreached);
         CHECK(geometry > 100 && partial > 10); // a picture with shadows and penumbrae to compare
         CHECK_MSG(differ == 0, "mode %s light %u: V differs from render's at %zu pixels", mode, l, differ);
     }
     penumbra_scene_destroy(scene);
     pn_exr_image_free(&img);
     free(p), free(n), free(v);
+}
+
+// Points no sample of the light reaches, against the geometry alone (penumbra.h: V is the fraction
+// of the samples above the point's horizon that reach it unblocked, 0 where none is): a rectangle
+// 0.5 across at y = 2 facing down, nothing in between. V = 0 for a point facing away from it (its
+// whole rectangle below the horizon), for one above it (behind a one-sided light), for one whose
+// tangent plane lies above the light; V = 1 for a point facing it, and for one whose horizon cuts
+// the light in half (the half above is the whole of "those above", all unblocked); the same from
+// a sphere wholly below the horizon (0) and a sun shining from below it (0). Every mode.
+static void check_unreached(void)
+{
+    float far_pos[12] = {50, 0, 50, 51, 0, 50, 51, 0, 51, 50, 0, 51}; // a caster far from everything
+    uint32_t far_idx[6] = {0, 1, 2, 0, 2, 3};
+    penumbra_scene *s = NULL;
+    OK(penumbra_scene_create(g_ctx, &(penumbra_mesh_desc){.positions = far_pos, .vertex_count = 4, .indices = far_idx,
+                                                          .index_count = 6},
+                             1, &s));
+    if (!s)
+        return;
+    penumbra_light rect = {.kind = PENUMBRA_LIGHT_RECT, .position = {0, 2, 0}, .normal = {0, -1, 0}, .up = {0, 0, 1},
+                           .size = {0.5f, 0.5f}};
+    penumbra_light sphere = {.kind = PENUMBRA_LIGHT_SPHERE, .position = {0, 2, 0}, .radius = 0.25f};
+    penumbra_light sun = {.kind = PENUMBRA_LIGHT_SUN, .normal = {0, 1, 0}, .angle = 0.05f}; // travels up
+    enum { N = 6 };
+    const float pts[N][3] = {{3, 0, 0}, {0, 4, 0}, {3, 2.5f, 0}, {0.3f, 0, 0.1f}, {0, 1, 0}, {1, 0, 1}};
+    const float nrm[N][3] = {{0, -1, 0}, {0, -1, 0}, {0, 1, 0}, {0, 1, 0}, {1, 0, 0}, {0, 1, 0}};
+    // rect: away, behind, tangent plane above, facing, halved, facing
+    const float want_rect[N] = {0, 0, 0, 1, 1, 1};
+    const char *modes[] = {"exact", "linespace", "hybrid", "exact-ls", "ls-plane"};
+    for (size_t m = 0; m < sizeof modes / sizeof *modes; m++) {
+        penumbra_visibility_desc d = {.mode = modes[m], .spp = 64};
+        float v[3][N];
+        const penumbra_light lights[3] = {rect, sphere, sun};
+        OK(penumbra_visibility(g_ctx, s, &d, lights, 3, &pts[0][0], &nrm[0][0], N, &v[0][0]));
+        for (int i = 0; i < N; i++) {
+            CHECK_MSG(v[0][i] == want_rect[i], "%s: rect light, point %d: V %g, expected %g", modes[m], i,
+                      (double)v[0][i], (double)want_rect[i]);
+            // The sphere at (0, 2, 0), radius 0.25: wholly below the horizon of points 0 and 2, and
+            // above point 1's (whose normal faces down, towards it): 1 there.
+            float want_sphere = i == 0 || i == 2 ? 0.0f : 1.0f;
+            CHECK_MSG(v[1][i] == want_sphere, "%s: sphere light, point %d: V %g, expected %g", modes[m], i,
+                      (double)v[1][i], (double)want_sphere);
+            // The sun travels up (+y): it lights points whose normal faces down (0, 1), and point
+            // 4, whose horizon (normal +x) halves its cone of directions; the others face up, the
+            // sun wholly below their horizon.
+            float want_sun = nrm[i][1] < 0 || i == 4 ? 1.0f : 0.0f;
+            CHECK_MSG(v[2][i] == want_sun, "%s: sun, point %d: V %g, expected %g", modes[m], i, (double)v[2][i],
+                      (double)want_sun);
+        }
+        fprintf(stderr, "%s: unreached points: rect %g %g %g, sphere %g %g, sun %g %g (all 0); reached: %g %g %g (all 1)\n",
+                modes[m], (double)v[0][0], (double)v[0][1], (double)v[0][2], (double)v[1][0], (double)v[1][2],
+                (double)v[2][2], (double)v[2][3], (double)v[0][3], (double)v[0][4], (double)v[0][5]);
+    }
+    penumbra_scene_destroy(s);
 }
 
 // The occluder of the closed form: a square of side `side` at height h centred on the y axis,
@@ -122,6 +188,41 @@ int main(void)
         {.kind = PENUMBRA_LIGHT_DISK, .position = {-1, 3, 1}, .normal = {0, -1, 0}, .up = {0, 0, 1}, .radius = 0.5f},
     };
     against_render("exact", "--light sphere:0.5,3,0.5:0.4:10 --light disk:-1,3,1:0,-1,0:0,0,1:0.5:10", two, 2);
+    check_unreached();
+    // --- a move costs its rebuild alone: the renderer and its pipelines are kept (compile_ms 0,
+    // nothing readied), in every mode that builds structures; V after the move and back is the
+    // first call's, bit for bit. The call's time against the build's is printed (the bench's
+    // business, not asserted).
+    {
+        penumbra_scene *s = NULL;
+        OK(penumbra_scene_load(g_ctx, "builtin:default", &s));
+        float mp[4][3] = {{0, 0, 0}, {0.6f, 0, 0.4f}, {-1.2f, 0, 0.8f}, {2, 0, -2}}, mn[4][3], v0[4], v1[4];
+        for (int i = 0; i < 4; i++)
+            mn[i][0] = 0, mn[i][1] = 1, mn[i][2] = 0;
+        const float moved[12] = {1, 0, 0, 0.3f, 0, 1, 0, 0, 0, 0, 1, 0.2f}, home[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+        const char *modes[] = {"exact", "linespace", "rayquery"};
+        for (size_t m = 0; s && m < sizeof modes / sizeof *modes; m++) {
+            penumbra_visibility_desc d = {.mode = modes[m], .spp = 64};
+            penumbra_times t;
+            if (penumbra_visibility(g_ctx, s, &d, &dl, 1, &mp[0][0], &mn[0][0], 4, v0) != PENUMBRA_OK) {
+                fprintf(stderr, "move in %s: skipped (%s)\n", modes[m], penumbra_context_error(g_ctx));
+                continue;
+            }
+            OK(penumbra_scene_set_transform(s, 0, moved));
+            OK(penumbra_visibility(g_ctx, s, &d, &dl, 1, &mp[0][0], &mn[0][0], 4, v1));
+            OK(penumbra_scene_last_times(s, &t));
+            fprintf(stderr, "move in %s: build %.2f ms, compile %.2f ms, the call %.2f ms\n", modes[m], t.build_ms,
+                    t.compile_ms, t.total_ms);
+            CHECK_MSG(t.build_ms > 0 && t.compile_ms == 0, "move in %s: build %g ms, compile %g ms", modes[m],
+                      t.build_ms, t.compile_ms);
+            CHECK_MSG(memcmp(v0, v1, sizeof v0) != 0, "move in %s: V did not change", modes[m]);
+            OK(penumbra_scene_set_transform(s, 0, home));
+            OK(penumbra_visibility(g_ctx, s, &d, &dl, 1, &mp[0][0], &mn[0][0], 4, v1));
+            OK(penumbra_scene_last_times(s, &t));
+            CHECK_MSG(t.compile_ms == 0 && memcmp(v0, v1, sizeof v0) == 0, "moved back in %s: V differs", modes[m]);
+        }
+        penumbra_scene_destroy(s);
+    }
     {
         penumbra_scene *s = NULL;
         OK(penumbra_scene_load(g_ctx, "builtin:plane", &s));

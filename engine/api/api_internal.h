@@ -63,6 +63,7 @@ struct penumbra_scene {
     pn_api_key accel_key; // mode, tree, scene version and (a tree's) lights
     pn_shadow_accel accel;
     bool renderer_made;   // `renderer` is made over `accel` as frame_key says
+    bool renderer_stale;  // `accel` was built again since: the renderer takes it (pn_renderer_set_accel)
     pn_api_key frame_key; // mode, traversal, sampler, width; its height the most rows so far
     pn_renderer renderer;
     penumbra_times times; // of the last successful visibility call

@@ -91,7 +91,8 @@ penumbra_status penumbra_context_create(const penumbra_context_desc *desc, penum
     pn_api_call call;
     pn_api_begin(&call, ctx);
     pn_gpu_device_desc dd = {.validation = d.validation != 0,
-                             .selector = d.device && d.device[0] ? d.device : NULL};
+                             .selector = d.device && d.device[0] ? d.device : NULL,
+                             .selector_from = "penumbra_context_desc.device"};
     pn_result r = pn_gpu_device_create(&dd, &ctx->dev);
     ctx->ok = r == PN_OK;
     return pn_api_end(&call, r);

@@ -149,7 +149,8 @@ PENUMBRA_API penumbra_status penumbra_scene_get_info(const penumbra_scene *scene
 
 /* Object `object`'s transform from now on (3 rows of 4, as penumbra_mesh_desc.transform; its
  * mesh's own positions are moved, not the current ones). The next visibility call rebuilds the
- * scene's acceleration structures. */
+ * scene's acceleration structures, and only those: the pipelines and images it made stay
+ * (penumbra_scene_last_times: compile_ms 0). */
 PENUMBRA_API penumbra_status penumbra_scene_set_transform(penumbra_scene *scene, uint32_t object,
                                                           const float transform[12]);
 
@@ -193,7 +194,7 @@ typedef struct penumbra_visibility_desc {
     const char *traversal; /* NULL: "auto"; or "ray", "packet", "project" (render's --traversal) */
     const char *sampler;   /* NULL: "stratified"; or "grid" */
     uint32_t spp;          /* light samples per point, 1..4096; 0: 4, as render */
-    uint32_t seed;         /* the samples' seed, as render's --seed (whose default is 1) */
+    uint32_t seed;         /* the samples' seed, as render's --seed; 0: 1, render's default */
     uint32_t tree_n, tree_d; /* line-space modes' N-tree: branching 2..16, depth 1..6; 0: 7 and 3 */
     /* The points are traced as the pixels of an image `width` points wide (point i is pixel
      * (i mod width, i / width)); a pixel's samples depend on where it is. 0: 1024.
@@ -212,7 +213,9 @@ typedef struct penumbra_visibility_desc {
 /* For point_count points (xyz each in `points`, a unit normal each in `normals`, the side the
  * point receives light from), the visibility of each of light_count lights: v[l * point_count + i]
  * for light l and point i, light_count * point_count floats. V is the fraction of the light's
- * samples that reach the point unblocked, among those above its horizon; 0 where none is.
+ * samples that reach the point unblocked, among those above its horizon and in front of the
+ * light; 0 where none is (a point facing away, behind a one-sided light, or under it: unlike
+ * render's shadow.V layer, whose convention there is 1, where its radiance is 0 anyway).
  * The first call builds the acceleration structures for the scene and mode (for the line-space
  * modes, also for the lights: their tree leaves out what cannot block them) and readies the
  * pipelines; later calls reuse both while the mode, traversal, sampler, tree and row length stay

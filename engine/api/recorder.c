@@ -51,7 +51,8 @@ static pn_result recorder_make(penumbra_recorder *rec, const penumbra_scene *s, 
         return PN_ERR_INVALID;
     rec->rd = (pn_renderer_desc){.width = d->width, .height = d->height, .mode = (pn_shadow_mode)c.key.mode,
                                  .traversal = (pn_traversal)c.key.traversal, .sampler = (pn_sampler)c.key.sampler,
-                                 .spp = c.spp, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN};
+                                 .spp = c.spp, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN,
+                                 .unreached_zero = true}; // V as penumbra_visibility's
     PN_TRY(pn_shadow_check_samples(&rec->rd));
     // As pn_setup_create builds them, for this one light and no view (the host's points are anywhere).
     const pn_shadow_mode_info *mode = pn_shadow_mode_get(rec->rd.mode);

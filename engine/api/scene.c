@@ -415,7 +415,8 @@ penumbra_status penumbra_scene_set_transform(penumbra_scene *s, uint32_t object,
         for (int r = 0; r < 3; r++)
             for (int k = 0; k < 4; k++)
                 sc->objects[object].to_world[r][k] = (float)t[r][k];
+    // The next visibility call builds the structures again (they are keyed by the version) and
+    // hands them to the renderer it keeps (visibility.c: ensure_accel, ensure_renderer).
     s->version++;
-    pn_api_scene_drop_built(s);
     return pn_api_end(&call, PN_OK);
 }

@@ -16,7 +16,9 @@
 // GPU's image size (16384). Fixed, not the count's: calls with other counts then keep the renderer
 // (its rows past the points' are empty pixels, which cost next to nothing), and a point's samples
 // do not depend on how many came with it.
-enum { DEFAULT_WIDTH = 1024, DEFAULT_SPP = 4, MAX_SPP = 4096 };
+// The samples' seed by default: render's --seed default, so that a zeroed description traces
+// what `penumbra render` does (issue 65: seed 0 traced other samples than the README's seed 1).
+enum { DEFAULT_WIDTH = 1024, DEFAULT_SPP = 4, MAX_SPP = 4096, DEFAULT_SEED = 1 };
 
 static int parse_name(const char *fn, const char *field, const char *name, const char *const *names, int fallback)
 {
@@ -47,7 +49,7 @@ pn_result pn_api_config_in(const penumbra_context *ctx, const penumbra_scene *s,
         pn_error("%s: spp %u: expected 1..%d", fn, c->spp, MAX_SPP);
         return PN_ERR_INVALID;
     }
-    c->seed = d->seed;
+    c->seed = d->seed ? d->seed : DEFAULT_SEED;
     int n = d->tree_n ? (int)d->tree_n : 7, depth = d->tree_d ? (int)d->tree_d : 3;
     if (n < 2 || n > 16 || depth < 1 || depth > 6) {
         pn_error("%s: tree %u,%u: expected a branching factor 2..16 and a depth 1..6", fn, d->tree_n, d->tree_d);
@@ -102,8 +104,13 @@ static pn_result ensure_accel(penumbra_scene *s, const pn_api_config *c, penumbr
     }
     if (s->accel_built && memcmp(&s->accel_key, &key, sizeof key) == 0)
         return PN_OK;
-    pn_api_scene_drop_built(s);
+    // The structures alone: a renderer for the same mode takes the new ones (ensure_renderer), so
+    // that a move costs its rebuild and no renderer (issue 65: 370-551 ms warm per move before).
     pn_gpu_device *dev = &s->ctx->dev;
+    if (s->accel_built)
+        pn_shadow_accel_destroy(dev, &s->accel);
+    s->accel_built = false;
+    s->renderer_stale = s->renderer_made;
     uint64_t t0 = pn_time_ns();
     // As pn_setup_create builds them, without a view to cull by: the points are anywhere.
     pn_shadow_accel_desc ad = {.needs = mode->needs,
@@ -134,6 +141,12 @@ static pn_result ensure_renderer(penumbra_scene *s, const pn_api_config *c)
     if (s->renderer_made && memcmp(&s->frame_key, &key, sizeof key) == 0 && s->renderer.height >= c->key.height) {
         PN_TRY(pn_renderer_set_spp(&s->renderer, c->spp));
         pn_renderer_set_seed(&s->renderer, c->seed);
+        if (s->renderer_stale) { // the same mode over structures built again (a move)
+            pn_renderer_desc rd = {0};
+            pn_shadow_accel_bind(&s->accel, &rd);
+            pn_renderer_set_accel(&s->renderer, &s->scene, &rd);
+            s->renderer_stale = false;
+        }
         return PN_OK;
     }
     if (s->renderer_made)
@@ -141,10 +154,12 @@ static pn_result ensure_renderer(penumbra_scene *s, const pn_api_config *c)
     s->renderer_made = false;
     pn_renderer_desc rd = {.width = c->key.width, .height = c->key.height, .mode = (pn_shadow_mode)c->key.mode,
                            .traversal = (pn_traversal)c->key.traversal, .sampler = (pn_sampler)c->key.sampler,
-                           .spp = c->spp, .seed = c->seed, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN};
+                           .spp = c->spp, .seed = c->seed, .filter = PN_FILTER_NONE, .split = PN_SPLIT_EVEN,
+                           .unreached_zero = true}; // penumbra.h: V 0 where no sample is above the horizon
     pn_shadow_accel_bind(&s->accel, &rd);
     PN_TRY(pn_renderer_create(&s->ctx->dev, &s->scene, &rd, &s->renderer));
     s->renderer_made = true;
+    s->renderer_stale = false;
     s->frame_key = key;
     return PN_OK;
 }
@@ -272,12 +287,13 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
         free(in);
         return pn_api_end(&call, PN_OK);
     }
-    if (!pn_api_need(points, fn, "points") || !pn_api_need(normals, fn, "normals") || !pn_api_need(v, fn, "v") ||
-        pn_api_points_in(points, normals, count) != PN_OK) {
+    if (!pn_api_need(points, fn, "points") || !pn_api_need(normals, fn, "normals") || !pn_api_need(v, fn, "v")) {
         free(in);
         return pn_api_end(&call, PN_ERR_INVALID);
     }
     // The points' image: `width` to a row, as the caller laid them out (its samples depend on it).
+    // Checked before a point is read: a count larger than the caller's arrays is refused here when
+    // no device could take it, not read past their end first.
     uint32_t max_dim = ctx->dev.props.limits.maxImageDimension2D;
     uint64_t width = desc && desc->width ? desc->width : DEFAULT_WIDTH;
     uint64_t height = (count + width - 1) / width;
@@ -286,6 +302,10 @@ penumbra_status penumbra_visibility(penumbra_context *ctx, penumbra_scene *s, co
                  "rows (desc.width) or split the call",
                  fn, count, (unsigned long long)width, (unsigned long long)width, (unsigned long long)height,
                  ctx->dev.props.deviceName, max_dim, max_dim);
+        free(in);
+        return pn_api_end(&call, PN_ERR_INVALID);
+    }
+    if (pn_api_points_in(points, normals, count) != PN_OK) {
         free(in);
         return pn_api_end(&call, PN_ERR_INVALID);
     }

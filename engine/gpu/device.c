@@ -123,8 +123,9 @@ static bool ci_contains(const char *hay, const char *needle)
     return n == 0;
 }
 
-pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32_t *index)
+pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, const char *from, uint32_t *index)
 {
+    from = from ? from : "PN_DEVICE";
     uint32_t count = 0;
     VK_CHECK(vkEnumeratePhysicalDevices(instance, &count, NULL));
     if (count == 0) {
@@ -150,7 +151,7 @@ pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32
             bool match = by_index ? (uint32_t)atoi(selector) == i : ci_contains(p.deviceName, selector);
             if (match && best < 0) {
                 if (!ok13) {
-                    pn_error("device \"%s\" (PN_DEVICE) selects %s, which lacks Vulkan 1.3", selector, p.deviceName);
+                    pn_error("device \"%s\" (%s) selects %s, which lacks Vulkan 1.3", selector, from, p.deviceName);
                     free(pd);
                     return PN_ERR_VULKAN;
                 }
@@ -164,7 +165,8 @@ pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32
     free(pd);
     if (best < 0) {
         if (selector)
-            pn_error("device \"%s\" (PN_DEVICE) matches none of the %u Vulkan devices (see `penumbra info`)", selector, count);
+            pn_error("device \"%s\" (%s) matches none of the %u Vulkan devices (see `penumbra info`)", selector, from,
+                     count);
         else
             pn_error("no Vulkan 1.3 device among the %u found", count);
         return PN_ERR_VULKAN;
@@ -335,7 +337,7 @@ static pn_result create_command_pool(pn_gpu_device *dev)
 static pn_result create_device(const pn_gpu_device_desc *desc, pn_gpu_device *dev)
 {
     uint32_t index;
-    PN_TRY(pn_gpu_pick_physical(dev->instance, desc->selector, &index));
+    PN_TRY(pn_gpu_pick_physical(dev->instance, desc->selector, desc->selector_from, &index));
     uint32_t count = index + 1;
     VkPhysicalDevice *pd = calloc(count, sizeof *pd);
     if (!pd)

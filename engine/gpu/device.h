@@ -23,6 +23,7 @@ typedef struct pn_gpu_fault_desc {
 typedef struct pn_gpu_device_desc {
     bool validation;      // Khronos validation layer + synchronization validation
     const char *selector; // NULL: best device; else an index ("1") or a name substring
+    const char *selector_from; // where the selector came from, for messages; NULL: "PN_DEVICE"
     // Presenting to a window (penumbra demo). False: offscreen only, nothing below is used.
     // True: also enables `instance_extensions` (the window system's surface extensions, e.g.
     // from glfwGetRequiredInstanceExtensions) and VK_KHR_swapchain, and the queue family must be
@@ -150,8 +151,9 @@ void pn_gpu_device_destroy(pn_gpu_device *dev);
 
 // Picks a physical device: by PN_DEVICE-style selector if given (index or case-insensitive name
 // substring), else the best by type (discrete, integrated, virtual, CPU) among those with Vulkan
-// 1.3. Writes its index in the enumeration order; logs and fails if none fits.
-pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, uint32_t *index);
+// 1.3. Writes its index in the enumeration order; logs and fails if none fits, naming the selector
+// as coming from `from` (NULL: "PN_DEVICE").
+pn_result pn_gpu_pick_physical(VkInstance instance, const char *selector, const char *from, uint32_t *index);
 
 // llvmpipe (Mesa 22.3): every shader invocation has one budget of 65,535 loop iterations, after
 // which all its loops silently end (Mesa's loop_limiter). The shadow pass then splits its work

@@ -65,6 +65,11 @@ typedef struct pn_renderer_desc {
     // Two more image copies per frame, inside the filter's time, and 12 bytes a pixel more of the
     // readback buffer: off unless asked for.
     bool keep_window;
+    // V where none of a pixel's samples carries light (below its horizon, behind a one-sided
+    // light): false, the convention 1 that render and the filters read (the radiance there is 0
+    // anyway); true, 0, the library's V (engine/api/penumbra.h: the fraction of the samples above
+    // the horizon that reach the point, 0 where none is), for which nothing is filtered.
+    bool unreached_zero;
 } pn_renderer_desc;
 
 // A tile edge as the passes use it: 0 (unset) means 3, the thesis' 3 x 3.

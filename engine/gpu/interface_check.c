@@ -60,8 +60,9 @@ AT(pn_shadow_params, spp_min, 208);
 AT(pn_shadow_params, alpha_bits, 224);
 AT(pn_shadow_params, masked_tris, 232);
 AT(pn_shadow_params, project_budget, 240);
-AT(pn_shadow_params, lights, 256); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
-SIZE(pn_shadow_params, 256 + 96 * PN_MAX_LIGHTS);
+AT(pn_shadow_params, unreached_v, 256);
+AT(pn_shadow_params, lights, 272); // an array of structs: 16-byte aligned, stride 96 (a multiple of 16)
+SIZE(pn_shadow_params, 272 + 96 * PN_MAX_LIGHTS);
 AT(pn_gpu_object, tree, 0);
 AT(pn_gpu_object, to_local, 64);
 AT(pn_gpu_object, rise_scale, 112);

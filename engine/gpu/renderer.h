@@ -92,6 +92,13 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
 // Changes the stratified sampler's seed from the next pn_renderer_render on: the demo's progressive
 // refinement takes new light samples every frame without recreating the renderer.
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
+// The shadow structures built anew for the same scene and mode (a move: the API rebuilds the
+// BVH, the tree or the device's acceleration structure): `accel`'s pools, objects, exact, tlas,
+// leaf_size and cand_first_node (pn_shadow_accel_bind) replace the renderer's, and the scene's
+// bounds give the rays' offsets again (scene_mag). No pipeline, image or buffer is made: the
+// shadow pass reads the structures by the addresses it writes each frame, and the acceleration
+// structure's descriptor is rewritten here (the queue is idle between frames).
+void pn_renderer_set_accel(pn_renderer *r, const pn_scene *scene, const pn_renderer_desc *accel);
 // The picture the next frame joins averages `frames` frames of independent samples (the demo's
 // accumulation, 1 otherwise): the penumbra filter's footprints narrow as for frames x spp samples
 // (its Gaussian as 1/sqrt, the interleaved window under it as n^-3/4), so that the accumulated

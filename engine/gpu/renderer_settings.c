@@ -13,6 +13,19 @@ void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; 
 
 void pn_renderer_set_accumulated(pn_renderer *r, uint32_t frames) { r->accumulated = frames; }
 
+void pn_renderer_set_accel(pn_renderer *r, const pn_scene *scene, const pn_renderer_desc *accel)
+{
+    r->desc.pools = accel->pools;
+    r->desc.objects = accel->objects;
+    r->desc.exact = accel->exact;
+    r->desc.tlas = accel->tlas;
+    r->desc.leaf_size = accel->leaf_size;
+    r->desc.cand_first_node = accel->cand_first_node;
+    r->shadow.scene_mag = pn_scene_magnitude(scene);
+    if (r->shadow.mode->needs.tlas && accel->tlas)
+        pn_gpu_compute_write_tlas(r->dev, &r->shadow.compute, PN_SHADOW_BINDING_TLAS, accel->tlas->tlas);
+}
+
 pn_result pn_renderer_set_filter(pn_renderer *r, pn_filter filter, uint32_t tile_w, uint32_t tile_h)
 {
     if ((unsigned)filter > PN_FILTER_LAST || pn_filter_tile(tile_w) > PN_FILTER_MAX_TILE ||

@@ -291,6 +291,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.block_walk = s->block_walk_off ? 0 : 1;
     sp.pixel_angle = pixel_angle;
     sp.refine_narrow = desc->filter == PN_FILTER_PENUMBRA;
+    sp.unreached_v = desc->unreached_zero ? 0.0f : 1.0f;
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;

@@ -286,7 +286,7 @@ PN_STRUCT(GBufferPush, pn_gbuffer_push) {
     PN_UINT(pad2)
 } PN_END(GBufferPush, pn_gbuffer_push)
 
-// The shadow pass's uniform block (std140). 240 + 96 PN_MAX_LIGHTS bytes.
+// The shadow pass's uniform block (std140). 272 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_MEMBER(TreeInfo, pn_gpu_tree_info, tree)
     PN_UINT(spp)           // rays per pixel = grid_u * grid_v (adaptive: the most; the grid is then
@@ -333,6 +333,11 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
                                     // (adaptive_decide under the penumbra filter)
     PN_UINT(refine_narrow)          // 1: the penumbra filter: adaptive rounds refine only where it cannot
                                     // average (adaptive_decide)
+    PN_FLOAT(unreached_v)           // V where no sample carries light: 1 (render's convention) or 0
+                                    // (the library's; pn_renderer_desc.unreached_zero; counts_v)
+    PN_UINT(pad_params0)            // (the lights start at a multiple of 16 bytes, as std140 puts them)
+    PN_UINT(pad_params1)
+    PN_UINT(pad_params2)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 

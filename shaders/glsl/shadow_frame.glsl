@@ -334,7 +334,7 @@ bool halves_by_parity()
 
 // V from the pixel's (visible, valid) counts: 1 without a valid ray (the light does not reach it,
 // or its rays missed the sliver that does; shadow_finish tells the two apart for the filter).
-float counts_v(uvec2 counts) { return counts.y > 0u ? float(counts.x) / float(counts.y) : 1.0; }
+float counts_v(uvec2 counts) { return counts.y > 0u ? float(counts.x) / float(counts.y) : params.unreached_v; }
 
 void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float t_add, float nearest_t, bool cut_short);
 

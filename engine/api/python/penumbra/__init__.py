@@ -77,6 +77,24 @@ class Light(ctypes.Structure):
                 ("up", ctypes.c_float * 3), ("size", ctypes.c_float * 2), ("radius", ctypes.c_float),
                 ("angle", ctypes.c_float), ("cone", ctypes.c_float * 2), ("range", ctypes.c_float)]
 
+    # The array fields and their lengths: ctypes would fill a shorter sequence with zeros.
+    _LENGTHS = {"position": 3, "normal": 3, "up": 3, "size": 2, "cone": 2}
+
+    def __init__(self, *args, **kwargs):
+        if args:
+            raise TypeError("Light: pass its fields by name (kind=, position=, normal=, ...)")
+        for name, value in kwargs.items():
+            if name in self._LENGTHS:
+                kwargs[name] = _floats(value, self._LENGTHS[name], "Light " + name)
+            elif name in ("radius", "angle", "range"):
+                kwargs[name] = _float(value, "Light " + name)
+            elif name == "kind":
+                kwargs[name] = _index(value, "Light kind", 5)
+            else:
+                raise TypeError("Light: no field %r (have kind, %s, radius, angle, range)"
+                                % (name, ", ".join(self._LENGTHS)))
+        super().__init__(**kwargs)
+
     def __repr__(self):
         return "Light(kind=%d, position=%s, normal=%s, size=%s)" % (
             self.kind, list(self.position), list(self.normal), list(self.size))
@@ -153,11 +171,58 @@ def _context(ctx):
     return _default_context
 
 
+def _numbers(a, what):
+    """a as a numpy array of real numbers (not strings, objects or complex), else TypeError."""
+    try:
+        a = np.asarray(a)
+    except ValueError as e:  # a ragged nesting
+        raise ValueError("%s: not an array of numbers (%s)" % (what, e)) from None
+    if a.dtype == np.bool_ or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+        raise TypeError("%s: expected numbers, got an array of %s" % (what, a.dtype))
+    return a
+
+
 def _f32(a, cols, what):
-    a = np.ascontiguousarray(a, dtype=np.float32)
+    a = np.ascontiguousarray(_numbers(a, what), dtype=np.float32)
     if a.ndim != 2 or a.shape[1] != cols:
         raise ValueError("%s: expected an (N, %d) array, got shape %s" % (what, cols, a.shape))
     return a
+
+
+def _floats(value, n, what):
+    """Exactly n numbers (a sequence or an array of n), as a tuple of floats."""
+    a = _numbers(value, what)
+    if a.shape != (n,):
+        raise ValueError("%s: expected %d numbers, got shape %s" % (what, n, a.shape))
+    return tuple(float(x) for x in a)
+
+
+def _float(value, what):
+    a = _numbers(value, what)
+    if a.shape != ():
+        raise ValueError("%s: expected a number, got shape %s" % (what, a.shape))
+    return float(a)
+
+
+def _index(value, what, count=None):
+    """A non-negative integer (below count when given), else TypeError or ValueError naming it."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError("%s: expected an integer, got %r" % (what, value))
+    if value < 0 or value > 0xFFFFFFFF or (count is not None and value >= count):
+        raise ValueError("%s: %d is out of range (0..%d)" % (what, value, (count if count is not None else 2 ** 32) - 1))
+    return int(value)
+
+
+def _indices(ix, what):
+    """Triangle indices: integers (float indices would be truncated), 0..2^32-1, flattened."""
+    a = _numbers(ix, what)
+    if not np.issubdtype(a.dtype, np.integer):
+        raise TypeError("%s: expected integers, got an array of %s" % (what, a.dtype))
+    if a.ndim not in (1, 2) or (a.ndim == 2 and a.shape[1] != 3):
+        raise ValueError("%s: expected a (T, 3) or (3T,) array, got shape %s" % (what, a.shape))
+    if a.size and (a.min() < 0 or a.max() > 0xFFFFFFFF):
+        raise ValueError("%s: an index is out of range (0..2^32-1): %d..%d" % (what, a.min(), a.max()))
+    return np.ascontiguousarray(a, dtype=np.uint32).reshape(-1)
 
 
 class Scene:
@@ -175,13 +240,23 @@ class Scene:
     def from_arrays(cls, positions, indices, context=None):
         """One mesh: positions (V, 3) float, indices (T, 3) or (3T,) integers; or lists of both
         for several meshes (object i is mesh i)."""
-        if not isinstance(positions, (list, tuple)):
+        # One mesh (an array, or nested lists, of (V, 3) numbers) or a list of meshes.
+        single = not isinstance(positions, (list, tuple))
+        if not single:
+            try:
+                single = np.asarray(positions, dtype=np.float64).ndim == 2
+            except (ValueError, TypeError):
+                single = False  # ragged: several meshes of their own sizes
+        if single:
             positions, indices = [positions], [indices]
+        elif not isinstance(indices, (list, tuple)) or len(indices) != len(positions):
+            raise ValueError("indices: expected one index array per mesh (%d meshes in positions)" % len(positions))
         ctx = _context(context)
         keep, descs = [], (_MeshDesc * len(positions))()
         for i, (p, ix) in enumerate(zip(positions, indices)):
-            p = _f32(p, 3, "positions")
-            ix = np.ascontiguousarray(ix, dtype=np.uint32).reshape(-1)
+            name = "" if single else "[%d]" % i
+            p = _f32(p, 3, "positions" + name)
+            ix = _indices(ix, "indices" + name)
             keep += [p, ix]
             descs[i].positions, descs[i].vertex_count = p.ctypes.data, p.shape[0]
             descs[i].indices, descs[i].index_count = ix.ctypes.data, ix.size
@@ -204,8 +279,19 @@ class Scene:
         return list(out)
 
     def set_transform(self, obj, transform):
-        """Object obj's transform: 3 rows of 4 (a (3, 4) array)."""
-        t = np.ascontiguousarray(transform, dtype=np.float32).reshape(12)
+        """Object obj's transform: 3 rows of 4 (a (3, 4) array, or 12 numbers), or a 4x4 matrix
+        whose last row is 0, 0, 0, 1 (the numpy habit)."""
+        obj = _index(obj, "set_transform: obj", self.info()["objects"])
+        t = _numbers(transform, "set_transform: transform").astype(np.float64)
+        if t.shape == (4, 4):
+            if not np.array_equal(t[3], [0, 0, 0, 1]):
+                raise ValueError("set_transform: transform: a 4x4 matrix's last row must be 0, 0, 0, 1 (an affine "
+                                 "transform), got %s" % list(t[3]))
+            t = t[:3]
+        if t.shape not in ((3, 4), (12,)):
+            raise ValueError("set_transform: transform: expected a (3, 4) or (4, 4) array or 12 numbers, got shape %s"
+                             % (t.shape,))
+        t = np.ascontiguousarray(t, dtype=np.float32).reshape(12)
         self.context._check(_lib.penumbra_scene_set_transform(self._h, obj, t.ctypes.data))
 
     def close(self):
@@ -225,10 +311,23 @@ def visibility(points, normals, scene, light, spp=0, mode=None, seed=0, traversa
     if p.shape != n.shape:
         raise ValueError("points and normals: %s and %s differ in shape" % (p.shape, n.shape))
     single = isinstance(light, Light)
-    lights = [light] if single else list(light)
+    try:
+        lights = [light] if single else list(light)
+    except TypeError:
+        raise TypeError("light: expected a penumbra.Light or a list of them, got %r" % (light,)) from None
+    for i, one in enumerate(lights):
+        if not isinstance(one, Light):
+            raise TypeError("light[%d]: expected a penumbra.Light, got %r" % (i, one))
     arr = (Light * len(lights))(*lights)
+    if not isinstance(tree, (list, tuple)) or len(tree) != 2:
+        raise ValueError("tree: expected (N, depth), got %r" % (tree,))
+    for name, value in (("mode", mode), ("traversal", traversal), ("sampler", sampler)):
+        if value is not None and not isinstance(value, str):
+            raise TypeError("%s: expected a name (str) or None, got %r" % (name, value))
     desc = _VisDesc(mode.encode() if mode else None, traversal.encode() if traversal else None,
-                    sampler.encode() if sampler else None, spp, seed, tree[0], tree[1], width, max_error)
+                    sampler.encode() if sampler else None, _index(spp, "spp"), _index(seed, "seed"),
+                    _index(tree[0], "tree N"), _index(tree[1], "tree depth"), _index(width, "width"),
+                    _float(max_error, "max_error"))
     v = np.empty((len(lights), p.shape[0]), dtype=np.float32)
     ctx = scene.context
     ctx._check(_lib.penumbra_visibility(ctx._h, scene._h, ctypes.byref(desc), arr, len(lights), p.ctypes.data,
