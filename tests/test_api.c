@@ -96,7 +96,8 @@ static void against_render(const char *mode, const char *light_args, const penum
 // whole rectangle below the horizon), for one above it (behind a one-sided light), for one whose
 // tangent plane lies above the light; V = 1 for a point facing it, and for one whose horizon cuts
 // the light in half (the half above is the whole of "those above", all unblocked); the same from
-// a sphere wholly below the horizon (0) and a sun shining from below it (0). Every mode.
+// a sphere wholly below the horizon (0) and a sun shining from below it (0). In exact and the
+// tree modes (rayquery and rtpipeline share the shader code that decides it: counts_v).
 static void check_unreached(void)
 {
     float far_pos[12] = {50, 0, 50, 51, 0, 50, 51, 0, 51, 50, 0, 51}; // a caster far from everything
