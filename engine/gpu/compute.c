@@ -32,6 +32,15 @@ void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t va
     fclose(f);
 }
 
+void pn_gpu_first_use_log(const pn_gpu_device *dev, const char *pass, double ms)
+{
+    FILE *f = dev->pipeline_log ? fopen(dev->pipeline_log, "a") : NULL;
+    if (f) {
+        fprintf(f, "first-use %s 0 %.1f\n", pass, ms);
+        fclose(f);
+    }
+}
+
 pn_result pn_gpu_shader_module(pn_gpu_device *dev, const uint32_t *spirv, size_t bytes, VkShaderModule *out)
 {
     VkShaderModuleCreateInfo ci = {.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO, .codeSize = bytes, .pCode = spirv};

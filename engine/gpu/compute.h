@@ -22,6 +22,10 @@ pn_result pn_gpu_pipeline_layout(pn_gpu_device *dev, VkDescriptorSetLayout set, 
 uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes);
 void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
                          uint64_t start_ns);
+// The same log's row `first-use <pass> 0 <ms>`: a pass's time in a renderer's warm-up frame, where
+// llvmpipe JIT-compiles the pipelines it runs (their creation does not), so a cold cache's cost
+// shows there (tests/timings.sh adds it to the creation's).
+void pn_gpu_first_use_log(const pn_gpu_device *dev, const char *pass, double ms);
 
 typedef struct pn_gpu_compute_desc {
     const uint32_t *spirv; // NULL: no pipeline (the caller makes its own with the layout: gpu/raytrace.h)

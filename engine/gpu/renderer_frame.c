@@ -111,6 +111,27 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         pn_renderer_record_readback(r, cmd);
 }
 
+// PN_PIPELINE_LOG: each pass's time in the warm-up frame, where llvmpipe compiles its pipelines
+// (their creation leaves the LLVM compile to the first dispatch): a row `first-use <pass> 0 <ms>`.
+static void log_first_use(pn_renderer *r, uint32_t light_count)
+{
+    uint64_t ts[TS_COUNT];
+    uint32_t used = TS_LIGHT + 3 * light_count;
+    if (vkGetQueryPoolResults(r->dev->device, r->timestamps, 0, used, sizeof ts, ts, sizeof ts[0],
+                              VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) != VK_SUCCESS)
+        return;
+    double period_ms = r->dev->props.limits.timestampPeriod * 1e-6;
+    pn_gpu_first_use_log(r->dev, "gbuffer", (double)(ts[TS_GBUFFER] - ts[TS_START]) * period_ms);
+    static const char *const PASS[3] = {"shadow", "filter", "shade"};
+    uint64_t prev = ts[TS_GBUFFER];
+    for (uint32_t i = 0; i < light_count; i++)
+        for (int k = 0; k < 3; k++) {
+            uint64_t t = ts[TS_LIGHT + 3 * i + k];
+            pn_gpu_first_use_log(r->dev, PASS[k], (double)(t - prev) * period_ms);
+            prev = t;
+        }
+}
+
 // The frame once over its first tile, every pass and pipeline it will run, so that the driver
 // compiles what it compiles at a pipeline's first use (llvmpipe: all of it, 1.3 s of a 1.5 s first
 // frame of the default scene on a cold shader cache) outside the frame's own times. Its images are
@@ -140,6 +161,8 @@ static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_li
     if (vr == VK_SUCCESS)
         vr = vkQueueWaitIdle(r->dev->queue);
     VK_CHECK(vr);
+    if (vr == VK_SUCCESS && r->dev->pipeline_log)
+        log_first_use(r, light_count);
     *compile_ms = r->compile_pending_ms + pn_ms_since(t0);
     r->compile_pending_ms = 0;
     r->cold = false;
@@ -177,8 +200,10 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     uint64_t t0 = pn_time_ns();
     for (uint32_t i = 0; i < light_count; i++)
         PN_TRY(pn_shadow_pass_prepare(dev, &r->shadow, samples[i]));
+    uint32_t shade_made;
+    PN_TRY(pn_shade_pass_prepare(dev, &r->shade, l, light_count, &shade_made));
     double compile_ms = 0;
-    if (r->shadow.pipelines_made != r->shadow_made) {
+    if (r->shadow.pipelines_made != r->shadow_made || shade_made) {
         r->cold = true;
         r->compile_pending_ms += pn_ms_since(t0);
     }

@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "core/log.h"
 #include "shade_comp.h"
 
 pn_light_gpu pn_light_to_gpu(const pn_light *l)
@@ -51,8 +52,32 @@ pn_result pn_shade_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t heig
     images[PN_SHADE_BINDING_ALBEDO] = albedo->view;
     images[PN_SHADE_BINDING_V] = v->view;
     images[PN_SHADE_BINDING_OUT] = radiance->view;
-    return pn_gpu_compute_create_images(dev, pn_spv_shade_comp, sizeof pn_spv_shade_comp, images,
-                                        PN_SHADE_BINDING_COUNT, sizeof(pn_shade_push), NULL, &out->compute);
+    return pn_gpu_compute_create_images(dev, NULL, 0, images, PN_SHADE_BINDING_COUNT, sizeof(pn_shade_push), NULL,
+                                        &out->compute);
+}
+
+// The light's kind as the shaders read it (pn_light_to_gpu).
+static uint32_t gpu_kind(const pn_light_gpu *l) { return (uint32_t)l->corners[0][3]; }
+
+pn_result pn_shade_pass_prepare(pn_gpu_device *dev, pn_shade_pass *s, const pn_light_gpu *lights, uint32_t count,
+                                uint32_t *made)
+{
+    *made = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        uint32_t kind = gpu_kind(&lights[i]);
+        if (kind >= PN_LIGHT_KIND_IDS) {
+            pn_error("a light of kind %u: the shading pass knows %d kinds", kind, PN_LIGHT_KIND_IDS);
+            return PN_ERR_INVALID;
+        }
+        if (s->by_kind[kind])
+            continue;
+        const VkSpecializationMapEntry entry = {.constantID = PN_SPEC_LIGHT_KIND, .offset = 0, .size = 4};
+        VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = 4, .pData = &kind};
+        PN_TRY(pn_gpu_compute_pipeline(dev, &s->compute, pn_spv_shade_comp, sizeof pn_spv_shade_comp, &spec,
+                                       &s->by_kind[kind]));
+        (*made)++;
+    }
+    return PN_OK;
 }
 
 void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)
@@ -65,5 +90,8 @@ void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_
 {
     uint32_t gx = (s->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (s->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_shade_push push = {.light = *light, .accumulate = accumulate};
-    pn_gpu_compute_dispatch(cmd, &s->compute, sizeof push, &push, s->one_tile ? 1 : gx, s->one_tile ? 1 : gy, 1);
+    pn_gpu_compute c = s->compute;
+    c.pipeline = s->by_kind[gpu_kind(light)]; // made by pn_shade_pass_prepare
+    assert(c.pipeline);
+    pn_gpu_compute_dispatch(cmd, &c, sizeof push, &push, s->one_tile ? 1 : gx, s->one_tile ? 1 : gy, 1);
 }

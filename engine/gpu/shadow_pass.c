@@ -157,7 +157,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     bool ray = out->mode->ray_pipeline;
     out->stage = ray ? VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR : VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     pn_result r = pn_gpu_compute_create(dev,
-                                        &(pn_gpu_compute_desc){.spirv = ray ? NULL : out->spirv,
+                                        &(pn_gpu_compute_desc){.spirv = ray || out->sized_rays ? NULL : out->spirv,
                                                                .spirv_size = out->spirv_size,
                                                                .bindings = bindings,
                                                                .binding_count = PN_SHADOW_BINDING_COUNT + tlas,
@@ -359,16 +359,21 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
         return PN_OK;
     // The dispatches' rays per pixel: the chunk's, or fewer in the frame's first (or only) round.
     uint32_t rounds[2] = {pn_shadow_adaptive(s, samples) ? s->spp_min : samples, samples};
+    // The pipeline for the most rays (compute.pipeline) is made here too, only for the frames that
+    // take it: a frame of 4 spp never runs it, and it is the largest of the shadow pipelines to
+    // create (141 ms on lavapipe with Mesa's cache off, the default render's).
     for (int i = 0; i < 2; i++) {
         uint32_t k = rays_size(rounds[i] < s->chunk ? rounds[i] : s->chunk);
-        if ((1u << k) >= PN_MAX_CHUNK || s->by_rays[k])
-            continue; // compute.pipeline's, or made already
+        bool most = (1u << k) >= PN_MAX_CHUNK;
+        VkPipeline *slot = most ? &s->compute.pipeline : &s->by_rays[k];
+        if (*slot)
+            continue; // made already
         int32_t data[6];
         memcpy(data, s->spec_data, sizeof data);
-        data[3] = (int32_t)(1u << k);
+        data[3] = most ? PN_MAX_CHUNK : (int32_t)(1u << k);
         VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
         s->pipelines_made++;
-        PN_TRY(pn_gpu_compute_pipeline(dev, &s->compute, s->spirv, s->spirv_size, &spec, &s->by_rays[k]));
+        PN_TRY(pn_gpu_compute_pipeline(dev, &s->compute, s->spirv, s->spirv_size, &spec, slot));
     }
     return PN_OK;
 }

@@ -24,7 +24,8 @@ typedef struct pn_shadow_pass {
     VkPipelineStageFlags2 stage;
     // A mode with packet_rays under packet traversal: by_rays[k] is the pipeline for at most 2^k
     // rays of a pixel per dispatch, made when a frame first needs it (pn_shadow_pass_prepare);
-    // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits.
+    // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits. The
+    // one for PN_MAX_CHUNK rays is compute.pipeline, made the same way (not by the pass's creation).
     VkPipeline by_rays[PN_PACKET_RAY_SIZES];
     // The projection traversal: by_samples[k] for at most 32 x 2^k samples of a pixel per dispatch
     // (its per-sample arrays; with --traversal project compute.pipeline holds
@@ -101,7 +102,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
                            uint32_t light_count, float pixel_angle);
 
 // After pn_shadow_pass_update, for each light's `samples` (pn_shadow_samples): makes the pipelines
-// its dispatches want that are not made yet (by_rays; nothing for other modes).
+// its dispatches want that are not made yet (by_rays and compute.pipeline; nothing for other modes).
 pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples);
 
 // Whether a light of `samples` samples per pixel (pn_shadow_samples) is sampled adaptively:

@@ -343,7 +343,8 @@ uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)
     BvhNode root = params.bvh.nodes[0];
     uint first = root.first, count = root.count, mask = 0u;
     [[unroll]] for (uint j = 0u; j < PACKET_RAYS; j++)
-        mask |= ((live >> j) & 1u) != 0u && box_hit(root.min, root.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+        mask |= uint(box_hit(root.min, root.max, o, inv_dir[j], 0.0, 1.0)) << j;
+    mask &= live;
     bool done = mask == 0u;
     while (!done) {
         mask &= live;
@@ -354,11 +355,10 @@ uint bvh_packet_blocked(vec3 o, uint live, vec2 box_lo, vec2 box_hi)
                 work = uvec4(work.x + 2u, work.yz, max(work.w, uint(sp)));
             uint ma = 0u, mb = 0u;
             [[unroll]] for (uint j = 0u; j < PACKET_RAYS; j++) {
-                bool in_mask = ((mask >> j) & 1u) != 0u;
-                ma |= in_mask && box_hit(a.min, a.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
-                mb |= in_mask && box_hit(b.min, b.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+                ma |= uint(box_hit(a.min, a.max, o, inv_dir[j], 0.0, 1.0)) << j;
+                mb |= uint(box_hit(b.min, b.max, o, inv_dir[j], 0.0, 1.0)) << j;
             }
-            pop = packet_descend(a, b, ma, mb, towards, sp, first, count, mask);
+            pop = packet_descend(a, b, ma & mask, mb & mask, towards, sp, first, count, mask);
         } else if (mask != 0u) {
             for (uint i = first; i < first + count && (mask & live) != 0u; i++) {
                 uint hits = packet_leaf_tri(f, o, params.bvh_tris.ids[i], mask & live);
@@ -410,8 +410,8 @@ uint bvh_tile_blocked(uint live, vec3 towards)
     BvhNode root = params.bvh.nodes[0];
     uint first = root.first, count = root.count, mask = 0u;
     [[unroll]] for (uint j = 0u; j < TILE_RAYS; j++)
-        mask |= ((live >> j) & 1u) != 0u && box_hit(root.min, root.max, tile_o[j / PACKET_RAYS], inv_dir[j], 0.0, 1.0)
-                    ? 1u << j : 0u;
+        mask |= uint(box_hit(root.min, root.max, tile_o[j / PACKET_RAYS], inv_dir[j], 0.0, 1.0)) << j;
+    mask &= live;
     bool done = mask == 0u;
     while (!done) {
         mask &= live;
@@ -426,13 +426,12 @@ uint bvh_tile_blocked(uint live, vec3 towards)
                     vec3 o = tile_o[k];
                     [[unroll]] for (uint r = 0u; r < PACKET_RAYS; r++) {
                         uint j = k * PACKET_RAYS + r;
-                        bool in_mask = ((mask >> j) & 1u) != 0u;
-                        ma |= in_mask && box_hit(a.min, a.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
-                        mb |= in_mask && box_hit(b.min, b.max, o, inv_dir[j], 0.0, 1.0) ? 1u << j : 0u;
+                        ma |= uint(box_hit(a.min, a.max, o, inv_dir[j], 0.0, 1.0)) << j;
+                        mb |= uint(box_hit(b.min, b.max, o, inv_dir[j], 0.0, 1.0)) << j;
                     }
                 }
             }
-            pop = packet_descend(a, b, ma, mb, towards, sp, first, count, mask);
+            pop = packet_descend(a, b, ma & mask, mb & mask, towards, sp, first, count, mask);
         } else if (mask != 0u) {
             for (uint i = first; i < first + count && (mask & live) != 0u; i++) {
                 uint tri = params.bvh_tris.ids[i];
@@ -448,10 +447,9 @@ uint bvh_tile_blocked(uint live, vec3 towards)
                         [[unroll]] for (uint r = 0u; r < PACKET_RAYS; r++) {
                             uint j = k * PACKET_RAYS + r;
                             float s;
-                            bool hit = ((m >> j) & 1u) != 0u && packet_ray_hits(t, dir[j], rec, s);
-                            blocked |= hit ? 1u << j : 0u;
-                            if (hit)
-                                blocker_at(j, abs(t.det) / s);
+                            uint hit = uint(packet_ray_hits(t, dir[j], rec, s)) & (m >> j) & 1u;
+                            blocked |= hit << j;
+                            blocker_t[j] = hit != 0u ? min(blocker_t[j], max(abs(t.det) / s, 0.0)) : blocker_t[j];
                         }
                     }
                 }

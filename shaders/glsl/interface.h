@@ -50,6 +50,7 @@
 #define PN_SPEC_TEXTURE_COUNT 0 // gbuffer.frag: size of the texture array
 #define PN_SPEC_TILE_W 0 // filter.comp: the window (the interleaving tile), 1..PN_FILTER_MAX_TILE
 #define PN_SPEC_TILE_H 1
+#define PN_SPEC_LIGHT_KIND 0 // shade.comp: the light's kind (PN_LIGHT_*_ID), a pipeline per kind a frame has
 
 // ShadowParams.sampler_kind. Zero is each enum's default on the command line.
 #define PN_SAMPLER_STRATIFIED_ID 0 // jittered strata, per-pixel rotated R2 jitters (the default)
@@ -61,6 +62,7 @@
 #define PN_LIGHT_SUN_ID 2  // a directional light with an angular diameter: a disk far beyond the scene
 #define PN_LIGHT_SPHERE_ID 3 // a sphere of uniform radiance: each point samples the cone it subtends
 #define PN_LIGHT_DISK_ID 4   // a one-sided Lambertian disk: the square round it, samples mapped onto it
+#define PN_LIGHT_KIND_IDS 5  // the kinds' count
 #define PN_LIGHT_DISK_SIDES 64 // light_irradiance integrates a disk as a regular polygon of as many sides and the same area
 
 #define PN_SPLIT_EVEN_ID 0   // spp rays for every light

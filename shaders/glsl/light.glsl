@@ -1,6 +1,12 @@
 // A light's unshadowed irradiance: Light in interface.h, the kinds' table in scene/light.h.
 #include "interface.h"
 
+// The kind of light l (its corners[0].w): a shader that runs for one kind only defines it as a
+// constant first (shade.comp: a specialisation constant), and the other kinds' code compiles away.
+#ifndef LIGHT_KIND_OF
+#define LIGHT_KIND_OF(l) uint((l).corners[0].w)
+#endif
+
 // A spot's falloff at the cosine c from its axis (pn_light_spot): the square of the ramp linear in
 // the cosine from the outer cone (corners[1].w) to the inner (corners[2].w); 1 without a cone.
 float light_spot(Light l, float c)
@@ -85,7 +91,7 @@ float light_range_window(Light l, float d)
 // per unit radiance, Snyder's form.
 float light_irradiance(Light l, vec3 p, vec3 n)
 {
-    uint kind = uint(l.corners[0].w);
+    uint kind = LIGHT_KIND_OF(l);
     if (kind == PN_LIGHT_SUN_ID) { // per unit E: the sphere's form over its projected solid angle
         float c = dot(n, -l.normal.xyz), s2 = l.corners[1].w;
         return s2 > 0.0 ? sphere_irradiance(c, s2) / (3.14159265 * s2) : max(c, 0.0);

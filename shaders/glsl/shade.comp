@@ -2,6 +2,12 @@
 #extension GL_GOOGLE_include_directive : require
 // Shading pass, once per light: outgoing radiance = sum over the lights of albedo / pi * E * V * L,
 // linear HDR; alpha = coverage. The first light writes the radiance, the others add to it.
+#include "interface.h"
+// A pipeline per light kind (shade_pass.c): llvmpipe runs both sides of an `if`, so a shader for
+// every kind evaluated every kind's irradiance (the disk's polygon, the sphere's acos and atan) at
+// every pixel whatever the light.
+layout(constant_id = PN_SPEC_LIGHT_KIND) const uint SHADE_LIGHT_KIND = PN_LIGHT_RECT_ID;
+#define LIGHT_KIND_OF(l) SHADE_LIGHT_KIND
 #include "light.glsl"
 
 layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
