@@ -1,4 +1,4 @@
-// PNG preview output without a PNG library: zlib stream of stored (uncompressed) deflate blocks.
+// PNG preview output (libpng) and the tone mapping it shows.
 #pragma once
 #include <stdint.h>
 
