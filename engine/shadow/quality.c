@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "shadow/metrics.h"
+#include "shadow/quality_pilot.h"
 #include "shadow/setup.h"
 #include "core/log.h"
 #include "core/timer.h"
@@ -18,270 +19,6 @@ static const int TREES[][2] = {{6, 3}, {7, 3}, {8, 3}, {5, 4}};
 _Static_assert(sizeof TREES / sizeof TREES[0] <= PN_QUALITY_MAX_TREES, "quality.h's PN_QUALITY_MAX_TRIED counts the trees");
 _Static_assert(1 << 8 == PN_QUALITY_MAX_SPP, "quality.h's PN_QUALITY_MAX_TRIED counts 9 spp steps");
 
-// The pilot's pixels: at most about 128x128. Errors are per pixel, so a smaller image of the same
-// framing estimates the full image's MAE (bench --max-error checks it at full size); the reference
-// at PN_REFERENCE_SPP costs pixels x 1024 rays, which this keeps to a few seconds. A frame of at
-// most that many pixels is its own pilot: the same pixels, samples and seed, so the same image.
-enum { PILOT_PIXELS = 128 * 128 };
-
-// One pilot size with its converged reference (rendered when first needed).
-typedef struct pilot_size {
-    bool used;    // false: no such size (the frame is its own pilot, nothing to confirm)
-    double scale; // of the frame's width and height; 1: the frame itself
-    uint32_t reference_spp;
-    pn_setup_desc sd;
-    size_t px;
-    float *ref, *v;
-    uint8_t *mask;
-    double reference_ms;
-    bool ready;
-} pilot_size;
-
-// Pilot frames are small, so one frame's time is at the mercy of whatever else the machine does:
-// configurations timed moments apart are ranked by the least of this many frames.
-enum { PILOT_TIMED_FRAMES = 3 };
-
-// Renders the set-up's frame `frames` times, plus once more first with warm_up (a set-up's first
-// frame pays for first touches of its pools, which would count against it); V (and the coverage
-// into mask, when given) of the last, the least shadow time into ms.
-static pn_result pilot_frame(pn_setup *s, const pn_camera *cam, const pn_light *light, size_t px, bool warm_up,
-                             int frames, float *v, uint8_t *mask, double *ms)
-{
-    pn_frame_times t;
-    if (warm_up)
-        PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
-    *ms = INFINITY;
-    for (int i = 0; i < frames; i++) {
-        PN_TRY(pn_renderer_render(&s->renderer, cam, light, &t));
-        *ms = fmin(*ms, t.shadow_ms + t.filter_ms); // a filtered configuration pays for its filter
-    }
-    pn_frame_images img;
-    pn_renderer_images(&s->renderer, &img);
-    for (size_t i = 0; i < px; i++) {
-        v[i] = img.v[i];
-        if (mask)
-            mask[i] = img.p[4 * i + 3] > 0;
-    }
-    return PN_OK;
-}
-
-// A set-up that may be refused (a tree too large for the budget): quietly, it is not the user's error.
-static pn_result quiet_setup(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *sd,
-                             pn_setup *s)
-{
-    pn_log_level level = pn_log_get_level();
-    pn_log_set_level(PN_LOG_ERROR);
-    pn_setup_desc fit = *sd; // --traversal project walks exact's uniform samples; the others as auto
-    fit.frame.traversal = pn_traversal_fit(fit.frame.mode, fit.frame.spp_min, fit.frame.traversal);
-    pn_result r = pn_setup_create(dev, scene, light, &fit, s);
-    pn_log_set_level(level);
-    return r;
-}
-
-static pn_result pilot_size_init(pilot_size *p, const pn_renderer_desc *frame, double scale, uint64_t max_bytes,
-                                 uint32_t reference_spp, const pn_camera *cam)
-{
-    memset(p, 0, sizeof *p);
-    p->used = true;
-    p->scale = scale;
-    // As render builds it, the tree keeping what the frame's pixels see (a filtered pilot renders
-    // those on it: frame_sample).
-    p->sd = (pn_setup_desc){.frame = *frame, .max_bytes = max_bytes, .view = cam, .view_width = frame->width,
-                            .view_height = frame->height};
-    p->sd.frame.width = (uint32_t)fmax(1.0, round(frame->width * scale));
-    p->sd.frame.height = (uint32_t)fmax(1.0, round(frame->height * scale));
-    p->sd.frame.dump_rays = false;
-    p->sd.frame.count_work = false;
-    p->sd.frame.spp_min = 0; // uniform unless a pilot says otherwise (and the references always)
-    p->sd.frame.pixel_error = 0;
-    p->sd.frame.filter = PN_FILTER_NONE; // unfiltered unless a pilot says otherwise
-    p->px = (size_t)p->sd.frame.width * p->sd.frame.height;
-    p->reference_spp = reference_spp;
-    p->ref = malloc(p->px * sizeof *p->ref);
-    p->v = malloc(p->px * sizeof *p->v);
-    p->mask = malloc(p->px);
-    return p->ref && p->v && p->mask ? PN_OK : PN_ERR_MEMORY;
-}
-
-static void pilot_size_free(pilot_size *p) { free(p->ref), free(p->v), free(p->mask); }
-
-// The converged reference of a pilot size's frame desc sd: exact, reference_spp stratified samples,
-// its own seed; over the G-buffer gp, gn where given (pn_renderer_set_gbuffer), else the raster's.
-static pn_result render_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
-                                  const pn_light *light, const pn_setup_desc *sd, uint32_t reference_spp,
-                                  const float *gp, const float *gn, size_t px, float *ref, uint8_t *mask, double *ms)
-{
-    pn_setup_desc rd = *sd;
-    rd.frame.mode = PN_SHADOW_REFERENCE;
-    rd.frame.sampler = PN_SAMPLER_STRATIFIED;
-    rd.frame.spp = reference_spp;
-    rd.frame.seed = PN_REFERENCE_SEED;
-    rd.frame.filter = PN_FILTER_NONE; // converged: the pixel's own samples, nothing borrowed
-    rd.view = NULL;
-    pn_setup s;
-    PN_TRY(pn_setup_create(dev, scene, light, &rd, &s));
-    pn_result r = gp ? pn_renderer_set_gbuffer(&s.renderer, gp, gn) : PN_OK;
-    if (r == PN_OK)
-        r = pilot_frame(&s, cam, light, px, false, 1, ref, mask, ms);
-    pn_setup_destroy(dev, &s);
-    return r;
-}
-
-static pn_result pilot_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                                 pilot_size *p)
-{
-    if (p->ready)
-        return PN_OK;
-    pn_result r = render_reference(dev, scene, cam, light, &p->sd, p->reference_spp, NULL, NULL, p->px, p->ref,
-                                   p->mask, &p->reference_ms);
-    p->ready = r == PN_OK;
-    return r;
-}
-
-// The standard error of an MAE over a sample of the picture's pixels, taking their errors as
-// independent (neighbouring penumbra pixels are not quite).
-static double mae_se(const pn_error_metrics *e)
-{
-    return sqrt(fmax(e->rmse * e->rmse - e->mae * e->mae, 0.0) / (double)(e->pixels ? e->pixels : 1));
-}
-
-// A filtered configuration is judged at the frame's own size. The filter averages over a footprint
-// as wide as the penumbra in the frame's pixels; a pilot whose pixels are 4x as wide (128x128 for a
-// 512x512 frame) averages a 16th as many samples under it, and measured about twice the frame's
-// error (the dragon view, exact, penumbra filter, pilot against frame: 1 spp 0.0221 / 0.0108, 4 spp
-// 0.0095 / 0.0051; unfiltered 0.0476 / 0.0480 and 0.0179 / 0.0177, as a pixel's own noise does not
-// depend on the scale): --quality auto took exact 4 spp filtered for MAE 0.01 where 2 spp reached
-// 0.0076 in 0.6x its time. So the configuration renders the frame itself, on the pilot's tree, and
-// its error is measured at one pixel drawn at random in each cell of a grid of the pilot's size,
-// against the converged reference at those pixels alone (their positions and normals uploaded as
-// the G-buffer: pn_renderer_set_gbuffer): as many reference rays as the pilot's. A stratified
-// sample, so its MAE estimates the frame's (without bias where the pilot's size divides the
-// frame's; else the cells differ by a pixel across, a few percent of their weight), with a standard
-// error as the pilot's, conservative for a stratified sample.
-// A frame costs about 4x a step's pilot frames (16x the pixels, once against 4 pilot frames), and a
-// climb that meets the budget late renders it at every step: the canopy view's choice took 363 s
-// against 192 s, 16 s of it for one line-space frame at 256 spp. But the frame's error is a share
-// of the pilot's that grows towards 1 with the samples, as the footprint narrows (frame / pilot
-// MAE at 1, 2, 4, ... spp, exact: the dragon .48, .48, .52, .56; the canopy .39, .40, .38, .42,
-// .49, .60, .75, .95; adaptive MIN:4 MIN at or above uniform MIN's: .50 against .48, .43 / .53 /
-// .57 against .39 / .40 / .38). So a step whose pilot error, less two standard errors, times the
-// share measured at the most uniform samples up to its own (MIN when adaptive) is over the budget
-// is outside without its frame (PN_QUALITY_CONFIRM_BOUND). Where the share dips (the canopy's 4
-// spp, 5%), the bound can only lose a pick, never admit one outside.
-typedef struct frame_sample {
-    bool used, ready;
-    uint32_t width, height;    // the frame's
-    uint32_t cells_w, cells_h; // the grid: the pilot's size
-    size_t count;
-    uint32_t *index; // each cell's pixel in the frame
-    float *ref, *v;
-    uint8_t *mask;
-    double reference_ms;
-} frame_sample;
-
-// A cell's pixel: a fixed hash of the cell (Wellons' lowbias32), the same in every run.
-static uint32_t cell_hash(uint32_t x)
-{
-    x ^= x >> 16, x *= 0x7feb352du, x ^= x >> 15, x *= 0x846ca68bu, x ^= x >> 16;
-    return x;
-}
-
-// used: some pilot is filtered (the pilot's own pixels serve where it is the frame).
-static pn_result frame_sample_init(frame_sample *fs, const pn_renderer_desc *frame, const pilot_size *pilot,
-                                   bool filtered)
-{
-    memset(fs, 0, sizeof *fs);
-    fs->used = filtered && pilot->scale < 1.0;
-    fs->width = frame->width, fs->height = frame->height;
-    fs->cells_w = pilot->sd.frame.width, fs->cells_h = pilot->sd.frame.height;
-    fs->count = (size_t)fs->cells_w * fs->cells_h;
-    if (!fs->used)
-        return PN_OK;
-    fs->index = malloc(fs->count * sizeof *fs->index);
-    fs->ref = malloc(fs->count * sizeof *fs->ref);
-    fs->v = malloc(fs->count * sizeof *fs->v);
-    fs->mask = malloc(fs->count);
-    if (!fs->index || !fs->ref || !fs->v || !fs->mask)
-        return PN_ERR_MEMORY;
-    // Cell (i, j) spans columns [i W / cw, (i + 1) W / cw) and rows alike: the pilot is no larger
-    // than the frame, so every cell holds a pixel.
-    for (uint32_t j = 0; j < fs->cells_h; j++)
-        for (uint32_t i = 0; i < fs->cells_w; i++) {
-            uint64_t x0 = (uint64_t)i * fs->width / fs->cells_w, x1 = (uint64_t)(i + 1) * fs->width / fs->cells_w;
-            uint64_t y0 = (uint64_t)j * fs->height / fs->cells_h, y1 = (uint64_t)(j + 1) * fs->height / fs->cells_h;
-            uint32_t h = cell_hash(cell_hash(j * fs->cells_w + i) ^ PN_REFERENCE_SEED);
-            uint64_t x = x0 + (h & 0xffffu) % (x1 - x0), y = y0 + (h >> 16) % (y1 - y0);
-            fs->index[(size_t)j * fs->cells_w + i] = (uint32_t)(y * fs->width + x);
-        }
-    return PN_OK;
-}
-
-static void frame_sample_free(frame_sample *fs) { free(fs->index), free(fs->ref), free(fs->v), free(fs->mask); }
-
-// The reference at the sampled pixels, once: the frame's G-buffer (mode none traces nothing), its
-// positions and normals at those pixels, and the reference over them.
-static pn_result frame_sample_reference(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam,
-                                        const pn_light *light, const pilot_size *pilot, frame_sample *fs)
-{
-    if (fs->ready)
-        return PN_OK;
-    pn_renderer_desc gd = {.width = fs->width, .height = fs->height, .mode = PN_SHADOW_NONE, .spp = 1};
-    pn_renderer g;
-    PN_TRY(pn_renderer_create(dev, scene, &gd, &g));
-    float *gp = malloc(fs->count * 4 * sizeof *gp), *gn = malloc(fs->count * 4 * sizeof *gn);
-    pn_frame_times t;
-    pn_result r = gp && gn ? pn_renderer_render(&g, cam, light, &t) : PN_ERR_MEMORY;
-    if (r == PN_OK) {
-        pn_frame_images img;
-        pn_renderer_images(&g, &img);
-        for (size_t k = 0; k < fs->count; k++) {
-            memcpy(gp + 4 * k, img.p + 4 * (size_t)fs->index[k], 4 * sizeof *gp);
-            memcpy(gn + 4 * k, img.n + 4 * (size_t)fs->index[k], 4 * sizeof *gn);
-        }
-    }
-    pn_renderer_destroy(&g);
-    if (r == PN_OK)
-        r = render_reference(dev, scene, cam, light, &pilot->sd, pilot->reference_spp, gp, gn, fs->count, fs->ref,
-                             fs->mask, &fs->reference_ms);
-    free(gp), free(gn);
-    fs->ready = r == PN_OK;
-    return r;
-}
-
-// The error of a configuration's frame (r: a renderer of the frame's size) at the sampled pixels.
-static pn_result frame_sample_error(pn_renderer *r, const pn_camera *cam, const pn_light *light, frame_sample *fs,
-                                    double *mae, double *se)
-{
-    pn_frame_times t;
-    PN_TRY(pn_renderer_render(r, cam, light, &t));
-    pn_frame_images img;
-    pn_renderer_images(r, &img);
-    for (size_t k = 0; k < fs->count; k++)
-        fs->v[k] = img.v[fs->index[k]];
-    pn_error_metrics e;
-    if (!pn_error_compare(fs->v, fs->ref, fs->mask, fs->count, NULL, &e))
-        return PN_ERR_MEMORY;
-    *mae = e.mae;
-    *se = mae_se(&e);
-    return PN_OK;
-}
-
-// The error of the set-up's current frame at pilot size p: MAE against p's reference and the
-// standard error of that MAE as an estimate of the full frame's (0 when p is the frame itself: the
-// same image). A smaller pilot's MAE is the mean of a sample of the picture's per-pixel errors; the
-// standard error takes them as independent, which neighbouring penumbra pixels are not quite.
-static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *light, pilot_size *p, bool timed,
-                             bool warm_up, double *mae, double *se, double *ms)
-{
-    PN_TRY(pilot_frame(s, cam, light, p->px, warm_up, timed ? PILOT_TIMED_FRAMES : 1, p->v, NULL, ms));
-    pn_error_metrics e;
-    if (!pn_error_compare(p->v, p->ref, p->mask, p->px, NULL, &e))
-        return PN_ERR_MEMORY;
-    *mae = e.mae;
-    *se = p->scale < 1.0 ? mae_se(&e) : 0.0;
-    return PN_OK;
-}
-
 // Is the configuration within the budget? Decided at pilot size when its MAE is two standard errors
 // from the budget or more (about a 97.7% one-sided bound for the full picture's MAE were the
 // pixels' errors independent). Nearer, the pilot cannot tell, and the same configuration is
@@ -289,14 +26,14 @@ static pn_result pilot_error(pn_setup *s, const pn_camera *cam, const pn_light *
 // that size's reference; still undecided there, or refused there (too large a tree), it is taken as
 // outside. *confirm_mae: the confirming MAE, or -1 when none was needed.
 static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_camera *cam, const pn_light *light,
-                        const pn_setup_desc *cfg, double mae, double se, double budget, pilot_size *big, bool *within,
+                        const pn_setup_desc *cfg, double mae, double se, double budget, pn_pilot_size *big, bool *within,
                         double *confirm_mae, double *confirm_se)
 {
     *confirm_mae = -1, *confirm_se = 0;
     *within = mae + 2 * se <= budget;
     if (*within || mae - 2 * se > budget || !big->used)
         return PN_OK;
-    PN_TRY(pilot_reference(dev, scene, cam, light, big));
+    PN_TRY(pn_pilot_reference(dev, scene, cam, light, big));
     pn_setup_desc sd = big->sd;
     sd.frame.mode = cfg->frame.mode;
     sd.frame.spp = cfg->frame.spp;
@@ -306,10 +43,10 @@ static pn_result decide(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     sd.tree_n = cfg->tree_n;
     sd.tree_d = cfg->tree_d;
     pn_setup s;
-    if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
+    if (pn_pilot_quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
         return PN_OK; // outside, as undecided
     double ms;
-    pn_result r = pilot_error(&s, cam, light, big, false, false, confirm_mae, confirm_se, &ms); // only its error counts
+    pn_result r = pn_pilot_error(&s, cam, light, big, false, false, confirm_mae, confirm_se, &ms); // only its error counts
     pn_setup_destroy(dev, &s);
     *within = r == PN_OK && *confirm_mae + 2 * *confirm_se <= budget;
     return r;
@@ -391,7 +128,7 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
         sd.frame.spp_min = t->spp_min, sd.frame.pixel_error = t->pixel_error;
         sd.frame.filter = t->filter;
         sd.frame.dump_rays = sd.frame.count_work = false;
-        if (quiet_setup(dev, scene, light, &sd, &s[ready]) == PN_OK) {
+        if (pn_pilot_quiet_setup(dev, scene, light, &sd, &s[ready]) == PN_OK) {
             timed[ready] = &s[ready].renderer;
             finalists[ready++] = finalists[k];
         }
@@ -401,7 +138,7 @@ static pn_result runoff(pn_gpu_device *dev, const pn_scene *scene, const pn_came
     double ms[RUNOFF_MAX];
     // One warm-up round (first touches of the pools), then round robin: a load lasting a frame or
     // two slows every finalist alike.
-    pn_result r = count < 2 ? PN_OK : pn_quality_time_side_by_side(timed, count, 1, PILOT_TIMED_FRAMES, cam, light, ms);
+    pn_result r = count < 2 ? PN_OK : pn_quality_time_side_by_side(timed, count, 1, PN_PILOT_TIMED_FRAMES, cam, light, ms);
     for (int k = 0; k < ready; k++)
         pn_setup_destroy(dev, &s[k]);
     if (r != PN_OK || count < 2)
@@ -455,10 +192,10 @@ typedef struct climb {
     const pn_camera *cam;
     const pn_light *light;
     double max_error;
-    pilot_size *pilot, *big;
-    frame_sample *sample;
+    pn_pilot_size *pilot, *big;
+    pn_frame_sample *sample;
     pn_renderer *frame; // the configuration's frame, filtered, where sample is used; else NULL
-    // Its filtered uniform climb's frame / pilot MAE at 1, 2, 4, ... spp (frame_sample; 0: not
+    // Its filtered uniform climb's frame / pilot MAE at 1, 2, 4, ... spp (pn_frame_sample; 0: not
     // rendered at that many).
     double frame_ratio[9];
     pn_quality_choice *out;
@@ -474,7 +211,7 @@ static pn_result climb_step(climb *c, pn_setup *s, const pn_setup_desc *sd, bool
     double se, confirm_mae;
     *within = false;
     PN_TRY(pn_renderer_set_adaptive(&s->renderer, f->spp_min, f->spp, f->pixel_error));
-    PN_TRY(pilot_error(s, c->cam, c->light, c->pilot, true, warm_up, mae, &se, ms));
+    PN_TRY(pn_pilot_error(s, c->cam, c->light, c->pilot, true, warm_up, mae, &se, ms));
     double mean_rays = f->spp;
     if (f->spp_min) {
         pn_frame_images img;
@@ -495,13 +232,13 @@ static pn_result climb_step(climb *c, pn_setup *s, const pn_setup_desc *sd, bool
         share = c->frame_ratio[k];
     if (f->filter != PN_FILTER_NONE && c->frame && share > 0 && (*mae - 2 * se) * share > c->max_error) {
         // Filtered, and outside by the frame's error the pilot's predicts: the frame need not be
-        // rendered (frame_sample).
+        // rendered (pn_frame_sample).
         confirm_mae = *mae * share;
         confirm_at = PN_QUALITY_CONFIRM_BOUND;
     } else if (f->filter != PN_FILTER_NONE && c->frame) {
-        // Filtered, the pilot cannot tell (frame_sample): the frame's own pixels decide.
+        // Filtered, the pilot cannot tell (pn_frame_sample): the frame's own pixels decide.
         PN_TRY(pn_renderer_set_adaptive(c->frame, f->spp_min, f->spp, f->pixel_error));
-        PN_TRY(frame_sample_error(c->frame, c->cam, c->light, c->sample, &confirm_mae, &confirm_se));
+        PN_TRY(pn_frame_sample_error(c->frame, c->cam, c->light, c->sample, &confirm_mae, &confirm_se));
         *within = confirm_mae + 2 * confirm_se <= c->max_error;
         confirm_at = PN_QUALITY_CONFIRM_FRAME;
         if (!f->spp_min && *mae > 0)
@@ -634,20 +371,20 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
 {
     memset(out, 0, sizeof *out);
     reference_spp = reference_spp ? reference_spp : PN_REFERENCE_SPP;
-    double scale = fmin(1.0, sqrt(PILOT_PIXELS / ((double)frame->width * frame->height)));
-    pilot_size pilot, big = {0};
-    pn_result r = pilot_size_init(&pilot, frame, scale, max_bytes, reference_spp, cam);
+    double scale = fmin(1.0, sqrt(PN_PILOT_PIXELS / ((double)frame->width * frame->height)));
+    pn_pilot_size pilot, big = {0};
+    pn_result r = pn_pilot_size_init(&pilot, frame, scale, max_bytes, reference_spp, cam);
     if (r == PN_OK && scale < 1.0)
-        r = pilot_size_init(&big, frame, fmin(1.0, 2.0 * scale), max_bytes, reference_spp, cam);
+        r = pn_pilot_size_init(&big, frame, fmin(1.0, 2.0 * scale), max_bytes, reference_spp, cam);
     if (r == PN_OK)
-        r = pilot_reference(dev, scene, cam, light, &pilot);
+        r = pn_pilot_reference(dev, scene, cam, light, &pilot);
     if (r == PN_OK)
         pn_info("quality auto: the converged reference, %u spp at %ux%u, in %.1f s", reference_spp,
                 pilot.sd.frame.width, pilot.sd.frame.height, pilot.reference_ms * 1e-3);
     out->pilot_width = pilot.sd.frame.width;
     out->pilot_height = pilot.sd.frame.height;
     out->reference_ms = pilot.reference_ms;
-    frame_sample sample = {0};
+    pn_frame_sample sample = {0};
     climb c = {dev, scene, cam, light, max_error, &pilot, &big, &sample, NULL, {0}, out, false};
     // Adaptive samples need the stratified sampler's Sobol' draws, the even split and no ray dump
     // (pn_shadow_check_samples: the frame's own options must allow the pick), and a budget of 0 is
@@ -660,7 +397,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
     bool filtered = frame->filter != PN_FILTER_NONE && frame->split == PN_SPLIT_EVEN && !pn_light_is_point(light) &&
                     max_error > 0;
     if (r == PN_OK)
-        r = frame_sample_init(&sample, frame, &pilot, filtered);
+        r = pn_frame_sample_init(&sample, frame, &pilot, filtered);
     pn_setup_desc sd = pilot.sd;
     pn_setup s;
     // The configurations to climb, for the progress lines: a mode's trees, or the mode once.
@@ -679,7 +416,7 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
             sd.frame.pixel_error = 0;
             sd.tree_n = info->needs.tree ? TREES[t][0] : 0;
             sd.tree_d = info->needs.tree ? TREES[t][1] : 0;
-            if (quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
+            if (pn_pilot_quiet_setup(dev, scene, light, &sd, &s) != PN_OK)
                 continue; // does not fit: try the next
             double prev_mae = INFINITY, mae = INFINITY, ms = INFINITY;
             bool within = false, met = false;
@@ -695,11 +432,11 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
                 r = pn_renderer_set_filter(&s.renderer, PN_FILTER_PENUMBRA, frame->tile_w, frame->tile_h);
                 sd.frame.filter = PN_FILTER_PENUMBRA;
                 // The frame itself, on the pilot's tree, for the filtered pilots' errors
-                // (frame_sample); one that does not fit leaves them to the pilots, which judge
+                // (pn_frame_sample); one that does not fit leaves them to the pilots, which judge
                 // them too strictly, not too leniently.
                 pn_renderer frame_r;
                 if (r == PN_OK && sample.used)
-                    r = frame_sample_reference(dev, scene, cam, light, &pilot, &sample);
+                    r = pn_frame_sample_reference(dev, scene, cam, light, &pilot, &sample);
                 if (r == PN_OK && sample.used) {
                     pn_renderer_desc fd = s.renderer.desc;
                     fd.width = frame->width, fd.height = frame->height;
@@ -763,8 +500,8 @@ pn_result pn_quality_choose(pn_gpu_device *dev, const pn_scene *scene, const pn_
         out->confirm_width = big.sd.frame.width, out->confirm_height = big.sd.frame.height;
     if (sample.ready)
         out->frame_sample_width = sample.cells_w, out->frame_sample_height = sample.cells_h;
-    pilot_size_free(&pilot);
-    pilot_size_free(&big);
-    frame_sample_free(&sample);
+    pn_pilot_size_free(&pilot);
+    pn_pilot_size_free(&big);
+    pn_frame_sample_free(&sample);
     return r;
 }
