@@ -1,7 +1,9 @@
 // The N-tree build: the occupancy level by level (ntree_occupancy.c, with its chunk and gather
 // workers in ntree_level.c), candidate lists and leaf planes (ntree_leaves.c), then the line spaces
 // here. The triangle tests it uses (overlap with a cell, whether a triangle can block) are in
-// ntree_tri.c.
+// ntree_tri.c, the cells' sizes and boxes and the pools' bytes in ntree_cells.c: the files call
+// one way, ntree.c -> ntree_occupancy.c -> ntree_leaves.c, ntree_level.c -> ntree_tri.c,
+// ntree_cells.c.
 #include "accel/ntree.h"
 
 #include <math.h>
@@ -14,26 +16,6 @@
 #include "core/parallel.h"
 #include "core/timer.h"
 
-pn_pool_bytes pn_ntree_pool_bytes(int n, uint64_t s)
-{
-    pn_pool_bytes b = {0};
-    b.tree = s * (uint64_t)(n * n * n) * sizeof(uint32_t);
-    b.node = s * 32; // pn_gpu_node, accel/pools.h
-    b.linespace = s * pn_ls_words64(n) * sizeof(uint64_t);
-    b.total = b.tree + b.node + b.linespace;
-    return b;
-}
-
-double pn_ntree_cell_size(const pn_ntree *t, int level) { return t->root_size / pow((double)t->n, level); }
-
-void pn_ntree_cell_box(const pn_ntree *t, int level, const uint64_t coord[3], double lo[3], double hi[3])
-{
-    double cs = pn_ntree_cell_size(t, level);
-    for (int k = 0; k < 3; k++) {
-        lo[k] = t->root_min[k] + (double)coord[k] * cs - t->slack;
-        hi[k] = t->root_min[k] + (double)(coord[k] + 1) * cs + t->slack;
-    }
-}
 // ---------------------------------------------------------------------------------------------
 // Line spaces: OR of the shaft masks of each node's filled children.
 

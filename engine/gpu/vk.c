@@ -1,0 +1,17 @@
+// The check macro's helper (vk.h): a VkResult's name for the messages.
+#include "gpu/vk.h"
+
+const char *pn_vk_result_str(VkResult r)
+{
+    switch (r) {
+#define X(c) case c: return #c;
+    X(VK_SUCCESS) X(VK_NOT_READY) X(VK_TIMEOUT) X(VK_INCOMPLETE) X(VK_SUBOPTIMAL_KHR)
+    X(VK_ERROR_OUT_OF_HOST_MEMORY) X(VK_ERROR_OUT_OF_DEVICE_MEMORY) X(VK_ERROR_INITIALIZATION_FAILED)
+    X(VK_ERROR_DEVICE_LOST) X(VK_ERROR_MEMORY_MAP_FAILED) X(VK_ERROR_LAYER_NOT_PRESENT)
+    X(VK_ERROR_EXTENSION_NOT_PRESENT) X(VK_ERROR_FEATURE_NOT_PRESENT) X(VK_ERROR_INCOMPATIBLE_DRIVER)
+    X(VK_ERROR_TOO_MANY_OBJECTS) X(VK_ERROR_FORMAT_NOT_SUPPORTED) X(VK_ERROR_OUT_OF_DATE_KHR)
+    X(VK_ERROR_SURFACE_LOST_KHR)
+#undef X
+    default: return "VkResult error";
+    }
+}
