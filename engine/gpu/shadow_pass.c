@@ -2,6 +2,7 @@
 // rounds.
 #include "gpu/shadow_pass.h"
 
+#include <assert.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -84,12 +85,13 @@ void pn_sample_grid(uint32_t spp, uint32_t *grid_u, uint32_t *grid_v)
 }
 
 // The shadow shaders' specialisation (interface.h), in pn_shadow_pass.spec_data.
-static const VkSpecializationMapEntry SPEC_ENTRIES[6] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
+static const VkSpecializationMapEntry SPEC_ENTRIES[7] = {{.constantID = PN_SPEC_TRAVERSAL, .offset = 0, .size = 4},
                                                          {.constantID = PN_SPEC_VARIANT, .offset = 4, .size = 4},
                                                          {.constantID = PN_SPEC_COUNT_WORK, .offset = 8, .size = 4},
                                                          {.constantID = PN_SPEC_PACKET_RAYS, .offset = 12, .size = 4},
                                                          {.constantID = PN_SPEC_ALPHA, .offset = 16, .size = 4},
-                                                         {.constantID = PN_SPEC_PROJECT_SAMPLES, .offset = 20, .size = 4}};
+                                                         {.constantID = PN_SPEC_PROJECT_SAMPLES, .offset = 20, .size = 4},
+                                                         {.constantID = PN_SPEC_UNIFORM, .offset = 24, .size = 4}};
 
 pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc, const pn_gpu_image *p,
                                 const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, bool alpha_masks,
@@ -147,17 +149,17 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     // device can run it.
     out->auto_project = desc->traversal == PN_TRAVERSAL_AUTO && desc->mode == PN_SHADOW_EXACT && votes;
     memcpy(out->spec_data,
-           (int32_t[6]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK, alpha_masks ? 1 : 0,
-                        PN_PROJECT_MAX_SAMPLES},
+           (int32_t[7]){traversal, out->mode->variant, desc->count_work ? 1 : 0, PN_MAX_CHUNK, alpha_masks ? 1 : 0,
+                        PN_PROJECT_MAX_SAMPLES, 0},
            sizeof out->spec_data);
-    VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof out->spec_data,
-                                 .pData = out->spec_data};
+    VkSpecializationInfo spec = {.mapEntryCount = 7, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof out->spec_data,
+                                 .pData = out->spec_data}; // the ray-tracing pipeline's: for any frame
     const VkBufferUsageFlags ADDRESSED = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT;
     uint64_t px = (uint64_t)desc->width * desc->height;
     bool ray = out->mode->ray_pipeline;
     out->stage = ray ? VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR : VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     pn_result r = pn_gpu_compute_create(dev,
-                                        &(pn_gpu_compute_desc){.spirv = ray || out->sized_rays ? NULL : out->spirv,
+                                        &(pn_gpu_compute_desc){.spirv = NULL, // pn_shadow_pass_prepare's
                                                                .spirv_size = out->spirv_size,
                                                                .bindings = bindings,
                                                                .binding_count = PN_SHADOW_BINDING_COUNT + tlas,
@@ -308,6 +310,7 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.dump_rays = desc->dump_rays;
     sp.work = s->work.address;
     sp.spp_min = s->spp_min = desc->spp_min;
+    s->uniform = desc->spp_min == 0 && desc->split != PN_SPLIT_BUDGET;
     sp.pixel_error = desc->pixel_error;
     sp.tiles_across = s->tiles_across;
     sp.tile_total = s->tile_total;
@@ -336,44 +339,55 @@ static bool frame_project(const pn_shadow_pass *s, uint32_t samples)
                                                                   s->spp_min) == PN_TRAVERSAL_PROJECT);
 }
 
+// Makes *slot (when not made yet): the pass's shader, or the projection's (project), with spec_data
+// but for the packet rays and the projection's samples where not 0, and this frame's uniform flag.
+static pn_result make(pn_gpu_device *dev, pn_shadow_pass *s, bool project, uint32_t rays, uint32_t samples,
+                      VkPipeline *slot)
+{
+    if (*slot)
+        return PN_OK;
+    int32_t data[7];
+    memcpy(data, s->spec_data, sizeof data);
+    if (project)
+        data[0] = PN_TRAVERSAL_PROJECT_ID;
+    if (rays)
+        data[3] = (int32_t)rays;
+    if (samples)
+        data[5] = (int32_t)samples;
+    data[6] = s->uniform ? 1 : 0;
+    VkSpecializationInfo spec = {.mapEntryCount = 7, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
+    s->pipelines_made++;
+    const uint32_t *spirv = project ? pn_spv_shadow_project_comp : s->spirv;
+    size_t size = project ? sizeof pn_spv_shadow_project_comp : s->spirv_size;
+    return pn_gpu_compute_pipeline(dev, &s->compute, spirv, size, &spec, slot);
+}
+
 pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples)
 {
+    if (s->ray.pipeline)
+        return PN_OK; // made with the pass
+    int u = s->uniform ? 1 : 0;
     if (frame_project(s, samples)) {
         // The projection traversal's per-sample arrays sized to the dispatch's samples: private
         // arrays of 1024 samples cost a frame of 16 spp a third more (default scene, lavapipe).
         // With --traversal project the pass's own pipeline holds the most.
         uint32_t k = rays_size(samples < s->project_chunk ? samples : s->project_chunk);
         k = k < 5 ? 0 : k - 5;
-        if ((s->project && (32u << k) >= PN_PROJECT_MAX_SAMPLES) || s->by_samples[k])
-            return PN_OK;
-        int32_t data[6];
-        memcpy(data, s->spec_data, sizeof data);
-        data[0] = PN_TRAVERSAL_PROJECT_ID;
-        data[5] = (int32_t)(32u << k);
-        VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
-        s->pipelines_made++;
-        return pn_gpu_compute_pipeline(dev, &s->compute, pn_spv_shadow_project_comp,
-                                       sizeof pn_spv_shadow_project_comp, &spec, &s->by_samples[k]);
+        if (s->project && (32u << k) >= PN_PROJECT_MAX_SAMPLES)
+            return make(dev, s, true, 0, 0, &s->own[u]);
+        return make(dev, s, true, 0, 32u << k, &s->by_samples[u][k]);
     }
     if (!s->sized_rays)
-        return PN_OK;
+        return make(dev, s, false, 0, 0, &s->own[u]);
     // The dispatches' rays per pixel: the chunk's, or fewer in the frame's first (or only) round.
+    // The pipeline for the most rays (own) is made only for the frames that take it: a frame of
+    // 4 spp never runs it, and it is the largest of the shadow pipelines to create (141 ms on
+    // lavapipe with Mesa's cache off, the default render's).
     uint32_t rounds[2] = {pn_shadow_adaptive(s, samples) ? s->spp_min : samples, samples};
-    // The pipeline for the most rays (compute.pipeline) is made here too, only for the frames that
-    // take it: a frame of 4 spp never runs it, and it is the largest of the shadow pipelines to
-    // create (141 ms on lavapipe with Mesa's cache off, the default render's).
     for (int i = 0; i < 2; i++) {
         uint32_t k = rays_size(rounds[i] < s->chunk ? rounds[i] : s->chunk);
         bool most = (1u << k) >= PN_MAX_CHUNK;
-        VkPipeline *slot = most ? &s->compute.pipeline : &s->by_rays[k];
-        if (*slot)
-            continue; // made already
-        int32_t data[6];
-        memcpy(data, s->spec_data, sizeof data);
-        data[3] = most ? PN_MAX_CHUNK : (int32_t)(1u << k);
-        VkSpecializationInfo spec = {.mapEntryCount = 6, .pMapEntries = SPEC_ENTRIES, .dataSize = sizeof data, .pData = data};
-        s->pipelines_made++;
-        PN_TRY(pn_gpu_compute_pipeline(dev, &s->compute, s->spirv, s->spirv_size, &spec, slot));
+        PN_TRY(make(dev, s, false, most ? 0 : 1u << k, 0, most ? &s->own[u] : &s->by_rays[u][k]));
     }
     return PN_OK;
 }
@@ -381,13 +395,14 @@ pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t
 // The pipeline for a dispatch of at most `rays` rays per pixel: the smallest made that holds them.
 static VkPipeline pipeline_for(const pn_shadow_pass *s, uint32_t rays, bool project)
 {
+    int u = s->uniform ? 1 : 0;
     for (uint32_t k = rays_size(rays), j = k < 5 ? 0 : k - 5; project && j < PN_PROJECT_SIZES; j++)
-        if (s->by_samples[j])
-            return s->by_samples[j];
+        if (s->by_samples[u][j])
+            return s->by_samples[u][j];
     for (uint32_t k = rays_size(rays); s->sized_rays && (1u << k) < PN_MAX_CHUNK; k++)
-        if (s->by_rays[k])
-            return s->by_rays[k];
-    return s->compute.pipeline;
+        if (s->by_rays[u][k])
+            return s->by_rays[u][k];
+    return s->own[u];
 }
 
 // Each dispatch reads the counts the previous one wrote (see ShadowChunk in interface.h), and an
@@ -423,8 +438,11 @@ static void dispatch(VkCommandBuffer cmd, const pn_shadow_pass *s, const pn_shad
             pn_gpu_ray_trace(cmd, &s->compute, &s->ray, sizeof *ch, ch, w * side * side, h);
         return;
     }
+    // A uniform frame's pipeline has no rounds, lists or decisions (shadow_common.glsl: UNIFORM).
+    assert(!s->uniform || (ch->list_in == 0 && ch->decide == 0));
     pn_gpu_compute c = s->compute;
     c.pipeline = pipeline_for(s, ch->sample_end - ch->sample_begin, project);
+    assert(c.pipeline); // pn_shadow_pass_prepare's
     if (ch->list_in == 0) {
         uint32_t gy = s->tile_total / s->tiles_across;
         pn_gpu_compute_dispatch(cmd, &c, sizeof *ch, ch, s->one_tile ? 1 : s->tiles_across, s->one_tile ? 1 : gy, 1);

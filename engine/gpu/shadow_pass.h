@@ -22,16 +22,21 @@ typedef struct pn_shadow_pass {
     // name it, and bridge to compute at its ends (pn_shadow_pass_record), so the passes around it
     // see a compute pass whatever the mode.
     VkPipelineStageFlags2 stage;
-    // A mode with packet_rays under packet traversal: by_rays[k] is the pipeline for at most 2^k
-    // rays of a pixel per dispatch, made when a frame first needs it (pn_shadow_pass_prepare);
-    // spec_data its specialisation but for the rays. A dispatch takes the smallest that fits. The
-    // one for PN_MAX_CHUNK rays is compute.pipeline, made the same way (not by the pass's creation).
-    VkPipeline by_rays[PN_PACKET_RAY_SIZES];
-    // The projection traversal: by_samples[k] for at most 32 x 2^k samples of a pixel per dispatch
-    // (its per-sample arrays; with --traversal project compute.pipeline holds
-    // PN_PROJECT_MAX_SAMPLES), made as by_rays, from shadow_project.comp.
-    VkPipeline by_samples[PN_PROJECT_SIZES];
-    int32_t spec_data[6];
+    // The compute modes' pipelines, the device's, each made when a frame first needs it
+    // (pn_shadow_pass_prepare), from spec_data but for what the slot says; [u]: for uniform frames
+    // (u 1: PN_SPEC_UNIFORM, `uniform` below) or any (u 0). own[u]: the mode's shader (a mode with
+    // packet_rays under packet traversal: for PN_MAX_CHUNK rays; --traversal project: for
+    // PN_PROJECT_MAX_SAMPLES). A mode with packet_rays under packet traversal: by_rays[u][k] for at
+    // most 2^k rays of a pixel per dispatch. The projection traversal: by_samples[u][k] for at most
+    // 32 x 2^k samples (its per-sample arrays), from shadow_project.comp. A dispatch takes the
+    // smallest that fits. The ray-tracing pipeline (ray) is made with the pass, for any frame.
+    VkPipeline own[2];
+    VkPipeline by_rays[2][PN_PACKET_RAY_SIZES];
+    VkPipeline by_samples[2][PN_PROJECT_SIZES];
+    int32_t spec_data[7];
+    // This frame's lights are all sampled uniformly (spp_min 0) under the even split, so no
+    // dispatch has rounds, lists or decisions: its pipelines are the uniform ones (pn_shadow_pass_update).
+    bool uniform;
     bool sized_rays;
     bool project;      // --traversal project: every frame by projection (exact)
     bool auto_project; // --traversal auto, exact: frames of PN_PROJECT_AUTO_SAMPLES samples and more

@@ -47,6 +47,7 @@
 #define PN_SPEC_PACKET_RAYS 3  // exact.glsl: the most rays of a pixel in one dispatch (a power of two)
 #define PN_SPEC_ALPHA 4        // shadow shaders: the scene has alpha-masked casters (a 32-bit bool)
 #define PN_SPEC_PROJECT_SAMPLES 5 // project.glsl: the most samples of a pixel in one dispatch (32 x 2^k)
+#define PN_SPEC_UNIFORM 6     // shadow shaders: a uniform frame's pipeline (a 32-bit bool; shadow_common.glsl)
 #define PN_SPEC_TEXTURE_COUNT 0 // gbuffer.frag: size of the texture array
 #define PN_SPEC_TILE_W 0 // filter.comp: the window (the interleaving tile), 1..PN_FILTER_MAX_TILE
 #define PN_SPEC_TILE_H 1

@@ -352,7 +352,7 @@ void project_pixel(ivec2 px, vec3 p, vec3 nrm, bool mine)
     float rise;
     vec3 o = shadow_origin(p, nrm, 0.0, rise); // exact tests every ray from its origin: no rise
     uint end = pixel_end;
-    if (params.split == PN_SPLIT_BUDGET_ID)
+    if (SPLIT == PN_SPLIT_BUDGET_ID)
         end = min(end, budget_rays(p, nrm));
     uint count = mine ? min(end - min(end, pixel_begin), PROJECT_MAX) : 0u;
     vec2 box_lo, box_hi;
@@ -382,7 +382,7 @@ void project_pixel(ivec2 px, vec3 p, vec3 nrm, bool mine)
     for (uint w = 0u; w < PROJECT_WORDS; w++)
         proj_todo[w] = valid[w];
     proj_left = proj_valid = valid_count;
-    proj_grid = LIGHT_KIND == PN_LIGHT_RECT_ID && params.split != PN_SPLIT_BUDGET_ID && params.spp_min == 0u;
+    proj_grid = LIGHT_KIND == PN_LIGHT_RECT_ID && SPLIT != PN_SPLIT_BUDGET_ID && SPP_MIN == 0u;
     vec2 extent = box_hi - box_lo;
     proj_grid = proj_grid && all(greaterThan(extent, vec2(0.0)));
     proj_cell_lo = box_lo;

@@ -13,6 +13,18 @@ layout(set = 0, binding = PN_SHADOW_BINDING_PARAMS, std140) uniform ShadowParams
 // wrong. Other drivers have no such budget (pn_gpu_device_loop_budget). engine/gpu/llvmpipe.md.
 layout(push_constant) uniform ShadowChunkBlock { ShadowChunk chunk; };
 
+// The pipeline of a uniform frame (PN_SPEC_UNIFORM, shadow_pass.c: spp_min 0 and the even split):
+// every pixel takes the chunk's samples, so adaptive sampling's rounds, pixel lists and decisions
+// and the budgeted split compile away. On lavapipe they were a third of exact's compile at its
+// first dispatch (the default render's: 4.9-5.6 s against 3.1-3.6 s, both builds run interleaved
+// on a loaded machine). The shaders read spp_min, the split, the chunk's decide and list_in
+// through these names only.
+layout(constant_id = PN_SPEC_UNIFORM) const bool UNIFORM = false;
+#define SPP_MIN (UNIFORM ? 0u : params.spp_min)
+#define SPLIT (UNIFORM ? uint(PN_SPLIT_EVEN_ID) : params.split)
+#define CHUNK_DECIDE (UNIFORM ? 0u : chunk.decide)
+#define CHUNK_LIST_IN (UNIFORM ? 0u : chunk.list_in)
+
 // llvmpipe: true if this invocation's loop budget ran out: a loop of `canary` (= 2) iterations, a
 // bound the compiler cannot see, completes only while budget is left. Call it after all other
 // loops. Always false on drivers without the budget.
@@ -78,7 +90,7 @@ PixelSampler pixel_sampler(uvec2 pixel)
     // adds beyond the first round must not be its tile-mates' (they would err together, in blocks
     // of the tile). For a 1 x 1 tile the tile's hash is the pixel's; a uniform frame under a tile
     // draws no Sobol' point, so only adaptive sampling pays for the second hash.
-    bool own = tile_size.x * tile_size.y > 1u && params.spp_min != 0u;
+    bool own = tile_size.x * tile_size.y > 1u && SPP_MIN != 0u;
     ps.sobol = pcg((own ? pcg(pixel.x + pcg(pixel.y + pcg(params.seed))) : ps.h) + chunk.light);
     ps.sheared = uvec2(0u);
     if (tile_size.x * tile_size.y > 1u) {
@@ -164,7 +176,7 @@ vec2 light_sample(uint k, PixelSampler ps)
     // spp_min on (pixel_sampler's shift is the pixel's), drawn independently of the first round:
     // each is uniform over the light, so their mean with the first round's is unbiased, though the
     // whole is not one nested net as a Sobol' prefix is.
-    if (params.split == PN_SPLIT_BUDGET_ID || (params.spp_min != 0u && (tiles == 1u || k >= params.spp_min)))
+    if (SPLIT == PN_SPLIT_BUDGET_ID || (SPP_MIN != 0u && (tiles == 1u || k >= SPP_MIN)))
         return sobol_sample(k, ps.sobol);
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {

@@ -70,8 +70,8 @@ void main()
 {
     // The specialisation constants' tests last: a chain that starts with them made glslang emit an
     // undefined id (the pipeline would not build).
-    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.block_walk != 0u && params.split != PN_SPLIT_BUDGET_ID &&
-        chunk.list_in == 0u && chunk.decide == 0u && TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK && TILE_PIXELS > 1u) {
+    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.block_walk != 0u && SPLIT != PN_SPLIT_BUDGET_ID &&
+        CHUNK_LIST_IN == 0u && CHUNK_DECIDE == 0u && TILE_PIXELS * PACKET_RAYS <= MAX_CHUNK && TILE_PIXELS > 1u) {
         tile_main();
         return;
     }
@@ -90,7 +90,7 @@ void main()
     vec2 st_lo, st_hi;
     uint valid_rays = chunk_rays(uvec2(px), o, nrm, rise, count, i, st_lo, st_hi);
     uint blocked = 0u;
-    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && params.split != PN_SPLIT_BUDGET_ID) {
+    if (TRAVERSAL == PN_TRAVERSAL_PACKET_ID && SPLIT != PN_SPLIT_BUDGET_ID) {
         // The valid samples lie in [st_lo, st_hi] of the light's (s, t): the frustum's parallelogram.
         blocked = bvh_packet_blocked(o, valid_rays, st_lo, st_hi);
         shadow_finish(px, o, count, valid_rays, blocked, i < count);

@@ -28,7 +28,7 @@ bool pixel_last;
 // 72% of what full groups would trace. shadow_list_pixel: the list's i-th pixel.
 ivec2 shadow_list_pixel(uint i)
 {
-    uint list = (chunk.list_in - 1u) * PN_PIXEL_LIST_WORDS(params.tile_total);
+    uint list = (CHUNK_LIST_IN - 1u) * PN_PIXEL_LIST_WORDS(params.tile_total);
     if (i >= pixel_lists.words[list + 3u])
         return ivec2(-1);
     uint packed = pixel_lists.words[list + 4u + i];
@@ -37,7 +37,7 @@ ivec2 shadow_list_pixel(uint i)
 #ifndef PN_RAY_GENERATION // a ray generation shader has launch ids instead (shadow_rtpipeline.rgen)
 ivec2 shadow_invocation_pixel(ivec2 local)
 {
-    if (chunk.list_in == 0u)
+    if (CHUNK_LIST_IN == 0u)
         return ivec2(gl_WorkGroupID.xy) * PN_WORKGROUP + local;
     return shadow_list_pixel(gl_WorkGroupID.x * uint(PN_WORKGROUP * PN_WORKGROUP) + gl_LocalInvocationIndex);
 }
@@ -185,7 +185,7 @@ uint budget_rays(vec3 p, vec3 nrm)
 uint chunk_count(vec3 p, vec3 nrm)
 {
     uint end = pixel_end;
-    if (params.split == PN_SPLIT_BUDGET_ID)
+    if (SPLIT == PN_SPLIT_BUDGET_ID)
         end = min(end, budget_rays(p, nrm));
     return min(end - min(end, pixel_begin), MAX_CHUNK);
 }
@@ -329,7 +329,7 @@ float penumbra_width(vec3 o, float t)
 // are then kept in img_adapt from the round's first chunk on (shadow_store).
 bool halves_by_parity()
 {
-    return params.spp_min != 0u && params.tile_w * params.tile_h > 1u && pixel_target == params.spp_min;
+    return SPP_MIN != 0u && params.tile_w * params.tile_h > 1u && pixel_target == SPP_MIN;
 }
 
 // V from the pixel's (visible, valid) counts: 1 without a valid ray (the light does not reach it,
@@ -358,7 +358,7 @@ void shadow_finish_from(uint base, ivec2 px, vec3 o, uint count, uint valid_rays
     // pixel had when it was set), so those counts are the earlier ones plus this chunk's part;
     // beyond, they are what the chunk that reached the half kept (shadow_store). Except in the first
     // round under an interleaved tile (halves_by_parity).
-    uint half_n = params.spp_min != 0u ? pixel_target / 2u : 0u;
+    uint half_n = SPP_MIN != 0u ? pixel_target / 2u : 0u;
     uint below = half_n - min(half_n, pixel_begin); // this chunk's rays in the first half
     uint first_half = valid_rays & (below >= 32u ? ~0u : (1u << below) - 1u);
     if (halves_by_parity()) {
@@ -411,10 +411,10 @@ void shadow_store(ivec2 px, vec3 o, uint count, uvec2 add, uvec2 half_add, float
     // which counts.y - counts.x of them are.
     float t_sum = uintBitsToFloat(adapt.z) + t_add;
     uint blocked_rays = counts.y - counts.x;
-    uint half_n = params.spp_min != 0u ? pixel_target / 2u : 0u;
+    uint half_n = SPP_MIN != 0u ? pixel_target / 2u : 0u;
     uvec2 half_counts = (pixel_begin <= half_n && !halves_by_parity() ? earlier.xy : adapt.xy) + half_add;
     // Uniform samples' last chunk carries nothing on: no store.
-    if (params.spp_min != 0u || !pixel_last)
+    if (SPP_MIN != 0u || !pixel_last)
         imageStore(img_adapt, px, uvec4(half_counts, floatBitsToUint(t_sum), pixel_begin + count));
     float w = pixel_last ? penumbra_width(o, blocked_rays > 0u ? t_sum / float(blocked_rays) : 1.0) : t_sum;
     imageStore(img_counts, px, uvec4(counts, reaches, floatBitsToUint(w)));
@@ -522,10 +522,10 @@ void adaptive_decide(ivec2 px)
     // 4, the dragon 0.00463 / 0.00450 / 0.00446 at 4.18 / 4.23 / 4.31 rays, the bunny 0.00521 /
     // 0.00518 / 0.00518 at 4.23 / 4.28 / 4.34 (before the filter counted a pixel's samples as at
     // least the first round's, filter.comp, which took 2's to 0.00451 and 0.00513). Not in a frame
-    // that continues the previous one's (the demo's progressive refinement, chunk.decide 2): there
+    // that continues the previous one's (the demo's progressive refinement, CHUNK_DECIDE 2): there
     // every uncertain pixel goes on, so that the picture converges as the rounds add up; and not
     // under the interleaved filter, whose fixed window averages no wider penumbra.
-    if (params.refine_narrow != 0u && chunk.decide == 1u) {
+    if (params.refine_narrow != 0u && CHUNK_DECIDE == 1u) {
         const float REFINE_PIXELS = 2.0;
         float width = imageLoad(img_blockers, px).y; // PN_PENUMBRA_NONE without a blocker: V is smooth
         float pixel = imageLoad(img_n, px).w * params.pixel_angle;
@@ -552,18 +552,18 @@ void adaptive_decide(ivec2 px)
 bool shadow_pixel(ivec2 px, out vec3 p, out vec3 nrm)
 {
     bool inside = all(greaterThanEqual(px, ivec2(0))) && all(lessThan(px, imageSize(img_v)));
-    if (chunk.decide != 0u) {
+    if (CHUNK_DECIDE != 0u) {
         if (inside)
             adaptive_decide(px);
         return false;
     }
     pixel_begin = chunk.sample_begin;
     pixel_end = chunk.sample_end;
-    pixel_target = params.spp_min; // the first round's
+    pixel_target = SPP_MIN; // the first round's
     pixel_last = chunk.last != 0u;
     // Adaptive sampling's later rounds: the part of the chunk between the pixel's samples and its
     // target, for the pixels that go on.
-    if (chunk.list_in != 0u && inside) {
+    if (CHUNK_LIST_IN != 0u && inside) {
         uvec4 rays = imageLoad(img_rays, px);
         if (rays.z != 0u)
             return false;
