@@ -16,29 +16,33 @@ uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes)
     return h;
 }
 
-void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
-                         uint64_t start_ns)
+// Appends one row to PN_PIPELINE_LOG's file: one short write in append mode, so that the
+// processes of a test (a script's commands) share the file.
+static void log_row(const pn_gpu_device *dev, const char *kind, const char *name, size_t bytes, double ms)
 {
-    if (!dev->pipeline_log)
-        return;
-    double ms = pn_ms_since(start_ns);
-    // One short write in append mode: the processes of a test (a script's commands) share the file.
     FILE *f = fopen(dev->pipeline_log, "a");
     if (!f) {
         pn_warn("PN_PIPELINE_LOG: cannot append to %s", dev->pipeline_log);
         return;
     }
-    fprintf(f, "%s %016llx %zu %.1f\n", kind, (unsigned long long)variant, spirv_bytes, ms);
+    fprintf(f, "%s %s %zu %.1f\n", kind, name, bytes, ms);
     fclose(f);
+}
+
+void pn_gpu_pipeline_log(const pn_gpu_device *dev, const char *kind, uint64_t variant, size_t spirv_bytes,
+                         uint64_t start_ns)
+{
+    if (!dev->pipeline_log)
+        return;
+    char name[17];
+    snprintf(name, sizeof name, "%016llx", (unsigned long long)variant);
+    log_row(dev, kind, name, spirv_bytes, pn_ms_since(start_ns));
 }
 
 void pn_gpu_first_use_log(const pn_gpu_device *dev, const char *pass, double ms)
 {
-    FILE *f = dev->pipeline_log ? fopen(dev->pipeline_log, "a") : NULL;
-    if (f) {
-        fprintf(f, "first-use %s 0 %.1f\n", pass, ms);
-        fclose(f);
-    }
+    if (dev->pipeline_log)
+        log_row(dev, "first-use", pass, 0, ms);
 }
 
 pn_result pn_gpu_shader_module(pn_gpu_device *dev, const uint32_t *spirv, size_t bytes, VkShaderModule *out)

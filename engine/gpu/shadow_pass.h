@@ -107,7 +107,8 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
                            uint32_t light_count, float pixel_angle);
 
 // After pn_shadow_pass_update, for each light's `samples` (pn_shadow_samples): makes the pipelines
-// its dispatches want that are not made yet (by_rays and compute.pipeline; nothing for other modes).
+// its dispatches want that are not made yet, for this frame's uniform flag (own, by_rays,
+// by_samples; nothing for the ray-tracing pipeline, made with the pass).
 pn_result pn_shadow_pass_prepare(pn_gpu_device *dev, pn_shadow_pass *s, uint32_t samples);
 
 // Whether a light of `samples` samples per pixel (pn_shadow_samples) is sampled adaptively:

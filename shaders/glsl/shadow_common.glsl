@@ -16,8 +16,8 @@ layout(push_constant) uniform ShadowChunkBlock { ShadowChunk chunk; };
 // The pipeline of a uniform frame (PN_SPEC_UNIFORM, shadow_pass.c: spp_min 0 and the even split):
 // every pixel takes the chunk's samples, so adaptive sampling's rounds, pixel lists and decisions
 // and the budgeted split compile away. On lavapipe they were a third of exact's compile at its
-// first dispatch (the default render's: 4.9-5.6 s against 3.1-3.6 s, both builds run interleaved
-// on a loaded machine). The shaders read spp_min, the split, the chunk's decide and list_in
+// first dispatch (the default render's 4-ray pipeline: 1.7-1.9 s against 2.35-2.45 s with them;
+// engine/gpu/llvmpipe.md). The shaders read spp_min, the split, the chunk's decide and list_in
 // through these names only.
 layout(constant_id = PN_SPEC_UNIFORM) const bool UNIFORM = false;
 #define SPP_MIN (UNIFORM ? 0u : params.spp_min)

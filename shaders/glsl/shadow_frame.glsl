@@ -522,7 +522,7 @@ void adaptive_decide(ivec2 px)
     // 4, the dragon 0.00463 / 0.00450 / 0.00446 at 4.18 / 4.23 / 4.31 rays, the bunny 0.00521 /
     // 0.00518 / 0.00518 at 4.23 / 4.28 / 4.34 (before the filter counted a pixel's samples as at
     // least the first round's, filter.comp, which took 2's to 0.00451 and 0.00513). Not in a frame
-    // that continues the previous one's (the demo's progressive refinement, CHUNK_DECIDE 2): there
+    // that continues the previous one's (the demo's progressive refinement, chunk.decide 2): there
     // every uncertain pixel goes on, so that the picture converges as the rounds add up; and not
     // under the interleaved filter, whose fixed window averages no wider penumbra.
     if (params.refine_narrow != 0u && CHUNK_DECIDE == 1u) {
