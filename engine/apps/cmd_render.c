@@ -54,7 +54,18 @@ void pn_print_render_help(void)
            "                        follows the animation) with a line per frame and the time left\n"
            "  --fps F               frames per second of --frames (default 24)\n"
            "  --shard K/N           render every N-th frame from the K-th (1 <= K <= N): N jobs under a\n"
-           "                        runner (GNU parallel, a Slurm array) render the sequence between them\n"
+           "                        runner (GNU parallel, a Slurm array) render the sequence between them;\n"
+           "                        with --temporal the K-th of N consecutive runs, after rendering (not\n"
+           "                        writing) --history frames before its first\n"
+           "  --temporal            each frame adds its samples to those its pixels' surface points\n"
+           "                        gathered in the frames before (V does not depend on the camera),\n"
+           "                        found through the last frame's camera; dropped where the point was\n"
+           "                        not in view, where an object moved within the point's pyramid to\n"
+           "                        the light, and for a light that changed; consecutive frames share\n"
+           "                        the strata of a window of them (a frame's number picks its share);\n"
+           "                        the EXR gets shadow.history, the samples behind each pixel's V\n"
+           "  --history N           the most frames' samples the history holds, 1..4096 (default 32);\n"
+           "                        beyond them older samples weigh less (an exponential window)\n"
            "quality:\n"
            "  --quality auto|manual auto: choose --mode, --tree, --spp and the filter from pilot renders\n"
            "                        (the same framing at about 128x128) against a converged exact\n"
@@ -74,8 +85,9 @@ void pn_print_render_help(void)
 int pn_render_parse(int argc, char **argv, render_opts *o)
 {
     *o = (render_opts){.r = pn_render_opts_default(), .max_error = 0.01, .view_cull = true,
-                       .seq = {.fps = 24, .shard_k = 1, .shard_n = 1}};
+                       .seq = {.fps = 24, .shard_k = 1, .shard_n = 1, .history = 32}};
     pn_args a = {argc, argv, 0};
+    bool history_given = false;
     while (a.i < argc) {
         const char *v = NULL;
         bool err = false;
@@ -115,6 +127,12 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
             if (!v || !pn_parse_float_range("--fps", v, 1e-3f, 1e4f, &fps))
                 return PN_EXIT_USAGE;
             o->seq.fps = fps;
+        } else if (pn_args_flag(&a, "--temporal")) {
+            o->seq.temporal = true;
+        } else if (pn_args_value(&a, "--history", &v, &err)) {
+            if (!v || !pn_parse_int_range("--history", v, 1, PN_HISTORY_MAX_FRAMES, &o->seq.history))
+                return PN_EXIT_USAGE;
+            history_given = true;
         } else if (pn_args_value(&a, "--shard", &v, &err)) {
             if (!v || !pn_parse_shard("--shard", v, &o->seq.shard_k, &o->seq.shard_n))
                 return PN_EXIT_USAGE;
@@ -135,6 +153,15 @@ int pn_render_parse(int argc, char **argv, render_opts *o)
     }
     if (!o->scene)
         o->scene = "builtin:default";
+    if ((o->seq.temporal || history_given) && !o->seq.on) {
+        pn_error("%s: carries samples from frame to frame of --frames, which is not given",
+                 o->seq.temporal ? "--temporal" : "--history");
+        return PN_EXIT_USAGE;
+    }
+    if (history_given && !o->seq.temporal) {
+        pn_error("--history: the length of --temporal's history, which is not given");
+        return PN_EXIT_USAGE;
+    }
     if (o->seq.shard_n > 1 && !o->seq.on) {
         pn_error("--shard: shares out the frames of --frames, which is not given");
         return PN_EXIT_USAGE;

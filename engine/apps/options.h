@@ -16,6 +16,10 @@ typedef struct pn_sequence {
     long long first, last, step;
     double fps;
     int shard_k, shard_n;
+    // --temporal: each frame adds its samples to the history of the frames before it
+    // (pn_renderer_set_history) at most `history` frames' worth (--history).
+    bool temporal;
+    long long history;
 } pn_sequence;
 
 // penumbra render: the options render shares with demo, plus its scene and outputs.

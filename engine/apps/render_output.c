@@ -53,14 +53,14 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     const pn_light *light = &rec->lights[0];
     uint32_t lights = rec->light_count ? rec->light_count : 1;
     size_t px = (size_t)o->width * o->height;
-    enum { PLANES = 17, ADAPTIVE = 2, FOOTPRINT = 1 };
-    float *buf = malloc(px * (PLANES + ADAPTIVE + FOOTPRINT) * sizeof(float));
+    enum { PLANES = 17, ADAPTIVE = 2, FOOTPRINT = 1, HISTORY = 1, EXTRA = ADAPTIVE + FOOTPRINT + HISTORY };
+    float *buf = malloc(px * (PLANES + EXTRA) * sizeof(float));
     if (!buf) {
         pn_error("%s: out of memory for the image", path);
         return PN_ERR_MEMORY;
     }
-    float *pl[PLANES + ADAPTIVE + FOOTPRINT];
-    for (int c = 0; c < PLANES + ADAPTIVE + FOOTPRINT; c++)
+    float *pl[PLANES + EXTRA];
+    for (int c = 0; c < PLANES + EXTRA; c++)
         pl[c] = buf + (size_t)c * px;
     // Planar channels from the interleaved RGBA readback.
     for (size_t i = 0; i < px; i++) {
@@ -81,13 +81,15 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
         }
         if (img->footprint)
             pl[19][i] = img->footprint[2 * i + 1];
+        if (img->history)
+            pl[20][i] = img->history[4 * i + 1];
     }
     static const char *const names[PLANES] = {"R", "G", "B", "A", "shadow.V", "P.X", "P.Y", "P.Z",
                                               "N.X", "N.Y", "N.Z", "albedo.R", "albedo.G", "albedo.B", "Z",
                                               "shadow.valid", "shadow.penumbra"};
     // RGBA and V; with a filter the unfiltered V, so that a user can compare; then the AOVs. With
     // several lights a V (and V_raw) per light, already planar.
-    pn_exr_channel ch[PLANES + ADAPTIVE + FOOTPRINT + 1 + 2 * PN_MAX_LIGHTS]; // 1: shadow.V_window
+    pn_exr_channel ch[PLANES + EXTRA + 1 + 2 * PN_MAX_LIGHTS]; // 1: shadow.V_window
     char light_names[PN_MAX_LIGHTS][2][32];
     int count = 0;
     for (int c = 0; c < PLANES; c++) {
@@ -126,6 +128,10 @@ pn_result pn_render_write_exr(const char *path, const pn_render_record *rec, con
     // the renderer kept it, desc.keep_window), for checks of the Gaussian alone.
     if (aovs && img->v_window && lights == 1)
         ch[count++] = (pn_exr_channel){"shadow.V_window", img->v_window};
+    // The temporal history: the valid samples behind each pixel's V over the frames (the last
+    // light's): its own frame's where it has none (uncovered, or where something moved).
+    if (img->history && lights == 1)
+        ch[count++] = (pn_exr_channel){"shadow.history", pl[20]};
     bool tree = pn_shadow_mode_get(o->mode)->needs.tree;
 #define V3(nm, v) {.name = nm, .type = PN_EXR_ATTR_V3F, .f = {(v)[0], (v)[1], (v)[2]}}
 #define F1(nm, v) {.name = nm, .type = PN_EXR_ATTR_FLOAT, .f = {(float)(v)}}

@@ -4,7 +4,9 @@
 // device's acceleration structure) built again. A line per frame says what moving cost, and
 // stderr a progress line with the time left. --shard K/N renders every N-th frame from the K-th,
 // so that N jobs under any runner render the sequence between them.
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "apps/args.h"
@@ -71,8 +73,8 @@ void pn_frame_name(const char *pattern, long long f, char *out, size_t n)
 // Brings the set-up up to the scene as posed: per-object trees by their top level (unless the
 // rest's culling no longer holds), everything else built again. *rebuilt: a full build.
 static pn_result follow_pose(pn_gpu_device *dev, const pn_scene *scene, const pn_light *lights, uint32_t light_count,
-                             const pn_setup_desc *sd, const pn_pose_report *pose, pn_setup *s, bool *rebuilt,
-                             double *ms)
+                             const pn_setup_desc *sd, const pn_pose_report *pose, bool keep_renderer, pn_setup *s,
+                             bool *rebuilt, double *ms)
 {
     uint64_t t0 = pn_time_ns();
     *rebuilt = false;
@@ -87,23 +89,78 @@ static pn_result follow_pose(pn_gpu_device *dev, const pn_scene *scene, const pn
         *ms = pn_ms_since(t0);
         return PN_OK;
     }
-    pn_setup_destroy(dev, s);
     *rebuilt = true;
-    pn_result r = pn_setup_create(dev, scene, lights, sd, s);
+    pn_result r;
+    if (keep_renderer) { // its temporal history with it
+        r = pn_setup_rebuild(dev, scene, lights, sd, pose->first_vertex, pose->end_vertex - pose->first_vertex, s);
+    } else {
+        pn_setup_destroy(dev, s);
+        r = pn_setup_create(dev, scene, lights, sd, s);
+    }
     *ms = pn_ms_since(t0);
     return r;
+}
+
+// --temporal: the boxes, before and after, of every posed primitive whose vertices the pose moved
+// (`was`: the scene's positions before it), given to the renderer's history.
+static void history_moves(const pn_scene *scene, const float (*was)[3], pn_renderer *r)
+{
+    const pn_scene_anim *a = scene->anim;
+    for (uint32_t i = 0; a && i < a->prim_count; i++) {
+        const pn_anim_prim *p = &a->prims[i];
+        uint32_t count = p->normals ? p->vertex_count : 3 * p->triangle_count;
+        double box[2][6] = {{INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
+                            {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}};
+        bool moved = false;
+        for (uint32_t v = p->first_vertex; v < p->first_vertex + count; v++) {
+            const float *now = scene->vertices[v].pos;
+            moved = moved || memcmp(now, was[v], sizeof was[v]) != 0;
+            for (int k = 0; k < 3; k++) {
+                box[0][k] = fmin(box[0][k], was[v][k]), box[0][3 + k] = fmax(box[0][3 + k], was[v][k]);
+                box[1][k] = fmin(box[1][k], now[k]), box[1][3 + k] = fmax(box[1][3 + k], now[k]);
+            }
+        }
+        for (int b = 0; moved && b < 2; b++)
+            pn_renderer_history_moved(r, box[b], box[b] + 3);
+    }
+}
+
+// Which frames (by index in the sequence) this run renders, [*from, *end), and from which it
+// writes (*write_from): with a shard, every shard_n-th from the shard_k-th; with --temporal a run
+// of consecutive frames instead, after `history` frames before it that only feed its history.
+static void shard_frames(const pn_sequence *q, long long count, long long *from, long long *write_from, long long *end)
+{
+    if (!q->temporal || q->shard_n == 1) {
+        *from = *write_from = 0, *end = count;
+        return;
+    }
+    long long per = (count + q->shard_n - 1) / q->shard_n;
+    *write_from = per * (q->shard_k - 1);
+    *end = *write_from + per < count ? *write_from + per : count;
+    *from = *write_from > q->history ? *write_from - q->history : 0;
+}
+
+static bool writes(const pn_sequence *q, long long index, long long write_from, long long end)
+{
+    if (q->temporal)
+        return index >= write_from && index < end;
+    return index % q->shard_n == q->shard_k - 1;
 }
 
 int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_gpu_device *dev)
 {
     const pn_sequence *q = &o->seq;
-    long long count = 0, mine = 0;
-    for (long long f = q->first; f <= q->last; f += q->step, count++)
-        mine += count % q->shard_n == q->shard_k - 1;
+    long long count = 0, mine = 0, from, write_from, end;
+    for (long long f = q->first; f <= q->last; f += q->step)
+        count++;
+    shard_frames(q, count, &from, &write_from, &end);
+    for (long long j = from; j < end; j++)
+        mine += writes(q, j, write_from, end);
     printf("%s: frames %lld to %lld step %lld at %g fps: %lld frames%s", prep->scene.name, q->first, q->last, q->step,
            q->fps, count, q->shard_n > 1 ? "" : "\n");
     if (q->shard_n > 1)
-        printf(", shard %d/%d renders %lld of them\n", q->shard_k, q->shard_n, mine);
+        printf(", shard %d/%d renders %lld of them%s\n", q->shard_k, q->shard_n, mine,
+               q->temporal && write_from > from ? " after the history's frames before them" : "");
     pn_setup_desc sd = pn_render_opts_setup(&o->r);
     sd.frame.keep_window = o->aovs; // shadow.V_window, with the penumbra filter
     sd.view = o->view_cull ? &prep->camera : NULL;
@@ -112,13 +169,23 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
     bool have = false;
     int rc = PN_EXIT_OK;
     uint64_t t_start = pn_time_ns();
-    long long done = 0, index = 0;
+    long long done = 0;
     double build_total = 0;
     uint32_t full_builds = 0;
-    for (long long f = q->first; f <= q->last && rc == PN_EXIT_OK; f += q->step, index++) {
-        if (index % q->shard_n != q->shard_k - 1)
+    // --temporal: the scene's positions before each pose, for the boxes of what it moved.
+    float(*was)[3] = q->temporal ? malloc(((size_t)prep->scene.vertex_count + 1) * sizeof *was) : NULL;
+    if (q->temporal && !was) {
+        pn_error("%s: out of memory for the history's vertex copy", prep->scene.name);
+        return PN_EXIT_FAILURE;
+    }
+    for (long long index = from; index < end && rc == PN_EXIT_OK; index++) {
+        long long f = q->first + index * q->step;
+        bool write = writes(q, index, write_from, end);
+        if (!write && !q->temporal)
             continue;
         double t = (double)f / q->fps;
+        for (uint32_t v = 0; was && v < prep->scene.vertex_count; v++)
+            memcpy(was[v], prep->scene.vertices[v].pos, sizeof was[v]);
         rc = pn_render_pose(&o->r, prep, t);
         if (rc != PN_EXIT_OK)
             break;
@@ -126,19 +193,28 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
         double move_ms = 0;
         if (!have) {
             uint64_t t0 = pn_time_ns();
-            if (pn_setup_create(dev, &prep->scene, prep->lights, &sd, &s) != PN_OK) {
+            if (pn_setup_create(dev, &prep->scene, prep->lights, &sd, &s) != PN_OK ||
+                (q->temporal && pn_renderer_set_history(&s.renderer, (uint32_t)q->history) != PN_OK)) {
                 rc = PN_EXIT_FAILURE;
                 break;
             }
             move_ms = pn_ms_since(t0);
             have = true;
-        } else if (follow_pose(dev, &prep->scene, prep->lights, prep->light_count, &sd, &prep->pose, &s, &rebuilt,
-                               &move_ms) != PN_OK) {
-            rc = PN_EXIT_FAILURE; // (a failed build leaves s empty, which destroys as nothing)
-            break;
+        } else {
+            if (q->temporal)
+                history_moves(&prep->scene, was, &s.renderer);
+            if (follow_pose(dev, &prep->scene, prep->lights, prep->light_count, &sd, &prep->pose, q->temporal, &s,
+                            &rebuilt, &move_ms) != PN_OK) {
+                rc = PN_EXIT_FAILURE; // (a failed build leaves s empty, which destroys as nothing)
+                break;
+            }
         }
         full_builds += rebuilt;
         build_total += move_ms;
+        // Each frame its own samples for the history to add up, the window's share of its frame
+        // number (the same in every shard).
+        if (q->temporal)
+            pn_renderer_set_history_frame(&s.renderer, (uint32_t)f);
         pn_frame_times times;
         pn_frame_images img;
         char name[4096];
@@ -148,24 +224,39 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
             break;
         }
         pn_renderer_images(&s.renderer, &img);
+        char history[96] = "";
+        if (img.history) {
+            double sum = 0;
+            long long covered = 0;
+            for (size_t i = 0; i < (size_t)o->r.width * o->r.height; i++)
+                if (img.p[4 * i + 3] > 0)
+                    sum += img.history[4 * i + 1], covered++;
+            snprintf(history, sizeof history, "; history %.1f samples a pixel", covered ? sum / (double)covered : 0.0);
+        }
+        if (!write) {
+            printf("frame %lld (%.4g s): rendered for the history of the frames after it%s\n", f, t, history);
+            continue;
+        }
         pn_render_record rec = {.opts = &o->r, .scene = &prep->scene, .camera = &prep->camera, .lights = prep->lights,
                                 .light_count = prep->light_count, .times = times, .build_ms = move_ms};
-        pn_exr_attr extra[2] = {{.name = "penumbra.frame", .type = PN_EXR_ATTR_INT, .i = (int32_t)f},
-                                {.name = "penumbra.time", .type = PN_EXR_ATTR_FLOAT, .f = {(float)t}}};
-        if (pn_render_write_exr(name, &rec, &img, o->aovs, extra, 2) != PN_OK) {
+        pn_exr_attr extra[3] = {{.name = "penumbra.frame", .type = PN_EXR_ATTR_INT, .i = (int32_t)f},
+                                {.name = "penumbra.time", .type = PN_EXR_ATTR_FLOAT, .f = {(float)t}},
+                                {.name = "penumbra.history", .type = PN_EXR_ATTR_INT, .i = (int32_t)q->history}};
+        if (pn_render_write_exr(name, &rec, &img, o->aovs, extra, q->temporal ? 3 : 2) != PN_OK) {
             rc = PN_EXIT_FAILURE;
             break;
         }
         done++;
         double elapsed = pn_ms_since(t_start) * 1e-3;
-        printf("frame %lld (%.4g s): %u object(s) posed in %.2f ms; %s in %.2f ms; shadow %.1f ms -> %s\n", f, t,
+        printf("frame %lld (%.4g s): %u object(s) posed in %.2f ms; %s in %.2f ms; shadow %.1f ms%s -> %s\n", f, t,
                prep->pose.objects, prep->pose.ms,
                done == 1 ? "shadow structure built" : rebuilt ? "shadow structure built again" : "top level updated",
-               move_ms, times.shadow_ms, name);
+               move_ms, times.shadow_ms, history, name);
         fprintf(stderr, "render: %lld/%lld frames, %.1f s elapsed, about %.1f s left\n", done, mine, elapsed,
                 elapsed / (double)done * (double)(mine - done));
         fflush(stdout);
     }
+    free(was);
     if (have)
         pn_setup_destroy(dev, &s);
     if (rc == PN_EXIT_OK)

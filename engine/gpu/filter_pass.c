@@ -14,10 +14,11 @@ static pn_result create_pipeline(pn_gpu_device *dev, const pn_filter_pass *f, ui
 {
     if (tile_w < 1 || tile_w > PN_FILTER_MAX_TILE || tile_h < 1 || tile_h > PN_FILTER_MAX_TILE)
         return PN_ERR_INVALID;
-    int32_t tile[2] = {(int32_t)tile_w, (int32_t)tile_h};
-    VkSpecializationMapEntry entries[2] = {{.constantID = PN_SPEC_TILE_W, .offset = 0, .size = 4},
-                                           {.constantID = PN_SPEC_TILE_H, .offset = 4, .size = 4}};
-    VkSpecializationInfo spec = {.mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof tile, .pData = tile};
+    int32_t values[3] = {(int32_t)tile_w, (int32_t)tile_h, f->temporal ? VK_TRUE : VK_FALSE};
+    VkSpecializationMapEntry entries[3] = {{.constantID = PN_SPEC_TILE_W, .offset = 0, .size = 4},
+                                           {.constantID = PN_SPEC_TILE_H, .offset = 4, .size = 4},
+                                           {.constantID = PN_SPEC_FILTER_TEMPORAL, .offset = 8, .size = 4}};
+    VkSpecializationInfo spec = {.mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof values, .pData = values};
     return pn_gpu_compute_create_images(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, f->images,
                                         PN_FILTER_BINDING_COUNT, sizeof(pn_filter_push), &spec, out);
 }
@@ -73,4 +74,21 @@ void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_
     };
     uint32_t gx = (f->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (f->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, f->one_tile ? 1 : gx, f->one_tile ? 1 : gy, 1);
+}
+
+pn_result pn_filter_pass_set_counts(pn_gpu_device *dev, pn_filter_pass *f, VkImageView counts, bool temporal)
+{
+    if (counts == f->images[PN_FILTER_BINDING_COUNTS] && temporal == f->temporal)
+        return PN_OK;
+    pn_filter_pass was = *f;
+    f->images[PN_FILTER_BINDING_COUNTS] = counts, f->temporal = temporal;
+    pn_gpu_compute fresh;
+    pn_result r = create_pipeline(dev, f, f->tile_w, f->tile_h, &fresh);
+    if (r != PN_OK) {
+        *f = was;
+        return r;
+    }
+    pn_gpu_compute_destroy(dev, &f->compute);
+    f->compute = fresh;
+    return PN_OK;
 }

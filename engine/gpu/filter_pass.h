@@ -14,6 +14,7 @@ typedef struct pn_filter_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     uint32_t tile_w, tile_h; // the window: the tile of light_sample's interleaving
     VkImageView images[PN_FILTER_BINDING_COUNT]; // the set's, kept for a new window's pipeline
+    bool temporal; // the counts are the temporal history's sums (PN_SPEC_FILTER_TEMPORAL)
 } pn_filter_pass;
 
 // tile_w, tile_h: 1..PN_FILTER_MAX_TILE.
@@ -25,6 +26,11 @@ void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
 // Another window: a pipeline specialised for it, made only when it changes. The device must be
 // idle with respect to f (the old pipeline is destroyed); f is unchanged on failure.
 pn_result pn_filter_pass_set_tile(pn_gpu_device *dev, pn_filter_pass *f, uint32_t tile_w, uint32_t tile_h);
+
+// The counts the pass reads: the shadow pass's, or with `temporal` the history's sums
+// (gpu/history_pass.h); a new pipeline and set where that changes. The device must be idle with
+// respect to f; f is unchanged on failure.
+pn_result pn_filter_pass_set_counts(pn_gpu_device *dev, pn_filter_pass *f, VkImageView counts, bool temporal);
 
 // yfov_deg: the camera's vertical field of view, which with the height gives a pixel's footprint
 // per unit of depth; samples: the shadow pass's light samples per pixel, which set the noise one

@@ -123,6 +123,11 @@ typedef struct pn_frame_images {
     // nearest blocker's segment parameter t and the penumbra width it casts (world units;
     // PN_PENUMBRA_NONE where no ray was blocked), as the window read them; NULL otherwise.
     const float *blockers;
+    // With the temporal history (pn_renderer_set_history): per pixel (rgba, of the frame's last
+    // light) the history's sums of visible and valid samples over the frames, this frame's
+    // included (floats: V_raw = [0] / [1], [1] the samples behind it), and the counts' z and w as
+    // uint bits; NULL without.
+    const float *history;
     // Per light of the frame (pn_renderer_render_lights): its V and V_raw as above; v and v_raw are
     // light 0's.
     uint32_t light_count;

@@ -8,6 +8,33 @@
 #include "gpu/frame.h"
 #include "penumbra_filter_comp.h"
 
+// The pass's pipeline and set over f's images, specialised for f->temporal.
+static pn_result create_compute(pn_gpu_device *dev, const pn_penumbra_pass *f, pn_gpu_compute *out)
+{
+    uint32_t temporal = f->temporal ? VK_TRUE : VK_FALSE;
+    VkSpecializationMapEntry entry = {.constantID = PN_SPEC_PENUMBRA_TEMPORAL, .offset = 0, .size = 4};
+    VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = 4, .pData = &temporal};
+    return pn_gpu_compute_create_images(dev, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
+                                        f->images, PN_PENUMBRA_BINDING_COUNT, sizeof(pn_penumbra_push), &spec, out);
+}
+
+pn_result pn_penumbra_pass_set_counts(pn_gpu_device *dev, pn_penumbra_pass *f, VkImageView counts, bool temporal)
+{
+    if (counts == f->images[PN_PENUMBRA_BINDING_COUNTS] && temporal == f->temporal)
+        return PN_OK;
+    pn_penumbra_pass was = *f;
+    f->images[PN_PENUMBRA_BINDING_COUNTS] = counts, f->temporal = temporal;
+    pn_gpu_compute fresh;
+    pn_result r = create_compute(dev, f, &fresh);
+    if (r != PN_OK) {
+        *f = was;
+        return r;
+    }
+    pn_gpu_compute_destroy(dev, &f->compute);
+    f->compute = fresh;
+    return PN_OK;
+}
+
 pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
                                   const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *v,
                                   pn_penumbra_pass *out)
@@ -27,17 +54,14 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
                                                               (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0)},
                                 imgs[i]);
-    VkImageView views[PN_PENUMBRA_BINDING_COUNT] = {
-        [PN_PENUMBRA_BINDING_P] = p->view,
-        [PN_PENUMBRA_BINDING_N] = n->view,
-        [PN_PENUMBRA_BINDING_COUNTS] = counts->view,
-        [PN_PENUMBRA_BINDING_V] = v->view,
-        [PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view,
-        [PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view,
-    };
+    out->images[PN_PENUMBRA_BINDING_P] = p->view;
+    out->images[PN_PENUMBRA_BINDING_N] = n->view;
+    out->images[PN_PENUMBRA_BINDING_COUNTS] = counts->view;
+    out->images[PN_PENUMBRA_BINDING_V] = v->view;
+    out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
+    out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
     if (r == PN_OK)
-        r = pn_gpu_compute_create_images(dev, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp, views,
-                                         PN_PENUMBRA_BINDING_COUNT, sizeof(pn_penumbra_push), NULL, &out->compute);
+        r = create_compute(dev, out, &out->compute);
     if (r != PN_OK)
         pn_penumbra_pass_destroy(dev, out);
     return r;

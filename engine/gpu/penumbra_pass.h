@@ -16,12 +16,16 @@ typedef struct pn_penumbra_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
+    VkImageView images[PN_PENUMBRA_BINDING_COUNT]; // the set's, kept for pn_penumbra_pass_set_counts
+    bool temporal; // the counts are the temporal history's sums (PN_SPEC_PENUMBRA_TEMPORAL)
 } pn_penumbra_pass;
 
 pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, const pn_gpu_image *p,
                                   const pn_gpu_image *n, const pn_gpu_image *counts, const pn_gpu_image *v,
                                   pn_penumbra_pass *out);
 void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f);
+// The counts the pass reads, as pn_filter_pass_set_counts (the device idle; f unchanged on failure).
+pn_result pn_penumbra_pass_set_counts(pn_gpu_device *dev, pn_penumbra_pass *f, VkImageView counts, bool temporal);
 
 // The Gaussian's standard deviation at one sample per pixel, in widths of the penumbra its nearest
 // blocker casts (penumbra_filter.comp): 0.25; PN_PENUMBRA_WIDTH_SCALE overrides it (measurements).

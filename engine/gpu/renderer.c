@@ -202,6 +202,7 @@ void pn_renderer_destroy(pn_renderer *r)
     if (r->timestamps)
         vkDestroyQueryPool(d, r->timestamps, NULL);
     pn_shade_pass_destroy(dev, &r->shade);
+    pn_history_pass_destroy(dev, &r->history);
     pn_filter_pass_destroy(dev, &r->filter);
     pn_penumbra_pass_destroy(dev, &r->penumbra);
     pn_shadow_pass_destroy(dev, &r->shadow);

@@ -6,6 +6,7 @@
 #include "gpu/gbuffer_pass.h"
 #include "gpu/filter_pass.h"
 #include "gpu/gbuffer_upload.h"
+#include "gpu/history_pass.h"
 #include "gpu/penumbra_pass.h"
 #include "gpu/resources.h"
 #include "gpu/shade_pass.h"
@@ -46,6 +47,20 @@ typedef struct pn_renderer {
     bool cold;
     double compile_pending_ms;
     uint32_t shadow_made;
+    // The temporal history (pn_renderer_set_history): off while history_frames is 0. What the next
+    // frame reprojects and compares with: the last frame's camera (its G-buffer push), pixel angle
+    // and lights, whether there was one (history_prev), whether it is to be forgotten
+    // (pn_renderer_history_drop), and the boxes of what moved since (pn_renderer_history_moved).
+    pn_history_pass history;
+    uint32_t history_frames;
+    bool history_prev, history_drop;
+    pn_gbuffer_push history_camera;
+    float history_angle;
+    pn_light_gpu history_lights[PN_MAX_LIGHTS];
+    uint32_t history_light_count;
+    double history_boxes[PN_HISTORY_MAX_BOXES][6];
+    uint32_t history_box_count;
+    uint32_t history_frame; // the next frame's number (pn_renderer_set_history_frame)
 } pn_renderer;
 
 // Uploads the scene and creates targets and pipelines as `desc` says.
@@ -104,6 +119,31 @@ void pn_renderer_set_accel(pn_renderer *r, const pn_scene *scene, const pn_rende
 // (its Gaussian as 1/sqrt, the interleaved window under it as n^-3/4), so that the accumulated
 // picture converges to the unfiltered one as its samples add up.
 void pn_renderer_set_accumulated(pn_renderer *r, uint32_t frames);
+
+// The temporal history (V at a surface point does not depend on the camera): with frames > 0, each
+// frame adds its samples to those its pixels' surface points gathered in earlier frames, found
+// through the last frame's camera (a moved camera's pixels show other points), and the filters
+// and the shading read V over all of them; the sums hold at most `frames` frames' samples (older
+// ones weigh less past that: an exponential window). A pixel drops its history where the surface
+// it shows was not in the last frame (uncovered, off its image), where geometry moved since
+// (pn_renderer_history_moved) within the pyramid from its point to a light, and for a light that
+// changed (position, size, kind, radiance): every light keeps a history of its own, as many as the
+// frame has. Each frame draws its own samples: consecutive frames take the strata of a window of
+// frames (pn_renderer_set_history_frame). 0 turns it off; a change of `frames` keeps what there is.
+// pn_frame_images.history has the sums. PN_ERR_INVALID, logged, over PN_HISTORY_MAX_FRAMES.
+#define PN_HISTORY_MAX_FRAMES 4096
+pn_result pn_renderer_set_history(pn_renderer *r, uint32_t frames);
+// The next frame's number in its sequence (then one more per frame): with the history, frames
+// share the strata of a window of consecutive frames (light_sample's frame window), so a sequence
+// rendered in parts (render --shard) numbers them as the whole does. The seed stays from frame to
+// frame under the history; the window's strata draw a frame's samples anew.
+void pn_renderer_set_history_frame(pn_renderer *r, uint32_t frame);
+// The next frame starts every light's history afresh (a cut, a new scene state).
+void pn_renderer_history_drop(pn_renderer *r);
+// Geometry within the box [lo, hi] changed since the last frame (an object moved: give its box
+// before and after, or one box round both): the next frame drops the history of every pixel whose
+// pyramid to a light meets it. More than PN_HISTORY_MAX_BOXES boxes in a frame are merged into one.
+void pn_renderer_history_moved(pn_renderer *r, const double lo[3], const double hi[3]);
 
 // Changes the filter and its tile from the next pn_renderer_render on (the bench's filter axis
 // steps through them over one tree). tile_w, tile_h: 0 means 3; otherwise 1..PN_FILTER_MAX_TILE.

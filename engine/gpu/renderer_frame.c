@@ -2,6 +2,7 @@
 // waited for, warmed up first over one tile when pipelines have not run yet, and timed.
 #include "gpu/renderer.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -28,9 +29,16 @@ static void timestamp(pn_renderer *r, VkCommandBuffer cmd, uint32_t index)
 // G-buffer, then per light shadow -> filter (with one) -> shade (adding to the radiance), then the
 // readback, with a timestamp after each pass. Per light: `samples` traced per pixel
 // (pn_shadow_samples) and the filter's `noise_samples` (pn_filter_noise_samples).
+// With the temporal history, `hist` says per light whether it drops its history and the most
+// samples its sums hold (NULL without).
+typedef struct history_frame {
+    bool drop[PN_MAX_LIGHTS];
+    float cap[PN_MAX_LIGHTS];
+} history_frame;
+
 static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_push *camera, const pn_light_gpu *lights,
                          const uint32_t *samples, const uint32_t *noise_samples, uint32_t light_count, float yfov_deg,
-                         bool one_tile)
+                         const history_frame *hist, bool one_tile)
 {
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
@@ -48,6 +56,8 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
                              GENERAL),
     };
     pn_gpu_cmd_barrier(cmd, NULL, filtered(r) ? 3 : 2, start);
+    if (hist)
+        pn_history_pass_record_start(cmd, &r->history);
     timestamp(r, cmd, TS_START);
 
     // The warm-up frame: every pass over the first tile (warm_up), which holds what the frame
@@ -80,6 +90,18 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
         };
         pn_gpu_cmd_barrier(cmd, NULL, 3, raw_ready);
         timestamp(r, cmd, ts + TS_SHADOW);
+        if (hist) {
+            // The frame's samples added to the history (its time counts in the filter's): it
+            // rewrites V_raw where there is history, and writes the counts the filters read.
+            const VkMemoryBarrier2 rw = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                         .srcStageMask = COMPUTE,
+                                         .srcAccessMask = WRITE,
+                                         .dstStageMask = COMPUTE,
+                                         .dstAccessMask = READ | WRITE};
+            pn_gpu_cmd_barrier(cmd, &rw, 0, NULL);
+            pn_history_pass_record(cmd, &r->history, i, hist->drop[i], hist->cap[i]);
+            pn_gpu_cmd_barrier(cmd, &rw, 0, NULL);
+        }
         if (filtered(r)) {
             // Under the penumbra filter the footprints narrow with the samples of the accumulated
             // picture (pn_renderer_set_accumulated): the laws' factors for `frames` times as many.
@@ -138,11 +160,13 @@ static void log_first_use(pn_renderer *r, uint32_t light_count)
 // all rewritten by the frame that follows. *compile_ms: its wall-clock time and the creation time
 // pending. Ignores the loop budget's flag (the frame itself retries as it needs).
 static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_light_gpu *l, const uint32_t *samples,
-                         const uint32_t *noise_samples, uint32_t light_count, float yfov_deg, double *compile_ms)
+                         const uint32_t *noise_samples, uint32_t light_count, float yfov_deg,
+                         const history_frame *hist, double *compile_ms)
 {
     uint64_t t0 = pn_time_ns();
-    bool *one_tile[4] = {&r->shadow.one_tile, &r->filter.one_tile, &r->penumbra.one_tile, &r->shade.one_tile};
-    for (int i = 0; i < 4; i++)
+    bool *one_tile[5] = {&r->shadow.one_tile, &r->filter.one_tile, &r->penumbra.one_tile, &r->shade.one_tile,
+                         &r->history.one_tile};
+    for (int i = 0; i < 5; i++)
         *one_tile[i] = true;
     VkResult vr = vkResetCommandBuffer(r->cmd, 0);
     VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
@@ -150,10 +174,10 @@ static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_li
     if (vr == VK_SUCCESS)
         vr = vkBeginCommandBuffer(r->cmd, &bi);
     if (vr == VK_SUCCESS) {
-        record_frame(r, r->cmd, cam, l, samples, noise_samples, light_count, yfov_deg, true);
+        record_frame(r, r->cmd, cam, l, samples, noise_samples, light_count, yfov_deg, hist, true);
         vr = vkEndCommandBuffer(r->cmd);
     }
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < 5; i++)
         *one_tile[i] = false;
     VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
     if (vr == VK_SUCCESS)
@@ -167,6 +191,76 @@ static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_li
     r->compile_pending_ms = 0;
     r->cold = false;
     r->shadow_made = r->shadow.pipelines_made;
+    return PN_OK;
+}
+
+// Runs `record` into the renderer's command buffer, submits it and waits.
+static pn_result submit_now(pn_renderer *r, void (*record)(pn_renderer *, VkCommandBuffer))
+{
+    VK_CHECK(vkResetCommandBuffer(r->cmd, 0));
+    VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+                                   .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
+    VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
+    record(r, r->cmd);
+    VK_CHECK(vkEndCommandBuffer(r->cmd));
+    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
+    VK_CHECK(vkQueueSubmit(r->dev->queue, 1, &si, VK_NULL_HANDLE));
+    VK_CHECK(vkQueueWaitIdle(r->dev->queue));
+    return PN_OK;
+}
+
+static void record_keep(pn_renderer *r, VkCommandBuffer cmd) { pn_history_pass_record_keep(cmd, &r->history, &r->p, &r->n); }
+
+// The temporal history's part of a frame before it is recorded: its images for the frame's lights,
+// its parameters (the last frame's camera, the boxes of what moved, the lights), which lights drop
+// their history, and the copy of the last frame's G-buffer, made now, before the warm-up frame (if
+// any) rewrites a tile of it.
+static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint32_t *samples, uint32_t light_count,
+                               float yfov_deg, history_frame *hf)
+{
+    pn_gpu_device *dev = r->dev;
+    if (r->history.layers != light_count) {
+        // A history per light: made again for another count (the queue is idle between frames).
+        uint64_t t0 = pn_time_ns();
+        pn_history_pass_destroy(dev, &r->history);
+        PN_TRY(pn_history_pass_create(dev, r->width, r->height, light_count, &r->p, &r->n, &r->shadow.counts,
+                                      &r->v_raw, &r->history));
+        PN_TRY(pn_filter_pass_set_counts(dev, &r->filter, r->history.out.view, true));
+        PN_TRY(pn_penumbra_pass_set_counts(dev, &r->penumbra, r->history.out.view, true));
+        r->compile_pending_ms += pn_ms_since(t0);
+        r->history_prev = false;
+    }
+    bool fresh = !r->history_prev || r->history_drop || light_count != r->history_light_count;
+    pn_history_params *hp = pn_history_pass_params(&r->history);
+    memcpy(hp->prev_view_proj, r->history_camera.view_proj, sizeof hp->prev_view_proj);
+    hp->pixel_angle = (float)pn_pixel_angle(yfov_deg, r->height);
+    hp->prev_pixel_angle = r->history_angle;
+    // The boxes grown by what a ray's meeting with them can be off by: its origin is raised 8 ulps of
+    // the scene's magnitude (shadow_origin) and the shader's projections round by a few ulps more,
+    // which 64 ulps hold with room to spare; and in the modes that end rays in the N-tree's cells
+    // (line space), a shaft touches the cells within a leaf of its ray and a filled leaf reaches a
+    // leaf beyond its surface (shadow_frame.glsl's RISE_SHAFT_LEAVES): 3 leaves more. Then rounded
+    // outward to float.
+    hp->box_count = r->history_box_count;
+    for (uint32_t b = 0; b < r->history_box_count; b++) {
+        const double *box = r->history_boxes[b];
+        double mag = r->shadow.scene_mag;
+        for (int k = 0; k < 6; k++)
+            mag = fmax(mag, fabs(box[k]));
+        double pad = 64.0 * FLT_EPSILON * mag + (r->shadow.mode->needs.tree ? 3.0 * r->desc.leaf_size : 0.0);
+        for (int k = 0; k < 3; k++) {
+            hp->box_lo[b][k] = nextafterf((float)(box[k] - pad), -INFINITY);
+            hp->box_hi[b][k] = nextafterf((float)(box[3 + k] + pad), INFINITY);
+        }
+        hp->box_lo[b][3] = hp->box_hi[b][3] = 0.0f;
+    }
+    for (uint32_t i = 0; i < light_count; i++) {
+        hp->lights[i] = l[i];
+        hf->drop[i] = fresh || memcmp(&l[i], &r->history_lights[i], sizeof l[i]) != 0;
+        hf->cap[i] = (float)r->history_frames * (float)(samples[i] ? samples[i] : 1);
+    }
+    if (!fresh)
+        PN_TRY(submit_now(r, record_keep));
     return PN_OK;
 }
 
@@ -195,6 +289,13 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         bool adaptive = r->desc.spp_min && samples[i] > r->desc.spp_min;
         noise_samples[i] = pn_filter_noise_samples(adaptive ? r->desc.spp_min : spp, &lights[i]);
     }
+    // The temporal history: consecutive frames share the strata of a window of them (light_sample):
+    // each sub-cell in side x side parts, side the smallest power of two with side^2 at least the
+    // history's frames (so that its frames take other parts), at most 64.
+    uint32_t side = 1;
+    while (side < 64 && side * side < r->history_frames)
+        side *= 2;
+    r->shadow.frame = r->history_frame, r->shadow.frame_side = r->history_frames ? side : 0;
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count, (float)pn_pixel_angle(camera->yfov_deg, r->height));
     uint64_t t0 = pn_time_ns();
@@ -202,6 +303,9 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         PN_TRY(pn_shadow_pass_prepare(dev, &r->shadow, samples[i]));
     uint32_t shade_made;
     PN_TRY(pn_shade_pass_prepare(dev, &r->shade, l, light_count, &shade_made));
+    history_frame hf_store, *hist = r->history_frames ? &hf_store : NULL;
+    if (hist)
+        PN_TRY(history_begin(r, l, samples, light_count, camera->yfov_deg, hist));
     double compile_ms = 0;
     if (r->shadow.pipelines_made != r->shadow_made || shade_made) {
         r->cold = true;
@@ -217,7 +321,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         r->cold = false;
         r->shadow_made = r->shadow.pipelines_made;
     } else if (r->cold) {
-        PN_TRY(warm_up(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, &compile_ms));
+        PN_TRY(warm_up(r, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, hist, &compile_ms));
     }
     // Only adaptive sampling writes the rays image (not a point light's single sample, nor mode none).
     r->rays_written = r->shadow.mode->traces && pn_shadow_adaptive(&r->shadow, samples[light_count - 1]);
@@ -245,7 +349,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
                                        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
         VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-        record_frame(r, r->cmd, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, false);
+        record_frame(r, r->cmd, &cam, l, samples, noise_samples, light_count, camera->yfov_deg, hist, false);
         VK_CHECK(vkEndCommandBuffer(r->cmd));
         VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
         VK_CHECK(vkQueueSubmit(dev->queue, 1, &si, VK_NULL_HANDLE));
@@ -255,6 +359,16 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         // frame of its own, from the first samples.
         r->resumed = r->resumed && !retry;
         r->shadow.resume_from = 0;
+    }
+    if (hist) {
+        // This frame's sums, camera and lights are the next frame's previous ones.
+        pn_history_pass_flip(&r->history);
+        r->history_prev = true, r->history_drop = false, r->history_box_count = 0;
+        r->history_camera = cam;
+        r->history_angle = (float)pn_pixel_angle(camera->yfov_deg, r->height);
+        memcpy(r->history_lights, l, light_count * sizeof l[0]);
+        r->history_light_count = light_count;
+        r->history_frame++;
     }
     r->continuable_spp = adaptive_one ? samples[0] : 0;
     r->continuable_spp_min = r->desc.spp_min, r->continuable_seed = r->desc.seed, r->continuable_tile = tile;

@@ -28,9 +28,15 @@ static inline bool keeps_window(const pn_renderer *r)
 // The frame's images' floats per pixel in the readback buffer, where the lights' planes start: the
 // window's three only where kept (without them 28 floats, 112 bytes a pixel instead of 124: at
 // 3840 x 2160 0.93 GB instead of 1.03).
-static inline uint32_t pn_renderer_readback_floats(const pn_renderer *r)
+// With the temporal history, its counts (rgba: the sums' float bits; pn_frame_images.history)
+// follow them, before the lights' planes.
+static inline uint32_t pn_renderer_readback_history(const pn_renderer *r)
 {
     return keeps_window(r) ? PN_READBACK_FLOATS_PER_PIXEL : PN_READBACK_V_WINDOW;
+}
+static inline uint32_t pn_renderer_readback_floats(const pn_renderer *r)
+{
+    return pn_renderer_readback_history(r) + (r->history_frames ? 4 : 0);
 }
 
 // A plane of the readback buffer holds one float (or one channel) per pixel, its pixel count

@@ -63,6 +63,19 @@ void pn_renderer_record_readback(pn_renderer *r, VkCommandBuffer cmd)
         };
         vkCmdCopyImageToBuffer(cmd, shadow[i]->image, SRC, r->readback.buffer, 1, &copy);
     }
+    if (r->history_frames) {
+        // The history's counts (the last light's), back to GENERAL for the next light's or frame's pass.
+        VkImageMemoryBarrier2 b = pn_gpu_image_barrier(&r->history.out, COMPUTE, STORAGE, COPY, READ, GENERAL, SRC);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &b);
+        VkBufferImageCopy copy = {
+            .bufferOffset = (VkDeviceSize)pn_renderer_readback_history(r) * 4 * px,
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageExtent = {r->width, r->height, 1},
+        };
+        vkCmdCopyImageToBuffer(cmd, r->history.out.image, SRC, r->readback.buffer, 1, &copy);
+        b = pn_gpu_image_barrier(&r->history.out, COPY, VK_ACCESS_2_NONE, COMPUTE, STORAGE, SRC, GENERAL);
+        pn_gpu_cmd_barrier(cmd, NULL, 1, &b);
+    }
     // Back to the shadow pass's layout after the copy: a frame that continues this one's adaptive
     // samples (pn_renderer_set_continue) takes counts, half counts and rays from GENERAL.
     VkImageMemoryBarrier2 back[2] = {
@@ -175,6 +188,7 @@ void pn_renderer_images(const pn_renderer *r, pn_frame_images *out)
     out->footprint = r->desc.filter == PN_FILTER_PENUMBRA ? base + PN_READBACK_FOOTPRINT * px : NULL;
     out->v_window = keeps_window(r) ? base + PN_READBACK_V_WINDOW * px : NULL;
     out->blockers = keeps_window(r) ? base + PN_READBACK_BLOCKERS * px : NULL;
+    out->history = r->history_frames ? base + pn_renderer_readback_history(r) * px : NULL;
     out->light_count = r->light_count ? r->light_count : 1;
     if (out->light_count == 1) {
         out->v_light[0] = out->v;

@@ -3,6 +3,8 @@
 // work counts).
 #include "gpu/renderer.h"
 
+#include <math.h>
+
 #include "core/log.h"
 #include "core/timer.h"
 #include "gpu/renderer_internal.h"
@@ -114,3 +116,39 @@ pn_result pn_renderer_set_gbuffer(pn_renderer *r, const float *p, const float *n
 }
 
 const uint32_t *pn_renderer_work(const pn_renderer *r) { return r->shadow.work.mapped; }
+
+pn_result pn_renderer_set_history(pn_renderer *r, uint32_t frames)
+{
+    if (frames > PN_HISTORY_MAX_FRAMES) {
+        pn_error("history of %u frames: at most %d", frames, PN_HISTORY_MAX_FRAMES);
+        return PN_ERR_INVALID;
+    }
+    if (frames == 0 && r->history_frames) {
+        // The filters read the shadow pass's counts again (the queue is idle between frames); the
+        // history's images go. Turned on, the next frame makes them for its lights (renderer_frame.c).
+        PN_TRY(pn_filter_pass_set_counts(r->dev, &r->filter, r->shadow.counts.view, false));
+        PN_TRY(pn_penumbra_pass_set_counts(r->dev, &r->penumbra, r->shadow.counts.view, false));
+        pn_history_pass_destroy(r->dev, &r->history);
+    }
+    if ((frames == 0) != (r->history_frames == 0)) {
+        r->cold = true; // pipelines not run yet
+        r->history_prev = false;
+    }
+    r->history_frames = frames;
+    return pn_renderer_reserve_readback(r, r->light_count ? r->light_count : 1);
+}
+
+void pn_renderer_history_drop(pn_renderer *r) { r->history_drop = true; }
+
+void pn_renderer_set_history_frame(pn_renderer *r, uint32_t frame) { r->history_frame = frame; }
+
+void pn_renderer_history_moved(pn_renderer *r, const double lo[3], const double hi[3])
+{
+    // Once the slots are full, the last one grows to hold the rest.
+    bool merge = r->history_box_count == PN_HISTORY_MAX_BOXES;
+    double *b = r->history_boxes[merge ? PN_HISTORY_MAX_BOXES - 1 : r->history_box_count++];
+    for (int k = 0; k < 3; k++) {
+        b[k] = merge ? fmin(b[k], lo[k]) : lo[k];
+        b[3 + k] = merge ? fmax(b[3 + k], hi[k]) : hi[k];
+    }
+}

@@ -208,13 +208,14 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
     out->format = desc->format;
     out->extent = (VkExtent2D){desc->width, desc->height};
     out->mip_levels = desc->mip_levels ? desc->mip_levels : 1;
+    out->layers = desc->layers ? desc->layers : 1;
     VkImageCreateInfo ii = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
         .imageType = VK_IMAGE_TYPE_2D,
         .format = desc->format,
         .extent = {desc->width, desc->height, 1},
         .mipLevels = out->mip_levels,
-        .arrayLayers = 1,
+        .arrayLayers = out->layers,
         .samples = VK_SAMPLE_COUNT_1_BIT,
         .tiling = VK_IMAGE_TILING_OPTIMAL,
         .usage = desc->usage,
@@ -243,9 +244,9 @@ pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc,
     VkImageViewCreateInfo vi = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
         .image = out->image,
-        .viewType = VK_IMAGE_VIEW_TYPE_2D,
+        .viewType = desc->layers ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
         .format = desc->format,
-        .subresourceRange = {desc->aspect ? desc->aspect : VK_IMAGE_ASPECT_COLOR_BIT, 0, out->mip_levels, 0, 1},
+        .subresourceRange = {desc->aspect ? desc->aspect : VK_IMAGE_ASPECT_COLOR_BIT, 0, out->mip_levels, 0, out->layers},
     };
     if ((vr = vkCreateImageView(dev->device, &vi, NULL, &out->view)) != VK_SUCCESS) {
         out->view = VK_NULL_HANDLE;
@@ -287,7 +288,7 @@ VkImageMemoryBarrier2 pn_gpu_image_barrier(const pn_gpu_image *img, VkPipelineSt
         .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
         .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
         .image = img->image,
-        .subresourceRange = {aspect_of(img->format), 0, VK_REMAINING_MIP_LEVELS, 0, 1},
+        .subresourceRange = {aspect_of(img->format), 0, VK_REMAINING_MIP_LEVELS, 0, VK_REMAINING_ARRAY_LAYERS},
     };
 }
 

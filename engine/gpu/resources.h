@@ -41,6 +41,7 @@ typedef struct pn_gpu_image {
     VkFormat format;
     VkExtent2D extent;
     uint32_t mip_levels;
+    uint32_t layers;
 } pn_gpu_image;
 
 typedef struct pn_gpu_image_desc {
@@ -48,6 +49,7 @@ typedef struct pn_gpu_image_desc {
     VkFormat format;
     uint32_t width, height;
     uint32_t mip_levels; // 0 means 1
+    uint32_t layers;     // 0: one, viewed as a 2D image; otherwise this many, viewed as a 2D array
     VkImageUsageFlags usage;
     VkImageAspectFlags aspect; // 0 means colour
 } pn_gpu_image_desc;

@@ -294,6 +294,8 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.pixel_angle = pixel_angle;
     sp.refine_narrow = desc->filter == PN_FILTER_PENUMBRA;
     sp.unreached_v = desc->unreached_zero ? 0.0f : 1.0f;
+    sp.frame = s->frame;
+    sp.frame_u = sp.frame_v = s->frame_side;
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;

@@ -125,10 +125,11 @@ void pn_shadow_accel_destroy(pn_gpu_device *dev, pn_shadow_accel *a)
     memset(a, 0, sizeof *a);
 }
 
-pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
-                          pn_setup *s)
+// The structures desc.frame.mode needs, built and uploaded into *a (zeroed on failure).
+static pn_result build_accel(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
+                             pn_shadow_accel *a)
 {
-    memset(s, 0, sizeof *s);
+    memset(a, 0, sizeof *a);
     const pn_shadow_mode_info *mode = pn_shadow_mode_get(desc->frame.mode);
     if (!mode) {
         pn_error("shadow mode %d does not exist", (int)desc->frame.mode);
@@ -158,20 +159,56 @@ pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_li
         ad.keep_box = box;
     }
     if (r == PN_OK)
-        r = pn_shadow_accel_build(scene, &ad, &s->accel);
-    if (r != PN_OK)
-        return r;
-    s->pool_bytes = ad.per_object ? s->accel.objects.bytes : s->accel.pools.bytes;
-    r = pn_shadow_accel_upload(dev, scene, &s->accel);
+        r = pn_shadow_accel_build(scene, &ad, a);
+    if (r == PN_OK) {
+        r = pn_shadow_accel_upload(dev, scene, a);
+        if (r != PN_OK)
+            pn_shadow_accel_destroy(dev, a);
+    }
+    return r;
+}
+
+// The figures a setup keeps of its structures.
+static void note_accel(pn_setup *s)
+{
+    s->pool_bytes = s->accel.desc.per_object ? s->accel.objects.bytes : s->accel.pools.bytes;
     s->build_ms = s->accel.build_ms; // with the device's acceleration structure
     s->exact_bytes = s->accel.exact.bytes + s->accel.tlas.bytes;
+}
+
+pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
+                          pn_setup *s)
+{
+    memset(s, 0, sizeof *s);
+    PN_TRY(build_accel(dev, scene, light, desc, &s->accel));
+    note_accel(s);
     pn_renderer_desc rd = desc->frame;
     pn_shadow_accel_bind(&s->accel, &rd);
-    if (r == PN_OK)
-        r = pn_renderer_create(dev, scene, &rd, &s->renderer);
+    pn_result r = pn_renderer_create(dev, scene, &rd, &s->renderer);
     if (r != PN_OK)
         pn_setup_destroy(dev, s);
     return r;
+}
+
+pn_result pn_setup_rebuild(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
+                           uint32_t first_vertex, uint32_t vertex_count, pn_setup *s)
+{
+    pn_shadow_accel fresh;
+    PN_TRY(build_accel(dev, scene, light, desc, &fresh));
+    pn_result r = vertex_count ? pn_renderer_update_vertices(&s->renderer, scene, first_vertex, vertex_count) : PN_OK;
+    if (r != PN_OK) {
+        pn_shadow_accel_destroy(dev, &fresh);
+        return r;
+    }
+    // The queue is idle between frames: the old structures go once the renderer reads the new.
+    pn_shadow_accel old = s->accel;
+    s->accel = fresh;
+    pn_renderer_desc rd = {0};
+    pn_shadow_accel_bind(&s->accel, &rd);
+    pn_renderer_set_accel(&s->renderer, scene, &rd);
+    pn_shadow_accel_destroy(dev, &old);
+    note_accel(s);
+    return PN_OK;
 }
 
 void pn_setup_destroy(pn_gpu_device *dev, pn_setup *s)

@@ -92,3 +92,9 @@ typedef struct pn_setup {
 pn_result pn_setup_create(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
                           pn_setup *out);
 void pn_setup_destroy(pn_gpu_device *dev, pn_setup *s);
+// The structures built again for the scene as it is now (moved geometry, a moved camera's view),
+// the renderer kept (its temporal history with it): the scene's vertices [first_vertex, +
+// vertex_count) copied to its G-buffer pass and the new structures bound (pn_renderer_set_accel).
+// On failure s is as it was.
+pn_result pn_setup_rebuild(pn_gpu_device *dev, const pn_scene *scene, const pn_light *light, const pn_setup_desc *desc,
+                           uint32_t first_vertex, uint32_t vertex_count, pn_setup *s);

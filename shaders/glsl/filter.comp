@@ -44,6 +44,13 @@ layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // push constants and 9.0 ms specialised.
 layout(constant_id = PN_SPEC_TILE_W) const int TILE_W = 3;
 layout(constant_id = PN_SPEC_TILE_H) const int TILE_H = 3;
+// With the temporal history (history.comp) the counts are its sums over the frames, as float bits
+// (their x and y; z and w this frame's), and a pixel's samples are its own sum: a pixel with long
+// history is filtered as its many samples allow, one just uncovered as its frame's few.
+layout(constant_id = PN_SPEC_FILTER_TEMPORAL) const bool TEMPORAL = false;
+// The visible and valid samples of counts c. Either way 0 is the bits 0 and equal sums equal bits,
+// so the tests of counts against 0 and each other below hold for both.
+vec2 sums(uvec4 c) { return TEMPORAL ? uintBitsToFloat(c.xy) : vec2(c.xy); }
 
 // How much of a neighbour q the pixel p may take, from how far V can differ between them on one
 // surface: V runs from 0 to 1 across a penumbra's width (the narrower of the two pixels', from
@@ -118,7 +125,9 @@ void main()
     // Adaptive: the pixel's valid rays, at least the first round's (as uniform samples count a pixel
     // whose rays fell partly below its horizon), so that a pixel no round refined is filtered as in
     // the uniform frame of MIN samples, whose rays its first round's are.
-    float own_samples = pc.adaptive != 0u ? float(max(counts_p.y, pc.samples)) : float(pc.samples);
+    // With history, its sum, at least the frame's own (a point light's V, samples 0, has no noise).
+    float own_samples = (pc.adaptive != 0u || TEMPORAL) && pc.samples > 0u ? max(sums(counts_p).y, float(pc.samples))
+                                                                            : float(pc.samples);
     if (pc.narrow > 0.0) {
         float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);
         // What the pixel lends the Gaussian (penumbra_filter.comp): 1 its V, an estimate of its own;
@@ -217,7 +226,8 @@ void main()
             }
             wg[k] = usable ? w : 0.0;
             // V_raw as shadow_finish wrote it (visible / valid), from the counts already loaded.
-            vq[k] = usable ? float(counts_q.x) / float(counts_q.y) : 0.0;
+            vec2 sq = sums(counts_q);
+            vq[k] = usable ? sq.x / sq.y : 0.0;
         }
     }
     // Under the penumbra filter the penumbra weight refuses only near an edge of geometry (above):

@@ -116,6 +116,26 @@
 #define PN_PENUMBRA_BINDING_SCRATCH 5  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
                                        // the camera: world units over view depth x pixel angle; the EXR's)
 #define PN_PENUMBRA_BINDING_COUNT 6
+// The temporal history (--temporal, history.comp): after each light's shadow pass, the pixel's
+// samples of earlier frames carried to it and added to its own.
+#define PN_HISTORY_BINDING_P 0         // rgba32f: this frame's world position, w = 1 where geometry is
+#define PN_HISTORY_BINDING_N 1         // rgba32f: this frame's normal, w = view depth
+#define PN_HISTORY_BINDING_PREV_P 2    // rgba32f: the previous frame's (a copy of its G-buffer)
+#define PN_HISTORY_BINDING_PREV_N 3    // rgba32f
+#define PN_HISTORY_BINDING_COUNTS 4    // rgba32ui: this frame's counts (the shadow pass's)
+#define PN_HISTORY_BINDING_V_RAW 5     // r32f: the shadow pass's V, rewritten where history adds to it
+#define PN_HISTORY_BINDING_STORE_IN 6  // rg32f array, a layer per light: the sums up to the previous frame
+#define PN_HISTORY_BINDING_STORE_OUT 7 // rg32f array: the sums up to this frame
+#define PN_HISTORY_BINDING_OUT 8       // rgba32ui: what the filters read in the counts' place: the
+                                       // float bits of the sums of visible and valid samples, then
+                                       // this frame's counts.z and counts.w
+#define PN_HISTORY_BINDING_PARAMS 9    // uniform HistoryParams
+#define PN_HISTORY_BINDING_COUNT 10
+// The most boxes of moved geometry one frame drops history under (more are merged on the host).
+#define PN_HISTORY_MAX_BOXES 32
+// filter.comp and penumbra_filter.comp: the counts they read are the history's (float sums).
+#define PN_SPEC_FILTER_TEMPORAL 2
+#define PN_SPEC_PENUMBRA_TEMPORAL 0
 // Its stages, one dispatch each (PenumbraPush.stage).
 #define PN_PENUMBRA_STAGE_BLUR_X 0    // the Gaussian along rows, V -> scratch
 #define PN_PENUMBRA_STAGE_BLUR_Y 1    // and along columns, scratch -> V
@@ -338,9 +358,10 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
                                     // average (adaptive_decide)
     PN_FLOAT(unreached_v)           // V where no sample carries light: 1 (render's convention) or 0
                                     // (the library's; pn_renderer_desc.unreached_zero; counts_v)
-    PN_UINT(pad_params0)            // (the lights start at a multiple of 16 bytes, as std140 puts them)
-    PN_UINT(pad_params1)
-    PN_UINT(pad_params2)
+    PN_UINT(frame)                  // the temporal history's frame number (light_sample's frame window)
+    PN_UINT(frame_u)                // its frame window (0: none): each sub-cell splits into frame_u x
+    PN_UINT(frame_v)                // frame_v parts that consecutive frames take in turn
+                                    // (the lights start at a multiple of 16 bytes, as std140 puts them)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)
 
@@ -374,6 +395,26 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_UINT(pad1)
     PN_UINT(pad2)
 } PN_END(PenumbraPush, pn_penumbra_push)
+
+// The temporal history's frame (history.comp, std140). 1104 + 96 PN_MAX_LIGHTS bytes.
+PN_STRUCT(HistoryParams, pn_history_params) {
+    PN_MAT4(prev_view_proj) // the previous frame's world -> clip (GBufferPush.view_proj)
+    PN_UINT(box_count)      // boxes of geometry that moved since the previous frame
+    PN_FLOAT(pixel_angle)   // this frame's pixel footprint per unit of view depth
+    PN_FLOAT(prev_pixel_angle)
+    PN_UINT(pad0)
+    PN_VEC4S(box_lo, PN_HISTORY_MAX_BOXES) // xyz, padded outward on the host (history_pass.c)
+    PN_VEC4S(box_hi, PN_HISTORY_MAX_BOXES)
+    PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // this frame's lights
+} PN_END(HistoryParams, pn_history_params)
+
+// The temporal history's push constants: one light per dispatch. 16 bytes.
+PN_STRUCT(HistoryPush, pn_history_push) {
+    PN_UINT(light) // the light (its layer of the store, its entry of HistoryParams.lights)
+    PN_UINT(drop)  // 1: no history for this light (it moved, or the history was reset)
+    PN_FLOAT(cap)  // the most samples the sums hold: older samples weigh less beyond it
+    PN_UINT(pad0)
+} PN_END(HistoryPush, pn_history_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive
 // sampling's decision between two rounds. 32 bytes.

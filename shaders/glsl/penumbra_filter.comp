@@ -51,6 +51,9 @@ layout(set = 0, binding = PN_PENUMBRA_BINDING_SIGMA, rg32f) uniform image2D img_
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SCRATCH, rg32f) uniform image2D img_scratch;
 
 layout(push_constant) uniform PenumbraPushBlock { PenumbraPush pc; };
+// With the temporal history the counts are its sums, as float bits (filter.comp's TEMPORAL): a
+// pixel's samples are its sum over the frames.
+layout(constant_id = PN_SPEC_PENUMBRA_TEMPORAL) const bool TEMPORAL = false;
 
 const float RADIUS_SIGMAS = PN_PENUMBRA_RADIUS_SIGMAS;
 // Below half a pixel the Gaussian adds nothing to the interleaved filter's window.
@@ -69,9 +72,11 @@ const float WINDOW_SAMPLES = 3.0;
 int reach(float sigma) { return min(int(ceil(PN_PENUMBRA_TAP_SIGMAS * sigma)), int(pc.max_radius)); }
 
 // The samples one pixel's V is the mean of (adaptive sampling: its own valid rays, at least the first
-// round's, as filter.comp counts them).
+// round's, as filter.comp counts them; with history, its sum over the frames, at least the frame's).
 float pixel_samples(ivec2 px)
 {
+    if (TEMPORAL && pc.samples > 0u)
+        return max(uintBitsToFloat(imageLoad(img_counts, px).y), float(pc.samples));
     return pc.adaptive != 0u ? float(max(imageLoad(img_counts, px).y, max(pc.samples, 1u))) : float(pc.samples);
 }
 

@@ -56,11 +56,19 @@ uint pcg(uint v)
 // (2^a x 2^b, a + b = m) holds one point, and a shift keeps that. So any count n is as evenly
 // spread as a jittered grid of n at a power of two, and close to it between them, which the R2
 // sequence of the stratified sampler is not at small n.
-vec2 sobol_sample(uint k, uint shift)
+// The Sobol' sequence's two coordinates of point k as 32-bit fractions, unshifted.
+uvec2 sobol_bits(uint k)
 {
     uint x = bitfieldReverse(k), y = 0u;
     for (uint v = 1u << 31u, i = k; i != 0u; i >>= 1u, v ^= v >> 1u)
         y ^= (i & 1u) != 0u ? v : 0u;
+    return uvec2(x, y);
+}
+
+vec2 sobol_sample(uint k, uint shift)
+{
+    uvec2 b = sobol_bits(k);
+    uint x = b.x, y = b.y;
     x ^= pcg(shift), y ^= pcg(shift ^ 0x9e3779b9u);
     // The top 24 bits: floats of [0, 1) exactly (a 32-bit value would round up to 1.0).
     return vec2(float(x >> 8u), float(y >> 8u)) * (1.0 / 16777216.0);
@@ -86,12 +94,24 @@ PixelSampler pixel_sampler(uvec2 pixel)
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
+    // The temporal history's frame window (light_sample): frame f moves every pixel to the tile
+    // position f mod T further on (a bijection of the tile: each frame's tile still holds every
+    // sub-cell once), so that over T consecutive frames each pixel takes every sub-cell of each
+    // cell, not the same 1/T of the light whose mean its history would converge to.
+    if (params.frame_u != 0u) {
+        uint t = params.frame % (tile_size.x * tile_size.y);
+        member = (member + uvec2(t % tile_size.x, t / tile_size.x)) % tile_size;
+    }
     // The Sobol' shift is the pixel's own: under an interleaved tile the samples an adaptive pixel
     // adds beyond the first round must not be its tile-mates' (they would err together, in blocks
     // of the tile). For a 1 x 1 tile the tile's hash is the pixel's; a uniform frame under a tile
     // draws no Sobol' point, so only adaptive sampling pays for the second hash.
     bool own = tile_size.x * tile_size.y > 1u && SPP_MIN != 0u;
+    // With the temporal history's frame window the seed stays from frame to frame (its strata are
+    // the window's); the Sobol' points take the frame into their shift instead, a new set a frame.
     ps.sobol = pcg((own ? pcg(pixel.x + pcg(pixel.y + pcg(params.seed))) : ps.h) + chunk.light);
+    if (params.frame_u != 0u)
+        ps.sobol = pcg(ps.sobol ^ pcg(params.frame + 0x27d4eb2du));
     ps.sheared = uvec2(0u);
     if (tile_size.x * tile_size.y > 1u) {
         if ((pcg(ps.h ^ 0x2545f491u) & 1u) == 0u) {
@@ -178,9 +198,33 @@ vec2 light_sample(uint k, PixelSampler ps)
     // whole is not one nested net as a Sobol' prefix is.
     if (SPLIT == PN_SPLIT_BUDGET_ID || (SPP_MIN != 0u && (tiles == 1u || k >= SPP_MIN)))
         return sobol_sample(k, ps.sobol);
+    // The temporal history's frame window (frame_u != 0): each sub-cell splits again into F =
+    // frame_u x frame_v parts (a power of two square, at least the history's frames:
+    // renderer_frame.c), and frame f takes the part of the Sobol' point (f + h) mod F, h a hash of
+    // the tile and the cell that the frames share (the seed stays), while pixel_sampler moves
+    // every pixel f mod T positions on in its tile (T its pixels). So each frame's tile takes
+    // every sub-cell once, as without the window; any T consecutive frames give each pixel every
+    // sub-cell of each cell; and any F consecutive frames give each sub-cell every part once, in
+    // the order of a (0, 2)-sequence, whose runs are spread over the sub-cell rather than along
+    // its rows: the tile's samples over them are the stratified set of F times the frame's, as one
+    // frame of that many would draw, where a new seed a frame drew independent sets of the few.
+    // Each frame's sample is still uniform over its cell (h is uniform over the pixels), and its
+    // jitter's rotation is drawn per frame. Measured (the default scene at 320 x 180, 4 spp a
+    // frame, reference MAE after 16 frames, unfiltered / penumbra filter): a new seed a frame
+    // 0.00116 / 0.00101; the window 
+    uvec2 window = uvec2(max(params.frame_u, 1u), max(params.frame_v, 1u));
+    uint rot = ps.h;
+    uvec2 sub_f = uvec2(0u);
+    if (params.frame_u > 1u) {
+        uint parts = window.x * window.y;
+        uint k = (params.frame % parts + pcg(ps.h ^ pcg(i + pcg(j + 0x85ebca6bu))) % parts) % parts;
+        sub_f = sobol_bits(k) >> uvec2(32 - findMSB(window.x), 32 - findMSB(window.y));
+    }
+    if (params.frame_u != 0u)
+        rot = pcg(ps.h ^ pcg(params.frame + 0x165667b1u));
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
-        vec2 rotation = vec2(float(ps.h & 0xffffu), float(ps.h >> 16u)) / 65536.0;
+        vec2 rotation = vec2(float(rot & 0xffffu), float(rot >> 16u)) / 65536.0;
         const vec2 alpha = vec2(0.7548776662466927, 0.5698402909980532); // 1/g, 1/g^2, g = plastic number
         jitter = fract(rotation + alpha * float(k * tiles + sub + 1u));
     }
@@ -199,8 +243,8 @@ vec2 light_sample(uint k, PixelSampler ps)
         uint half_x = (pcg(ps.h ^ pcg(c.x + pcg(c.y >> 1u) + 0x3c6ef372u)) ^ c.y) & 1u;
         jitter.x = (float(half_x) + jitter.x) * 0.5;
     }
-    vec2 cell = vec2(c);
-    return (cell + jitter) / vec2(params.grid_u * tile_size.x, params.grid_v * tile_size.y);
+    vec2 cell = vec2(c * window + sub_f);
+    return (cell + jitter) / vec2(params.grid_u * tile_size.x * window.x, params.grid_v * tile_size.y * window.y);
 }
 
 // The light this dispatch traces (ShadowChunk.light; the pass runs once per light).

@@ -1,0 +1,144 @@
+// The temporal history: its images, parameters and dispatch (gpu/history_pass.h).
+#include "gpu/history_pass.h"
+
+#include <string.h>
+
+#include "history_comp.h"
+
+pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t layers,
+                                 const pn_gpu_image *p, const pn_gpu_image *n, const pn_gpu_image *counts,
+                                 const pn_gpu_image *v_raw, pn_history_pass *out)
+{
+    memset(out, 0, sizeof *out);
+    out->width = width, out->height = height, out->layers = layers;
+    const VkImageUsageFlags storage = VK_IMAGE_USAGE_STORAGE_BIT;
+    struct {
+        pn_gpu_image *img;
+        const char *name;
+        VkFormat format;
+        uint32_t layers;
+        VkImageUsageFlags usage;
+    } t[] = {
+        {&out->store[0], "history's sums (even frames)", VK_FORMAT_R32G32_SFLOAT, layers, storage},
+        {&out->store[1], "history's sums (odd frames)", VK_FORMAT_R32G32_SFLOAT, layers, storage},
+        {&out->prev_p, "history's previous positions", VK_FORMAT_R32G32B32A32_SFLOAT, 0,
+         storage | VK_IMAGE_USAGE_TRANSFER_DST_BIT},
+        {&out->prev_n, "history's previous normals", VK_FORMAT_R32G32B32A32_SFLOAT, 0,
+         storage | VK_IMAGE_USAGE_TRANSFER_DST_BIT},
+        // read back with the frame (pn_frame_images.history)
+        {&out->out, "history's counts", VK_FORMAT_R32G32B32A32_UINT, 0, storage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
+    };
+    pn_result r = PN_OK;
+    for (size_t i = 0; i < sizeof t / sizeof t[0] && r == PN_OK; i++)
+        r = pn_gpu_image_create(dev,
+                                &(pn_gpu_image_desc){.name = t[i].name,
+                                                     .format = t[i].format,
+                                                     .width = width,
+                                                     .height = height,
+                                                     .layers = t[i].layers,
+                                                     .usage = t[i].usage},
+                                t[i].img);
+    if (r == PN_OK)
+        r = pn_gpu_buffer_create(dev, "history's parameters", sizeof(pn_history_params),
+                                 VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, PN_GPU_HOST_UPLOAD, &out->params);
+    VkDescriptorSetLayoutBinding bindings[PN_HISTORY_BINDING_COUNT];
+    for (uint32_t i = 0; i < PN_HISTORY_BINDING_COUNT; i++)
+        bindings[i] = (VkDescriptorSetLayoutBinding){
+            .binding = i,
+            .descriptorType = i == PN_HISTORY_BINDING_PARAMS ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                                             : VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
+    for (int k = 0; k < 2 && r == PN_OK; k++) {
+        pn_gpu_compute *c = &out->compute[k];
+        r = pn_gpu_compute_create(dev,
+                                  &(pn_gpu_compute_desc){.spirv = pn_spv_history_comp,
+                                                         .spirv_size = sizeof pn_spv_history_comp,
+                                                         .bindings = bindings,
+                                                         .binding_count = PN_HISTORY_BINDING_COUNT,
+                                                         .push_size = sizeof(pn_history_push)},
+                                  c);
+        if (r != PN_OK)
+            break;
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_P, p->view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_N, n->view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_PREV_P, out->prev_p.view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_PREV_N, out->prev_n.view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_COUNTS, counts->view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_V_RAW, v_raw->view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_STORE_IN, out->store[k].view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_STORE_OUT, out->store[1 - k].view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_OUT, out->out.view);
+        pn_gpu_compute_write_uniform(dev, c, PN_HISTORY_BINDING_PARAMS, out->params.buffer);
+    }
+    if (r != PN_OK)
+        pn_history_pass_destroy(dev, out);
+    return r;
+}
+
+void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h)
+{
+    for (int k = 0; k < 2; k++) {
+        pn_gpu_compute_destroy(dev, &h->compute[k]);
+        pn_gpu_image_destroy(dev, &h->store[k]);
+    }
+    pn_gpu_image_destroy(dev, &h->prev_p);
+    pn_gpu_image_destroy(dev, &h->prev_n);
+    pn_gpu_image_destroy(dev, &h->out);
+    pn_gpu_buffer_destroy(dev, &h->params);
+    memset(h, 0, sizeof *h);
+}
+
+pn_history_params *pn_history_pass_params(pn_history_pass *h) { return (pn_history_params *)h->params.mapped; }
+
+void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h)
+{
+    const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
+    const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+    VkImageLayout from = h->ready ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED;
+    VkImageMemoryBarrier2 b[5];
+    const pn_gpu_image *images[5] = {&h->store[0], &h->store[1], &h->out, &h->prev_p, &h->prev_n};
+    // The previous positions only the first time: after it, the copy's own barrier orders them.
+    uint32_t count = h->ready ? 3 : 5;
+    for (uint32_t i = 0; i < count; i++)
+        b[i] = pn_gpu_image_barrier(images[i], ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                    RW, from, VK_IMAGE_LAYOUT_GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, count, b);
+    h->ready = true;
+}
+
+void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const pn_gpu_image *p, const pn_gpu_image *n)
+{
+    const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
+    const VkAccessFlags2 WRITE = VK_ACCESS_2_MEMORY_WRITE_BIT, READ = VK_ACCESS_2_TRANSFER_READ_BIT,
+                         TO = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    const VkImageLayout SRC = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, DST = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+    // P and N as the previous frame's readback left them (TRANSFER_SRC; the G-buffer pass starts
+    // them afresh), the copies after that frame's history passes read them.
+    VkImageMemoryBarrier2 before[4] = {
+        pn_gpu_image_barrier(p, ALL, WRITE, COPY, READ, SRC, SRC),
+        pn_gpu_image_barrier(n, ALL, WRITE, COPY, READ, SRC, SRC),
+        pn_gpu_image_barrier(&h->prev_p, ALL, VK_ACCESS_2_MEMORY_READ_BIT | WRITE, COPY, TO, VK_IMAGE_LAYOUT_UNDEFINED, DST),
+        pn_gpu_image_barrier(&h->prev_n, ALL, VK_ACCESS_2_MEMORY_READ_BIT | WRITE, COPY, TO, VK_IMAGE_LAYOUT_UNDEFINED, DST),
+    };
+    pn_gpu_cmd_barrier(cmd, NULL, 4, before);
+    VkImageCopy region = {.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                          .dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                          .extent = {h->width, h->height, 1}};
+    vkCmdCopyImage(cmd, p->image, SRC, h->prev_p.image, DST, 1, &region);
+    vkCmdCopyImage(cmd, n->image, SRC, h->prev_n.image, DST, 1, &region);
+    // The copies in the layout the history passes read them in, written before they do; P and N
+    // read before the G-buffer pass rewrites them.
+    VkImageMemoryBarrier2 after[4] = {
+        pn_gpu_image_barrier(&h->prev_p, COPY, TO, ALL, VK_ACCESS_2_MEMORY_READ_BIT, DST, VK_IMAGE_LAYOUT_GENERAL),
+        pn_gpu_image_barrier(&h->prev_n, COPY, TO, ALL, VK_ACCESS_2_MEMORY_READ_BIT, DST, VK_IMAGE_LAYOUT_GENERAL),
+        pn_gpu_image_barrier(p, COPY, VK_ACCESS_2_NONE, ALL, VK_ACCESS_2_NONE, SRC, SRC),
+        pn_gpu_image_barrier(n, COPY, VK_ACCESS_2_NONE, ALL, VK_ACCESS_2_NONE, SRC, SRC),
+    };
+    pn_gpu_cmd_barrier(cmd, NULL, 4, after);
+}
+
+void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap)
+{
+    pn_history_push push = {.light = light, .drop = drop, .cap = cap};
+    uint32_t gx = (h->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (h->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
+    pn_gpu_compute_dispatch(cmd, &h->compute[h->cur], sizeof push, &push, h->one_tile ? 1 : gx, h->one_tile ? 1 : gy, 1);
+}

@@ -1,0 +1,51 @@
+// The temporal history (render --temporal, the demo): per light and pixel the sums of visible and
+// valid samples over the frames so far, carried from frame to frame by the camera's reprojection
+// and dropped where geometry or the light moved (shaders/glsl/history.comp). After each light's
+// shadow pass it adds the frame's samples to the history and writes what the filters read in the
+// counts' place and the unfiltered V; the renderer keeps the previous frame's camera, lights and
+// G-buffer for it (renderer_frame.c).
+#pragma once
+#include "gpu/compute.h"
+#include "gpu/resources.h"
+#include "interface.h"
+
+typedef struct pn_history_pass {
+    uint32_t width, height, layers; // layers: lights with a history of their own
+    // store[k]: the sums per light (a layer each); compute[k] reads store[k] and prev_*[k] and
+    // writes store[1 - k]; cur says which holds the sums up to the previous frame.
+    pn_gpu_image store[2];
+    pn_gpu_image prev_p, prev_n; // the previous frame's G-buffer (copied before the frame's own)
+    pn_gpu_image out;            // rgba32ui: the sums as float bits, counts.z, counts.w (the filters')
+    pn_gpu_buffer params;        // HistoryParams, host-visible
+    pn_gpu_compute compute[2];
+    uint32_t cur;
+    bool ready;    // its images are in the GENERAL layout (pn_history_pass_record_start)
+    bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only
+} pn_history_pass;
+
+// Images for width x height pixels and `layers` lights, the pass's sets pointed at the renderer's
+// P, N, counts and V_raw. Their contents start undefined: the first frame drops every light's
+// history (pn_history_pass_record's drop).
+pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t layers,
+                                 const pn_gpu_image *p, const pn_gpu_image *n, const pn_gpu_image *counts,
+                                 const pn_gpu_image *v_raw, pn_history_pass *out);
+void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h);
+
+// The frame's parameters (the queue idle): written to h->params.
+pn_history_params *pn_history_pass_params(pn_history_pass *h);
+
+// Records what orders the frame's history passes after the previous frame's work on the sums (and,
+// the first time, brings the images to the GENERAL layout).
+void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h);
+
+// Records the copy of the G-buffer's P and N (still the previous frame's: before its pass runs) for
+// the frame's reprojection, with the barriers that order it after the previous frame and before
+// the G-buffer pass.
+void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const pn_gpu_image *p, const pn_gpu_image *n);
+
+// Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
+// sums hold (HistoryPush). Reads the counts and writes V_raw and h->out, both GENERAL.
+void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap);
+
+// After a frame completed: its sums become the previous frame's.
+static inline void pn_history_pass_flip(pn_history_pass *h) { h->cur ^= 1u; }

@@ -1,0 +1,119 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// The temporal history (--temporal), once per light after its shadow pass: each pixel's samples of
+// earlier frames carried to it and added to its own, so that the filters and the shading read V
+// over all of them.
+//
+// V at a surface point depends on the scene and the light, never on the camera: when only the
+// camera moved, every earlier sample of the point is still a sample of its V. So the point is
+// found in the previous frame (its P through the previous camera's matrix, the nearest pixel
+// there) and that pixel's sums taken, where it shows the same surface (the filters' own test,
+// filter_common.glsl: within a footprint of each other's tangent plane, normals within 30
+// degrees). A point the previous frame did not show (uncovered this frame, or off its image)
+// starts from its own samples. Where geometry moved (HistoryParams' boxes: each moved object's
+// bounds before and after), V can change only at points whose rays to the light can meet it: the
+// pyramid from the point to the light meets a box. Those points drop their history; everywhere
+// else it carries on unchanged. A light that changed drops its history as a whole (drop).
+//
+// The sums hold at most `cap` samples: beyond it the earlier ones are scaled down to leave room
+// for this frame's, so that a sample's weight falls geometrically with its age and a stale or
+// resampled one fades (an exponential window of about cap / samples frames).
+#include "interface.h"
+#include "filter_common.glsl"
+
+layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+
+layout(set = 0, binding = PN_HISTORY_BINDING_P, rgba32f) uniform readonly image2D img_p;
+layout(set = 0, binding = PN_HISTORY_BINDING_N, rgba32f) uniform readonly image2D img_n;
+layout(set = 0, binding = PN_HISTORY_BINDING_PREV_P, rgba32f) uniform readonly image2D img_prev_p;
+layout(set = 0, binding = PN_HISTORY_BINDING_PREV_N, rgba32f) uniform readonly image2D img_prev_n;
+layout(set = 0, binding = PN_HISTORY_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
+layout(set = 0, binding = PN_HISTORY_BINDING_V_RAW, r32f) uniform image2D img_v_raw;
+layout(set = 0, binding = PN_HISTORY_BINDING_STORE_IN, rg32f) uniform readonly image2DArray img_store_in;
+layout(set = 0, binding = PN_HISTORY_BINDING_STORE_OUT, rg32f) uniform writeonly image2DArray img_store_out;
+layout(set = 0, binding = PN_HISTORY_BINDING_OUT, rgba32ui) uniform writeonly uimage2D img_out;
+layout(std140, set = 0, binding = PN_HISTORY_BINDING_PARAMS) uniform HistoryParamsBlock { HistoryParams params; };
+
+layout(push_constant) uniform HistoryPushBlock { HistoryPush pc; };
+
+// As filter.comp's: a neighbour whose surface weight is below this does not continue the surface.
+const float SURFACE_CONTINUES = 0.75;
+
+// Whether the pyramid from p to light l (its four corners; a sphere's centre with its radius
+// grown round it) meets the box [lo, hi]: a separating-axis test over the box's axes, the
+// pyramid's faces (a light with an area: its plane and the four planes through p and an edge) and
+// the cross products of the direction to the light with the box's axes. It leaves out the other
+// pairs of edges, so it may find a meeting where there is none (the history then goes for
+// nothing), never the reverse. A gap is trusted only beyond the rounding of its terms.
+bool pyramid_meets_box(vec3 p, Light l, vec3 lo, vec3 hi)
+{
+    uint kind = uint(l.corners[0].w);
+    float radius = kind == PN_LIGHT_SPHERE_ID ? l.corners[1].w : 0.0;
+    vec3 c[4] = vec3[4](l.corners[0].xyz, l.corners[1].xyz, l.corners[2].xyz, l.corners[3].xyz);
+    vec3 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+    vec3 mid = 0.5 * (lo + hi), ext = 0.5 * (hi - lo), d = centre - p;
+    vec3 axes[11];
+    axes[0] = vec3(1, 0, 0), axes[1] = vec3(0, 1, 0), axes[2] = vec3(0, 0, 1);
+    axes[3] = cross(d, axes[0]), axes[4] = cross(d, axes[1]), axes[5] = cross(d, axes[2]);
+    // A parallelogram's plane and sides (all zero for a point or a sphere, which leave them out).
+    bool area = kind == PN_LIGHT_RECT_ID || kind == PN_LIGHT_SUN_ID || kind == PN_LIGHT_DISK_ID;
+    axes[6] = area ? cross(c[1] - c[0], c[3] - c[0]) : vec3(0.0);
+    for (int i = 0; i < 4; i++)
+        axes[7 + i] = area ? cross(c[(i + 1) & 3] - c[i], c[i] - p) : vec3(0.0);
+    for (int k = 0; k < 11; k++) {
+        vec3 a = axes[k];
+        float r = radius * length(a);
+        float pa = dot(p, a), lmin = pa, lmax = pa;
+        for (int i = 0; i < 4; i++) {
+            float x = dot(c[i], a);
+            lmin = min(lmin, x - r), lmax = max(lmax, x + r);
+        }
+        float bc = dot(mid, a), be = dot(ext, abs(a));
+        float tol = 8.0 * ulp_bound(max(max(abs(lmin), abs(lmax)), abs(bc) + be));
+        if (lmax < bc - be - tol || lmin > bc + be + tol)
+            return false;
+    }
+    return true;
+}
+
+void main()
+{
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(img_p);
+    if (any(greaterThanEqual(px, size)))
+        return;
+    int layer = int(pc.light);
+    vec4 p = imageLoad(img_p, px);
+    uvec4 counts = imageLoad(img_counts, px);
+    vec2 own = vec2(counts.xy);
+    vec2 prev = vec2(0.0);
+    // A pixel on the background has no samples; one the light cannot reach (counts.z 0) keeps V's
+    // convention and no history.
+    bool carry = p.w > 0.0 && counts.z != 0u && pc.drop == 0u;
+    Light l = params.lights[pc.light];
+    for (uint b = 0u; carry && b < params.box_count; b++)
+        carry = !pyramid_meets_box(p.xyz, l, params.box_lo[b].xyz, params.box_hi[b].xyz);
+    if (carry) {
+        vec4 clip = params.prev_view_proj * vec4(p.xyz, 1.0);
+        vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5;
+        ivec2 q = ivec2(floor(at + 0.5));
+        if (clip.w > 0.0 && all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, size))) {
+            vec4 pq = imageLoad(img_prev_p, q);
+            vec4 n = imageLoad(img_n, px), m = imageLoad(img_prev_n, q);
+            float w = surface_weight(p.xyz, n.xyz, n.w * params.pixel_angle, pq.xyz, m.xyz,
+                                     m.w * params.prev_pixel_angle, 1.0);
+            if (pq.w > 0.0 && w >= SURFACE_CONTINUES)
+                prev = imageLoad(img_store_in, ivec3(q, layer)).xy;
+        }
+    }
+    // Room for this frame's samples within the cap: the earlier ones scaled to what is left.
+    if (prev.y + own.y > pc.cap && prev.y > 0.0)
+        prev *= max(pc.cap - own.y, 0.0) / prev.y;
+    vec2 sum = prev + own;
+    imageStore(img_store_out, ivec3(px, layer), vec4(sum, 0.0, 0.0));
+    imageStore(img_out, px, uvec4(floatBitsToUint(sum.x), floatBitsToUint(sum.y), counts.z, counts.w));
+    // V over all of them (as shadow_finish's visible / valid); a pixel without history keeps the
+    // shadow pass's V bit for bit.
+    if (prev.y > 0.0)
+        imageStore(img_v_raw, px, vec4(sum.x / sum.y));
+}
