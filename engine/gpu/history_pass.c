@@ -19,8 +19,8 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
         uint32_t layers;
         VkImageUsageFlags usage;
     } t[] = {
-        {&out->store[0], "history's sums (even frames)", VK_FORMAT_R32G32_SFLOAT, layers, storage},
-        {&out->store[1], "history's sums (odd frames)", VK_FORMAT_R32G32_SFLOAT, layers, storage},
+        {&out->store[0], "history's sums (even frames)", VK_FORMAT_R32G32B32A32_SFLOAT, layers, storage},
+        {&out->store[1], "history's sums (odd frames)", VK_FORMAT_R32G32B32A32_SFLOAT, layers, storage},
         {&out->prev_p, "history's previous positions", VK_FORMAT_R32G32B32A32_SFLOAT, 0,
          storage | VK_IMAGE_USAGE_TRANSFER_DST_BIT},
         {&out->prev_n, "history's previous normals", VK_FORMAT_R32G32B32A32_SFLOAT, 0,
@@ -138,7 +138,7 @@ void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const 
 
 void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap)
 {
-    pn_history_push push = {.light = light, .drop = drop, .cap = cap};
+    pn_history_push push = {.light = light, .drop = drop, .cap = cap, };
     uint32_t gx = (h->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (h->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_gpu_compute_dispatch(cmd, &h->compute[h->cur], sizeof push, &push, h->one_tile ? 1 : gx, h->one_tile ? 1 : gy, 1);
 }
