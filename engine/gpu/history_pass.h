@@ -11,10 +11,10 @@
 
 typedef struct pn_history_pass {
     uint32_t width, height, layers; // layers: lights with a history of their own
-    // store[k]: the sums per light (a layer each); compute[k] reads store[k] and prev_*[k] and
-    // writes store[1 - k]; cur says which holds the sums up to the previous frame.
+    // store[k]: the sums per light (a layer each), where their samples lie and the pixel's normal;
+    // compute[k] reads store[k] and writes store[1 - k]; cur says which holds the previous frame's.
     pn_gpu_image store[2];
-    pn_gpu_image prev_p, prev_n; // the previous frame's G-buffer (copied before the frame's own)
+    pn_gpu_image prev_p;         // the previous frame's positions (copied before the frame's own)
     pn_gpu_image out;            // rgba32ui: the sums as float bits, counts.z, counts.w (the filters')
     pn_gpu_buffer params;        // HistoryParams, host-visible
     pn_gpu_compute compute[2];
@@ -38,10 +38,10 @@ pn_history_params *pn_history_pass_params(pn_history_pass *h);
 // the first time, brings the images to the GENERAL layout).
 void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h);
 
-// Records the copy of the G-buffer's P and N (still the previous frame's: before its pass runs) for
-// the frame's reprojection, with the barriers that order it after the previous frame and before
-// the G-buffer pass.
-void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const pn_gpu_image *p, const pn_gpu_image *n);
+// Records the copy of the G-buffer's P (still the previous frame's: before its pass runs) for the
+// frame's reprojection, with the barriers that order it after the previous frame and before the
+// G-buffer pass.
+void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const pn_gpu_image *p);
 
 // Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
 // sums hold (HistoryPush). Reads the counts and writes V_raw and h->out, both GENERAL.

@@ -80,9 +80,10 @@ SIZE(pn_penumbra_push, 32);
 AT(pn_filter_push, samples, 4);
 
 // std140: the matrix, then the boxes and lights on 16-byte boundaries.
-AT(pn_history_params, box_count, 64);
-AT(pn_history_params, box_lo, 80);
-AT(pn_history_params, box_hi, 80 + 16 * PN_HISTORY_MAX_BOXES);
-AT(pn_history_params, lights, 80 + 32 * PN_HISTORY_MAX_BOXES);
-SIZE(pn_history_params, 80 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
+AT(pn_history_params, prev_eye, 64);
+AT(pn_history_params, box_count, 96);
+AT(pn_history_params, box_lo, 112);
+AT(pn_history_params, box_hi, 112 + 16 * PN_HISTORY_MAX_BOXES);
+AT(pn_history_params, lights, 112 + 32 * PN_HISTORY_MAX_BOXES);
+SIZE(pn_history_params, 112 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
 SIZE(pn_history_push, 16);

@@ -209,7 +209,7 @@ static pn_result submit_now(pn_renderer *r, void (*record)(pn_renderer *, VkComm
     return PN_OK;
 }
 
-static void record_keep(pn_renderer *r, VkCommandBuffer cmd) { pn_history_pass_record_keep(cmd, &r->history, &r->p, &r->n); }
+static void record_keep(pn_renderer *r, VkCommandBuffer cmd) { pn_history_pass_record_keep(cmd, &r->history, &r->p); }
 
 // The temporal history's part of a frame before it is recorded: its images for the frame's lights,
 // its parameters (the last frame's camera, the boxes of what moved, the lights), which lights drop
@@ -233,6 +233,8 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
     bool fresh = !r->history_prev || r->history_drop || light_count != r->history_light_count;
     pn_history_params *hp = pn_history_pass_params(&r->history);
     memcpy(hp->prev_view_proj, r->history_camera.view_proj, sizeof hp->prev_view_proj);
+    memcpy(hp->prev_eye, r->history_camera.eye, sizeof hp->prev_eye);
+    memcpy(hp->prev_forward, r->history_camera.forward, sizeof hp->prev_forward);
     hp->pixel_angle = (float)pn_pixel_angle(yfov_deg, r->height);
     hp->prev_pixel_angle = r->history_angle;
     // The boxes grown by what a ray's meeting with them can be off by: its origin is raised 8 ulps of

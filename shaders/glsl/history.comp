@@ -26,11 +26,10 @@ layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
 layout(set = 0, binding = PN_HISTORY_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_HISTORY_BINDING_N, rgba32f) uniform readonly image2D img_n;
 layout(set = 0, binding = PN_HISTORY_BINDING_PREV_P, rgba32f) uniform readonly image2D img_prev_p;
-layout(set = 0, binding = PN_HISTORY_BINDING_PREV_N, rgba32f) uniform readonly image2D img_prev_n;
 layout(set = 0, binding = PN_HISTORY_BINDING_COUNTS, rgba32ui) uniform readonly uimage2D img_counts;
 layout(set = 0, binding = PN_HISTORY_BINDING_V_RAW, r32f) uniform image2D img_v_raw;
-layout(set = 0, binding = PN_HISTORY_BINDING_STORE_IN, rgba32f) uniform readonly image2DArray img_store_in;
-layout(set = 0, binding = PN_HISTORY_BINDING_STORE_OUT, rgba32f) uniform writeonly image2DArray img_store_out;
+layout(set = 0, binding = PN_HISTORY_BINDING_STORE_IN, rgba32ui) uniform readonly uimage2DArray img_store_in;
+layout(set = 0, binding = PN_HISTORY_BINDING_STORE_OUT, rgba32ui) uniform writeonly uimage2DArray img_store_out;
 layout(set = 0, binding = PN_HISTORY_BINDING_OUT, rgba32ui) uniform writeonly uimage2D img_out;
 layout(std140, set = 0, binding = PN_HISTORY_BINDING_PARAMS) uniform HistoryParamsBlock { HistoryParams params; };
 
@@ -81,6 +80,42 @@ bool pyramid_meets_box(vec3 p, Light l, vec3 lo, vec3 hi)
     return true;
 }
 
+// Octahedral unit normals in a uint (the store's w): 16 bits a coordinate.
+uint pack_normal(vec3 n)
+{
+    n /= max(abs(n.x) + abs(n.y) + abs(n.z), 1e-30);
+    vec2 e = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    return packSnorm2x16(e);
+}
+vec3 unpack_normal(uint u)
+{
+    vec2 e = unpackSnorm2x16(u);
+    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    float t = max(-n.z, 0.0);
+    n.xy += vec2(n.x >= 0.0 ? -t : t, n.y >= 0.0 ? -t : t);
+    return normalize(n);
+}
+
+// The previous frame's pixel q as the history reads it: its point (w: covered), normal and view
+// depth, and its sums and where their samples lie (the store).
+struct Earlier {
+    vec4 p;
+    vec3 n;
+    float footprint;
+    vec2 sums, offset;
+};
+Earlier earlier(ivec2 q)
+{
+    Earlier e;
+    e.p = imageLoad(img_prev_p, q);
+    uvec4 h = imageLoad(img_store_in, ivec3(q, int(pc.light)));
+    e.sums = uintBitsToFloat(h.xy);
+    e.offset = unpackHalf2x16(h.z);
+    e.n = unpack_normal(h.w);
+    e.footprint = dot(e.p.xyz - params.prev_eye.xyz, params.prev_forward.xyz) * params.prev_pixel_angle;
+    return e;
+}
+
 // How much of the history to keep, as a factor of its samples: their mean lies `offset` pixels
 // from the point (their places as carried), so it is off by about |grad V| times that, where the
 // gradient is the earlier means' across the chosen pixel's neighbours on the same surface (in the
@@ -93,28 +128,26 @@ bool pyramid_meets_box(vec3 p, Light l, vec3 lo, vec3 hi)
 // resampling's alone): 2 degrees a frame, MAE 0.00635 keeping all of it, 0.00098 so.
 float history_share(ivec2 q, vec2 prev, vec2 offset, float own)
 {
-    vec4 pq = imageLoad(img_prev_p, q), mq = imageLoad(img_prev_n, q), hq = imageLoad(img_store_in, ivec3(q, int(pc.light)));
+    Earlier c = earlier(q);
     ivec2 size = imageSize(img_p);
     float vq = prev.x / prev.y;
     vec2 g = vec2(0.0);
     for (int axis = 0; axis < 2; axis++) {
         // The means on either side, and where their samples lie (central or one-sided differences).
-        float lo_v = vq, hi_v = vq, lo_c = float(q[axis]) + hq[2 + axis], hi_c = lo_c;
+        float lo_v = vq, hi_v = vq, lo_c = float(q[axis]) + c.offset[axis], hi_c = lo_c;
         for (int sgn = -1; sgn <= 1; sgn += 2) {
-            ivec2 e = q;
-            e[axis] += sgn;
-            if (any(lessThan(e, ivec2(0))) || any(greaterThanEqual(e, size)))
+            ivec2 q_e = q;
+            q_e[axis] += sgn;
+            if (any(lessThan(q_e, ivec2(0))) || any(greaterThanEqual(q_e, size)))
                 continue;
-            vec4 he = imageLoad(img_store_in, ivec3(e, int(pc.light)));
-            vec4 pe = imageLoad(img_prev_p, e), me = imageLoad(img_prev_n, e);
-            float w = surface_weight(pq.xyz, mq.xyz, mq.w * params.prev_pixel_angle, pe.xyz, me.xyz,
-                                     me.w * params.prev_pixel_angle, 1.0);
-            if (pe.w > 0.0 && w >= SURFACE_CONTINUES && he.y > 0.0) {
-                float c = float(e[axis]) + he[2 + axis];
+            Earlier e = earlier(q_e);
+            if (e.p.w > 0.0 && e.sums.y > 0.0 &&
+                surface_weight(c.p.xyz, c.n, c.footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES) {
+                float at = float(q_e[axis]) + e.offset[axis];
                 if (sgn < 0)
-                    lo_v = he.x / he.y, lo_c = c;
+                    lo_v = e.sums.x / e.sums.y, lo_c = at;
                 else
-                    hi_v = he.x / he.y, hi_c = c;
+                    hi_v = e.sums.x / e.sums.y, hi_c = at;
             }
         }
         g[axis] = hi_c - lo_c > 0.5 ? (hi_v - lo_v) / (hi_c - lo_c) : 0.0;
@@ -134,7 +167,7 @@ void main()
     if (any(greaterThanEqual(px, size)))
         return;
     int layer = int(pc.light);
-    vec4 p = imageLoad(img_p, px);
+    vec4 p = imageLoad(img_p, px), n = imageLoad(img_n, px);
     uvec4 counts = imageLoad(img_counts, px);
     vec2 own = vec2(counts.xy);
     vec2 prev = vec2(0.0);
@@ -144,34 +177,36 @@ void main()
     Light l = params.lights[pc.light];
     for (uint b = 0u; carry && b < params.box_count; b++)
         carry = !pyramid_meets_box(p.xyz, l, params.box_lo[b].xyz, params.box_hi[b].xyz);
-    // Where the history's samples lie relative to the pixel's centre, in pixels (the store's zw):
+    // Where the history's samples lie relative to the pixel's centre, in pixels (the store's z):
     // 0 for the frame's own.
     vec2 offset = vec2(0.0);
     if (carry) {
         // Of the four pixels round the point's place in the previous frame, the one on the same
         // surface whose samples lie nearest to it (a camera moving by a fraction of a pixel a
         // frame keeps choosing the same pixel, and its samples fall behind the surface a fraction
-        // a frame: their place, carried along, says when a neighbour's lie nearer).
+        // a frame: their place, carried along, says when a neighbour's lie nearer). The nearest
+        // pixel first: where its samples lie within half a pixel (a still camera's, all), the
+        // others are not read.
         vec4 clip = params.prev_view_proj * vec4(p.xyz, 1.0);
         vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5;
-        ivec2 q0 = ivec2(floor(at)), chosen = ivec2(-1);
-        vec4 n = imageLoad(img_n, px);
+        ivec2 q0 = ivec2(floor(at)), nearest = ivec2(floor(at + 0.5)), chosen = ivec2(-1);
         float footprint = n.w * params.pixel_angle, best = 1e30;
-        for (int k = 0; k < 4 && clip.w > 0.0; k++) {
-            ivec2 q = q0 + ivec2(k & 1, k >> 1);
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
+        for (int k = -1; k < 4 && clip.w > 0.0 && best > 0.25; k++) {
+            ivec2 q = k < 0 ? nearest : q0 + ivec2(k & 1, k >> 1);
+            if ((k >= 0 && q == nearest) || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
                 continue;
-            vec4 pq = imageLoad(img_prev_p, q), m = imageLoad(img_prev_n, q), h = imageLoad(img_store_in, ivec3(q, layer));
-            float fq = m.w * params.prev_pixel_angle;
-            vec3 gap = (pq.xyz - p.xyz) / max(max(footprint, fq), 1e-30);
-            vec2 d = vec2(q) + h.zw - at;
-            if (pq.w > 0.0 && surface_weight(p.xyz, n.xyz, footprint, pq.xyz, m.xyz, fq, 1.0) >= SURFACE_CONTINUES &&
+            Earlier e = earlier(q);
+            vec3 gap = (e.p.xyz - p.xyz) / max(max(footprint, e.footprint), 1e-30);
+            vec2 d = vec2(q) + e.offset - at;
+            if (e.p.w > 0.0 && surface_weight(p.xyz, n.xyz, footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES &&
                 dot(gap, gap) <= NEAR * NEAR && dot(d, d) < best) {
                 best = dot(d, d);
-                prev = h.xy, offset = d, chosen = q;
+                prev = e.sums, offset = d, chosen = q;
             }
         }
-        if (chosen.x >= 0 && prev.y > 0.0 && own.y > 0.0)
+        // (Where the samples lie on the point itself, as under a still camera, all of it: no
+        // gradient to measure.)
+        if (chosen.x >= 0 && prev.y > 0.0 && own.y > 0.0 && offset != vec2(0.0))
             prev *= history_share(chosen, prev, offset, own.y);
     }
     // Room for this frame's samples within the cap: the earlier ones scaled to what is left.
@@ -179,7 +214,8 @@ void main()
         prev *= max(pc.cap - own.y, 0.0) / prev.y;
     vec2 sum = prev + own;
     offset = sum.y > 0.0 ? offset * (prev.y / sum.y) : vec2(0.0);
-    imageStore(img_store_out, ivec3(px, layer), vec4(sum, offset));
+    imageStore(img_store_out, ivec3(px, layer),
+               uvec4(floatBitsToUint(sum), packHalf2x16(offset), pack_normal(p.w > 0.0 ? n.xyz : vec3(0.0, 0.0, 1.0))));
     imageStore(img_out, px, uvec4(floatBitsToUint(sum.x), floatBitsToUint(sum.y), counts.z, counts.w));
     // V over all of them (as shadow_finish's visible / valid); a pixel without history keeps the
     // shadow pass's V bit for bit.

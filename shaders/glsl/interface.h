@@ -120,17 +120,19 @@
 // samples of earlier frames carried to it and added to its own.
 #define PN_HISTORY_BINDING_P 0         // rgba32f: this frame's world position, w = 1 where geometry is
 #define PN_HISTORY_BINDING_N 1         // rgba32f: this frame's normal, w = view depth
-#define PN_HISTORY_BINDING_PREV_P 2    // rgba32f: the previous frame's (a copy of its G-buffer)
-#define PN_HISTORY_BINDING_PREV_N 3    // rgba32f
-#define PN_HISTORY_BINDING_COUNTS 4    // rgba32ui: this frame's counts (the shadow pass's)
-#define PN_HISTORY_BINDING_V_RAW 5     // r32f: the shadow pass's V, rewritten where history adds to it
-#define PN_HISTORY_BINDING_STORE_IN 6  // rg32f array, a layer per light: the sums up to the previous frame
-#define PN_HISTORY_BINDING_STORE_OUT 7 // rg32f array: the sums up to this frame
-#define PN_HISTORY_BINDING_OUT 8       // rgba32ui: what the filters read in the counts' place: the
+#define PN_HISTORY_BINDING_PREV_P 2    // rgba32f: the previous frame's positions (a copy of its P)
+#define PN_HISTORY_BINDING_COUNTS 3    // rgba32ui: this frame's counts (the shadow pass's)
+#define PN_HISTORY_BINDING_V_RAW 4     // r32f: the shadow pass's V, rewritten where history adds to it
+#define PN_HISTORY_BINDING_STORE_IN 5  // rgba32ui array, a layer per light: up to the previous frame, per
+                                       // pixel the float bits of the sums of visible and valid samples,
+                                       // where their samples lie (half floats, pixels from its centre)
+                                       // and the pixel's normal (octahedral, 16-bit snorm)
+#define PN_HISTORY_BINDING_STORE_OUT 6 // rgba32ui array: the same up to this frame
+#define PN_HISTORY_BINDING_OUT 7       // rgba32ui: what the filters read in the counts' place: the
                                        // float bits of the sums of visible and valid samples, then
                                        // this frame's counts.z and counts.w
-#define PN_HISTORY_BINDING_PARAMS 9    // uniform HistoryParams
-#define PN_HISTORY_BINDING_COUNT 10
+#define PN_HISTORY_BINDING_PARAMS 8    // uniform HistoryParams
+#define PN_HISTORY_BINDING_COUNT 9
 // The most boxes of moved geometry one frame drops history under (more are merged on the host).
 #define PN_HISTORY_MAX_BOXES 32
 // filter.comp and penumbra_filter.comp: the counts they read are the history's (float sums).
@@ -396,9 +398,11 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_UINT(pad2)
 } PN_END(PenumbraPush, pn_penumbra_push)
 
-// The temporal history's frame (history.comp, std140). 1104 + 96 PN_MAX_LIGHTS bytes.
+// The temporal history's frame (history.comp, std140). 1136 + 96 PN_MAX_LIGHTS bytes.
 PN_STRUCT(HistoryParams, pn_history_params) {
     PN_MAT4(prev_view_proj) // the previous frame's world -> clip (GBufferPush.view_proj)
+    PN_VEC4(prev_eye)       // and its camera (GBufferPush.eye, forward): a point's view depth
+    PN_VEC4(prev_forward)
     PN_UINT(box_count)      // boxes of geometry that moved since the previous frame
     PN_FLOAT(pixel_angle)   // this frame's pixel footprint per unit of view depth
     PN_FLOAT(prev_pixel_angle)
