@@ -131,6 +131,10 @@ R=(render builtin:default --size 32x32 -o out.exr)
 sweep "render linespace --aovs" "" "" "${R[@]}" --mode linespace --tree 3,2 --aovs
 STRIDE=2 sweep "render hybrid" "" "" "${R[@]}" --mode hybrid --tree 3,2
 sweep "render linespace --trees object" "" "" "${R[@]}" --mode linespace --trees object --tree 3,2
+# A temporal sequence: the history's images and parameters in its first frame, the structures built
+# again under the kept renderer in its second (which leaves the first frame's file).
+sweep "render --frames --temporal" "t\.00\.exr" "" render builtin:default --size 32x32 --mode exact --frames 0:1 \
+  --temporal -o t.%02d.exr
 rq=$("$BIN" info 2>/dev/null | grep -c 'ray queries: *yes')
 if [ "$rq" -gt 0 ]; then
   sweep "render rayquery" "" "" "${R[@]}" --mode rayquery

@@ -193,13 +193,16 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
         double move_ms = 0;
         if (!have) {
             uint64_t t0 = pn_time_ns();
-            if (pn_setup_create(dev, &prep->scene, prep->lights, &sd, &s) != PN_OK ||
-                (q->temporal && pn_renderer_set_history(&s.renderer, (uint32_t)q->history) != PN_OK)) {
+            if (pn_setup_create(dev, &prep->scene, prep->lights, &sd, &s) != PN_OK) {
+                rc = PN_EXIT_FAILURE;
+                break;
+            }
+            have = true;
+            if (q->temporal && pn_renderer_set_history(&s.renderer, (uint32_t)q->history) != PN_OK) {
                 rc = PN_EXIT_FAILURE;
                 break;
             }
             move_ms = pn_ms_since(t0);
-            have = true;
         } else {
             if (q->temporal)
                 history_moves(&prep->scene, was, &s.renderer);
