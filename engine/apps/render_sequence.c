@@ -102,10 +102,11 @@ static pn_result follow_pose(pn_gpu_device *dev, const pn_scene *scene, const pn
 }
 
 // --temporal: the boxes, before and after, of every posed primitive whose vertices the pose moved
-// (`was`: the scene's positions before it), given to the renderer's history.
-static void history_moves(const pn_scene *scene, const float (*was)[3], pn_renderer *r)
+// (`was`: the scene's positions before it), given to the renderer's history. Whether any moved.
+static bool history_moves(const pn_scene *scene, const float (*was)[3], pn_renderer *r)
 {
     const pn_scene_anim *a = scene->anim;
+    bool any = false;
     for (uint32_t i = 0; a && i < a->prim_count; i++) {
         const pn_anim_prim *p = &a->prims[i];
         uint32_t count = p->normals ? p->vertex_count : 3 * p->triangle_count;
@@ -122,7 +123,9 @@ static void history_moves(const pn_scene *scene, const float (*was)[3], pn_rende
         }
         for (int b = 0; moved && b < 2; b++)
             pn_renderer_history_moved(r, box[b], box[b] + 3);
+        any = any || moved;
     }
+    return any;
 }
 
 // Which frames (by index in the sequence) this run renders, [*from, *end), and from which it
@@ -136,6 +139,10 @@ static void shard_frames(const pn_sequence *q, long long count, long long *from,
     }
     long long per = (count + q->shard_n - 1) / q->shard_n;
     *write_from = per * (q->shard_k - 1);
+    if (*write_from >= count) { // more shards than shares: nothing to render
+        *from = *write_from = *end = count;
+        return;
+    }
     *end = *write_from + per < count ? *write_from + per : count;
     *from = *write_from > q->history ? *write_from - q->history : 0;
 }
@@ -163,7 +170,10 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
                q->temporal && write_from > from ? " after the history's frames before them" : "");
     pn_setup_desc sd = pn_render_opts_setup(&o->r);
     sd.frame.keep_window = o->aovs; // shadow.V_window, with the penumbra filter
-    sd.view = o->view_cull ? &prep->camera : NULL;
+    // Under --temporal no view culling: a tree culled to each frame's view would change its cells
+    // with the camera (the line-space modes' V with them), where the history relies on V at a point
+    // not depending on the camera.
+    sd.view = o->view_cull && !q->temporal ? &prep->camera : NULL;
     sd.light_count = prep->light_count;
     pn_setup s = {0};
     bool have = false;
@@ -204,20 +214,26 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
             }
             move_ms = pn_ms_since(t0);
         } else {
-            if (q->temporal)
-                history_moves(&prep->scene, was, &s.renderer);
+            bool moved = q->temporal && history_moves(&prep->scene, was, &s.renderer);
             if (follow_pose(dev, &prep->scene, prep->lights, prep->light_count, &sd, &prep->pose, q->temporal, &s,
                             &rebuilt, &move_ms) != PN_OK) {
                 rc = PN_EXIT_FAILURE; // (a failed build leaves s empty, which destroys as nothing)
                 break;
             }
+            // The boxes bound where V changed for the modes that test triangles. A line-space tree
+            // built again over moved geometry may have another root box, and then every cell and
+            // every pixel's approximation moves: its history goes (per-object trees moved by their
+            // top level keep their own cells, and the boxes hold).
+            bool scene_tree = pn_shadow_mode_get(o->r.mode)->needs.tree && !(s.accel.desc.per_object && !rebuilt);
+            if (moved && scene_tree)
+                pn_renderer_history_drop(&s.renderer);
         }
         full_builds += rebuilt;
         build_total += move_ms;
-        // Each frame its own samples for the history to add up, the window's share of its frame
-        // number (the same in every shard).
+        // Each frame its own samples for the history to add up, the window's share of its place in
+        // the sequence (the same in every shard; consecutive whatever the step).
         if (q->temporal)
-            pn_renderer_set_history_frame(&s.renderer, (uint32_t)f);
+            pn_renderer_set_history_frame(&s.renderer, (uint32_t)index);
         pn_frame_times times;
         pn_frame_images img;
         char name[4096];

@@ -76,7 +76,8 @@ void pn_renderer_destroy(pn_renderer *r);
 pn_result pn_renderer_update_vertices(pn_renderer *r, const pn_scene *scene, uint32_t first, uint32_t count);
 
 // The leaf extent the shadow rays rise by (pn_renderer_desc.leaf_size) from the next frame on: per-
-// object trees whose instances turned or scaled (pn_objects_update's leaf_size).
+// object trees whose instances turned or scaled (pn_objects_update's leaf_size). Another extent
+// drops the temporal history (every pixel's rays rise otherwise).
 void pn_renderer_set_leaf_size(pn_renderer *r, double leaf_size);
 
 // Records, submits and waits for one frame; fills `times` and leaves the images readable through
@@ -91,8 +92,9 @@ pn_result pn_renderer_render(pn_renderer *r, const pn_camera *camera, const pn_l
 pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, const pn_light *lights,
                                     uint32_t light_count, pn_frame_times *times);
 
-// The last frame's images in the readback buffer (pn_frame_images), valid until the next frame or
-// pn_renderer_set_filter (which moves the planes: the penumbra filter's window is kept only with it).
+// The last frame's images in the readback buffer (pn_frame_images), valid until the next frame,
+// pn_renderer_set_filter or pn_renderer_set_history (which move the planes: the penumbra filter's
+// window and the history's counts are kept only with them).
 void pn_renderer_images(const pn_renderer *r, pn_frame_images *out);
 
 // With desc.count_work, after a frame: per pixel 4 counts over all its shadow rays: nodes visited

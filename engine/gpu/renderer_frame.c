@@ -220,17 +220,31 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
 {
     pn_gpu_device *dev = r->dev;
     if (r->history.layers != light_count) {
-        // A history per light: made again for another count (the queue is idle between frames).
+        // A history per light: made again for another count (the queue is idle between frames). The
+        // filters' sets are written anew whatever the views' handles (a new view may reuse the
+        // destroyed one's), and on any failure nothing is left half made: the next frame starts over.
         uint64_t t0 = pn_time_ns();
         pn_history_pass_destroy(dev, &r->history);
-        PN_TRY(pn_history_pass_create(dev, r->width, r->height, light_count, &r->p, &r->n, &r->shadow.counts,
-                                      &r->v_raw, &r->history));
-        PN_TRY(pn_filter_pass_set_counts(dev, &r->filter, r->history.out.view, true));
-        PN_TRY(pn_penumbra_pass_set_counts(dev, &r->penumbra, r->history.out.view, true));
+        r->filter.images[PN_FILTER_BINDING_COUNTS] = VK_NULL_HANDLE;
+        r->penumbra.images[PN_PENUMBRA_BINDING_COUNTS] = VK_NULL_HANDLE;
+        pn_result res = pn_history_pass_create(dev, r->width, r->height, light_count, &r->p, &r->n, &r->shadow.counts,
+                                               &r->v_raw, &r->history);
+        if (res == PN_OK)
+            res = pn_filter_pass_set_counts(dev, &r->filter, r->history.out.view, true);
+        if (res == PN_OK)
+            res = pn_penumbra_pass_set_counts(dev, &r->penumbra, r->history.out.view, true);
+        if (res != PN_OK) {
+            pn_history_pass_destroy(dev, &r->history);
+            return res;
+        }
         r->compile_pending_ms += pn_ms_since(t0);
+        r->cold = true; // the filters' pipelines for the history's counts, not run yet
         r->history_prev = false;
     }
     bool fresh = !r->history_prev || r->history_drop || light_count != r->history_light_count;
+    // Until this frame has ended: a frame that fails after its G-buffer pass leaves P, the sums and
+    // the camera out of step, and the next one starts afresh.
+    r->history_prev = false;
     pn_history_params *hp = pn_history_pass_params(&r->history);
     memcpy(hp->prev_view_proj, r->history_camera.view_proj, sizeof hp->prev_view_proj);
     memcpy(hp->prev_eye, r->history_camera.eye, sizeof hp->prev_eye);
@@ -305,14 +319,15 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         PN_TRY(pn_shadow_pass_prepare(dev, &r->shadow, samples[i]));
     uint32_t shade_made;
     PN_TRY(pn_shade_pass_prepare(dev, &r->shade, l, light_count, &shade_made));
-    history_frame hf_store, *hist = r->history_frames ? &hf_store : NULL;
-    if (hist)
-        PN_TRY(history_begin(r, l, samples, light_count, camera->yfov_deg, hist));
     double compile_ms = 0;
     if (r->shadow.pipelines_made != r->shadow_made || shade_made) {
         r->cold = true;
         r->compile_pending_ms += pn_ms_since(t0);
     }
+    // (After the creations' time: its copy of the last P is the frame's, not a pipeline's.)
+    history_frame hf_store, *hist = r->history_frames ? &hf_store : NULL;
+    if (hist)
+        PN_TRY(history_begin(r, l, samples, light_count, camera->yfov_deg, hist));
     // A frame that continues the last one's counts cannot be warmed up: the warm-up's shadow pass
     // starts its images afresh and would lose them. It reports what was created for it, and a
     // pipeline made for it runs first within it (the demo's refinement, below 32 samples); so
@@ -335,7 +350,8 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
                         : 0;
     bool same = r->continuable_spp_min == r->desc.spp_min && r->continuable_seed == r->desc.seed &&
                 r->continuable_tile == tile;
-    r->shadow.resume_from = r->continue_next && adaptive_one && same && r->continuable_spp &&
+    // (Not under the temporal history: the history holds the last frame's samples already.)
+    r->shadow.resume_from = r->continue_next && !hist && adaptive_one && same && r->continuable_spp &&
                                     samples[0] > r->continuable_spp
                                 ? r->continuable_spp
                                 : 0;

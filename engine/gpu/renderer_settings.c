@@ -9,7 +9,13 @@
 #include "core/timer.h"
 #include "gpu/renderer_internal.h"
 
-void pn_renderer_set_leaf_size(pn_renderer *r, double leaf_size) { r->desc.leaf_size = leaf_size; }
+void pn_renderer_set_leaf_size(pn_renderer *r, double leaf_size)
+{
+    // The rays rise by the leaf extent (shadow_origin): every pixel's line-space V moves with it.
+    if (leaf_size != r->desc.leaf_size)
+        r->history_drop = true;
+    r->desc.leaf_size = leaf_size;
+}
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
 

@@ -174,9 +174,12 @@ void main()
     // A pixel on the background has no samples; one the light cannot reach (counts.z 0) keeps V's
     // convention and no history.
     bool carry = p.w > 0.0 && counts.z != 0u && pc.drop == 0u;
+    // The boxes grown by the reach of the earlier pixels whose samples the history may hold
+    // (within NEAR footprints of the point, and their offset within a pixel more).
     Light l = params.lights[pc.light];
+    vec3 reach = vec3((NEAR + 1.0) * n.w * params.pixel_angle);
     for (uint b = 0u; carry && b < params.box_count; b++)
-        carry = !pyramid_meets_box(p.xyz, l, params.box_lo[b].xyz, params.box_hi[b].xyz);
+        carry = !pyramid_meets_box(p.xyz, l, params.box_lo[b].xyz - reach, params.box_hi[b].xyz + reach);
     // Where the history's samples lie relative to the pixel's centre, in pixels (the store's z):
     // 0 for the frame's own.
     vec2 offset = vec2(0.0);

@@ -218,7 +218,11 @@ vec2 light_sample(uint k, PixelSampler ps)
     uvec2 sub_f = uvec2(0u);
     if (params.frame_u > 1u) {
         uint parts = window.x * window.y;
-        uint k = (params.frame % parts + pcg(ps.h ^ pcg(i + pcg(j + 0x85ebca6bu))) % parts) % parts;
+        // An even tile: a pixel is in one sub-cell every T frames, which would give it only the parts
+        // of one residue of T; a step of one more part every T frames makes its steps odd, coprime
+        // to F, so that it takes every part of it in turn.
+        uint f = params.frame + ((tiles & 1u) == 0u ? params.frame / tiles : 0u);
+        uint k = (f % parts + pcg(ps.h ^ pcg(i + pcg(j + 0x85ebca6bu))) % parts) % parts;
         sub_f = sobol_bits(k) >> uvec2(32 - findMSB(window.x), 32 - findMSB(window.y));
     }
     if (params.frame_u != 0u)
@@ -241,7 +245,8 @@ vec2 light_sample(uint k, PixelSampler ps)
     // 16 and 64), 8 spp 0.2-1.2%; under the penumbra filter, whose 3 x 3 window already mixes nine
     // pixels' strata, -1.4% to +1.0%; square counts unchanged, bit for bit.
     if (params.sampler_kind == SAMPLER_STRATIFIED && params.grid_v == 2u * params.grid_u && tile_size.x == tile_size.y) {
-        uint half_x = (pcg(ps.h ^ pcg(c.x + pcg(c.y >> 1u) + 0x3c6ef372u)) ^ c.y) & 1u;
+        // (Under the frame window the pairs' choice is drawn per frame too, as the rotation is.)
+        uint half_x = (pcg(rot ^ pcg(c.x + pcg(c.y >> 1u) + 0x3c6ef372u)) ^ c.y) & 1u;
         jitter.x = (float(half_x) + jitter.x) * 0.5;
     }
     vec2 cell = vec2(c * window + sub_f);
