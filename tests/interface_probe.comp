@@ -56,7 +56,7 @@ void main()
     put(params.spp_min); put(params.pixel_error); put(params.tiles_across); put(params.tile_total);
     put(uvec2(params.alpha_bits)); put(uvec2(params.masked_tris)); put(params.project_budget);
     put(params.block_walk); put(params.pixel_angle); put(params.refine_narrow);
-    put(params.unreached_v); put(params.frame); put(params.frame_u); put(params.frame_v);
+    put(params.unreached_v); put(params.frame); put(params.frame_side); put(params.frame_part);
     for (int i = 0; i < PN_MAX_LIGHTS; i++)
         put_light(params.lights[i]);
 

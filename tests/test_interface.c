@@ -45,8 +45,8 @@ static const field params_fields[] = {
     F(pn_shadow_params, pixel_error),         F(pn_shadow_params, tiles_across), F(pn_shadow_params, tile_total),
     F(pn_shadow_params, alpha_bits),          F(pn_shadow_params, masked_tris), F(pn_shadow_params, project_budget),
     F(pn_shadow_params, block_walk),          F(pn_shadow_params, pixel_angle), F(pn_shadow_params, refine_narrow),
-    F(pn_shadow_params, unreached_v),         F(pn_shadow_params, frame), F(pn_shadow_params, frame_u),
-    F(pn_shadow_params, frame_v),
+    F(pn_shadow_params, unreached_v),         F(pn_shadow_params, frame), F(pn_shadow_params, frame_side),
+    F(pn_shadow_params, frame_part),
     LIGHT(0), LIGHT(1), LIGHT(2), LIGHT(3), LIGHT(4), LIGHT(5), LIGHT(6), LIGHT(7),
     LIGHT(8), LIGHT(9), LIGHT(10), LIGHT(11), LIGHT(12), LIGHT(13), LIGHT(14), LIGHT(15),
     {0}};

@@ -311,7 +311,11 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     uint32_t side = 1;
     while (side < 64 && side * side < r->history_frames)
         side *= 2;
+    // Under an even tile of T pixels the part steps by one more every T frames (light_sample).
+    uint32_t tiles = filtered(r) ? pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h) : 1;
+    uint32_t f = r->history_frame + (tiles % 2 == 0 ? r->history_frame / tiles : 0);
     r->shadow.frame = r->history_frame, r->shadow.frame_side = r->history_frames ? side : 0;
+    r->shadow.frame_part = f & (side * side - 1);
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count, (float)pn_pixel_angle(camera->yfov_deg, r->height));
     uint64_t t0 = pn_time_ns();

@@ -295,7 +295,8 @@ void pn_shadow_pass_update(pn_shadow_pass *s, const pn_renderer_desc *desc, cons
     sp.refine_narrow = desc->filter == PN_FILTER_PENUMBRA;
     sp.unreached_v = desc->unreached_zero ? 0.0f : 1.0f;
     sp.frame = s->frame;
-    sp.frame_u = sp.frame_v = s->frame_side;
+    sp.frame_side = s->frame_side;
+    sp.frame_part = s->frame_part;
     if (desc->exact) {
         const pn_gpu_exact_pools *e = desc->exact;
         sp.tris = e->tris.address;

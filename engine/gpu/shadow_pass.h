@@ -65,8 +65,9 @@ typedef struct pn_shadow_pass {
     // with more samples than that.
     uint32_t resume_from;
     // The temporal history's frame window (light_sample): this frame's number and the side of the
-    // window's split of a sub-cell (frame_side^2 parts; 0: no window). The renderer's.
-    uint32_t frame, frame_side;
+    // window's split of a sub-cell (frame_side^2 parts; 0: no window) and the part the frame starts
+    // from. The renderer's.
+    uint32_t frame, frame_side, frame_part;
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.
     // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);

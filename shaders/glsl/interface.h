@@ -361,8 +361,9 @@ PN_STRUCT(ShadowParams, pn_shadow_params) {
     PN_FLOAT(unreached_v)           // V where no sample carries light: 1 (render's convention) or 0
                                     // (the library's; pn_renderer_desc.unreached_zero; counts_v)
     PN_UINT(frame)                  // the temporal history's frame number (light_sample's frame window)
-    PN_UINT(frame_u)                // its frame window (0: none): each sub-cell splits into frame_u x
-    PN_UINT(frame_v)                // frame_v parts that consecutive frames take in turn
+    PN_UINT(frame_side)             // its frame window (0: none): each sub-cell splits into frame_side^2
+                                    // parts (a power of two) that consecutive frames take in turn
+    PN_UINT(frame_part)             // the part this frame starts from (light_sample)
                                     // (the lights start at a multiple of 16 bytes, as std140 puts them)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // the frame's lights; a dispatch traces ShadowChunk.light
 } PN_END(ShadowParams, pn_shadow_params)

@@ -86,6 +86,7 @@ struct PixelSampler {
     uint h;          // the tile's hash
     uvec2 sheared;   // (u0, v0) below; 0 for a 1 x 1 tile
     uint sobol;      // the Sobol' sequence's shift (budgeted split, adaptive)
+    uint rot;        // the jitters' rotation: the tile's hash, drawn per frame under the frame window
 };
 
 PixelSampler pixel_sampler(uvec2 pixel)
@@ -98,7 +99,7 @@ PixelSampler pixel_sampler(uvec2 pixel)
     // position f mod T further on (a bijection of the tile: each frame's tile still holds every
     // sub-cell once), so that over T consecutive frames each pixel takes every sub-cell of each
     // cell, not the same 1/T of the light whose mean its history would converge to.
-    if (params.frame_u != 0u) {
+    if (params.frame_side != 0u) {
         uint t = params.frame % (tile_size.x * tile_size.y);
         member = (member + uvec2(t % tile_size.x, t / tile_size.x)) % tile_size;
     }
@@ -110,8 +111,11 @@ PixelSampler pixel_sampler(uvec2 pixel)
     // With the temporal history's frame window the seed stays from frame to frame (its strata are
     // the window's); the Sobol' points take the frame into their shift instead, a new set a frame.
     ps.sobol = pcg((own ? pcg(pixel.x + pcg(pixel.y + pcg(params.seed))) : ps.h) + chunk.light);
-    if (params.frame_u != 0u)
+    ps.rot = ps.h;
+    if (params.frame_side != 0u) {
         ps.sobol = pcg(ps.sobol ^ pcg(params.frame + 0x27d4eb2du));
+        ps.rot = pcg(ps.h ^ pcg(params.frame + 0x165667b1u));
+    }
     ps.sheared = uvec2(0u);
     if (tile_size.x * tile_size.y > 1u) {
         if ((pcg(ps.h ^ 0x2545f491u) & 1u) == 0u) {
@@ -198,35 +202,32 @@ vec2 light_sample(uint k, PixelSampler ps)
     // whole is not one nested net as a Sobol' prefix is.
     if (SPLIT == PN_SPLIT_BUDGET_ID || (SPP_MIN != 0u && (tiles == 1u || k >= SPP_MIN)))
         return sobol_sample(k, ps.sobol);
-    // The temporal history's frame window (frame_u != 0): each sub-cell splits again into F =
-    // frame_u x frame_v parts (a power of two square, at least the history's frames:
-    // renderer_frame.c), and frame f takes the part of the Sobol' point (f + h) mod F, h a hash of
-    // the tile and the cell that the frames share (the seed stays), while pixel_sampler moves
-    // every pixel f mod T positions on in its tile (T its pixels). So each frame's tile takes
-    // every sub-cell once, as without the window; any T consecutive frames give each pixel every
-    // sub-cell of each cell; and any F consecutive frames give each sub-cell every part once, in
-    // the order of a (0, 2)-sequence, whose runs are spread over the sub-cell rather than along
-    // its rows: the tile's samples over them are the stratified set of F times the frame's, as one
-    // frame of that many would draw, where a new seed a frame drew independent sets of the few.
-    // Each frame's sample is still uniform over its cell (h is uniform over the pixels), and its
-    // jitter's rotation is drawn per frame. Measured (the default scene at 320 x 180, 4 spp a
-    // frame, reference MAE after 16 frames, unfiltered / penumbra filter): a new seed a frame
-    // 0.00116 / 0.00101; the window 0.00074 / 0.00067 (rows of parts in turn instead of the
-    // (0, 2)-sequence: 0.00189 / 0.00088); 64 spp at once 0.00080 / 0.00050.
-    uvec2 window = uvec2(max(params.frame_u, 1u), max(params.frame_v, 1u));
-    uint rot = ps.h;
+    // The temporal history's frame window (frame_side != 0): each sub-cell splits again into F =
+    // frame_side^2 parts (a power of two at least the history's frames: renderer_frame.c), and
+    // frame f takes the part of the Sobol' point (f + h) mod F, h a hash of the tile and the cell
+    // that the frames share (the seed stays), while pixel_sampler moves every pixel f mod T
+    // positions on in its tile (T its pixels). So each frame's tile takes every sub-cell once, as
+    // without the window; any T consecutive frames give each pixel every sub-cell of each cell;
+    // and any F consecutive frames give each sub-cell every part once, in the order of a (0,
+    // 2)-sequence, whose runs are spread over the sub-cell rather than along its rows: the tile's
+    // samples over them are the stratified set of F times the frame's, as one frame of that many
+    // would draw, where a new seed a frame drew independent sets of the few. Under an even tile a
+    // pixel is in a sub-cell every T frames, which gave it only the parts of one residue of T: there
+    // the frame's part steps by one more every T frames (frame_part, the host's), so that its steps
+    // are odd, coprime to F. Each frame's sample is still uniform over its cell (h is uniform over
+    // the pixels), and its jitter's rotation is drawn per frame. Measured (the default scene at
+    // 320 x 180, 4 spp a frame, reference MAE after 16 frames, unfiltered / penumbra filter): a new
+    // seed a frame 0.00116 / 0.00101; the window 0.00074 / 0.00067 (rows of parts in turn instead of
+    // the (0, 2)-sequence: 0.00189 / 0.00088); 64 spp at once 0.00080 / 0.00050. Masks, not
+    // remainders: llvmpipe divides integers lane by lane.
+    uvec2 window = uvec2(max(params.frame_side, 1u));
+    uint rot = ps.rot;
     uvec2 sub_f = uvec2(0u);
-    if (params.frame_u > 1u) {
-        uint parts = window.x * window.y;
-        // An even tile: a pixel is in one sub-cell every T frames, which would give it only the parts
-        // of one residue of T; a step of one more part every T frames makes its steps odd, coprime
-        // to F, so that it takes every part of it in turn.
-        uint f = params.frame + ((tiles & 1u) == 0u ? params.frame / tiles : 0u);
-        uint k = (f % parts + pcg(ps.h ^ pcg(i + pcg(j + 0x85ebca6bu))) % parts) % parts;
-        sub_f = sobol_bits(k) >> uvec2(32 - findMSB(window.x), 32 - findMSB(window.y));
+    if (params.frame_side > 1u) {
+        uint mask = params.frame_side * params.frame_side - 1u;
+        uint k = (params.frame_part + pcg(ps.h ^ pcg(i + pcg(j + 0x85ebca6bu)))) & mask;
+        sub_f = sobol_bits(k) >> uvec2(32 - findMSB(params.frame_side));
     }
-    if (params.frame_u != 0u)
-        rot = pcg(ps.h ^ pcg(params.frame + 0x165667b1u));
     vec2 jitter = vec2(0.5);
     if (params.sampler_kind == SAMPLER_STRATIFIED) {
         vec2 rotation = vec2(float(rot & 0xffffu), float(rot >> 16u)) / 65536.0;
