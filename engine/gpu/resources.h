@@ -49,9 +49,10 @@ typedef struct pn_gpu_image_desc {
     VkFormat format;
     uint32_t width, height;
     uint32_t mip_levels; // 0 means 1
-    uint32_t layers;     // 0: one, viewed as a 2D image; otherwise this many, viewed as a 2D array
     VkImageUsageFlags usage;
     VkImageAspectFlags aspect; // 0 means colour
+    uint32_t layers;           // 0: one, viewed as a 2D image; otherwise this many, as a 2D array
+                               // (last: the fields before it may be given in order)
 } pn_gpu_image_desc;
 
 pn_result pn_gpu_image_create(pn_gpu_device *dev, const pn_gpu_image_desc *desc, pn_gpu_image *out);
