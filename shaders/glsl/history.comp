@@ -126,9 +126,9 @@ Earlier earlier(ivec2 q)
 // kept, at a contact shadow's edge almost none. Measured (tests/test_temporal.c's orbit: the
 // bunny's set-up, 128 x 96, 8 frames, unfiltered; at 256 spp a frame the error is the
 // resampling's alone): 2 degrees a frame, MAE 0.00635 keeping all of it, 0.00098 so.
-float history_share(ivec2 q, vec2 prev, vec2 offset, float own)
+float history_share(ivec2 q, Earlier c, vec2 offset, float own)
 {
-    Earlier c = earlier(q);
+    vec2 prev = c.sums;
     ivec2 size = imageSize(img_p);
     float vq = prev.x / prev.y;
     vec2 g = vec2(0.0);
@@ -193,6 +193,7 @@ void main()
         vec4 clip = params.prev_view_proj * vec4(p.xyz, 1.0);
         vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5;
         ivec2 q0 = ivec2(floor(at)), nearest = ivec2(floor(at + 0.5)), chosen = ivec2(-1);
+        Earlier picked;
         float footprint = n.w * params.pixel_angle, best = 1e30;
         for (int k = -1; k < 4 && clip.w > 0.0 && best > 0.25; k++) {
             ivec2 q = k < 0 ? nearest : q0 + ivec2(k & 1, k >> 1);
@@ -204,13 +205,13 @@ void main()
             if (e.p.w > 0.0 && surface_weight(p.xyz, n.xyz, footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES &&
                 dot(gap, gap) <= NEAR * NEAR && dot(d, d) < best) {
                 best = dot(d, d);
-                prev = e.sums, offset = d, chosen = q;
+                prev = e.sums, offset = d, chosen = q, picked = e;
             }
         }
         // (Where the samples lie on the point itself, as under a still camera, all of it: no
         // gradient to measure.)
         if (chosen.x >= 0 && prev.y > 0.0 && own.y > 0.0 && offset != vec2(0.0))
-            prev *= history_share(chosen, prev, offset, own.y);
+            prev *= history_share(chosen, picked, offset, own.y);
     }
     // Room for this frame's samples within the cap: the earlier ones scaled to what is left.
     if (prev.y + own.y > pc.cap && prev.y > 0.0)
