@@ -182,9 +182,11 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
     long long done = 0;
     double build_total = 0;
     uint32_t full_builds = 0;
-    // --temporal: the scene's positions before each pose, for the boxes of what it moved.
-    float(*was)[3] = q->temporal ? malloc(((size_t)prep->scene.vertex_count + 1) * sizeof *was) : NULL;
-    if (q->temporal && !was) {
+    // --temporal: the scene's positions before each pose, for the boxes of what it moved (a scene
+    // without animation never moves).
+    bool poses = q->temporal && prep->scene.anim;
+    float(*was)[3] = poses ? malloc(((size_t)prep->scene.vertex_count + 1) * sizeof *was) : NULL;
+    if (poses && !was) {
         pn_error("%s: out of memory for the history's vertex copy", prep->scene.name);
         return PN_EXIT_FAILURE;
     }
@@ -214,7 +216,7 @@ int pn_render_sequence(const pn_render_cmd_opts *o, pn_prepared_scene *prep, pn_
             }
             move_ms = pn_ms_since(t0);
         } else {
-            bool moved = q->temporal && history_moves(&prep->scene, was, &s.renderer);
+            bool moved = poses && history_moves(&prep->scene, was, &s.renderer);
             if (follow_pose(dev, &prep->scene, prep->lights, prep->light_count, &sd, &prep->pose, q->temporal, &s,
                             &rebuilt, &move_ms) != PN_OK) {
                 rc = PN_EXIT_FAILURE; // (a failed build leaves s empty, which destroys as nothing)
