@@ -127,9 +127,10 @@ void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const 
     pn_gpu_cmd_barrier(cmd, NULL, 2, after);
 }
 
-void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap)
+void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap,
+                            float noise_pixels)
 {
-    pn_history_push push = {.light = light, .drop = drop, .cap = cap, };
+    pn_history_push push = {.light = light, .drop = drop, .cap = cap, .noise_pixels = noise_pixels};
     uint32_t gx = (h->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (h->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
     pn_gpu_compute_dispatch(cmd, &h->compute[h->cur], sizeof push, &push, h->one_tile ? 1 : gx, h->one_tile ? 1 : gy, 1);
 }

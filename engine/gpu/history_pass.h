@@ -45,7 +45,10 @@ void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const 
 
 // Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
 // sums hold (HistoryPush). Reads the counts and writes V_raw and h->out, both GENERAL.
-void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap);
+// noise_pixels: how many pixels the filter after it averages a frame's noise over (its tile; 1
+// unfiltered), which the share of a moved history weighs its bias against (history.comp).
+void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap,
+                            float noise_pixels);
 
 // After a frame completed: its sums become the previous frame's.
 static inline void pn_history_pass_flip(pn_history_pass *h) { h->cur ^= 1u; }

@@ -36,7 +36,6 @@ typedef struct pn_renderer {
     // most samples a pixel of the last frame could take, where that frame can be continued (one
     // light, sampled adaptively), else 0, with its first round and seed (a frame with others is
     // one of its own); and whether the last frame did continue the one before.
-    uint32_t accumulated; // pn_renderer_set_accumulated (0 or 1: this frame alone)
     bool continue_next;
     uint32_t continuable_spp, continuable_spp_min, continuable_seed;
     uint32_t continuable_tile; // the first round's interleaved tile (w << 8 | h; 0: none, no filter)
@@ -116,11 +115,6 @@ void pn_renderer_set_seed(pn_renderer *r, uint32_t seed);
 // shadow pass reads the structures by the addresses it writes each frame, and the acceleration
 // structure's descriptor is rewritten here (the queue is idle between frames).
 void pn_renderer_set_accel(pn_renderer *r, const pn_scene *scene, const pn_renderer_desc *accel);
-// The picture the next frame joins averages `frames` frames of independent samples (the demo's
-// accumulation, 1 otherwise): the penumbra filter's footprints narrow as for frames x spp samples
-// (its Gaussian as 1/sqrt, the interleaved window under it as n^-3/4), so that the accumulated
-// picture converges to the unfiltered one as its samples add up.
-void pn_renderer_set_accumulated(pn_renderer *r, uint32_t frames);
 
 // The temporal history (V at a surface point does not depend on the camera): with frames > 0, each
 // frame adds its samples to those its pixels' surface points gathered in earlier frames, found

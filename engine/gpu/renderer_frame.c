@@ -99,18 +99,18 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
                                          .dstStageMask = COMPUTE,
                                          .dstAccessMask = READ | WRITE};
             pn_gpu_cmd_barrier(cmd, &rw, 0, NULL);
-            pn_history_pass_record(cmd, &r->history, i, hist->drop[i], hist->cap[i]);
+            float tile = filtered(r) ? (float)(pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h)) : 1.0f;
+            pn_history_pass_record(cmd, &r->history, i, hist->drop[i], hist->cap[i], tile);
             pn_gpu_cmd_barrier(cmd, &rw, 0, NULL);
         }
         if (filtered(r)) {
-            // Under the penumbra filter the footprints narrow with the samples of the accumulated
-            // picture (pn_renderer_set_accumulated): the laws' factors for `frames` times as many.
+            // The penumbra filter's footprints narrow with each pixel's samples (its counts, the
+            // history's where there is one: filter.comp).
             bool penumbra = r->desc.filter == PN_FILTER_PENUMBRA;
-            double frames = r->accumulated > 1 ? (double)r->accumulated : 1.0;
-            float narrow = penumbra ? (float)(pn_penumbra_window_scale() * pow(frames, -0.75)) : 0.0f;
+            float narrow = penumbra ? (float)pn_penumbra_window_scale() : 0.0f;
             pn_penumbra_pass_begin(cmd, &r->penumbra); // the filter pass's set holds its footprints
             pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
-                                  yfov_deg, narrow, (float)(pn_penumbra_width_scale() / sqrt(frames))); // P, N, V raw -> V
+                                  yfov_deg, narrow, (float)pn_penumbra_width_scale()); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);
             pn_gpu_cmd_barrier(cmd, NULL, 1, &v_ready);
             if (penumbra) {

@@ -19,8 +19,6 @@ void pn_renderer_set_leaf_size(pn_renderer *r, double leaf_size)
 
 void pn_renderer_set_seed(pn_renderer *r, uint32_t seed) { r->desc.seed = seed; }
 
-void pn_renderer_set_accumulated(pn_renderer *r, uint32_t frames) { r->accumulated = frames; }
-
 void pn_renderer_set_accel(pn_renderer *r, const pn_scene *scene, const pn_renderer_desc *accel)
 {
     r->desc.pools = accel->pools;

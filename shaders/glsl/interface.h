@@ -418,7 +418,7 @@ PN_STRUCT(HistoryPush, pn_history_push) {
     PN_UINT(light) // the light (its layer of the store, its entry of HistoryParams.lights)
     PN_UINT(drop)  // 1: no history for this light (it moved, or the history was reset)
     PN_FLOAT(cap)  // the most samples the sums hold: older samples weigh less beyond it
-    PN_UINT(pad0)
+    PN_FLOAT(noise_pixels) // the pixels a filter after averages a frame's noise over (1: none)
 } PN_END(HistoryPush, pn_history_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive

@@ -81,25 +81,41 @@ static pn_result create_renderers(pn_demo *d)
     d->renderer_ms = pn_ms_since(t0);
     d->renderer_dirty = false;
     d->restart = true;
+    d->history_on = false; // render() turns it on
     return PN_OK;
 }
 
 // ---------------------------------------------------------------------------------------------
 // Frames
 
+// The renderers' temporal history on or off as pn_demo_temporal says (accumulation toggled, a
+// sampler or view that changes it); renderers made anew start without one (create_renderers).
+// It holds accumulate_max frames' samples, as many as a still view renders before it is held.
+static pn_result set_history(pn_demo *d)
+{
+    bool on = pn_demo_temporal(d);
+    if (on == d->history_on)
+        return PN_OK;
+    uint32_t frames = !on ? 0 : d->accumulate_max < PN_HISTORY_MAX_FRAMES ? d->accumulate_max : PN_HISTORY_MAX_FRAMES;
+    PN_TRY(pn_renderer_set_history(&d->renderer, frames));
+    if (d->exact.dev)
+        PN_TRY(pn_renderer_set_history(&d->exact, frames));
+    d->history_on = on;
+    return PN_OK;
+}
+
 static pn_result render(pn_demo *d)
 {
     if (d->restart || !d->accumulate)
         d->image.frames = 0;
     d->restart = false;
+    PN_TRY(set_history(d));
     bool refine = pn_demo_refines_adaptively(d), continued = refine && d->image.frames > 0;
-    // A new seed per accumulated frame: new stratified light samples (frame 0 uses --seed, as render).
-    // Refined adaptively, the same seed: the frame continues the same samples.
-    uint32_t seed = (uint32_t)d->opts.seed + (refine ? 0 : d->image.frames);
+    // One seed throughout: the history's frames take other strata of a window of frames (their
+    // numbers go on by one a frame, in both renderers alike), adaptive refinement continues the
+    // same samples.
+    uint32_t seed = (uint32_t)d->opts.seed;
     pn_renderer_set_seed(&d->renderer, seed);
-    // Accumulating new samples (not continuing adaptive ones, whose frame holds them all): the
-    // penumbra filter narrows as for the samples the averaged picture will hold.
-    pn_renderer_set_accumulated(&d->renderer, d->accumulate && !refine ? d->image.frames + 1 : 1);
     if (d->opts.spp_min) {
         uint32_t k = refine ? d->image.frames : 0;
         float error = d->opts.pixel_error * powf(0.5f, 0.5f * (float)k);
@@ -125,18 +141,21 @@ static pn_result render(pn_demo *d)
             s->exact_shadow_ms = t.shadow_ms;
         }
     }
-    pn_demo_image_add(&d->image, &frame, v_exact, continued);
+    pn_demo_image_add(&d->image, &frame, v_exact);
 
     size_t px = (size_t)d->image.width * d->image.height, covered = 0;
     uint8_t *mask = d->view == PN_DEMO_ERROR ? malloc(px) : NULL;
     uint64_t rays = 0;
+    double history = 0;
     for (size_t i = 0; i < px; i++) {
         bool geometry = frame.p[4 * i + 3] > 0;
         covered += geometry;
         rays += frame.rays ? frame.rays[4 * i] : 0;
+        history += frame.history && geometry ? frame.history[4 * i + 1] : 0;
         if (mask)
             mask[i] = geometry;
     }
+    d->history_samples = covered ? history / (double)covered : 0;
     s->rays_per_s = 0;
     if (frame.rays && d->light_count == 1) {
         // Adaptive: the rays the pixels took (in all, when the frame resumed the last one's: this
@@ -164,8 +183,9 @@ static pn_result write_png(pn_demo *d, const char *path)
     return pn_png_write_rgb8(path, (int)img->width, (int)img->height, img->rgb);
 }
 
-// P: the frame as EXR (radiance and V averaged over the accumulated frames, G-buffer AOVs, every
-// parameter in the header) and as PNG (the view as shown, without text).
+// P: the frame as EXR (radiance and V over every sample the history holds, shadow.history the
+// samples behind each pixel, G-buffer AOVs, every parameter in the header) and as PNG (the view
+// as shown, without text).
 static void save_frame(pn_demo *d)
 {
     char exr[1100], png[1100];
@@ -183,8 +203,10 @@ static void save_frame(pn_demo *d)
         {.name = "penumbra.demo.accumulated_frames", .type = PN_EXR_ATTR_INT, .i = (int32_t)d->image.frames},
         {.name = "penumbra.demo.seeds", .type = PN_EXR_ATTR_STRING,
          .s = pn_demo_refines_adaptively(d) ? "seed (adaptive samples continued over the accumulated frames)"
-              : d->image.frames > 1 ? "seed .. seed + accumulated_frames - 1, one per frame"
-                                    : "seed"},
+              : d->history_on ? "seed, every frame: the history's frames take the strata of a window of frames"
+                              : "seed"},
+        // The history's length in frames (0: none), as render --temporal's penumbra.history.
+        {.name = "penumbra.history", .type = PN_EXR_ATTR_INT, .i = d->history_on ? (int32_t)d->renderer.history_frames : 0},
         {.name = "penumbra.demo.view", .type = PN_EXR_ATTR_STRING, .s = VIEWS[d->view]},
         // Refined adaptively: the most samples and the pixel error of the frame saved (render_lights'
         // penumbra.spp and penumbra.pixel_error are the first frame's).
@@ -223,11 +245,11 @@ static void fill_staging(pn_demo *d)
 static void record_stats(pn_demo *d)
 {
     // Whole at the first frame: the ring never grows after (tests/demo_soak.sh watches the memory).
-    if (!d->history && !(d->history = malloc(PN_DEMO_HISTORY * sizeof *d->history)))
+    if (!d->records && !(d->records = malloc(PN_DEMO_RECORDS * sizeof *d->records)))
         return; // no medians at exit; not worth failing the demo for
-    d->history[d->history_total++ % PN_DEMO_HISTORY] = d->stats;
-    if (d->history_count < PN_DEMO_HISTORY)
-        d->history_count++;
+    d->records[d->record_total++ % PN_DEMO_RECORDS] = d->stats;
+    if (d->record_count < PN_DEMO_RECORDS)
+        d->record_count++;
 }
 
 static int by_value(const void *a, const void *b)
@@ -254,11 +276,11 @@ static bool in_set(const pn_demo_stats *s, frame_set which)
 // given) gets how many.
 static double median(const pn_demo *d, size_t field, frame_set which, size_t *count)
 {
-    double *v = malloc((d->history_count ? d->history_count : 1) * sizeof *v);
+    double *v = malloc((d->record_count ? d->record_count : 1) * sizeof *v);
     size_t n = 0;
-    for (size_t i = 0; v && i < d->history_count; i++)
-        if (in_set(&d->history[i], which))
-            memcpy(&v[n++], (const char *)&d->history[i] + field, sizeof *v);
+    for (size_t i = 0; v && i < d->record_count; i++)
+        if (in_set(&d->records[i], which))
+            memcpy(&v[n++], (const char *)&d->records[i] + field, sizeof *v);
     if (count)
         *count = n;
     if (!v || n == 0) {
@@ -281,14 +303,14 @@ static void print_summary(const pn_demo *d, const pn_demo_opts *o, uint32_t widt
     if (m->heap_usage)
         printf(" (the driver's heap usage %.2f MiB)", m->heap_usage_bytes / 1048576.0);
     printf("\n");
-    if (d->history_count == 0)
+    if (d->record_count == 0)
         return;
 #define MED(f) median(d, offsetof(pn_demo_stats, f), ALL_FRAMES, NULL)
-    if (d->history_total > d->history_count)
-        printf("  of %llu rendered frames, the last %zu:\n", (unsigned long long)d->history_total, d->history_count);
+    if (d->record_total > d->record_count)
+        printf("  of %llu rendered frames, the last %zu:\n", (unsigned long long)d->record_total, d->record_count);
     printf("  medians of %zu rendered frames: frame %.1f ms (render %.1f, compose %.1f, present %.1f); "
            "gpu ms gbuffer %.2f, shadow %.2f, shade %.2f; %.3g shadow rays/s\n",
-           d->history_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
+           d->record_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
            MED(times.shadow_ms), MED(times.shade_ms), MED(rays_per_s));
 #undef MED
     // What moves and rebuilds cost the frame: with against without.
@@ -547,7 +569,7 @@ int pn_cmd_demo(int argc, char **argv)
     pn_demo_stats_close(&d);
     if (exit_code == PN_EXIT_OK)
         print_summary(&d, &o, last_width, last_height);
-    free(d.history);
+    free(d.records);
     if (d.dev.validation_messages) {
         pn_error("the Vulkan validation layer reported %u message(s)", d.dev.validation_messages);
         return PN_EXIT_VALIDATION;

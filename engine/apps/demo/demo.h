@@ -44,9 +44,8 @@ typedef enum pn_demo_view {
 
 typedef struct pn_demo_image {
     uint32_t width, height;
-    uint32_t frames;           // accumulated so far
-    float *sum_rad, *sum_v, *sum_vx; // running sums: radiance (rgba), V, exact V (error view)
-    float *rad, *v, *vx;       // their averages after pn_demo_image_add
+    uint32_t frames;           // rendered since the last restart (the image is held at the limit)
+    float *rad, *v, *vx;       // the last frame's radiance (rgba), V, exact V (error view)
     float *p;                  // world positions of the last frame (rgba, w = 1 on geometry)
     uint8_t *rgba;             // the composed frame without overlay text, row 0 at the top
     uint8_t *rgb;              // scratch for the tone mapper and PNG output
@@ -54,16 +53,20 @@ typedef struct pn_demo_image {
 
 pn_result pn_demo_image_create(uint32_t width, uint32_t height, pn_demo_image *out);
 void pn_demo_image_destroy(pn_demo_image *img);
-// Adds one frame (and the exact renderer's V when given) to the running averages.
-// replace: the frame already holds every earlier frame's samples (adaptive samples continued,
-// pn_renderer_set_continue): it becomes the image, and the frame count goes on.
-void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact, bool replace);
+// Takes one frame (and the exact renderer's V when given) as the image: every earlier frame's
+// samples are in it already (the renderer's temporal history, or adaptive samples continued).
+void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact);
 
 struct pn_demo;
-// Whether accumulation refines by continuing adaptive samples (--spp MIN:MAX, one light, a mode
-// that traces; not in the error view, whose exact renderer must draw the same samples), and how
-// many frames accumulate before the image is held.
+// How frames add up (demo_image.c). Accumulation is the renderers' temporal history
+// (pn_renderer_set_history): each frame adds its samples to those its pixels' surface points
+// gathered before, through camera moves; the history drops only what a light change or a moved
+// object's bounds reach. Adaptive samples (--spp MIN:MAX, one light, a mode that traces; not in
+// the error view, whose exact renderer must draw the same samples) refine instead by continuing
+// the first frame's where V is uncertain; the grid sampler repeats its samples (nothing to add).
 bool pn_demo_refines_adaptively(const struct pn_demo *d);
+bool pn_demo_temporal(const struct pn_demo *d);
+// Frames rendered after a change before the image is held (nothing left to add).
 uint32_t pn_demo_accumulate_limit(const struct pn_demo *d);
 
 // ---------------------------------------------------------------------------------------------
@@ -160,6 +163,15 @@ typedef struct pn_demo_stats {
     bool building;              // a tree build ran on the worker thread (sharing the cores)
 } pn_demo_stats;
 
+// Boxes of moved geometry (before and after a move), for the history (pn_renderer_history_moved):
+// past PN_HISTORY_MAX_BOXES the last grows to hold the rest, as the renderer merges them.
+typedef struct pn_demo_boxes {
+    double box[PN_HISTORY_MAX_BOXES][6]; // lo xyz, hi xyz
+    uint32_t count;
+} pn_demo_boxes;
+void pn_demo_boxes_add(pn_demo_boxes *b, const double lo[3], const double hi[3]);
+void pn_demo_boxes_join(pn_demo_boxes *b, const pn_demo_boxes *more);
+
 // Objects moved between two frames, and what bringing the frame up to them cost (wall ms).
 typedef struct pn_demo_move {
     uint32_t count;       // moves (key presses, script events)
@@ -172,6 +184,7 @@ typedef struct pn_demo_move {
     double total_ms;
     bool rebuild;         // a tree rebuild on the worker thread follows (scene-wide tree, BVH and
                           // device acceleration structure; or per-object trees whose rest's culling no longer holds)
+    pn_demo_boxes boxes;  // the moved objects' boxes, before and after
 } pn_demo_move;
 
 // Memory (demo_stats.c): the process's and the device's, as --stats samples them.
@@ -187,7 +200,7 @@ typedef struct pn_demo_memory {
     bool heap_usage;              // ... when the device has the extension
 } pn_demo_memory;
 
-enum { PN_DEMO_HISTORY = 4096 }; // frames (120 bytes each)
+enum { PN_DEMO_RECORDS = 4096 }; // frames (120 bytes each)
 
 typedef struct pn_demo {
     // What is shown: the render options (size, mode, traversal, sampler, spp, seed, tree, exposure)
@@ -203,7 +216,9 @@ typedef struct pn_demo {
     bool cells;              // N-tree cell overlay
     bool accumulate;         // progressive refinement while nothing changes (adaptive samples: by
                              // continuing them where V is uncertain, cmd_demo.c refines_adaptively)
-    uint32_t accumulate_max; // frames, then the image is held
+    uint32_t accumulate_max; // frames, then the image is held; the history holds as many frames' samples
+    bool history_on;         // the renderers keep a temporal history now (pn_demo_temporal)
+    double history_samples;  // the last frame's mean samples behind a covered pixel's V (last light)
     bool show_help, show_hud;
     uint32_t object_sel;     // the object the object keys move (O selects the next)
 
@@ -218,6 +233,10 @@ typedef struct pn_demo {
     bool scene_moved;         // an object moved: `bvh` is no longer the scene's (rebuilds make their own)
     pn_demo_move move;        // moved since the last frame, not yet in the renderers and trees
     pn_demo_move last_move;   // the last one brought into the frame, for the figures
+    // What moved while the shadow structures did not follow yet (a rebuild on the worker thread):
+    // the boxes of moves since the running build started, and of those it holds. The history
+    // takes the latter when the build is swapped in, where shadows change.
+    pn_demo_boxes moved_pending, moved_building;
     char build_message[160];  // shown while a rebuild runs, after one failed, or why a key did nothing
     pn_renderer renderer;     // the current mode
     pn_renderer exact;        // exact mode, for the error view (zeroed otherwise)
@@ -238,11 +257,11 @@ typedef struct pn_demo {
     uint64_t frame;           // frames presented
     uint64_t refined_rays;    // adaptive refinement: the rays the frames continued so far took
     pn_demo_stats stats;
-    // The last PN_DEMO_HISTORY rendered frames' figures, for the medians printed at exit: a ring,
+    // The last PN_DEMO_RECORDS rendered frames' figures, for the medians printed at exit: a ring,
     // so that a demo left running for hours holds the same memory as after a minute.
-    pn_demo_stats *history;
-    size_t history_count;     // held, at most PN_DEMO_HISTORY
-    uint64_t history_total;   // rendered frames recorded in all; the next goes to [total % PN_DEMO_HISTORY]
+    pn_demo_stats *records;
+    size_t record_count;      // held, at most PN_DEMO_RECORDS
+    uint64_t record_total;    // rendered frames recorded in all; the next goes to [total % PN_DEMO_RECORDS]
     const char *save_prefix;  // P writes <prefix>-NNNN.exr/.png
     FILE *stats_file;         // --stats: a sample every stats_every frames (NULL: none)
     uint32_t stats_every;

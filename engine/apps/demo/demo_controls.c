@@ -239,9 +239,18 @@ bool pn_demo_move_object(pn_demo *d, uint32_t index, const float delta[3])
         return false;
     }
     uint64_t t0 = pn_time_ns();
+    // Its box before and after, for the history: where V may change (demo_trees.c).
+    double was_lo[3], was_hi[3], now_lo[3], now_hi[3];
+    for (int k = 0; k < 3; k++)
+        was_lo[k] = lo[k], was_hi[k] = hi[k];
     if (pn_scene_move_object(&d->scene, index, delta) != PN_OK)
         return false;
     pn_demo_move *m = &d->move;
+    object_box(d, index, lo, hi);
+    for (int k = 0; k < 3; k++)
+        now_lo[k] = lo[k], now_hi[k] = hi[k];
+    pn_demo_boxes_add(&m->boxes, was_lo, was_hi);
+    pn_demo_boxes_add(&m->boxes, now_lo, now_hi);
     const pn_scene_object *o = &d->scene.objects[index];
     uint32_t end = o->first_vertex + o->vertex_count;
     m->first = m->count && m->first < o->first_vertex ? m->first : o->first_vertex;

@@ -1,5 +1,6 @@
-// The demo's image: running averages of the frames, the views composed from them, the N-tree cell
-// overlay, and the overlay text with the live figures.
+// The demo's image: how frames add up (the renderers' temporal history, adaptive refinement), the
+// views composed from the last frame, the N-tree cell overlay, and the overlay text with the live
+// figures.
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,18 +15,14 @@ pn_result pn_demo_image_create(uint32_t width, uint32_t height, pn_demo_image *o
     out->width = width;
     out->height = height;
     size_t px = (size_t)width * height;
-    // One allocation per plane keeps the code plain; at 1280x720 all of it is about 50 MB.
-    out->sum_rad = calloc(px * 4, sizeof(float));
-    out->sum_v = calloc(px, sizeof(float));
-    out->sum_vx = calloc(px, sizeof(float));
+    // One allocation per plane keeps the code plain; at 1280x720 all of it is about 35 MB.
     out->rad = calloc(px * 4, sizeof(float));
     out->v = calloc(px, sizeof(float));
     out->vx = calloc(px, sizeof(float));
     out->p = calloc(px * 4, sizeof(float));
     out->rgba = calloc(px, 4);
     out->rgb = calloc(px, 3);
-    if (!out->sum_rad || !out->sum_v || !out->sum_vx || !out->rad || !out->v || !out->vx || !out->p || !out->rgba ||
-        !out->rgb) {
+    if (!out->rad || !out->v || !out->vx || !out->p || !out->rgba || !out->rgb) {
         pn_demo_image_destroy(out);
         pn_error("demo: out of memory for a %ux%u image", width, height);
         return PN_ERR_MEMORY;
@@ -35,7 +32,6 @@ pn_result pn_demo_image_create(uint32_t width, uint32_t height, pn_demo_image *o
 
 void pn_demo_image_destroy(pn_demo_image *img)
 {
-    free(img->sum_rad), free(img->sum_v), free(img->sum_vx);
     free(img->rad), free(img->v), free(img->vx), free(img->p);
     free(img->rgba), free(img->rgb);
     memset(img, 0, sizeof *img);
@@ -55,9 +51,14 @@ bool pn_demo_refines_adaptively(const pn_demo *d)
            pn_shadow_mode_get(d->opts.mode)->traces;
 }
 
-// Frames to average before holding the image. The grid sampler and a fixed seed repeat the same
-// samples, so their first frame is final; adaptive refinement holds once its most samples would
-// pass REFINE_MAX_SAMPLES.
+bool pn_demo_temporal(const pn_demo *d)
+{
+    return d->accumulate && !pn_demo_refines_adaptively(d) && d->opts.sampler != PN_SAMPLER_GRID;
+}
+
+// Frames rendered after a change before holding the image. The grid sampler repeats the same
+// samples, so its first frame is final; adaptive refinement holds once its most samples would
+// pass REFINE_MAX_SAMPLES; the history after accumulate_max frames (as many as it holds).
 uint32_t pn_demo_accumulate_limit(const pn_demo *d)
 {
     if (!d->accumulate)
@@ -71,31 +72,16 @@ uint32_t pn_demo_accumulate_limit(const pn_demo *d)
     return d->opts.sampler == PN_SAMPLER_GRID ? 1 : d->accumulate_max;
 }
 
-void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact, bool replace)
+void pn_demo_image_add(pn_demo_image *img, const pn_frame_images *frame, const float *v_exact)
 {
     size_t px = (size_t)img->width * img->height;
-    if (img->frames == 0 || replace) {
-        memset(img->sum_rad, 0, px * 4 * sizeof(float));
-        memset(img->sum_v, 0, px * sizeof(float));
-        memset(img->sum_vx, 0, px * sizeof(float));
-    }
     img->frames++;
-    // Sums divided by the count: after one frame the average is that frame, bit for bit (the
-    // screenshot test relies on it).
-    bool alone = img->frames == 1 || replace;
-    float inv = 1.0f / (float)img->frames;
-    for (size_t i = 0; i < px * 4; i++) {
-        img->sum_rad[i] += frame->radiance[i];
-        img->rad[i] = alone ? frame->radiance[i] : img->sum_rad[i] * inv;
-    }
-    for (size_t i = 0; i < px; i++) {
-        img->sum_v[i] += frame->v[i];
-        img->v[i] = alone ? frame->v[i] : img->sum_v[i] * inv;
-        if (v_exact) {
-            img->sum_vx[i] += v_exact[i];
-            img->vx[i] = alone ? v_exact[i] : img->sum_vx[i] * inv;
-        }
-    }
+    // The frame holds every earlier sample already (the renderer's history, or adaptive samples
+    // continued): it is the image, bit for bit (the screenshot tests rely on it).
+    memcpy(img->rad, frame->radiance, px * 4 * sizeof(float));
+    memcpy(img->v, frame->v, px * sizeof(float));
+    if (v_exact)
+        memcpy(img->vx, v_exact, px * sizeof(float));
     memcpy(img->p, frame->p, px * 4 * sizeof(float));
 }
 
@@ -330,6 +316,10 @@ void pn_demo_draw_overlay(const pn_demo *d, uint8_t *pixels, bool bgra)
         ADD("last renderer set-up %.0f ms (pipelines, scene upload)\n", d->renderer_ms);
         if (!d->accumulate)
             ADD("accumulation off\n");
+        else if (d->history_on)
+            ADD("history: %.1f samples a pixel (of at most %u frames'); %u frames since a change%s\n",
+                d->history_samples, d->accumulate_max, d->image.frames,
+                d->image.frames >= pn_demo_accumulate_limit(d) ? " (held)" : "");
         else
             ADD("accumulated %u of %u frames%s%s\n", d->image.frames, pn_demo_accumulate_limit(d),
                 pn_demo_refines_adaptively(d) ? " (adaptive samples continued)" : "",

@@ -1,6 +1,8 @@
 // The demo's trees kept up with the scene: a rebuild on the worker thread swapped in when done
-// (renderers then recreated by the frame loop), the next one started when the wanted tree differs,
-// and objects moved since the last frame brought into the renderers and the trees.
+// (the renderers then read it, their history dropped where its shadows changed), the next one
+// started when the wanted tree differs, and objects moved since the last frame brought into the
+// renderers and the trees.
+#include <math.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
@@ -8,6 +10,37 @@
 #include "apps/demo/demo.h"
 #include "core/log.h"
 #include "core/timer.h"
+
+void pn_demo_boxes_add(pn_demo_boxes *b, const double lo[3], const double hi[3])
+{
+    bool merge = b->count == PN_HISTORY_MAX_BOXES;
+    double *box = b->box[merge ? PN_HISTORY_MAX_BOXES - 1 : b->count++];
+    for (int k = 0; k < 3; k++) {
+        box[k] = merge ? fmin(box[k], lo[k]) : lo[k];
+        box[3 + k] = merge ? fmax(box[3 + k], hi[k]) : hi[k];
+    }
+}
+
+void pn_demo_boxes_join(pn_demo_boxes *b, const pn_demo_boxes *more)
+{
+    for (uint32_t i = 0; i < more->count; i++)
+        pn_demo_boxes_add(b, more->box[i], more->box[i] + 3);
+}
+
+// The shadow structures changed where `moved` says (geometry moved within those boxes) or, for a
+// renderer whose mode ends rays in a scene-wide N-tree built anew, everywhere: its cells moved
+// with the new tree (or with the new N and d), and every pixel's line-space V with them.
+static void history_follows(pn_renderer *r, const pn_demo_boxes *moved, bool rebuilt)
+{
+    if (!r->dev)
+        return;
+    if (rebuilt && r->shadow.mode->needs.tree) {
+        pn_renderer_history_drop(r);
+        return;
+    }
+    for (uint32_t i = 0; i < moved->count; i++)
+        pn_renderer_history_moved(r, moved->box[i], moved->box[i] + 3);
+}
 
 pn_shadow_accel_desc pn_demo_tree_desc(const pn_demo *d, int n, int depth)
 {
@@ -44,23 +77,33 @@ pn_result pn_demo_update_tree(pn_demo *d)
         if (status == PN_OK)
             status = pn_shadow_accel_upload(&d->dev, d->builder.scene, &fresh);
         if (status == PN_OK) {
-            // The renderers point at the old pools: they go first.
-            pn_renderer_destroy(&d->renderer);
-            pn_renderer_destroy(&d->exact);
-            pn_shadow_accel_destroy(&d->dev, &d->accel);
+            // The renderers read the new structures from the next frame on (the queue is idle
+            // between frames), and keep their history where the build changed no shadow.
+            pn_shadow_accel old = d->accel;
             d->accel = fresh;
+            pn_renderer_desc rd = {0};
+            pn_shadow_accel_bind(&d->accel, &rd);
+            pn_renderer *rs[2] = {&d->renderer, &d->exact};
+            for (int i = 0; i < 2; i++)
+                if (rs[i]->dev) {
+                    pn_renderer_set_accel(rs[i], &d->scene, &rd);
+                    history_follows(rs[i], &d->moved_building, true);
+                }
+            pn_shadow_accel_destroy(&d->dev, &old);
+            memset(&d->moved_building, 0, sizeof d->moved_building);
             d->opts.tree_n = d->accel.desc.tree_n, d->opts.tree_d = d->accel.desc.tree_d;
             pn_info("demo: tree LS(%d,%d) swapped in: built in %.0f ms on a worker thread, %.1f MB of pools",
                     d->accel.desc.tree_n, d->accel.desc.tree_d, d->accel.build_ms,
                     pn_shadow_accel_gpu_bytes(&d->accel) / 1048576.0);
             d->build_message[0] = '\0';
-            d->renderer_dirty = true;
         } else {
             snprintf(d->build_message, sizeof d->build_message, "tree LS(%d,%d) failed: %s; still LS(%d,%d)",
                      d->builder.desc.tree_n, d->builder.desc.tree_d, pn_result_str(status), d->accel.desc.tree_n,
                      d->accel.desc.tree_d);
             pn_shadow_accel_destroy(&d->dev, &fresh);
             d->want_n = d->accel.desc.tree_n, d->want_d = d->accel.desc.tree_d; // no retry loop
+            pn_demo_boxes_join(&d->moved_pending, &d->moved_building); // still not in the structures
+            memset(&d->moved_building, 0, sizeof d->moved_building);
         }
     }
     bool idle = atomic_load(&d->builder.state) == PN_DEMO_BUILD_IDLE;
@@ -68,6 +111,8 @@ pn_result pn_demo_update_tree(pn_demo *d)
         pn_shadow_accel_desc desc = pn_demo_tree_desc(d, d->want_n, d->want_d);
         PN_TRY(pn_demo_builder_start(&d->builder, &d->scene, &desc));
         d->want_rebuild = false;
+        d->moved_building = d->moved_pending; // the build holds them
+        memset(&d->moved_pending, 0, sizeof d->moved_pending);
     }
     if (atomic_load(&d->builder.state) != PN_DEMO_BUILD_IDLE)
         snprintf(d->build_message, sizeof d->build_message,
@@ -118,8 +163,12 @@ pn_result pn_demo_apply_moves(pn_demo *d)
         PN_TRY(pn_gpu_objects_update(&d->dev, &d->accel.objects, &d->accel.gpu_objects));
         m->rebuild = !pn_objects_cull_holds(&d->scene, &d->accel.objects);
         m->top_upload_ms = pn_ms_since(t1) - m->top_ms;
+        // The shadows follow the move at once: the history drops what its boxes reach.
+        history_follows(&d->renderer, &m->boxes, false);
+        history_follows(&d->exact, &m->boxes, false);
     } else {
         m->rebuild = true;
+        pn_demo_boxes_join(&d->moved_pending, &m->boxes); // when the rebuild is swapped in
     }
     d->want_rebuild |= m->rebuild;
     m->total_ms = m->scene_ms + pn_ms_since(t0);
