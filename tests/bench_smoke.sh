@@ -230,6 +230,32 @@ assert rows[0]["points"] == rows[1]["points"]  # the same view's covered pixels
 print("points rows ok")
 PY
 
+# --sequence: frames in motion (bench_sequence.c). An orbit keeps the history (its samples a pixel
+# grow with the frames), a light turning every frame drops it (each frame holds its own samples
+# alone); the at-once renderer takes min(k+1, history) x spp; every error and time is a number.
+"$BIN" bench --sequence orbit,light --scenes builtin:default --size 48x32 --sequence-frames 6 --history 4 \
+  --reference-spp 256 --out "$OUT/seq" > "$OUT/seq.txt" 2> "$OUT/seq.err" || { echo "FAIL: bench --sequence"; cat "$OUT/seq.err"; fail=1; }
+python3 - "$OUT/seq/sequence.csv" "$OUT/seq" <<'PY' || fail=1
+import csv, math, os, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+orbit = [r for r in rows if r["sequence"] == "orbit"]
+light = [r for r in rows if r["sequence"] == "light"]
+assert len(orbit) == 6 and len(light) == 6, len(rows)
+for r in rows:
+    assert r["mode"] == "exact" and r["filter"] == "penumbra" and r["spp"] == "1", r
+    assert int(r["at_once_spp"]) == min(int(r["frame"]) + 1, 4), r
+    for k in ("mae_history", "mae_none", "mae_at_once"):
+        assert math.isfinite(float(r[k])) and 0 < float(r[k]) < 0.5, (k, r)
+    assert float(r["ms_history"]) > 0 and float(r["ms_none"]) > 0, r
+h = [float(r["history_samples"]) for r in orbit]
+assert h[5] > 3 * h[0], ("the orbit did not keep its history", h)
+hl = [float(r["history_samples"]) for r in light]
+assert max(hl) <= 1.01 * hl[0], ("a light turned every frame should leave one frame's samples", hl)
+for kind in ("orbit", "light"):
+    assert os.path.exists(os.path.join(sys.argv[2], "seq_builtin_default_48x32_%s_exact_penumbra_1spp.dat" % kind)), kind
+print("sequence rows ok: orbit history", ["%.2f" % x for x in h], "light", ["%.2f" % x for x in hl])
+PY
+
 # Every standard view (bench's default when none is named) with the bunny's mesh alone at hand:
 # the views of missing meshes are skipped with a warning, and the bunny's under its three lights
 # (area, sun, sphere) and the built-in canopy benched at 16x16. The path over all views and the

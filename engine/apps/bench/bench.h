@@ -13,6 +13,7 @@
 //   bench_plot.c    the gnuplot plots
 //   bench_shard.c   --shard K/N's partial file, and --merge of the shards' partial files
 //   bench_points.c  --points: the library's points in, V out beside the renderer
+//   bench_sequence.c  --sequence: frames in motion, with the temporal history and without
 #pragma once
 #include <stdbool.h>
 #include <stdio.h>
@@ -99,6 +100,12 @@ typedef struct bench_opts {
     // writes a partial file for --merge (0/0: no --shard).
     int shard_k, shard_n;
     bool points; // --points: the library's points in, V out beside the renderer (bench_points.c) alone
+    // --sequence orbit,light: instead of the matrix, frames in motion with the temporal history
+    // beside the same frames without it (bench_sequence.c): which kinds, how many frames, how far
+    // a frame turns (degrees), the history's length (--history, frames).
+    bool sequences[2];
+    uint32_t seq_frames, seq_history;
+    float seq_step;
 } bench_opts;
 
 // One cell of the matrix.
@@ -333,6 +340,13 @@ int pn_bench_check_quality(const bench_opts *o, pn_gpu_device *dev, const pn_sce
 // --points (bench_points.c): per view, size, spp and tracing mode, the library's penumbra_visibility
 // over the view's covered pixels beside the renderer's shadow pass; points.csv. An exit code.
 int pn_bench_points(const bench_opts *o, pn_gpu_device *dev);
+
+// ---------------------------------------------------------------------------------------------
+// --sequence (bench_sequence.c): per view, size, sequence kind, tracing mode, filter and uniform
+// spp, the frames of the sequence with the temporal history, without it and at once with the
+// history's samples, each against its own converged reference; sequence.csv and seq_*.png. An
+// exit code.
+int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev);
 
 // ---------------------------------------------------------------------------------------------
 // Views (bench_views.c)

@@ -207,6 +207,17 @@ void pn_print_bench_help(void)
            "  --points             instead of the matrix: per view, size, spp and mode, the library's\n"
            "                       penumbra_visibility over the view's covered pixels as points beside\n"
            "                       the renderer's shadow pass (time per point and per pixel; points.csv)\n"
+           "  --sequence K,...     instead of the matrix: sequences of frames in motion, K orbit (the\n"
+           "                       camera turns about the vertical through its target) or light (the\n"
+           "                       light turns about the view's centre; modes without a tree, which is\n"
+           "                       culled by the light): per view, size, mode, filter and spp, every\n"
+           "                       frame with the temporal history (render --temporal), alone, and at\n"
+           "                       once with min(k+1, history) x spp, each against its own converged\n"
+           "                       reference (cached); sequence.csv, seq_*.png. Defaults under it:\n"
+           "                       --modes exact --filter penumbra --spp 1\n"
+           "  --sequence-frames F  frames of a sequence (default 64)\n"
+           "  --sequence-step DEG  degrees a frame turns (default 2)\n"
+           "  --history N          the history's length in frames (default 32, as render's)\n"
            "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
            "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
            "                       stack; their distribution is printed and written as EXR layers work.*\n"
@@ -241,6 +252,28 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             o->work = true;
         } else if (pn_args_flag(&a, "--points")) {
             o->points = true;
+        } else if (pn_args_value(&a, "--sequence", &v, &err)) {
+            char buf[256];
+            snprintf(buf, sizeof buf, "%s", v ? v : "");
+            int count = 0;
+            for (char *tok = strtok(buf, ","); tok && ok; tok = strtok(NULL, ","), count++) {
+                bool orbit = strcmp(tok, "orbit") == 0, light = strcmp(tok, "light") == 0;
+                if (!orbit && !light)
+                    pn_error("--sequence: expected orbit or light, got '%s'", tok);
+                ok = orbit || light;
+                o->sequences[0] |= orbit, o->sequences[1] |= light;
+            }
+            ok = ok && count > 0;
+        } else if (pn_args_value(&a, "--sequence-frames", &v, &err)) {
+            long long x = 0;
+            ok = v && pn_parse_int_range("--sequence-frames", v, 1, 4096, &x);
+            o->seq_frames = (uint32_t)x;
+        } else if (pn_args_value(&a, "--sequence-step", &v, &err)) {
+            ok = v && pn_parse_float_range("--sequence-step", v, -90.0f, 90.0f, &o->seq_step);
+        } else if (pn_args_value(&a, "--history", &v, &err)) {
+            long long x = 0;
+            ok = v && pn_parse_int_range("--history", v, 1, PN_HISTORY_MAX_FRAMES, &x);
+            o->seq_history = (uint32_t)x;
         } else if (pn_args_flag(&a, "--no-embree")) {
             o->embree = false;
         } else if (pn_args_value(&a, "--scenes", &v, &err)) {
@@ -436,6 +469,28 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
                 pn_bench_assets_dir());
         if (!add_scene_arg(o, "builtin:default"))
             return PN_EXIT_USAGE;
+    }
+    bool sequence = o->sequences[0] || o->sequences[1];
+    if ((o->seq_frames || o->seq_step != 0.0f || o->seq_history) && !sequence) {
+        pn_error("--sequence-frames, --sequence-step and --history shape --sequence, which is not given");
+        return PN_EXIT_USAGE;
+    }
+    if (sequence && (o->points || o->shard_n || o->light_count_count || o->max_error_count || o->gbuffer)) {
+        pn_error("--sequence: not with --points, --shard, --lights, --max-error or --gbuffer (it renders its own frames)");
+        return PN_EXIT_USAGE;
+    }
+    if (sequence) {
+        // What the targets name: exact, 1 spp a frame, the penumbra filter, 64 frames of 2
+        // degrees, the history of render --temporal.
+        if (!o->mode_count)
+            o->modes[o->mode_count++] = PN_SHADOW_REFERENCE;
+        if (!o->spp_count)
+            o->spps[0] = 1, o->spp_count = 1;
+        if (!o->filter_count)
+            o->filters[0] = PN_FILTER_PENUMBRA, o->filter_count = 1;
+        o->seq_frames = o->seq_frames ? o->seq_frames : 64;
+        o->seq_step = o->seq_step != 0.0f ? o->seq_step : 2.0f;
+        o->seq_history = o->seq_history ? o->seq_history : 32;
     }
     if (!o->mode_count) {
         // Every mode that traces, the most expensive first (the table lists the cheapest first).

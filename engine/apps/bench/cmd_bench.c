@@ -110,7 +110,9 @@ int pn_cmd_bench(int argc, char **argv)
         free_opts(&o);
         return PN_EXIT_FAILURE;
     }
-    rc = o.points ? pn_bench_points(&o, &dev) : run_matrix(&o, &dev);
+    rc = o.points ? pn_bench_points(&o, &dev)
+         : o.sequences[0] || o.sequences[1] ? pn_bench_sequences(&o, &dev)
+                                              : run_matrix(&o, &dev);
     pn_gpu_device_destroy(&dev);
     free_opts(&o);
     if (dev.validation_messages) {

@@ -1,0 +1,250 @@
+// penumbra bench --sequence: frames in motion, the temporal history (engine/gpu/README.md) against
+// the same frames without it and against each frame rendered at once with all the samples its
+// history could hold, every frame scored against its own converged reference.
+//
+// Per view, size, tracing mode, filter and uniform spp, and per sequence kind:
+//   orbit   the camera turns about the vertical through its target, --sequence-step degrees a frame
+//   light   the light turns about the vertical through the view's centre as much a frame (every
+//           frame a new light: the history drops its samples each frame, and must cost no error)
+// three renderers draw frame k: with the history (--history frames), without it (the frame alone,
+// the same spp), and without it at min(k + 1, history) x spp at once (what the history's samples
+// would give had the frame had them). sequence.csv has a line per frame; per sequence a plot of
+// the error per frame (seq_*.png) and a summary line on the console.
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "apps/bench/bench.h"
+#include "core/log.h"
+#include "core/timer.h"
+
+static const char *const KIND_NAMES[] = {"orbit", "light"};
+
+// `p` turned by `deg` degrees about the vertical (+Y) through `centre`.
+static void turn(const float centre[3], double deg, const float p[3], float out[3], bool direction)
+{
+    double a = deg * 3.14159265358979323846 / 180.0, c = cos(a), s = sin(a);
+    float dx = p[0] - (direction ? 0.0f : centre[0]), dz = p[2] - (direction ? 0.0f : centre[2]);
+    out[0] = (direction ? 0.0f : centre[0]) + (float)(c * dx + s * dz);
+    out[1] = p[1];
+    out[2] = (direction ? 0.0f : centre[2]) + (float)(-s * dx + c * dz);
+}
+
+// Frame k of a sequence: its camera and light.
+static void frame_at(int kind, int k, float step, const pn_prepared_scene *prep, pn_camera *cam, pn_light *light)
+{
+    *cam = prep->camera;
+    *light = prep->lights[0];
+    double deg = (double)k * step;
+    if (kind == 0) {
+        turn(cam->target, deg, prep->camera.pos, cam->pos, false);
+    } else {
+        float centre[3];
+        for (int i = 0; i < 3; i++)
+            centre[i] = 0.5f * (prep->object_min[i] + prep->object_max[i]);
+        turn(centre, deg, prep->lights[0].pos, light->pos, false);
+        turn(centre, deg, prep->lights[0].normal, light->normal, true);
+        turn(centre, deg, prep->lights[0].up, light->up, true);
+    }
+}
+
+static double frame_ms(const pn_frame_times *t) { return t->gbuffer_ms + t->shadow_ms + t->filter_ms + t->shade_ms; }
+
+typedef struct seq_frame {
+    double history_samples; // mean samples behind a covered pixel's V (with the history)
+    double mae_history, mae_none, mae_at_once;
+    uint32_t at_once_spp;
+    double ms_history, ms_none;
+} seq_frame;
+
+// The renderer's V against the reference; the history's mean samples a covered pixel.
+static double frame_error(const pn_renderer *r, const float *ref, const uint8_t *mask, size_t px, double *history)
+{
+    pn_frame_images img;
+    pn_renderer_images(r, &img);
+    pn_error_metrics m;
+    if (!pn_error_compare(img.v, ref, mask, px, NULL, &m))
+        return NAN;
+    if (history) {
+        double sum = 0;
+        size_t n = 0;
+        for (size_t i = 0; i < px; i++)
+            if (mask[i] && img.history)
+                sum += img.history[4 * i + 1], n++;
+        *history = n ? sum / (double)n : 0.0;
+    }
+    return m.mae;
+}
+
+static bool write_plot(const bench_opts *o, const char *stem, const seq_frame *f, uint32_t frames, const char *title)
+{
+    char path[4096], tmp[4096], name[600];
+    snprintf(name, sizeof name, "%s.dat", stem);
+    FILE *dat = pn_bench_open_out(o->out_dir, name, path, tmp);
+    if (!dat)
+        return false;
+    fprintf(dat, "# frame mae_history mae_none mae_at_once at_once_spp\n");
+    for (uint32_t k = 0; k < frames; k++)
+        fprintf(dat, "%u %.6g %.6g %.6g %u\n", k, f[k].mae_history, f[k].mae_none, f[k].mae_at_once, f[k].at_once_spp);
+    if (!pn_bench_close_out(dat, path, tmp))
+        return false;
+    snprintf(name, sizeof name, "%s.gp", stem);
+    FILE *gp = pn_bench_open_out(o->out_dir, name, path, tmp);
+    if (!gp)
+        return false;
+    fprintf(gp,
+            "set terminal pngcairo size 900,540 noenhanced\nset output '%s.png'\nset title '%s'\n"
+            "set xlabel 'frame'\nset ylabel 'MAE of V against the frame''s converged reference'\nset logscale y\n"
+            "set grid\nset key top right\n"
+            "plot '%s.dat' using 1:2 with linespoints title 'with the history', "
+            "'' using 1:3 with linespoints title 'the frame alone', "
+            "'' using 1:4 with linespoints title 'at once: min(k+1, history) x spp'\n",
+            stem, title, stem);
+    if (!pn_bench_close_out(gp, path, tmp))
+        return false;
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "cd '%s' && gnuplot '%s.gp' 2>/dev/null", o->out_dir, stem);
+    if (system(cmd) != 0)
+        pn_warn("gnuplot could not draw %s.gp (is gnuplot-nox installed?)", stem);
+    return true;
+}
+
+static int by_value(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+// One sequence of one configuration: frames 0 .. seq_frames - 1 with and without the history and at
+// once; lines into csv, a summary on stdout, a plot.
+static int run_sequence(const bench_opts *o, pn_gpu_device *dev, const pn_prepared_scene *prep, const char *view,
+                        uint32_t w, uint32_t h, int kind, pn_shadow_mode mode, pn_filter filter, uint32_t spp, FILE *csv)
+{
+    size_t px = (size_t)w * h;
+    uint32_t frames = o->seq_frames;
+    pn_camera cam;
+    pn_light light;
+    frame_at(kind, 0, o->seq_step, prep, &cam, &light);
+    // No culling to the view: a tree culled to each frame's camera would change its cells with it,
+    // where the history relies on V at a point not depending on the camera (render --temporal's rule).
+    pn_setup_desc sd = {.frame = {.width = w, .height = h, .mode = mode, .traversal = o->traversal, .sampler = o->sampler,
+                                  .seed = o->seed, .spp = spp, .filter = filter, .tile_w = o->tile_w, .tile_h = o->tile_h},
+                        .tree_n = o->trees[0][0], .tree_d = o->trees[0][1]};
+    pn_setup s[3] = {0}; // with the history, without, at once
+    int made = 0, rc = PN_EXIT_OK;
+    for (; made < 3; made++)
+        if (pn_setup_create(dev, &prep->scene, &light, &sd, &s[made]) != PN_OK) {
+            rc = PN_EXIT_FAILURE;
+            break;
+        }
+    float *ref = malloc(px * sizeof *ref);
+    uint8_t *mask = malloc(px);
+    seq_frame *f = calloc(frames, sizeof *f);
+    double *ratio = calloc(frames, sizeof *ratio);
+    if (rc == PN_EXIT_OK && (!ref || !mask || !f || !ratio)) {
+        pn_error("bench --sequence: out of memory for %ux%u", w, h);
+        rc = PN_EXIT_FAILURE;
+    }
+    if (rc == PN_EXIT_OK && pn_renderer_set_history(&s[0].renderer, o->seq_history) != PN_OK)
+        rc = PN_EXIT_FAILURE;
+    for (uint32_t k = 0; k < frames && rc == PN_EXIT_OK; k++) {
+        frame_at(kind, (int)k, o->seq_step, prep, &cam, &light);
+        if (pn_bench_reference(o, dev, &prep->scene, view, &cam, &light, w, h, ref, mask) != PN_OK) {
+            rc = PN_EXIT_FAILURE;
+            break;
+        }
+        seq_frame *fk = &f[k];
+        fk->at_once_spp = spp * (k + 1 < o->seq_history ? k + 1 : o->seq_history);
+        pn_frame_times t[3];
+        bool ok = pn_renderer_set_spp(&s[2].renderer, fk->at_once_spp) == PN_OK;
+        for (int i = 0; i < 3 && ok; i++)
+            ok = pn_renderer_render_lights(&s[i].renderer, &cam, &light, 1, &t[i]) == PN_OK;
+        if (!ok) {
+            rc = PN_EXIT_FAILURE;
+            break;
+        }
+        fk->mae_history = frame_error(&s[0].renderer, ref, mask, px, &fk->history_samples);
+        fk->mae_none = frame_error(&s[1].renderer, ref, mask, px, NULL);
+        fk->mae_at_once = frame_error(&s[2].renderer, ref, mask, px, NULL);
+        fk->ms_history = frame_ms(&t[0]), fk->ms_none = frame_ms(&t[1]);
+        fprintf(csv, "%s,%u,%u,%s,%s,%s,%u,%u,%u,%.3f,%.6g,%.6g,%u,%.6g,%.3f,%.3f\n", view, w, h, KIND_NAMES[kind],
+                MODE_NAME(mode), pn_filter_names[filter], spp, o->seq_history, k, fk->history_samples, fk->mae_history,
+                fk->mae_none, fk->at_once_spp, fk->mae_at_once, fk->ms_history, fk->ms_none);
+    }
+    if (rc == PN_EXIT_OK) {
+        // The summary: from frame 15 on (the targets' "from frame 15"), the worst ratios of the error
+        // with the history to the frame alone's and to the at-once frame's, and the median ratio of
+        // their frame times (the first frames carry the pipelines' first runs: left out).
+        uint32_t from = frames > 16 ? 15 : 0;
+        double worst_none = 0, worst_once = 0;
+        int n = 0;
+        for (uint32_t k = from; k < frames; k++) {
+            worst_none = fmax(worst_none, f[k].mae_history / f[k].mae_none);
+            worst_once = fmax(worst_once, f[k].mae_history / f[k].mae_at_once);
+            ratio[n++] = f[k].ms_history / f[k].ms_none;
+        }
+        qsort(ratio, (size_t)n, sizeof *ratio, by_value);
+        printf("sequence %-6s %-10s %ux%u %-9s%-9s %3u spp: frame %u MAE %.5f with the history, %.5f alone, %.5f at "
+               "once (%u spp); from frame %u the worst ratio to alone %.2f, to at once %.2f; frame time %.2fx\n",
+               KIND_NAMES[kind], view, w, h, MODE_NAME(mode), pn_bench_filter_suffix(filter), spp, frames - 1,
+               f[frames - 1].mae_history, f[frames - 1].mae_none, f[frames - 1].mae_at_once, f[frames - 1].at_once_spp,
+               from, worst_none, worst_once, n ? ratio[n / 2] : 0.0);
+        char stem[512], title[512];
+        snprintf(stem, sizeof stem, "seq_%s_%ux%u_%s_%s%s_%uspp", view, w, h, KIND_NAMES[kind], MODE_NAME(mode),
+                 pn_bench_filter_suffix(filter), spp);
+        for (char *c = stem; *c; c++)
+            if (*c == ':' || *c == '/' || *c == ' ' || *c == '+')
+                *c = '_';
+        snprintf(title, sizeof title, "%s %ux%u, %s %.3g deg a frame: %s%s, %u spp a frame, history %u frames", view, w,
+                 h, KIND_NAMES[kind], o->seq_step, MODE_NAME(mode), pn_bench_filter_suffix(filter), spp, o->seq_history);
+        if (!write_plot(o, stem, f, frames, title))
+            rc = PN_EXIT_FAILURE;
+    }
+    free(ref), free(mask), free(f), free(ratio);
+    for (int i = 0; i < made; i++)
+        pn_setup_destroy(dev, &s[i]);
+    return rc;
+}
+
+int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
+{
+    char path[4096], tmp[4096];
+    FILE *csv = pn_bench_open_out(o->out_dir, "sequence.csv", path, tmp);
+    if (!csv)
+        return PN_EXIT_FAILURE;
+    fprintf(csv, "view,width,height,sequence,mode,filter,spp,history,frame,history_samples,mae_history,mae_none,"
+                 "at_once_spp,mae_at_once,ms_history,ms_none\n");
+    int rc = PN_EXIT_OK;
+    uint64_t t0 = pn_time_ns();
+    for (int vi = 0; vi < o->view_count && rc == PN_EXIT_OK; vi++) {
+        pn_prepared_scene prep;
+        if ((rc = pn_bench_view_prepare(&o->views[vi], &prep)) != PN_EXIT_OK)
+            break;
+        for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++)
+            for (int kind = 0; kind < 2 && rc == PN_EXIT_OK; kind++)
+                for (int mi = 0; mi < o->mode_count && rc == PN_EXIT_OK; mi++)
+                    for (int fi = 0; fi < o->filter_count && rc == PN_EXIT_OK; fi++)
+                        for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
+                            const pn_shadow_mode_info *m = pn_shadow_mode_get(o->modes[mi]);
+                            // Uniform samples of a tracing mode: what the history takes; the light
+                            // sequence without a tree (culled by the first frame's light).
+                            if (!o->sequences[kind] || o->spp_mins[pi] || !m->traces || (kind == 1 && m->needs.tree))
+                                continue;
+                            rc = run_sequence(o, dev, &prep, o->views[vi].name, o->sizes[si][0], o->sizes[si][1],
+                                              kind, o->modes[mi], o->filters[fi], o->spps[pi], csv);
+                            fflush(stdout);
+                        }
+        pn_scene_destroy(&prep.scene);
+    }
+    // A failed run leaves no partial table behind (written to a temporary name, removed).
+    if (rc != PN_EXIT_OK) {
+        fclose(csv);
+        remove(tmp);
+        return rc;
+    }
+    if (!pn_bench_close_out(csv, path, tmp))
+        return PN_EXIT_FAILURE;
+    fprintf(stderr, "bench: sequences in %.1f s; %s and seq_*.png\n", pn_ms_since(t0) * 1e-3, path);
+    return PN_EXIT_OK;
+}
