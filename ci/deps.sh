@@ -15,7 +15,7 @@ PACKAGES=(
   glslang-tools spirv-tools
   libglfw3-dev libcglm-dev libtinygltf-dev
   libopenexr-dev openexr
-  libpng-dev zlib1g-dev
+  libpng-dev zlib1g-dev libmeshoptimizer-dev
   libembree-dev
   xvfb xauth openimageio-tools gnuplot-nox
   parallel

@@ -4,6 +4,7 @@
 //
 // Per view, size, tracing mode, filter and uniform spp, and per sequence kind:
 //   orbit   the camera turns about the vertical through its target, --sequence-step degrees a frame
+//           (a camera inside the scene's bounds, as Sponza's, turns about its own place instead)
 //   light   the light turns about the vertical through the view's centre as much a frame (every
 //           frame a new light: the history drops its samples each frame, and must cost no error)
 // three renderers draw frame k: with the history (--history frames), without it (the frame alone,
@@ -38,7 +39,16 @@ static void frame_at(int kind, int k, float step, const pn_prepared_scene *prep,
     *light = prep->lights[0];
     double deg = (double)k * step;
     if (kind == 0) {
-        turn(cam->target, deg, prep->camera.pos, cam->pos, false);
+        // A camera inside the scene's bounds (Sponza's atrium) turns where it stands, looking
+        // round (an orbit about its target would take it through the walls); one outside them
+        // orbits its target.
+        bool inside = true;
+        for (int i = 0; i < 3; i++)
+            inside = inside && prep->camera.pos[i] > prep->object_min[i] && prep->camera.pos[i] < prep->object_max[i];
+        if (inside)
+            turn(cam->pos, deg, prep->camera.target, cam->target, false);
+        else
+            turn(cam->target, deg, prep->camera.pos, cam->pos, false);
     } else {
         float centre[3];
         for (int i = 0; i < 3; i++)
