@@ -21,8 +21,8 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
     } t[] = {
         {&out->store[0], "history's sums (even frames)", VK_FORMAT_R32G32B32A32_UINT, layers, storage},
         {&out->store[1], "history's sums (odd frames)", VK_FORMAT_R32G32B32A32_UINT, layers, storage},
-        {&out->prev_p, "history's previous positions", VK_FORMAT_R32G32B32A32_SFLOAT, 0,
-         storage | VK_IMAGE_USAGE_TRANSFER_DST_BIT},
+        {&out->pos[0], "history's positions (even frames)", VK_FORMAT_R32G32B32A32_SFLOAT, 0, storage},
+        {&out->pos[1], "history's positions (odd frames)", VK_FORMAT_R32G32B32A32_SFLOAT, 0, storage},
         // read back with the frame (pn_frame_images.history)
         {&out->out, "history's counts", VK_FORMAT_R32G32B32A32_UINT, 0, storage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
     };
@@ -58,7 +58,8 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
             break;
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_P, p->view);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_N, n->view);
-        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_PREV_P, out->prev_p.view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_PREV_P, out->pos[k].view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_POS_OUT, out->pos[1 - k].view);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_COUNTS, counts->view);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_V_RAW, v_raw->view);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_STORE_IN, out->store[k].view);
@@ -76,8 +77,8 @@ void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h)
     for (int k = 0; k < 2; k++) {
         pn_gpu_compute_destroy(dev, &h->compute[k]);
         pn_gpu_image_destroy(dev, &h->store[k]);
+        pn_gpu_image_destroy(dev, &h->pos[k]);
     }
-    pn_gpu_image_destroy(dev, &h->prev_p);
     pn_gpu_image_destroy(dev, &h->out);
     pn_gpu_buffer_destroy(dev, &h->params);
     memset(h, 0, sizeof *h);
@@ -90,41 +91,13 @@ void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h)
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     VkImageLayout from = h->ready ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    VkImageMemoryBarrier2 b[4];
-    const pn_gpu_image *images[4] = {&h->store[0], &h->store[1], &h->out, &h->prev_p};
-    // The previous positions only the first time: after it, the copy's own barrier orders them.
-    uint32_t count = h->ready ? 3 : 4;
-    for (uint32_t i = 0; i < count; i++)
+    VkImageMemoryBarrier2 b[5];
+    const pn_gpu_image *images[5] = {&h->store[0], &h->store[1], &h->pos[0], &h->pos[1], &h->out};
+    for (uint32_t i = 0; i < 5; i++)
         b[i] = pn_gpu_image_barrier(images[i], ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                                     RW, from, VK_IMAGE_LAYOUT_GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, count, b);
+    pn_gpu_cmd_barrier(cmd, NULL, 5, b);
     h->ready = true;
-}
-
-void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const pn_gpu_image *p)
-{
-    const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, COPY = VK_PIPELINE_STAGE_2_COPY_BIT;
-    const VkAccessFlags2 WRITE = VK_ACCESS_2_MEMORY_WRITE_BIT, READ = VK_ACCESS_2_TRANSFER_READ_BIT,
-                         TO = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    const VkImageLayout SRC = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, DST = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    // P as the previous frame's readback left it (TRANSFER_SRC; the G-buffer pass starts it
-    // afresh), the copy after that frame's history passes read it.
-    VkImageMemoryBarrier2 before[2] = {
-        pn_gpu_image_barrier(p, ALL, WRITE, COPY, READ, SRC, SRC),
-        pn_gpu_image_barrier(&h->prev_p, ALL, VK_ACCESS_2_MEMORY_READ_BIT | WRITE, COPY, TO, VK_IMAGE_LAYOUT_UNDEFINED, DST),
-    };
-    pn_gpu_cmd_barrier(cmd, NULL, 2, before);
-    VkImageCopy region = {.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-                          .dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-                          .extent = {h->width, h->height, 1}};
-    vkCmdCopyImage(cmd, p->image, SRC, h->prev_p.image, DST, 1, &region);
-    // The copy in the layout the history passes read it in, written before they do; P read before
-    // the G-buffer pass rewrites it.
-    VkImageMemoryBarrier2 after[2] = {
-        pn_gpu_image_barrier(&h->prev_p, COPY, TO, ALL, VK_ACCESS_2_MEMORY_READ_BIT, DST, VK_IMAGE_LAYOUT_GENERAL),
-        pn_gpu_image_barrier(p, COPY, VK_ACCESS_2_NONE, ALL, VK_ACCESS_2_NONE, SRC, SRC),
-    };
-    pn_gpu_cmd_barrier(cmd, NULL, 2, after);
 }
 
 void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap,

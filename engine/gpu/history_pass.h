@@ -12,9 +12,10 @@
 typedef struct pn_history_pass {
     uint32_t width, height, layers; // layers: lights with a history of their own
     // store[k]: the sums per light (a layer each), where their samples lie and the pixel's normal;
-    // compute[k] reads store[k] and writes store[1 - k]; cur says which holds the previous frame's.
+    // pos[k]: a frame's P (light 0's pass writes it); compute[k] reads store[k] and pos[k] and
+    // writes store[1 - k] and pos[1 - k]; cur says which hold the previous frame's.
     pn_gpu_image store[2];
-    pn_gpu_image prev_p;         // the previous frame's positions (copied before the frame's own)
+    pn_gpu_image pos[2];
     pn_gpu_image out;            // rgba32ui: the sums as float bits, counts.z, counts.w (the filters')
     pn_gpu_buffer params;        // HistoryParams, host-visible
     pn_gpu_compute compute[2];
@@ -34,14 +35,9 @@ void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h);
 // The frame's parameters (the queue idle): written to h->params.
 pn_history_params *pn_history_pass_params(pn_history_pass *h);
 
-// Records what orders the frame's history passes after the previous frame's work on the sums (and,
-// the first time, brings the images to the GENERAL layout).
+// Records what orders the frame's history passes after the previous frame's work on the sums and
+// positions (and, the first time, brings the images to the GENERAL layout).
 void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h);
-
-// Records the copy of the G-buffer's P (still the previous frame's: before its pass runs) for the
-// frame's reprojection, with the barriers that order it after the previous frame and before the
-// G-buffer pass.
-void pn_history_pass_record_keep(VkCommandBuffer cmd, pn_history_pass *h, const pn_gpu_image *p);
 
 // Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
 // sums hold (HistoryPush). Reads the counts and writes V_raw and h->out, both GENERAL.

@@ -194,27 +194,9 @@ static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_li
     return PN_OK;
 }
 
-// Runs `record` into the renderer's command buffer, submits it and waits.
-static pn_result submit_now(pn_renderer *r, void (*record)(pn_renderer *, VkCommandBuffer))
-{
-    VK_CHECK(vkResetCommandBuffer(r->cmd, 0));
-    VkCommandBufferBeginInfo bi = {.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-                                   .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT};
-    VK_CHECK(vkBeginCommandBuffer(r->cmd, &bi));
-    record(r, r->cmd);
-    VK_CHECK(vkEndCommandBuffer(r->cmd));
-    VkSubmitInfo si = {.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &r->cmd};
-    VK_CHECK(vkQueueSubmit(r->dev->queue, 1, &si, VK_NULL_HANDLE));
-    VK_CHECK(vkQueueWaitIdle(r->dev->queue));
-    return PN_OK;
-}
-
-static void record_keep(pn_renderer *r, VkCommandBuffer cmd) { pn_history_pass_record_keep(cmd, &r->history, &r->p); }
-
 // The temporal history's part of a frame before it is recorded: its images for the frame's lights,
-// its parameters (the last frame's camera, the boxes of what moved, the lights), which lights drop
-// their history, and the copy of the last frame's G-buffer, made now, before the warm-up frame (if
-// any) rewrites a tile of it.
+// its parameters (the last frame's camera, the boxes of what moved, the lights) and which lights
+// drop their history. (The last frame's P is the pass's own copy: history.comp.)
 static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint32_t *samples, uint32_t light_count,
                                float yfov_deg, history_frame *hf)
 {
@@ -275,8 +257,6 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
         hf->drop[i] = fresh || memcmp(&l[i], &r->history_lights[i], sizeof l[i]) != 0;
         hf->cap[i] = (float)r->history_frames * (float)(samples[i] ? samples[i] : 1);
     }
-    if (!fresh)
-        PN_TRY(submit_now(r, record_keep));
     return PN_OK;
 }
 
@@ -328,7 +308,6 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         r->cold = true;
         r->compile_pending_ms += pn_ms_since(t0);
     }
-    // (After the creations' time: its copy of the last P is the frame's, not a pipeline's.)
     history_frame hf_store, *hist = r->history_frames ? &hf_store : NULL;
     if (hist)
         PN_TRY(history_begin(r, l, samples, light_count, camera->yfov_deg, hist));

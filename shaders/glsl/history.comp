@@ -32,6 +32,7 @@ layout(set = 0, binding = PN_HISTORY_BINDING_STORE_IN, rgba32ui) uniform readonl
 layout(set = 0, binding = PN_HISTORY_BINDING_STORE_OUT, rgba32ui) uniform writeonly uimage2DArray img_store_out;
 layout(set = 0, binding = PN_HISTORY_BINDING_OUT, rgba32ui) uniform writeonly uimage2D img_out;
 layout(std140, set = 0, binding = PN_HISTORY_BINDING_PARAMS) uniform HistoryParamsBlock { HistoryParams params; };
+layout(set = 0, binding = PN_HISTORY_BINDING_POS_OUT, rgba32f) uniform writeonly image2D img_pos_out;
 
 layout(push_constant) uniform HistoryPushBlock { HistoryPush pc; };
 
@@ -174,6 +175,11 @@ void main()
         return;
     int layer = int(pc.light);
     vec4 p = imageLoad(img_p, px), n = imageLoad(img_n, px);
+    // This frame's P for the next frame's reprojection: the pass keeps its own copy (one of two,
+    // taken in turn as the sums are), so the renderer copies nothing between frames and the
+    // library's recorder, whose P is the host's, needs nothing of it.
+    if (pc.light == 0u)
+        imageStore(img_pos_out, px, p);
     uvec4 counts = imageLoad(img_counts, px);
     vec2 own = vec2(counts.xy);
     vec2 prev = vec2(0.0);

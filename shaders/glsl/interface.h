@@ -120,7 +120,7 @@
 // samples of earlier frames carried to it and added to its own.
 #define PN_HISTORY_BINDING_P 0         // rgba32f: this frame's world position, w = 1 where geometry is
 #define PN_HISTORY_BINDING_N 1         // rgba32f: this frame's normal, w = view depth
-#define PN_HISTORY_BINDING_PREV_P 2    // rgba32f: the previous frame's positions (a copy of its P)
+#define PN_HISTORY_BINDING_PREV_P 2    // rgba32f: the previous frame's positions (its P, as its pass kept it)
 #define PN_HISTORY_BINDING_COUNTS 3    // rgba32ui: this frame's counts (the shadow pass's)
 #define PN_HISTORY_BINDING_V_RAW 4     // r32f: the shadow pass's V, rewritten where history adds to it
 #define PN_HISTORY_BINDING_STORE_IN 5  // rgba32ui array, a layer per light: up to the previous frame, per
@@ -132,7 +132,8 @@
                                        // float bits of the sums of visible and valid samples, then
                                        // this frame's counts.z and counts.w
 #define PN_HISTORY_BINDING_PARAMS 8    // uniform HistoryParams
-#define PN_HISTORY_BINDING_COUNT 9
+#define PN_HISTORY_BINDING_POS_OUT 9   // rgba32f: this frame's P kept for the next frame (light 0's pass)
+#define PN_HISTORY_BINDING_COUNT 10
 // The most boxes of moved geometry one frame drops history under (more are merged on the host).
 #define PN_HISTORY_MAX_BOXES 32
 // filter.comp and penumbra_filter.comp: the counts they read are the history's (float sums).
