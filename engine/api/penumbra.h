@@ -284,7 +284,26 @@ typedef struct penumbra_recorder_desc {
     penumbra_visibility_desc shadow; /* mode, traversal, sampler, spp, tree (seed: per record; width:
                                       * the image's) */
     penumbra_light light;           /* the light V is of (one per recorder) */
+    /* The temporal history (penumbra_recorder_record_view): how many frames' samples it holds
+     * (older ones weigh less past that: an exponential window), 1..4096; 0: none, each recording
+     * stands alone (penumbra_recorder_record). */
+    uint32_t history_frames;
 } penumbra_recorder_desc;
+
+/* A frame's camera as the host drew its P, for the temporal history: V at a surface point does not
+ * depend on the camera, so each recording adds its samples to those its pixels' points gathered in
+ * earlier recordings, found through the previous recording's camera (P projected by its matrix,
+ * the pixel there kept where it shows the same surface). A recorder's scene and light are fixed
+ * (a moved object or light is a new recorder, whose history starts afresh), so the camera is all
+ * the history needs: NRD's contract is per-pixel motion vectors, but V does not move with a
+ * moving surface; it stays with the point, which P through the previous camera finds. */
+typedef struct penumbra_view {
+    float view_proj[16]; /* world to clip space, column-major (GLSL's mat4): clip x, y in -1..1
+                          * across the image (x right, y down: Vulkan's), w > 0 in front */
+    float eye[3];        /* the camera's position */
+    float forward[3];    /* its unit viewing direction (a point's depth is dot(P - eye, forward)) */
+    float pixel_angle;   /* a pixel's height per unit of depth: 2 tan(vertical fov / 2) / height */
+} penumbra_view;
 
 /* Builds what the mode needs for the scene as it is now (a later penumbra_scene_set_transform does
  * not reach the recorder: make a new one) and the pass's pipelines and buffers on the context's
@@ -304,6 +323,18 @@ PENUMBRA_API penumbra_status penumbra_recorder_create(penumbra_context *ctx, pen
  *    recording's submission has completed (then call penumbra_recorder_check; the recording ends
  *    with the barrier that makes its status visible to the host). */
 PENUMBRA_API penumbra_status penumbra_recorder_record(penumbra_recorder *rec, VkCommandBuffer cmd, uint32_t seed);
+
+/* As penumbra_recorder_record, for a recorder with a history (desc.history_frames > 0), with the
+ * frame's camera: after the shadow pass the recorded commands add its samples to the history and
+ * write V over all of them. The history counts the recordings as frames: each takes other strata
+ * of a window of frames (keep the seed from frame to frame; another seed is another window). The
+ * first recording, and the first after penumbra_recorder_history_drop, starts afresh. A recording
+ * that penumbra_recorder_check reports INCOMPLETE is not counted: record the frame again. */
+PENUMBRA_API penumbra_status penumbra_recorder_record_view(penumbra_recorder *rec, VkCommandBuffer cmd, uint32_t seed,
+                                                           const penumbra_view *view);
+
+/* The next recording starts the history afresh (a cut). */
+PENUMBRA_API penumbra_status penumbra_recorder_history_drop(penumbra_recorder *rec);
 
 /* After the recording's submission has completed: PENUMBRA_OK, or PENUMBRA_INCOMPLETE when a
  * dispatch was cut short (lavapipe's shader loop budget) and V is not whole: record and submit

@@ -1,6 +1,8 @@
 // The temporal history: its images, parameters and dispatch (gpu/history_pass.h).
 #include "gpu/history_pass.h"
 
+#include <float.h>
+#include <math.h>
 #include <string.h>
 
 #include "history_comp.h"
@@ -85,6 +87,40 @@ void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h)
 }
 
 pn_history_params *pn_history_pass_params(pn_history_pass *h) { return (pn_history_params *)h->params.mapped; }
+
+void pn_history_boxes_add(pn_history_boxes *b, const double lo[3], const double hi[3])
+{
+    bool merge = b->count == PN_HISTORY_MAX_BOXES;
+    double *box = b->box[merge ? PN_HISTORY_MAX_BOXES - 1 : b->count++];
+    for (int k = 0; k < 3; k++) {
+        box[k] = merge ? fmin(box[k], lo[k]) : lo[k];
+        box[3 + k] = merge ? fmax(box[3 + k], hi[k]) : hi[k];
+    }
+}
+
+void pn_history_pass_set_boxes(pn_history_pass *h, const pn_history_boxes *b, double scene_mag, double leaf_size)
+{
+    // The boxes grown by what a ray's meeting with them can be off by: its origin is raised 8 ulps
+    // of the scene's magnitude (shadow_origin) and the shader's projections round by a few ulps
+    // more, which 64 ulps hold with room to spare; and in the modes that end rays in the N-tree's
+    // cells (line space), a shaft touches the cells within a leaf of its ray and a filled leaf
+    // reaches a leaf beyond its surface (shadow_frame.glsl's RISE_SHAFT_LEAVES): 3 leaves more.
+    // Then rounded outward to float.
+    pn_history_params *hp = pn_history_pass_params(h);
+    hp->box_count = b->count;
+    for (uint32_t i = 0; i < b->count; i++) {
+        const double *box = b->box[i];
+        double mag = scene_mag;
+        for (int k = 0; k < 6; k++)
+            mag = fmax(mag, fabs(box[k]));
+        double pad = 64.0 * FLT_EPSILON * mag + 3.0 * leaf_size;
+        for (int k = 0; k < 3; k++) {
+            hp->box_lo[i][k] = nextafterf((float)(box[k] - pad), -INFINITY);
+            hp->box_hi[i][k] = nextafterf((float)(box[3 + k] + pad), INFINITY);
+        }
+        hp->box_lo[i][3] = hp->box_hi[i][3] = 0.0f;
+    }
+}
 
 void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h)
 {

@@ -9,6 +9,14 @@
 #include "gpu/resources.h"
 #include "interface.h"
 
+// Boxes of geometry that moved since the last frame (each object's before and after): past
+// PN_HISTORY_MAX_BOXES the last grows to hold the rest.
+typedef struct pn_history_boxes {
+    double box[PN_HISTORY_MAX_BOXES][6]; // lo xyz, hi xyz
+    uint32_t count;
+} pn_history_boxes;
+void pn_history_boxes_add(pn_history_boxes *b, const double lo[3], const double hi[3]);
+
 typedef struct pn_history_pass {
     uint32_t width, height, layers; // layers: lights with a history of their own
     // store[k]: the sums per light (a layer each), where their samples lie and the pixel's normal;
@@ -34,6 +42,10 @@ void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h);
 
 // The frame's parameters (the queue idle): written to h->params.
 pn_history_params *pn_history_pass_params(pn_history_pass *h);
+// The moved boxes into the parameters, grown by what a ray's meeting with them can be off by at
+// the scene's magnitude `scene_mag`, and by 3 leaves of `leaf_size` where rays end in an N-tree's
+// cells (0 otherwise): history_pass.c.
+void pn_history_pass_set_boxes(pn_history_pass *h, const pn_history_boxes *b, double scene_mag, double leaf_size);
 
 // Records what orders the frame's history passes after the previous frame's work on the sums and
 // positions (and, the first time, brings the images to the GENERAL layout).

@@ -57,8 +57,7 @@ typedef struct pn_renderer {
     float history_angle;
     pn_light_gpu history_lights[PN_MAX_LIGHTS];
     uint32_t history_light_count;
-    double history_boxes[PN_HISTORY_MAX_BOXES][6];
-    uint32_t history_box_count;
+    pn_history_boxes history_boxes;
     uint32_t history_frame; // the next frame's number (pn_renderer_set_history_frame)
 } pn_renderer;
 

@@ -2,7 +2,6 @@
 // waited for, warmed up first over one tile when pipelines have not run yet, and timed.
 #include "gpu/renderer.h"
 
-#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -233,25 +232,9 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
     memcpy(hp->prev_forward, r->history_camera.forward, sizeof hp->prev_forward);
     hp->pixel_angle = (float)pn_pixel_angle(yfov_deg, r->height);
     hp->prev_pixel_angle = r->history_angle;
-    // The boxes grown by what a ray's meeting with them can be off by: its origin is raised 8 ulps of
-    // the scene's magnitude (shadow_origin) and the shader's projections round by a few ulps more,
-    // which 64 ulps hold with room to spare; and in the modes that end rays in the N-tree's cells
-    // (line space), a shaft touches the cells within a leaf of its ray and a filled leaf reaches a
-    // leaf beyond its surface (shadow_frame.glsl's RISE_SHAFT_LEAVES): 3 leaves more. Then rounded
-    // outward to float.
-    hp->box_count = r->history_box_count;
-    for (uint32_t b = 0; b < r->history_box_count; b++) {
-        const double *box = r->history_boxes[b];
-        double mag = r->shadow.scene_mag;
-        for (int k = 0; k < 6; k++)
-            mag = fmax(mag, fabs(box[k]));
-        double pad = 64.0 * FLT_EPSILON * mag + (r->shadow.mode->needs.tree ? 3.0 * r->desc.leaf_size : 0.0);
-        for (int k = 0; k < 3; k++) {
-            hp->box_lo[b][k] = nextafterf((float)(box[k] - pad), -INFINITY);
-            hp->box_hi[b][k] = nextafterf((float)(box[3 + k] + pad), INFINITY);
-        }
-        hp->box_lo[b][3] = hp->box_hi[b][3] = 0.0f;
-    }
+    hp->depth_from_eye = 0; // the G-buffer's N.w
+    pn_history_pass_set_boxes(&r->history, &r->history_boxes, r->shadow.scene_mag,
+                              r->shadow.mode->needs.tree ? r->desc.leaf_size : 0.0);
     for (uint32_t i = 0; i < light_count; i++) {
         hp->lights[i] = l[i];
         hf->drop[i] = fresh || memcmp(&l[i], &r->history_lights[i], sizeof l[i]) != 0;
@@ -285,17 +268,9 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         bool adaptive = r->desc.spp_min && samples[i] > r->desc.spp_min;
         noise_samples[i] = pn_filter_noise_samples(adaptive ? r->desc.spp_min : spp, &lights[i]);
     }
-    // The temporal history: consecutive frames share the strata of a window of them (light_sample):
-    // each sub-cell in side x side parts, side the smallest power of two with side^2 at least the
-    // history's frames (so that its frames take other parts), at most 64.
-    uint32_t side = 1;
-    while (side < 64 && side * side < r->history_frames)
-        side *= 2;
-    // Under an even tile of T pixels the part steps by one more every T frames (light_sample).
+    // The temporal history: consecutive frames share the strata of a window of them (light_sample).
     uint32_t tiles = filtered(r) ? pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h) : 1;
-    uint32_t f = r->history_frame + (tiles % 2 == 0 ? r->history_frame / tiles : 0);
-    r->shadow.frame = r->history_frame, r->shadow.frame_side = r->history_frames ? side : 0;
-    r->shadow.frame_part = f & (side * side - 1);
+    pn_shadow_pass_set_frame(&r->shadow, r->history_frames, r->history_frame, tiles);
     // The queue is idle between frames (pn_renderer_render waits), so the host may rewrite them.
     pn_shadow_pass_update(&r->shadow, &r->desc, l, light_count, (float)pn_pixel_angle(camera->yfov_deg, r->height));
     uint64_t t0 = pn_time_ns();
@@ -364,7 +339,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     if (hist) {
         // This frame's sums, camera and lights are the next frame's previous ones.
         pn_history_pass_flip(&r->history);
-        r->history_prev = true, r->history_drop = false, r->history_box_count = 0;
+        r->history_prev = true, r->history_drop = false, r->history_boxes.count = 0;
         r->history_camera = cam;
         r->history_angle = (float)pn_pixel_angle(camera->yfov_deg, r->height);
         memcpy(r->history_lights, l, light_count * sizeof l[0]);

@@ -148,11 +148,5 @@ void pn_renderer_set_history_frame(pn_renderer *r, uint32_t frame) { r->history_
 
 void pn_renderer_history_moved(pn_renderer *r, const double lo[3], const double hi[3])
 {
-    // Once the slots are full, the last one grows to hold the rest.
-    bool merge = r->history_box_count == PN_HISTORY_MAX_BOXES;
-    double *b = r->history_boxes[merge ? PN_HISTORY_MAX_BOXES - 1 : r->history_box_count++];
-    for (int k = 0; k < 3; k++) {
-        b[k] = merge ? fmin(b[k], lo[k]) : lo[k];
-        b[3 + k] = merge ? fmax(b[3 + k], hi[k]) : hi[k];
-    }
+    pn_history_boxes_add(&r->history_boxes, lo, hi);
 }

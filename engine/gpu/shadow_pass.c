@@ -603,3 +603,13 @@ pn_result pn_shadow_pass_end_frame(pn_shadow_pass *s, bool *retry)
     *retry = true;
     return PN_OK;
 }
+
+void pn_shadow_pass_set_frame(pn_shadow_pass *p, uint32_t history_frames, uint32_t frame, uint32_t tile_pixels)
+{
+    uint32_t side = 1;
+    while (side < 64 && side * side < history_frames)
+        side *= 2;
+    uint32_t f = frame + (tile_pixels % 2 == 0 ? frame / tile_pixels : 0);
+    p->frame = frame, p->frame_side = history_frames ? side : 0;
+    p->frame_part = f & (side * side - 1);
+}

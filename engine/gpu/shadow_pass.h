@@ -67,7 +67,7 @@ typedef struct pn_shadow_pass {
     // The temporal history's frame window (light_sample): this frame's number and the side of the
     // window's split of a sub-cell (frame_side^2 parts; 0: no window) and the part the frame starts
     // from. The renderer's.
-    uint32_t frame, frame_side, frame_part;
+    uint32_t frame, frame_side, frame_part; // (pn_shadow_pass_set_frame)
     uint32_t dump_spp; // rays per pixel the ray dump holds (desc.dump_rays at create), else 0
     // Light samples per dispatch: PN_MAX_CHUNK, the size of the shader's per-ray arrays.
     // llvmpipe: halved whenever a dispatch runs out of the loop budget (pn_shadow_pass_end_frame);
@@ -104,6 +104,13 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                 const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, bool alpha_masks,
                                 pn_shadow_pass *out);
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
+
+// The temporal history's frame window for frame `frame` of a history of `history_frames` frames (0:
+// none) under an interleaving tile of `tile_pixels` pixels: consecutive frames share the strata of
+// a window of them (light_sample): each sub-cell in side x side parts, side the smallest power of
+// two with side^2 at least the history's frames (so that its frames take other parts), at most 64;
+// under an even tile the part steps by one more every T frames.
+void pn_shadow_pass_set_frame(pn_shadow_pass *p, uint32_t history_frames, uint32_t frame, uint32_t tile_pixels);
 
 // Writes the frame's parameters (its 1..PN_MAX_LIGHTS lights, samples, pools, the camera's pixel
 // angle: pn_pixel_angle); the queue must be idle.

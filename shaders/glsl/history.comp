@@ -189,7 +189,8 @@ void main()
     // The boxes grown by the reach of the earlier pixels whose samples the history may hold
     // (within NEAR footprints of the point, and their offset within a pixel more).
     Light l = params.lights[pc.light];
-    vec3 reach = vec3((NEAR + 1.0) * n.w * params.pixel_angle);
+    float depth = params.depth_from_eye != 0u ? dot(p.xyz - params.eye.xyz, params.forward.xyz) : n.w;
+    vec3 reach = vec3((NEAR + 1.0) * depth * params.pixel_angle);
     for (uint b = 0u; carry && b < params.box_count; b++)
         carry = !pyramid_meets_box(p.xyz, l, params.box_lo[b].xyz - reach, params.box_hi[b].xyz + reach);
     // Where the history's samples lie relative to the pixel's centre, in pixels (the store's z):
@@ -206,7 +207,7 @@ void main()
         vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5;
         ivec2 q0 = ivec2(floor(at)), nearest = ivec2(floor(at + 0.5)), chosen = ivec2(-1);
         Earlier picked;
-        float footprint = n.w * params.pixel_angle, best = 1e30;
+        float footprint = depth * params.pixel_angle, best = 1e30;
         for (int k = -1; k < 4 && clip.w > 0.0 && best > 0.25; k++) {
             ivec2 q = k < 0 ? nearest : q0 + ivec2(k & 1, k >> 1);
             if ((k >= 0 && q == nearest) || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))

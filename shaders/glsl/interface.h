@@ -408,10 +408,13 @@ PN_STRUCT(HistoryParams, pn_history_params) {
     PN_UINT(box_count)      // boxes of geometry that moved since the previous frame
     PN_FLOAT(pixel_angle)   // this frame's pixel footprint per unit of view depth
     PN_FLOAT(prev_pixel_angle)
-    PN_UINT(pad0)
+    PN_UINT(depth_from_eye) // 1: a point's view depth is dot(P - eye, forward) below (the library's
+                            // recorder: the host's N has no depth); 0: N.w (the renderer's G-buffer)
     PN_VEC4S(box_lo, PN_HISTORY_MAX_BOXES) // xyz, padded outward on the host (history_pass.c)
     PN_VEC4S(box_hi, PN_HISTORY_MAX_BOXES)
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // this frame's lights
+    PN_VEC4(eye)            // this frame's camera, with depth_from_eye
+    PN_VEC4(forward)
 } PN_END(HistoryParams, pn_history_params)
 
 // The temporal history's push constants: one light per dispatch. 16 bytes.

@@ -163,14 +163,9 @@ typedef struct pn_demo_stats {
     bool building;              // a tree build ran on the worker thread (sharing the cores)
 } pn_demo_stats;
 
-// Boxes of moved geometry (before and after a move), for the history (pn_renderer_history_moved):
-// past PN_HISTORY_MAX_BOXES the last grows to hold the rest, as the renderer merges them.
-typedef struct pn_demo_boxes {
-    double box[PN_HISTORY_MAX_BOXES][6]; // lo xyz, hi xyz
-    uint32_t count;
-} pn_demo_boxes;
-void pn_demo_boxes_add(pn_demo_boxes *b, const double lo[3], const double hi[3]);
-void pn_demo_boxes_join(pn_demo_boxes *b, const pn_demo_boxes *more);
+// Boxes of moved geometry (pn_history_boxes, before and after each move) for the history: `more`
+// added to `b`.
+void pn_demo_boxes_join(pn_history_boxes *b, const pn_history_boxes *more);
 
 // Objects moved between two frames, and what bringing the frame up to them cost (wall ms).
 typedef struct pn_demo_move {
@@ -184,7 +179,7 @@ typedef struct pn_demo_move {
     double total_ms;
     bool rebuild;         // a tree rebuild on the worker thread follows (scene-wide tree, BVH and
                           // device acceleration structure; or per-object trees whose rest's culling no longer holds)
-    pn_demo_boxes boxes;  // the moved objects' boxes, before and after
+    pn_history_boxes boxes; // the moved objects' boxes, before and after
 } pn_demo_move;
 
 // Memory (demo_stats.c): the process's and the device's, as --stats samples them.
@@ -236,7 +231,7 @@ typedef struct pn_demo {
     // What moved while the shadow structures did not follow yet (a rebuild on the worker thread):
     // the boxes of moves since the running build started, and of those it holds. The history
     // takes the latter when the build is swapped in, where shadows change.
-    pn_demo_boxes moved_pending, moved_building;
+    pn_history_boxes moved_pending, moved_building;
     char build_message[160];  // shown while a rebuild runs, after one failed, or why a key did nothing
     pn_renderer renderer;     // the current mode
     pn_renderer exact;        // exact mode, for the error view (zeroed otherwise)

@@ -249,8 +249,8 @@ bool pn_demo_move_object(pn_demo *d, uint32_t index, const float delta[3])
     object_box(d, index, lo, hi);
     for (int k = 0; k < 3; k++)
         now_lo[k] = lo[k], now_hi[k] = hi[k];
-    pn_demo_boxes_add(&m->boxes, was_lo, was_hi);
-    pn_demo_boxes_add(&m->boxes, now_lo, now_hi);
+    pn_history_boxes_add(&m->boxes, was_lo, was_hi);
+    pn_history_boxes_add(&m->boxes, now_lo, now_hi);
     const pn_scene_object *o = &d->scene.objects[index];
     uint32_t end = o->first_vertex + o->vertex_count;
     m->first = m->count && m->first < o->first_vertex ? m->first : o->first_vertex;

@@ -2,7 +2,6 @@
 // (the renderers then read it, their history dropped where its shadows changed), the next one
 // started when the wanted tree differs, and objects moved since the last frame brought into the
 // renderers and the trees.
-#include <math.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
@@ -11,26 +10,16 @@
 #include "core/log.h"
 #include "core/timer.h"
 
-void pn_demo_boxes_add(pn_demo_boxes *b, const double lo[3], const double hi[3])
-{
-    bool merge = b->count == PN_HISTORY_MAX_BOXES;
-    double *box = b->box[merge ? PN_HISTORY_MAX_BOXES - 1 : b->count++];
-    for (int k = 0; k < 3; k++) {
-        box[k] = merge ? fmin(box[k], lo[k]) : lo[k];
-        box[3 + k] = merge ? fmax(box[3 + k], hi[k]) : hi[k];
-    }
-}
-
-void pn_demo_boxes_join(pn_demo_boxes *b, const pn_demo_boxes *more)
+void pn_demo_boxes_join(pn_history_boxes *b, const pn_history_boxes *more)
 {
     for (uint32_t i = 0; i < more->count; i++)
-        pn_demo_boxes_add(b, more->box[i], more->box[i] + 3);
+        pn_history_boxes_add(b, more->box[i], more->box[i] + 3);
 }
 
 // The shadow structures changed where `moved` says (geometry moved within those boxes) or, for a
 // renderer whose mode ends rays in a scene-wide N-tree built anew, everywhere: its cells moved
 // with the new tree (or with the new N and d), and every pixel's line-space V with them.
-static void history_follows(pn_renderer *r, const pn_demo_boxes *moved, bool rebuilt)
+static void history_follows(pn_renderer *r, const pn_history_boxes *moved, bool rebuilt)
 {
     if (!r->dev)
         return;
