@@ -24,16 +24,34 @@ static const VkFormat FMT_DEPTH = VK_FORMAT_D32_SFLOAT;
 // Measured in engine/gpu/README.md (the G-buffer pass).
 static pn_result raster_indices(const pn_scene *s, uint32_t **out)
 {
-    uint32_t *idx = malloc((size_t)s->index_count * sizeof *idx);
-    if (!idx)
+    uint32_t longest = 0;
+    for (uint32_t i = 0; i < s->draw_count; i++)
+        longest = s->draws[i].index_count > longest ? s->draws[i].index_count : longest;
+    uint32_t *idx = malloc((size_t)s->index_count * sizeof *idx), *local = malloc(((size_t)longest + 1) * sizeof *local);
+    if (!idx || !local) {
+        free(idx), free(local);
         return PN_ERR_MEMORY;
+    }
     memcpy(idx, s->indices, (size_t)s->index_count * sizeof *idx);
     for (uint32_t i = 0; i < s->draw_count; i++) {
         const pn_draw *d = &s->draws[i];
-        if (d->index_count >= 3 && d->first_index + d->index_count <= s->index_count)
-            meshopt_optimizeVertexCache(idx + d->first_index, s->indices + d->first_index, d->index_count,
-                                        s->vertex_count);
+        if (d->index_count < 3 || d->first_index + d->index_count > s->index_count)
+            continue;
+        // Over the draw's own vertex range: the optimizer's tables are as long as the vertex count
+        // it is given, per call (the scene's whole count made a scene of many draws pay for all
+        // of its vertices at every draw).
+        const uint32_t *src = s->indices + d->first_index;
+        uint32_t lo = UINT32_MAX, hi = 0;
+        for (uint32_t k = 0; k < d->index_count; k++)
+            lo = src[k] < lo ? src[k] : lo, hi = src[k] > hi ? src[k] : hi;
+        for (uint32_t k = 0; k < d->index_count; k++)
+            local[k] = src[k] - lo;
+        uint32_t *dst = idx + d->first_index;
+        meshopt_optimizeVertexCache(dst, local, d->index_count, (size_t)hi - lo + 1);
+        for (uint32_t k = 0; k < d->index_count; k++)
+            dst[k] += lo;
     }
+    free(local);
     *out = idx;
     return PN_OK;
 }
@@ -44,9 +62,7 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
                                           VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                           &r->vertices));
     uint32_t *idx;
-    uint64_t t0 = pn_time_ns();
     PN_TRY(raster_indices(s, &idx));
-    r->reorder_ms = pn_ms_since(t0);
     pn_result ir = pn_gpu_buffer_create_with_data(dev, "index buffer", idx, (VkDeviceSize)s->index_count * sizeof(uint32_t),
                                                   VK_BUFFER_USAGE_INDEX_BUFFER_BIT, &r->indices);
     free(idx);

@@ -21,7 +21,6 @@ typedef struct pn_gbuffer_pass {
     VkDescriptorSet set;
     VkPipelineLayout layout;
     VkPipeline pipeline;
-    double reorder_ms; // the index buffer put in vertex-cache order at create (gbuffer_pass.c)
 } pn_gbuffer_pass;
 
 // The targets the pass draws into (colour attachments in GENERAL layout, depth in DEPTH_ATTACHMENT).

@@ -156,13 +156,13 @@ float history_share(ivec2 q, Earlier c, vec2 offset, float own)
     float b = abs(dot(g, offset)) + 0.5 * length(g) * length(offset);
     // A sample's variance from the history's mean (at least that of one sample more, so that a
     // mean of 0 or 1 still counts as uncertain).
+    float var = max(vq * (1.0 - vq), 1.0 / (prev.y + own));
     // The frame's noise the history's bias is weighed against is what the filter after leaves of
     // it: averaged over its window's pixels (pc.noise_pixels), whose interleaved samples are the
     // frame's too. Weighed against the pixel's own noise alone, the share kept too much bias where
     // a filter follows (measured: the default scene at 320 x 180, 9 spp a frame, an orbit of 2
     // degrees a frame, frame 31's MAE against its converged reference 0.00200 with history and
     // 0.00146 without; see engine/gpu/README.md for the figures since).
-    float var = max(vq * (1.0 - vq), 1.0 / (prev.y + own));
     float a = var / max(2.0 * own * max(pc.noise_pixels, 1.0) * b * b, 1e-30), kept = prev.y / (prev.y + own);
     return a < kept ? a * own / ((1.0 - a) * prev.y) : 1.0;
 }

@@ -22,14 +22,23 @@
 
 static const char *const KIND_NAMES[] = {"orbit", "light"};
 
-// `p` turned by `deg` degrees about the vertical (+Y) through `centre`.
-static void turn(const float centre[3], double deg, const float p[3], float out[3], bool direction)
+// `v` turned by `deg` degrees about the vertical (+Y): a direction, or a point relative to the
+// centre it turns round.
+static void turn(double deg, const float v[3], float out[3])
 {
     double a = deg * 3.14159265358979323846 / 180.0, c = cos(a), s = sin(a);
-    float dx = p[0] - (direction ? 0.0f : centre[0]), dz = p[2] - (direction ? 0.0f : centre[2]);
-    out[0] = (direction ? 0.0f : centre[0]) + (float)(c * dx + s * dz);
-    out[1] = p[1];
-    out[2] = (direction ? 0.0f : centre[2]) + (float)(-s * dx + c * dz);
+    out[0] = (float)(c * v[0] + s * v[2]);
+    out[1] = v[1];
+    out[2] = (float)(-s * v[0] + c * v[2]);
+}
+
+// `p` turned by `deg` degrees about the vertical through `centre`.
+static void turn_about(const float centre[3], double deg, const float p[3], float out[3])
+{
+    float d[3] = {p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]};
+    turn(deg, d, out);
+    for (int i = 0; i < 3; i++)
+        out[i] += centre[i];
 }
 
 // Frame k of a sequence: its camera and light.
@@ -46,16 +55,16 @@ static void frame_at(int kind, int k, float step, const pn_prepared_scene *prep,
         for (int i = 0; i < 3; i++)
             inside = inside && prep->camera.pos[i] > prep->object_min[i] && prep->camera.pos[i] < prep->object_max[i];
         if (inside)
-            turn(cam->pos, deg, prep->camera.target, cam->target, false);
+            turn_about(cam->pos, deg, prep->camera.target, cam->target);
         else
-            turn(cam->target, deg, prep->camera.pos, cam->pos, false);
+            turn_about(cam->target, deg, prep->camera.pos, cam->pos);
     } else {
         float centre[3];
         for (int i = 0; i < 3; i++)
             centre[i] = 0.5f * (prep->object_min[i] + prep->object_max[i]);
-        turn(centre, deg, prep->lights[0].pos, light->pos, false);
-        turn(centre, deg, prep->lights[0].normal, light->normal, true);
-        turn(centre, deg, prep->lights[0].up, light->up, true);
+        turn_about(centre, deg, prep->lights[0].pos, light->pos);
+        turn(deg, prep->lights[0].normal, light->normal);
+        turn(deg, prep->lights[0].up, light->up);
     }
 }
 
