@@ -8,14 +8,26 @@
 #include "gpu/frame.h"
 #include "penumbra_filter_comp.h"
 
-// The pass's pipeline and set over f's images, specialised for f->temporal.
-static pn_result create_compute(pn_gpu_device *dev, const pn_penumbra_pass *f, pn_gpu_compute *out)
+// The pass's set over f's images and a pipeline per stage (the first the set's own, the second the
+// device's for the same layout), specialised for f->temporal.
+static pn_result create_compute(pn_gpu_device *dev, const pn_penumbra_pass *f, pn_gpu_compute *out,
+                                VkPipeline stages[PN_PENUMBRA_STAGES])
 {
-    uint32_t temporal = f->temporal ? VK_TRUE : VK_FALSE;
-    VkSpecializationMapEntry entry = {.constantID = PN_SPEC_PENUMBRA_TEMPORAL, .offset = 0, .size = 4};
-    VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = 4, .pData = &temporal};
-    return pn_gpu_compute_create_images(dev, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
-                                        f->images, PN_PENUMBRA_BINDING_COUNT, sizeof(pn_penumbra_push), &spec, out);
+    uint32_t values[2] = {f->temporal ? VK_TRUE : VK_FALSE, PN_PENUMBRA_STAGE_BLUR_X};
+    const VkSpecializationMapEntry entries[2] = {
+        {.constantID = PN_SPEC_PENUMBRA_TEMPORAL, .offset = 0, .size = 4},
+        {.constantID = PN_SPEC_PENUMBRA_STAGE, .offset = 4, .size = 4},
+    };
+    VkSpecializationInfo spec = {.mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof values, .pData = values};
+    PN_TRY(pn_gpu_compute_create_images(dev, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
+                                        f->images, PN_PENUMBRA_BINDING_COUNT, sizeof(pn_penumbra_push), &spec, out));
+    stages[PN_PENUMBRA_STAGE_BLUR_X] = out->pipeline;
+    values[1] = PN_PENUMBRA_STAGE_BLUR_Y;
+    pn_result r = pn_gpu_compute_pipeline(dev, out, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
+                                          &spec, &stages[PN_PENUMBRA_STAGE_BLUR_Y]);
+    if (r != PN_OK)
+        pn_gpu_compute_destroy(dev, out);
+    return r;
 }
 
 pn_result pn_penumbra_pass_set_counts(pn_gpu_device *dev, pn_penumbra_pass *f, VkImageView counts, bool temporal)
@@ -25,13 +37,15 @@ pn_result pn_penumbra_pass_set_counts(pn_gpu_device *dev, pn_penumbra_pass *f, V
     pn_penumbra_pass was = *f;
     f->images[PN_PENUMBRA_BINDING_COUNTS] = counts, f->temporal = temporal;
     pn_gpu_compute fresh;
-    pn_result r = create_compute(dev, f, &fresh);
+    VkPipeline stages[PN_PENUMBRA_STAGES];
+    pn_result r = create_compute(dev, f, &fresh, stages);
     if (r != PN_OK) {
         *f = was;
         return r;
     }
     pn_gpu_compute_destroy(dev, &f->compute);
     f->compute = fresh;
+    memcpy(f->stages, stages, sizeof stages);
     return PN_OK;
 }
 
@@ -61,7 +75,7 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
     out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
     out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
     if (r == PN_OK)
-        r = create_compute(dev, out, &out->compute);
+        r = create_compute(dev, out, &out->compute, out->stages);
     if (r != PN_OK)
         pn_penumbra_pass_destroy(dev, out);
     return r;
@@ -125,8 +139,9 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
                                                .dstStageMask = COMPUTE,
                                                .dstAccessMask = RW},
                            0, NULL);
-        push.stage = stage;
+        pn_gpu_compute c = f->compute;
+        c.pipeline = f->stages[stage];
         uint32_t gx = f->one_tile ? 1 : (f->width + G - 1) / G, gy = f->one_tile ? 1 : (f->height + G - 1) / G;
-        pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, gx, gy, 1);
+        pn_gpu_compute_dispatch(cmd, &c, sizeof push, &push, gx, gy, 1);
     }
 }

@@ -12,6 +12,7 @@
 
 typedef struct pn_penumbra_pass {
     pn_gpu_compute compute;
+    VkPipeline stages[PN_PENUMBRA_STAGES]; // the device's: a pipeline per stage (penumbra_filter.comp)
     uint32_t width, height;
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V

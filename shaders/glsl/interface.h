@@ -139,7 +139,9 @@
 // filter.comp and penumbra_filter.comp: the counts they read are the history's (float sums).
 #define PN_SPEC_FILTER_TEMPORAL 2
 #define PN_SPEC_PENUMBRA_TEMPORAL 0
-// Its stages, one dispatch each (PenumbraPush.stage).
+// penumbra_filter.comp: its stage, a pipeline each (PN_PENUMBRA_STAGE_*, a 32-bit uint).
+#define PN_SPEC_PENUMBRA_STAGE 1
+// Its stages, one dispatch each.
 #define PN_PENUMBRA_STAGE_BLUR_X 0    // the Gaussian along rows, V -> scratch
 #define PN_PENUMBRA_STAGE_BLUR_Y 1    // and along columns, scratch -> V
 #define PN_PENUMBRA_STAGES 2
@@ -389,7 +391,6 @@ PN_STRUCT(FilterPush, pn_filter_push) {
 
 // The penumbra filter's push constants (penumbra_filter.comp). 32 bytes.
 PN_STRUCT(PenumbraPush, pn_penumbra_push) {
-    PN_UINT(stage)        // PN_PENUMBRA_STAGE_*
     PN_FLOAT(pixel_angle) // a pixel's footprint per unit of view depth: 2 tan(yfov / 2) / height
     PN_UINT(samples)      // light samples per pixel (FilterPush.samples); 0 for a point light
     PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead, at least `samples`
@@ -398,6 +399,7 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_UINT(pad0)
     PN_UINT(pad1)
     PN_UINT(pad2)
+    PN_UINT(pad3)
 } PN_END(PenumbraPush, pn_penumbra_push)
 
 // The temporal history's frame (history.comp, std140). 1136 + 96 PN_MAX_LIGHTS bytes.

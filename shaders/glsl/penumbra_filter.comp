@@ -54,6 +54,9 @@ layout(push_constant) uniform PenumbraPushBlock { PenumbraPush pc; };
 // With the temporal history the counts are its sums, as float bits (filter.comp's TEMPORAL): a
 // pixel's samples are its sum over the frames.
 layout(constant_id = PN_SPEC_PENUMBRA_TEMPORAL) const bool TEMPORAL = false;
+// The stage, a pipeline each (penumbra_pass.c): llvmpipe runs both sides of an `if` (and of each
+// `rows ?` below), so one pipeline for both stages did each stage's work and most of the other's.
+layout(constant_id = PN_SPEC_PENUMBRA_STAGE) const uint STAGE = PN_PENUMBRA_STAGE_BLUR_X;
 
 const float RADIUS_SIGMAS = PN_PENUMBRA_RADIUS_SIGMAS;
 // Below half a pixel the Gaussian adds nothing to the interleaved filter's window.
@@ -240,5 +243,5 @@ void main()
     ivec2 size = imageSize(img_v);
     bool inside = all(lessThan(px, size));
     if (inside)
-        blur(px, size, pc.stage == PN_PENUMBRA_STAGE_BLUR_X);
+        blur(px, size, STAGE == PN_PENUMBRA_STAGE_BLUR_X);
 }
