@@ -26,7 +26,8 @@ static pn_result create_pipeline(pn_gpu_device *dev, const pn_filter_pass *f, ui
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
                                 const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                const pn_gpu_image *sigma, const pn_gpu_image *v, pn_filter_pass *out)
+                                const pn_gpu_image *sigma, const pn_gpu_image *tiles, const pn_gpu_image *v,
+                                pn_filter_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
@@ -37,6 +38,7 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
     out->images[PN_FILTER_BINDING_COUNTS] = counts->view;
     out->images[PN_FILTER_BINDING_BLOCKERS] = blockers->view;
     out->images[PN_FILTER_BINDING_SIGMA] = sigma->view;
+    out->images[PN_FILTER_BINDING_TILES] = tiles->view;
     PN_TRY(create_pipeline(dev, out, tile_w, tile_h, &out->compute));
     out->tile_w = tile_w, out->tile_h = tile_h;
     return PN_OK;
@@ -72,7 +74,7 @@ void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_
         .width_scale = width_scale,
         .max_radius = pn_penumbra_max_radius(f->height),
     };
-    uint32_t gx = (f->width + PN_WORKGROUP - 1) / PN_WORKGROUP, gy = (f->height + PN_WORKGROUP - 1) / PN_WORKGROUP;
+    uint32_t gx = (f->width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = f->height;
     pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, f->one_tile ? 1 : gx, f->one_tile ? 1 : gy, 1);
 }
 

@@ -21,7 +21,8 @@ typedef struct pn_filter_pass {
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
                                 const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                const pn_gpu_image *sigma, const pn_gpu_image *v, pn_filter_pass *out);
+                                const pn_gpu_image *sigma, const pn_gpu_image *tiles, const pn_gpu_image *v,
+                                pn_filter_pass *out);
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
 // Another window: a pipeline specialised for it, made only when it changes. The device must be
 // idle with respect to f (the old pipeline is destroyed); f is unchanged on failure.

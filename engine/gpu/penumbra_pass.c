@@ -68,12 +68,24 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
                                                               (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0)},
                                 imgs[i]);
+    // A texel per work group's tile, cleared before each filter pass (pn_penumbra_pass_begin).
+    const uint32_t G = PN_WORKGROUP;
+    if (r == PN_OK)
+        r = pn_gpu_image_create(dev,
+                                &(pn_gpu_image_desc){.name = "penumbra filter's tile marks",
+                                                     .format = VK_FORMAT_R32_UINT,
+                                                     .width = (width + G - 1) / G,
+                                                     .height = (height + G - 1) / G,
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT |
+                                                              VK_IMAGE_USAGE_TRANSFER_DST_BIT},
+                                &out->tiles);
     out->images[PN_PENUMBRA_BINDING_P] = p->view;
     out->images[PN_PENUMBRA_BINDING_N] = n->view;
     out->images[PN_PENUMBRA_BINDING_COUNTS] = counts->view;
     out->images[PN_PENUMBRA_BINDING_V] = v->view;
     out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
     out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
+    out->images[PN_PENUMBRA_BINDING_TILES] = out->tiles.view;
     if (r == PN_OK)
         r = create_compute(dev, out, &out->compute, out->stages);
     if (r != PN_OK)
@@ -86,6 +98,7 @@ void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f)
     pn_gpu_compute_destroy(dev, &f->compute);
     pn_gpu_image_destroy(dev, &f->sigma);
     pn_gpu_image_destroy(dev, &f->scratch);
+    pn_gpu_image_destroy(dev, &f->tiles);
     memset(f, 0, sizeof *f);
 }
 
@@ -116,6 +129,19 @@ void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
                                         VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, RW, VK_IMAGE_LAYOUT_UNDEFINED,
                                         VK_IMAGE_LAYOUT_GENERAL);
     pn_gpu_cmd_barrier(cmd, NULL, 2, fresh);
+    // The tile marks start at 0: after every earlier read of them, cleared, then the filter pass
+    // sets them.
+    const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL;
+    VkImageMemoryBarrier2 clear = pn_gpu_image_barrier(&f->tiles, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                                                       VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_CLEAR_BIT,
+                                                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 1, &clear);
+    vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1,
+                         &(VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1});
+    VkImageMemoryBarrier2 cleared = pn_gpu_image_barrier(&f->tiles, VK_PIPELINE_STAGE_2_CLEAR_BIT,
+                                                         VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                                         VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, RW, GENERAL, GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 1, &cleared);
 }
 
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
@@ -129,7 +155,6 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
         .adaptive = adaptive,
         .max_radius = pn_penumbra_max_radius(f->height),
     };
-    const uint32_t G = PN_WORKGROUP;
     for (uint32_t stage = 0; stage < PN_PENUMBRA_STAGES; stage++) {
         // Each stage reads what the ones before wrote (the first, the filter pass's footprints).
         pn_gpu_cmd_barrier(cmd,
@@ -141,7 +166,7 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
                            0, NULL);
         pn_gpu_compute c = f->compute;
         c.pipeline = f->stages[stage];
-        uint32_t gx = f->one_tile ? 1 : (f->width + G - 1) / G, gy = f->one_tile ? 1 : (f->height + G - 1) / G;
+        uint32_t gx = f->one_tile ? 1 : (f->width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = f->one_tile ? 1 : f->height;
         pn_gpu_compute_dispatch(cmd, &c, sizeof push, &push, gx, gy, 1);
     }
 }

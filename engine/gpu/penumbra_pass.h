@@ -17,6 +17,7 @@ typedef struct pn_penumbra_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
+    pn_gpu_image tiles;   // r32ui: per PN_WORKGROUP-square tile, whether a blocker lies near (the row pass's)
     VkImageView images[PN_PENUMBRA_BINDING_COUNT]; // the set's, kept for pn_penumbra_pass_set_counts
     bool temporal; // the counts are the temporal history's sums (PN_SPEC_PENUMBRA_TEMPORAL)
 } pn_penumbra_pass;
@@ -55,8 +56,9 @@ float pn_penumbra_window_scale(void);
 // (a penumbra spans more pixels at a higher resolution) within [8, 32].
 uint32_t pn_penumbra_max_radius(uint32_t height);
 
-// Discards its images' contents and makes them GENERAL, before the filter pass writes the
-// footprints (every frame and light with a filter: the filter pass's set holds `sigma`).
+// Discards its images' contents and makes them GENERAL, the tile marks cleared, before the filter
+// pass writes the footprints and marks (every frame and light with a filter: the filter pass's set
+// holds `sigma` and `tiles`).
 void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f);
 // Records the two dispatches with the barriers before and between them; V and the footprints
 // must be written (the filter pass's), and V is visible to compute reads after. samples, adaptive,

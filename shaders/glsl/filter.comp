@@ -24,7 +24,7 @@
 #include "interface.h"
 #include "filter_common.glsl"
 
-layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+layout(local_size_x = PN_ROW_GROUP) in;
 
 layout(set = 0, binding = PN_FILTER_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_FILTER_BINDING_N, rgba32f) uniform readonly image2D img_n;
@@ -36,6 +36,8 @@ layout(set = 0, binding = PN_FILTER_BINDING_BLOCKERS, rg32f) uniform readonly im
 // its Gaussian (penumbra_filter.comp), written here where the pixel's counts and blockers are read
 // anyway: a dispatch of its own cost lavapipe about as much as one of the Gaussian's.
 layout(set = 0, binding = PN_FILTER_BINDING_SIGMA, rg32f) uniform writeonly image2D img_sigma;
+// With the penumbra filter: the tiles a pixel with a blocker lends its footprint to (below).
+layout(set = 0, binding = PN_FILTER_BINDING_TILES, r32ui) uniform coherent uimage2D img_tiles;
 
 layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // The window, fixed per pipeline (filter_pass.c builds one for the tile in use): with constant
@@ -135,6 +137,18 @@ void main()
         // above its horizon), lent along columns only, after the row pass; 0 nothing (the light
         // cannot reach it: V is the convention 1).
         imageStore(img_sigma, px, vec4(sigma, unknown ? (counts_p.z != 0u ? 0.5 : 0.0) : 1.0, 0.0, 0.0));
+        // A pixel with a blocker of its own lends its footprint to the pixels without one up to
+        // PN_PENUMBRA_LEND_REACH away (narrowest_neighbour in penumbra_filter.comp): it marks the
+        // tiles those lie in (at most 2 x 2), so that the Gaussian's row pass loads the 24
+        // neighbours only in a marked tile; elsewhere none of them has a blocker and it lends
+        // nothing, exactly as the loads would have found. A few pixels of a frame take this.
+        if (sigma >= 0.0) {
+            ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / PN_WORKGROUP;
+            ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / PN_WORKGROUP;
+            for (int ty = lo.y; ty <= hi.y; ty++)
+                for (int tx = lo.x; tx <= hi.x; tx++)
+                    imageAtomicOr(img_tiles, ivec2(tx, ty), 1u);
+        }
     }
     if (unknown && counts_p.z == 0u) {
         imageStore(img_v, px, imageLoad(img_v_raw, px));

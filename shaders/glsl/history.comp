@@ -21,7 +21,7 @@
 #include "interface.h"
 #include "filter_common.glsl"
 
-layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+layout(local_size_x = PN_ROW_GROUP) in;
 
 layout(set = 0, binding = PN_HISTORY_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_HISTORY_BINDING_N, rgba32f) uniform readonly image2D img_n;

@@ -41,7 +41,7 @@
 #include "interface.h"
 #include "filter_common.glsl"
 
-layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+layout(local_size_x = PN_ROW_GROUP) in;
 
 layout(set = 0, binding = PN_PENUMBRA_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_N, rgba32f) uniform readonly image2D img_n;
@@ -49,6 +49,7 @@ layout(set = 0, binding = PN_PENUMBRA_BINDING_COUNTS, rgba32ui) uniform readonly
 layout(set = 0, binding = PN_PENUMBRA_BINDING_V, r32f) uniform image2D img_v;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SIGMA, rg32f) uniform image2D img_sigma;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SCRATCH, rg32f) uniform image2D img_scratch;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_TILES, r32ui) uniform readonly uimage2D img_tiles;
 
 layout(push_constant) uniform PenumbraPushBlock { PenumbraPush pc; };
 // With the temporal history the counts are its sums, as float bits (filter.comp's TEMPORAL): a
@@ -122,8 +123,14 @@ float narrowest_neighbour(ivec2 px, ivec2 size)
     // img_sigma: x the footprint (>= 0 with a blocker, -1 without), y 1 where the pixel has an
     // estimate of its own (0 on the background, whose x is 0, and 0 or 0.5 without a valid ray).
     // The pixel itself is left out: it has no blocker (the caller's condition).
+    // No pixel with a blocker within the 5 x 5 where the pixel's tile is unmarked (filter.comp):
+    // the loads below would find none, for most lit pixels. Measured (builtin:default at 1280 x
+    // 720, exact, 4 spp, medians of 5, two runs alternated): the filter pass 48.3 / 50.4 -> 40.5 /
+    // 42.3 ms, V the same bit for bit.
+    if (imageLoad(img_tiles, px / PN_WORKGROUP).x == 0u)
+        return 0.0;
     float narrowest = -1.0;
-    for (int ring = 1; ring <= 2 && narrowest < 0.0; ring++)
+    for (int ring = 1; ring <= PN_PENUMBRA_LEND_REACH && narrowest < 0.0; ring++)
         for (int dy = -ring; dy <= ring; dy++)
             // Along the ring's top and bottom rows every pixel, between them its two ends.
             for (int dx = -ring; dx <= ring; dx += abs(dy) == ring ? 1 : 2 * ring) {

@@ -10,7 +10,7 @@ layout(constant_id = PN_SPEC_LIGHT_KIND) const uint SHADE_LIGHT_KIND = PN_LIGHT_
 #define LIGHT_KIND_OF(l) SHADE_LIGHT_KIND
 #include "light.glsl"
 
-layout(local_size_x = PN_WORKGROUP, local_size_y = PN_WORKGROUP) in;
+layout(local_size_x = PN_ROW_GROUP) in;
 
 layout(set = 0, binding = PN_SHADE_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_SHADE_BINDING_N, rgba32f) uniform readonly image2D img_n;
