@@ -7,6 +7,7 @@
 
 #include "core/log.h"
 #include "core/timer.h"
+#include "interface.h"
 
 uint64_t pn_gpu_variant_hash(uint64_t h, const void *data, size_t bytes)
 {
@@ -359,6 +360,13 @@ void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint3
 {
     pn_gpu_compute_bind(cmd, c, push_size, push);
     vkCmdDispatch(cmd, x, y, z);
+}
+
+void pn_gpu_compute_dispatch_rows(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
+                                  uint32_t width, uint32_t height, bool one_tile)
+{
+    uint32_t gx = one_tile ? 1 : (width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = one_tile ? 1 : height;
+    pn_gpu_compute_dispatch(cmd, c, push_size, push, gx, gy, 1);
 }
 
 void pn_gpu_compute_dispatch_indirect(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size,

@@ -93,6 +93,10 @@ void pn_gpu_compute_bind(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t 
 // Binds pipeline and set, pushes `push` (push_size bytes, may be NULL) and dispatches.
 void pn_gpu_compute_dispatch(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
                              uint32_t x, uint32_t y, uint32_t z);
+// The same over a width x height image in PN_ROW_GROUP-pixel rows (the image passes' work groups:
+// interface.h); one_tile, the renderer's warm-up frame, dispatches one group.
+void pn_gpu_compute_dispatch_rows(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size, const void *push,
+                                  uint32_t width, uint32_t height, bool one_tile);
 // The same with the group counts read from `args` at `offset` (a VkDispatchIndirectCommand) when
 // the dispatch runs: a count an earlier dispatch wrote.
 void pn_gpu_compute_dispatch_indirect(VkCommandBuffer cmd, const pn_gpu_compute *c, uint32_t push_size,

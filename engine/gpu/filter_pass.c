@@ -74,8 +74,7 @@ void pn_filter_pass_record(VkCommandBuffer cmd, const pn_filter_pass *f, uint32_
         .width_scale = width_scale,
         .max_radius = pn_penumbra_max_radius(f->height),
     };
-    uint32_t gx = (f->width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = f->height;
-    pn_gpu_compute_dispatch(cmd, &f->compute, sizeof push, &push, f->one_tile ? 1 : gx, f->one_tile ? 1 : gy, 1);
+    pn_gpu_compute_dispatch_rows(cmd, &f->compute, sizeof push, &push, f->width, f->height, f->one_tile);
 }
 
 pn_result pn_filter_pass_set_counts(pn_gpu_device *dev, pn_filter_pass *f, VkImageView counts, bool temporal)

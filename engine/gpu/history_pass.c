@@ -140,6 +140,5 @@ void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint3
                             float noise_pixels)
 {
     pn_history_push push = {.light = light, .drop = drop, .cap = cap, .noise_pixels = noise_pixels};
-    uint32_t gx = (h->width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = h->height;
-    pn_gpu_compute_dispatch(cmd, &h->compute[h->cur], sizeof push, &push, h->one_tile ? 1 : gx, h->one_tile ? 1 : gy, 1);
+    pn_gpu_compute_dispatch_rows(cmd, &h->compute[h->cur], sizeof push, &push, h->width, h->height, h->one_tile);
 }

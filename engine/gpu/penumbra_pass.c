@@ -68,8 +68,8 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
                                                               (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0)},
                                 imgs[i]);
-    // A texel per work group's tile, cleared before each filter pass (pn_penumbra_pass_begin).
-    const uint32_t G = PN_WORKGROUP;
+    // A texel per tile, cleared before each filter pass (pn_penumbra_pass_begin).
+    const uint32_t G = PN_PENUMBRA_MARK_TILE;
     if (r == PN_OK)
         r = pn_gpu_image_create(dev,
                                 &(pn_gpu_image_desc){.name = "penumbra filter's tile marks",
@@ -166,7 +166,6 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
                            0, NULL);
         pn_gpu_compute c = f->compute;
         c.pipeline = f->stages[stage];
-        uint32_t gx = f->one_tile ? 1 : (f->width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = f->one_tile ? 1 : f->height;
-        pn_gpu_compute_dispatch(cmd, &c, sizeof push, &push, gx, gy, 1);
+        pn_gpu_compute_dispatch_rows(cmd, &c, sizeof push, &push, f->width, f->height, f->one_tile);
     }
 }

@@ -17,7 +17,7 @@ typedef struct pn_penumbra_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
-    pn_gpu_image tiles;   // r32ui: per PN_WORKGROUP-square tile, whether a blocker lies near (the row pass's)
+    pn_gpu_image tiles;   // r32ui: per PN_PENUMBRA_MARK_TILE-square tile, whether a blocker lies near
     VkImageView images[PN_PENUMBRA_BINDING_COUNT]; // the set's, kept for pn_penumbra_pass_set_counts
     bool temporal; // the counts are the temporal history's sums (PN_SPEC_PENUMBRA_TEMPORAL)
 } pn_penumbra_pass;

@@ -88,10 +88,9 @@ void pn_shade_pass_destroy(pn_gpu_device *dev, pn_shade_pass *s)
 
 void pn_shade_pass_record(VkCommandBuffer cmd, const pn_shade_pass *s, const pn_light_gpu *light, bool accumulate)
 {
-    uint32_t gx = (s->width + PN_ROW_GROUP - 1) / PN_ROW_GROUP, gy = s->height;
     pn_shade_push push = {.light = *light, .accumulate = accumulate};
     pn_gpu_compute c = s->compute;
     c.pipeline = s->by_kind[gpu_kind(light)]; // made by pn_shade_pass_prepare
     assert(c.pipeline);
-    pn_gpu_compute_dispatch(cmd, &c, sizeof push, &push, s->one_tile ? 1 : gx, s->one_tile ? 1 : gy, 1);
+    pn_gpu_compute_dispatch_rows(cmd, &c, sizeof push, &push, s->width, s->height, s->one_tile);
 }

@@ -37,7 +37,7 @@ layout(set = 0, binding = PN_FILTER_BINDING_BLOCKERS, rg32f) uniform readonly im
 // anyway: a dispatch of its own cost lavapipe about as much as one of the Gaussian's.
 layout(set = 0, binding = PN_FILTER_BINDING_SIGMA, rg32f) uniform writeonly image2D img_sigma;
 // With the penumbra filter: the tiles a pixel with a blocker lends its footprint to (below).
-layout(set = 0, binding = PN_FILTER_BINDING_TILES, r32ui) uniform coherent uimage2D img_tiles;
+layout(set = 0, binding = PN_FILTER_BINDING_TILES, r32ui) uniform uimage2D img_tiles;
 
 layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // The window, fixed per pipeline (filter_pass.c builds one for the tile in use): with constant
@@ -141,10 +141,11 @@ void main()
         // PN_PENUMBRA_LEND_REACH away (narrowest_neighbour in penumbra_filter.comp): it marks the
         // tiles those lie in (at most 2 x 2), so that the Gaussian's row pass loads the 24
         // neighbours only in a marked tile; elsewhere none of them has a blocker and it lends
-        // nothing, exactly as the loads would have found. A few pixels of a frame take this.
+        // nothing, exactly as the loads would have found. Every pixel with a blocker takes this
+        // (one to four atomics: about 1.4 ms of builtin:default's 1280 x 720 frame).
         if (sigma >= 0.0) {
-            ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / PN_WORKGROUP;
-            ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / PN_WORKGROUP;
+            ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / PN_PENUMBRA_MARK_TILE;
+            ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / PN_PENUMBRA_MARK_TILE;
             for (int ty = lo.y; ty <= hi.y; ty++)
                 for (int tx = lo.x; tx <= hi.x; tx++)
                     imageAtomicOr(img_tiles, ivec2(tx, ty), 1u);

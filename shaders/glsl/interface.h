@@ -122,13 +122,16 @@
                                        // the interleaved filter's pass writes it (filter.comp)
 #define PN_PENUMBRA_BINDING_SCRATCH 5  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
                                        // the camera: world units over view depth x pixel angle; the EXR's)
-#define PN_PENUMBRA_BINDING_TILES 6    // r32ui, a texel per PN_WORKGROUP-square tile: nonzero where a pixel
+#define PN_PENUMBRA_BINDING_TILES 6    // r32ui, a texel per PN_PENUMBRA_MARK_TILE-square tile: nonzero where a pixel
                                        // within PN_PENUMBRA_LEND_REACH of the tile has a blocker of its
                                        // own (the interleaved filter's pass sets it, the frame clears it)
 #define PN_PENUMBRA_BINDING_COUNT 7
 // The farthest pixel (in x and y) whose footprint a pixel without a blocker takes: the 5 x 5's
 // outer ring (narrowest_neighbour in penumbra_filter.comp).
 #define PN_PENUMBRA_LEND_REACH 2
+// The tiles of PN_PENUMBRA_BINDING_TILES, in pixels: 8, so that each SIMD group of llvmpipe's (8
+// pixels of a row, x a multiple of 8) lies in one tile and skips the neighbours' loads together.
+#define PN_PENUMBRA_MARK_TILE 8
 // The temporal history (--temporal, history.comp): after each light's shadow pass, the pixel's
 // samples of earlier frames carried to it and added to its own.
 #define PN_HISTORY_BINDING_P 0         // rgba32f: this frame's world position, w = 1 where geometry is

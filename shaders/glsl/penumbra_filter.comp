@@ -127,7 +127,7 @@ float narrowest_neighbour(ivec2 px, ivec2 size)
     // the loads below would find none, for most lit pixels. Measured (builtin:default at 1280 x
     // 720, exact, 4 spp, medians of 5, two runs alternated): the filter pass 48.3 / 50.4 -> 40.5 /
     // 42.3 ms, V the same bit for bit.
-    if (imageLoad(img_tiles, px / PN_WORKGROUP).x == 0u)
+    if (imageLoad(img_tiles, px / PN_PENUMBRA_MARK_TILE).x == 0u)
         return 0.0;
     float narrowest = -1.0;
     for (int ring = 1; ring <= PN_PENUMBRA_LEND_REACH && narrowest < 0.0; ring++)
