@@ -95,6 +95,7 @@ static pn_result recorder_make(penumbra_recorder *rec, const penumbra_scene *s, 
         PN_TRY(pn_history_pass_create(dev, d->width, d->height, 1, &rec->p, &rec->n, &rec->pass.counts, &rec->v,
                                       &rec->history));
         rec->history_made = true;
+        pn_shadow_pass_set_lineage(dev, &rec->pass, &rec->history.lineage);
     }
     // Its pipelines now, not while the host records.
     pn_light_gpu l = pn_light_to_gpu(&rec->light);
@@ -152,6 +153,7 @@ static bool history_begin(penumbra_recorder *rec, const penumbra_view *view)
     rec->pending_drops = rec->drops_asked;
     pn_history_params *hp = pn_history_pass_params(&rec->history);
     memcpy(hp->prev_view_proj, rec->prev.view_proj, sizeof hp->prev_view_proj);
+    memcpy(hp->view_proj, view->view_proj, sizeof hp->view_proj);
     for (int k = 0; k < 3; k++) {
         hp->prev_eye[k] = rec->prev.eye[k], hp->prev_forward[k] = rec->prev.forward[k];
         hp->eye[k] = view->eye[k], hp->forward[k] = view->forward[k];
@@ -199,8 +201,10 @@ static penumbra_status record(penumbra_recorder *rec, VkCommandBuffer cmd, uint3
                                    .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
                                                     VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_UNIFORM_READ_BIT};
         pn_gpu_cmd_barrier(cmd, &before, 0, NULL);
-        if (view)
+        if (view) {
             pn_history_pass_record_start(cmd, &rec->history);
+            pn_history_pass_record_choose(cmd, &rec->history, fresh, true); // no filter, no tile
+        }
         pn_shadow_pass_record(cmd, &rec->pass, rec->samples, 0);
         if (view) {
             // The frame's V and counts (shadow_finish) before the history adds to them.

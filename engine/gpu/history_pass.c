@@ -13,6 +13,7 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height, out->layers = layers;
+    out->counts = counts;
     const VkImageUsageFlags storage = VK_IMAGE_USAGE_STORAGE_BIT;
     struct {
         pn_gpu_image *img;
@@ -27,6 +28,8 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
         {&out->pos[1], "history's positions (odd frames)", VK_FORMAT_R32G32B32A32_SFLOAT, 0, storage},
         // read back with the frame (pn_frame_images.history)
         {&out->out, "history's counts", VK_FORMAT_R32G32B32A32_UINT, 0, storage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
+        {&out->lineage, "history's lineage", VK_FORMAT_R32G32B32A32_UINT, 0, storage},
+        {&out->trail, "history's previous lineage", VK_FORMAT_R32G32B32A32_UINT, 0, storage},
     };
     pn_result r = PN_OK;
     for (size_t i = 0; i < sizeof t / sizeof t[0] && r == PN_OK; i++)
@@ -68,7 +71,16 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_STORE_OUT, out->store[1 - k].view);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_OUT, out->out.view);
         pn_gpu_compute_write_uniform(dev, c, PN_HISTORY_BINDING_PARAMS, out->params.buffer);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_LINEAGE, out->lineage.view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_TRAIL, out->trail.view);
     }
+    // The choosing stage: the device's pipeline for the same layout (both sets share it).
+    const uint32_t stage = 1;
+    const VkSpecializationMapEntry entry = {.constantID = PN_SPEC_HISTORY_STAGE, .offset = 0, .size = 4};
+    VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = 4, .pData = &stage};
+    if (r == PN_OK)
+        r = pn_gpu_compute_pipeline(dev, &out->compute[0], pn_spv_history_comp, sizeof pn_spv_history_comp, &spec,
+                                    &out->choose);
     if (r != PN_OK)
         pn_history_pass_destroy(dev, out);
     return r;
@@ -82,6 +94,8 @@ void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h)
         pn_gpu_image_destroy(dev, &h->pos[k]);
     }
     pn_gpu_image_destroy(dev, &h->out);
+    pn_gpu_image_destroy(dev, &h->lineage);
+    pn_gpu_image_destroy(dev, &h->trail);
     pn_gpu_buffer_destroy(dev, &h->params);
     memset(h, 0, sizeof *h);
 }
@@ -127,12 +141,12 @@ void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h)
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     VkImageLayout from = h->ready ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    VkImageMemoryBarrier2 b[5];
-    const pn_gpu_image *images[5] = {&h->store[0], &h->store[1], &h->pos[0], &h->pos[1], &h->out};
-    for (uint32_t i = 0; i < 5; i++)
+    VkImageMemoryBarrier2 b[7];
+    const pn_gpu_image *images[7] = {&h->store[0], &h->store[1], &h->pos[0], &h->pos[1], &h->out, &h->lineage, &h->trail};
+    for (uint32_t i = 0; i < 7; i++)
         b[i] = pn_gpu_image_barrier(images[i], ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                                     RW, from, VK_IMAGE_LAYOUT_GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 5, b);
+    pn_gpu_cmd_barrier(cmd, NULL, 7, b);
     h->ready = true;
 }
 
@@ -141,4 +155,28 @@ void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint3
 {
     pn_history_push push = {.light = light, .drop = drop, .cap = cap, .noise_pixels = noise_pixels};
     pn_gpu_compute_dispatch_rows(cmd, &h->compute[h->cur], sizeof push, &push, h->width, h->height, h->one_tile);
+}
+
+void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh, bool follow)
+{
+    pn_history_push push = {.drop = fresh, .follow = follow};
+    // The set holds the shadow pass's counts, which the choice does not read but whose layout the
+    // set's use requires before that pass's own barrier makes it GENERAL (the first frame's is
+    // UNDEFINED): discarded, as that pass rewrites them from its first chunk on.
+    VkImageMemoryBarrier2 counts = pn_gpu_image_barrier(
+        h->counts, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+        VK_IMAGE_LAYOUT_GENERAL);
+    pn_gpu_cmd_barrier(cmd, NULL, 1, &counts);
+    pn_gpu_compute c = h->compute[h->cur];
+    c.pipeline = h->choose;
+    pn_gpu_compute_dispatch_rows(cmd, &c, sizeof push, &push, h->width, h->height, h->one_tile);
+    // The lineage before the shadow passes draw by it and the adding stages take the chosen pixels.
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                           .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                           .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                           .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT},
+                       0, NULL);
 }

@@ -25,8 +25,13 @@ typedef struct pn_history_pass {
     pn_gpu_image store[2];
     pn_gpu_image pos[2];
     pn_gpu_image out;            // rgba32ui: the sums as float bits, counts.z, counts.w (the filters')
+    // The lineage (PN_HISTORY_BINDING_LINEAGE): this frame's, which the shadow pass draws its
+    // samples by (pn_shadow_pass_set_lineage), and the previous frame's (trail).
+    pn_gpu_image lineage, trail;
     pn_gpu_buffer params;        // HistoryParams, host-visible
     pn_gpu_compute compute[2];
+    VkPipeline choose; // the choosing stage's (the device's), with compute[cur]'s set
+    const pn_gpu_image *counts; // the shadow pass's, which the set holds (pn_history_pass_record_choose)
     uint32_t cur;
     bool ready;    // its images are in the GENERAL layout (pn_history_pass_record_start)
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only
@@ -50,6 +55,14 @@ void pn_history_pass_set_boxes(pn_history_pass *h, const pn_history_boxes *b, do
 // Records what orders the frame's history passes after the previous frame's work on the sums and
 // positions (and, the first time, brings the images to the GENERAL layout).
 void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h);
+
+// Records the frame's choice, before its shadow passes: each pixel's previous pixel (whose
+// history every light takes) and the lineage its samples continue (history.comp); fresh: no
+// previous frame to take them from; follow: pixels continue lineages (frames without an
+// interleaved tile: under one, each pixel keeps its own samples, whose tile-mates' are
+// complementary within the frame, which the filter's window relies on). Reads P and N
+// (compute-readable), writes h->lineage.
+void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh, bool follow);
 
 // Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
 // sums hold (HistoryPush). Reads the counts and writes V_raw and h->out, both GENERAL.

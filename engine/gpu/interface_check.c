@@ -86,5 +86,6 @@ AT(pn_history_params, box_lo, 112);
 AT(pn_history_params, box_hi, 112 + 16 * PN_HISTORY_MAX_BOXES);
 AT(pn_history_params, lights, 112 + 32 * PN_HISTORY_MAX_BOXES);
 AT(pn_history_params, eye, 112 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
-SIZE(pn_history_params, 144 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
-SIZE(pn_history_push, 16);
+AT(pn_history_params, view_proj, 144 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
+SIZE(pn_history_params, 208 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
+SIZE(pn_history_push, 20);

@@ -31,6 +31,8 @@ static void timestamp(pn_renderer *r, VkCommandBuffer cmd, uint32_t index)
 // With the temporal history, `hist` says per light whether it drops its history and the most
 // samples its sums hold (NULL without).
 typedef struct history_frame {
+    bool fresh;  // no previous frame: every pixel starts its own lineage (pn_history_pass_record_choose)
+    bool follow; // pixels continue lineages: no interleaved tile (the same)
     bool drop[PN_MAX_LIGHTS];
     float cap[PN_MAX_LIGHTS];
 } history_frame;
@@ -81,6 +83,8 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
                                0, NULL);
         }
         uint32_t ts = TS_LIGHT + 3 * i;
+        if (hist && i == 0) // P, N -> each pixel's previous pixel and lineage (its time counts in the shadow's)
+            pn_history_pass_record_choose(cmd, &r->history, hist->fresh, hist->follow);
         pn_shadow_pass_record(cmd, &r->shadow, samples[i], i); // P, N -> V raw
         VkImageMemoryBarrier2 raw_ready[3] = {
             pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL),
@@ -196,8 +200,8 @@ static pn_result warm_up(pn_renderer *r, const pn_gbuffer_push *cam, const pn_li
 // The temporal history's part of a frame before it is recorded: its images for the frame's lights,
 // its parameters (the last frame's camera, the boxes of what moved, the lights) and which lights
 // drop their history. (The last frame's P is the pass's own copy: history.comp.)
-static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint32_t *samples, uint32_t light_count,
-                               float yfov_deg, history_frame *hf)
+static pn_result history_begin(pn_renderer *r, const pn_gbuffer_push *cam, const pn_light_gpu *l,
+                               const uint32_t *samples, uint32_t light_count, float yfov_deg, history_frame *hf)
 {
     pn_gpu_device *dev = r->dev;
     if (r->history.layers != light_count) {
@@ -208,6 +212,7 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
         pn_history_pass_destroy(dev, &r->history);
         r->filter.images[PN_FILTER_BINDING_COUNTS] = VK_NULL_HANDLE;
         r->penumbra.images[PN_PENUMBRA_BINDING_COUNTS] = VK_NULL_HANDLE;
+        r->shadow.lineage_view = VK_NULL_HANDLE;
         pn_result res = pn_history_pass_create(dev, r->width, r->height, light_count, &r->p, &r->n, &r->shadow.counts,
                                                &r->v_raw, &r->history);
         if (res == PN_OK)
@@ -222,6 +227,7 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
         r->cold = true; // the filters' pipelines for the history's counts, not run yet
         r->history_prev = false;
     }
+    pn_shadow_pass_set_lineage(dev, &r->shadow, &r->history.lineage);
     bool fresh = !r->history_prev || r->history_drop || light_count != r->history_light_count;
     // Until this frame has ended: a frame that fails after its G-buffer pass leaves P, the sums and
     // the camera out of step, and the next one starts afresh.
@@ -230,11 +236,14 @@ static pn_result history_begin(pn_renderer *r, const pn_light_gpu *l, const uint
     memcpy(hp->prev_view_proj, r->history_camera.view_proj, sizeof hp->prev_view_proj);
     memcpy(hp->prev_eye, r->history_camera.eye, sizeof hp->prev_eye);
     memcpy(hp->prev_forward, r->history_camera.forward, sizeof hp->prev_forward);
+    memcpy(hp->view_proj, cam->view_proj, sizeof hp->view_proj);
     hp->pixel_angle = (float)pn_pixel_angle(yfov_deg, r->height);
     hp->prev_pixel_angle = r->history_angle;
     hp->depth_from_eye = 0; // the G-buffer's N.w
     pn_history_pass_set_boxes(&r->history, &r->history_boxes, r->shadow.scene_mag,
                               r->shadow.mode->needs.tree ? r->desc.leaf_size : 0.0);
+    hf->fresh = fresh;
+    hf->follow = !filtered(r) || pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h) == 1;
     for (uint32_t i = 0; i < light_count; i++) {
         hp->lights[i] = l[i];
         hf->drop[i] = fresh || memcmp(&l[i], &r->history_lights[i], sizeof l[i]) != 0;
@@ -285,7 +294,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     }
     history_frame hf_store, *hist = r->history_frames ? &hf_store : NULL;
     if (hist)
-        PN_TRY(history_begin(r, l, samples, light_count, camera->yfov_deg, hist));
+        PN_TRY(history_begin(r, &cam, l, samples, light_count, camera->yfov_deg, hist));
     // A frame that continues the last one's counts cannot be warmed up: the warm-up's shadow pass
     // starts its images afresh and would lose them. It reports what was created for it, and a
     // pipeline made for it runs first within it (the demo's refinement, below 32 samples); so

@@ -133,6 +133,7 @@ pn_result pn_renderer_set_history(pn_renderer *r, uint32_t frames)
         PN_TRY(pn_filter_pass_set_counts(r->dev, &r->filter, r->shadow.counts.view, false));
         PN_TRY(pn_penumbra_pass_set_counts(r->dev, &r->penumbra, r->shadow.counts.view, false));
         pn_history_pass_destroy(r->dev, &r->history);
+        pn_shadow_pass_set_lineage(r->dev, &r->shadow, NULL);
     }
     if ((frames == 0) != (r->history_frames == 0)) {
         r->cold = true; // pipelines not run yet

@@ -130,6 +130,7 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
         {.binding = PN_SHADOW_BINDING_RAYS, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_LISTS, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
         {.binding = PN_SHADOW_BINDING_BLOCKERS, .descriptorType = IMAGE},
+        {.binding = PN_SHADOW_BINDING_LINEAGE, .descriptorType = IMAGE},
         {.binding = PN_SHADOW_BINDING_TLAS, .descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR},
     };
     bool tlas = out->mode->needs.tlas; // only those modes have the last binding
@@ -240,9 +241,20 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_RAYS, out->rays.view);
     pn_gpu_compute_write_buffer(dev, c, PN_SHADOW_BINDING_LISTS, out->lists.buffer);
     pn_gpu_compute_write_image(dev, c, PN_SHADOW_BINDING_BLOCKERS, out->blockers.view);
+    pn_shadow_pass_set_lineage(dev, out, NULL);
     if (tlas)
         pn_gpu_compute_write_tlas(dev, c, PN_SHADOW_BINDING_TLAS, desc->tlas->tlas);
     return PN_OK;
+}
+
+void pn_shadow_pass_set_lineage(pn_gpu_device *dev, pn_shadow_pass *s, const pn_gpu_image *lineage)
+{
+    // Without a history the binding still needs an image of its format; the shaders read it only
+    // under the frame window (frame_side), which only a history sets.
+    VkImageView view = lineage ? lineage->view : s->rays.view;
+    if (view != s->lineage_view)
+        pn_gpu_compute_write_image(dev, &s->compute, PN_SHADOW_BINDING_LINEAGE, view);
+    s->lineage_view = view;
 }
 
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s)

@@ -56,6 +56,7 @@ typedef struct pn_shadow_pass {
     pn_gpu_image blockers;  // per pixel: the nearest blocker (t), then the penumbra width it casts
                             // (PN_SHADOW_BINDING_BLOCKERS; the penumbra filter reads it)
     pn_gpu_buffer lists;    // adaptive sampling: the pixel lists of its rounds (PN_SHADOW_BINDING_LISTS)
+    VkImageView lineage_view; // what PN_SHADOW_BINDING_LINEAGE holds (pn_shadow_pass_set_lineage)
     uint32_t tiles_across, tile_total; // PN_WORKGROUP-square tiles across the image, and in all
     uint32_t width, height;
     uint32_t spp_min; // adaptive sampling's first round (desc.spp_min at the last update), 0: off
@@ -104,6 +105,9 @@ pn_result pn_shadow_pass_create(pn_gpu_device *dev, const pn_renderer_desc *desc
                                 const pn_gpu_image *n, const pn_gpu_image *v, float scene_mag, bool alpha_masks,
                                 pn_shadow_pass *out);
 void pn_shadow_pass_destroy(pn_gpu_device *dev, pn_shadow_pass *s);
+// The temporal history's lineage image (pn_history_pass.lineage: which pixel's samples each pixel
+// draws), or NULL for none. The queue idle: the set is rewritten.
+void pn_shadow_pass_set_lineage(pn_gpu_device *dev, pn_shadow_pass *s, const pn_gpu_image *lineage);
 
 // The temporal history's frame window for frame `frame` of a history of `history_frames` frames (0:
 // none) under an interleaving tile of `tile_pixels` pixels: consecutive frames share the strata of

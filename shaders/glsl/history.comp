@@ -1,15 +1,16 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// The temporal history (--temporal), once per light after its shadow pass: each pixel's samples of
-// earlier frames carried to it and added to its own, so that the filters and the shading read V
-// over all of them.
+// The temporal history (--temporal), in two stages (STAGE): once a frame before the shadow passes,
+// each pixel's previous pixel and the lineage of samples it continues (choose); then once per
+// light after its shadow pass, each pixel's samples of earlier frames carried to it and added to
+// its own, so that the filters and the shading read V over all of them.
 //
 // V at a surface point depends on the scene and the light, never on the camera: when only the
 // camera moved, every earlier sample of the point is still a sample of its V. So the point is
 // found in the previous frame (its P through the previous camera's matrix, the nearest pixel
 // there) and that pixel's sums taken, where it shows the same surface (the filters' own test,
 // filter_common.glsl: within a footprint of each other's tangent plane, normals within 30
-// degrees). A point the previous frame did not show (uncovered this frame, or off its image)
+// degrees; the choice is the first stage's, shared by the lights). A point the previous frame did not show (uncovered this frame, or off its image)
 // starts from its own samples. Where geometry moved (HistoryParams' boxes: each moved object's
 // bounds before and after), V can change only at points whose rays to the light can meet it: the
 // pyramid from the point to the light meets a box. Those points drop their history; everywhere
@@ -34,7 +35,14 @@ layout(set = 0, binding = PN_HISTORY_BINDING_OUT, rgba32ui) uniform writeonly ui
 layout(std140, set = 0, binding = PN_HISTORY_BINDING_PARAMS) uniform HistoryParamsBlock { HistoryParams params; };
 layout(set = 0, binding = PN_HISTORY_BINDING_POS_OUT, rgba32f) uniform writeonly image2D img_pos_out;
 
+layout(set = 0, binding = PN_HISTORY_BINDING_LINEAGE, rgba32ui) uniform uimage2D img_lineage;
+layout(set = 0, binding = PN_HISTORY_BINDING_TRAIL, rgba32ui) uniform uimage2D img_trail;
+
 layout(push_constant) uniform HistoryPushBlock { HistoryPush pc; };
+
+// The stage (PN_SPEC_HISTORY_STAGE): 0 adds a light's samples to its history (after its shadow
+// pass), 1 chooses each pixel's previous pixel and lineage (once a frame, before the shadow passes).
+layout(constant_id = PN_SPEC_HISTORY_STAGE) const uint STAGE = 0u;
 
 // As filter.comp's: a neighbour whose surface weight is below this does not continue the surface.
 const float SURFACE_CONTINUES = 0.75;
@@ -167,25 +175,127 @@ float history_share(ivec2 q, Earlier c, vec2 offset, float own)
     return a < kept ? a * own / ((1.0 - a) * prev.y) : 1.0;
 }
 
+// The previous frame's pixel q as the choice reads it: its point (w: covered), normal and view
+// depth, and its lineage (the previous frame's, as light 0's adding stage kept it).
+struct Trail {
+    vec4 p;
+    vec3 n;
+    float footprint;
+    uint origin;
+    vec2 offset;
+};
+Trail trail(ivec2 q)
+{
+    Trail t;
+    t.p = imageLoad(img_prev_p, q);
+    // Without lineages (pc.follow 0), the place of light 0's samples (its store) stands in for the
+    // followed point's.
+    uvec4 l = pc.follow != 0u ? imageLoad(img_trail, q) : imageLoad(img_store_in, ivec3(q, 0));
+    t.origin = l.x;
+    t.offset = unpackHalf2x16(l.z);
+    t.n = unpack_normal(l.w);
+    t.footprint = dot(t.p.xyz - params.prev_eye.xyz, params.prev_forward.xyz) * params.prev_pixel_angle;
+    return t;
+}
+
+// The point's place in the previous frame's pixels (x, y; w: in front of its camera).
+vec3 previous_place(vec3 p, ivec2 size)
+{
+    vec4 clip = params.prev_view_proj * vec4(p, 1.0);
+    return vec3((clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5, clip.w);
+}
+
+uint pack_pixel(ivec2 q) { return uint(q.x) | uint(q.y) << 16u; }
+ivec2 unpack_pixel(uint u) { return ivec2(u & 0xffffu, u >> 16u); }
+
+// Stage 1: each pixel's previous pixel, and the lineage of the samples it draws.
+// Every pixel of the previous frame carries a lineage: the pixel it began in (whose samples it
+// draws: shadow_common.glsl's pixel_sampler) and the point it follows, kept as where that point lies
+// from the pixel's centre. The point's place this frame is the pixel's P through this frame's
+// camera, plus that offset. A pixel takes, of the four previous pixels round its own point's place
+// in the previous frame (its P through the previous camera) that show the same surface (the
+// filters' test), the one whose followed point now lies nearest to its centre (the nearest pixel
+// first: where that point lies within half a pixel, as a still camera's all do, the others are not
+// read). Its history is taken from there for every light (the adding stage), and where that point
+// lies in this pixel (it rounds to it: one pixel at most for each previous one) the pixel continues
+// the lineage, so a surface point's samples over the frames are one pixel's frame window,
+// complementary strata of the light, however the camera moved. Elsewhere (a pixel uncovered this
+// frame, off the last frame's image, a fresh history, the surface magnified so that two pixels
+// took one) the pixel starts a lineage of its own at its centre: its samples are those of a frame
+// without history, bit for bit.
+void choose(ivec2 px, ivec2 size, vec4 p, vec4 n)
+{
+    uvec4 lineage = uvec4(pack_pixel(px), PN_HISTORY_NONE, packHalf2x16(vec2(0.0)),
+                          pack_normal(p.w > 0.0 ? n.xyz : vec3(0.0, 0.0, 1.0)));
+    if (p.w > 0.0 && pc.drop == 0u) {
+        float depth = params.depth_from_eye != 0u ? dot(p.xyz - params.eye.xyz, params.forward.xyz) : n.w;
+        float footprint = depth * params.pixel_angle, best = 1e30;
+        vec3 at = previous_place(p.xyz, size);
+        ivec2 q0 = ivec2(floor(at.xy)), nearest = ivec2(floor(at.xy + 0.5)), chosen = ivec2(-1);
+        Trail picked;
+        vec2 offset = vec2(0.0);
+        for (int k = -1; k < 4 && at.z > 0.0 && best > 0.25; k++) {
+            ivec2 q = k < 0 ? nearest : q0 + ivec2(k & 1, k >> 1);
+            if ((k >= 0 && q == nearest) || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
+                continue;
+            Trail e = trail(q);
+            vec3 gap = (e.p.xyz - p.xyz) / max(max(footprint, e.footprint), 1e-30);
+            // Where the followed point lies now, from this pixel's centre; without lineages, where
+            // the samples lie in the previous frame from this point's place there.
+            vec4 clip = params.view_proj * vec4(e.p.xyz, 1.0);
+            vec2 d = pc.follow != 0u ? (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5 + e.offset - vec2(px)
+                                     : vec2(q) + e.offset - at.xy;
+            if (e.p.w > 0.0 && (clip.w > 0.0 || pc.follow == 0u) &&
+                surface_weight(p.xyz, n.xyz, footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES &&
+                dot(gap, gap) <= NEAR * NEAR && dot(d, d) < best) {
+                best = dot(d, d);
+                offset = d, chosen = q, picked = e;
+            }
+        }
+        if (chosen.x >= 0) {
+            lineage.y = pack_pixel(chosen);
+            if (pc.follow == 0u) {
+                imageStore(img_lineage, px, lineage);
+                return;
+            }
+            // The lineage only where some light's history is there to continue: elsewhere the
+            // pixel's samples stay the frame's own, as without history.
+            bool held = false;
+            for (int layer = 0; layer < imageSize(img_store_in).z && !held; layer++)
+                held = uintBitsToFloat(imageLoad(img_store_in, ivec3(chosen, layer)).y) > 0.0;
+            if (held && all(lessThanEqual(abs(offset), vec2(0.5))))
+                lineage.x = picked.origin, lineage.z = packHalf2x16(offset);
+        }
+    }
+    imageStore(img_lineage, px, lineage);
+}
+
 void main()
 {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(img_p);
     if (any(greaterThanEqual(px, size)))
         return;
-    int layer = int(pc.light);
     vec4 p = imageLoad(img_p, px), n = imageLoad(img_n, px);
-    // This frame's P for the next frame's reprojection: the pass keeps its own copy (one of two,
-    // taken in turn as the sums are), so the renderer copies nothing between frames and the
-    // library's recorder, whose P is the host's, needs nothing of it.
-    if (pc.light == 0u)
+    if (STAGE == 1u) {
+        choose(px, size, p, n);
+        return;
+    }
+    int layer = int(pc.light);
+    uvec4 lineage = imageLoad(img_lineage, px);
+    // This frame's P and lineage for the next frame's choice: the pass keeps its own copies (of P
+    // one of two, taken in turn as the sums are), so the renderer copies nothing between frames and
+    // the library's recorder, whose P is the host's, needs nothing of it.
+    if (pc.light == 0u) {
         imageStore(img_pos_out, px, p);
+        imageStore(img_trail, px, lineage);
+    }
     uvec4 counts = imageLoad(img_counts, px);
     vec2 own = vec2(counts.xy);
     vec2 prev = vec2(0.0);
     // A pixel on the background has no samples; one the light cannot reach (counts.z 0) keeps V's
     // convention and no history.
-    bool carry = p.w > 0.0 && counts.z != 0u && pc.drop == 0u;
+    bool carry = p.w > 0.0 && counts.z != 0u && pc.drop == 0u && lineage.y != PN_HISTORY_NONE;
     // The boxes grown by the reach of the earlier pixels whose samples the history may hold
     // (within NEAR footprints of the point, and their offset within a pixel more).
     Light l = params.lights[pc.light];
@@ -197,34 +307,15 @@ void main()
     // 0 for the frame's own.
     vec2 offset = vec2(0.0);
     if (carry) {
-        // Of the four pixels round the point's place in the previous frame, the one on the same
-        // surface whose samples lie nearest to it (a camera moving by a fraction of a pixel a
-        // frame keeps choosing the same pixel, and its samples fall behind the surface a fraction
-        // a frame: their place, carried along, says when a neighbour's lie nearer). The nearest
-        // pixel first: where its samples lie within half a pixel (a still camera's, all), the
-        // others are not read.
-        vec4 clip = params.prev_view_proj * vec4(p.xyz, 1.0);
-        vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5;
-        ivec2 q0 = ivec2(floor(at)), nearest = ivec2(floor(at + 0.5)), chosen = ivec2(-1);
-        Earlier picked;
-        float footprint = depth * params.pixel_angle, best = 1e30;
-        for (int k = -1; k < 4 && clip.w > 0.0 && best > 0.25; k++) {
-            ivec2 q = k < 0 ? nearest : q0 + ivec2(k & 1, k >> 1);
-            if ((k >= 0 && q == nearest) || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
-                continue;
-            Earlier e = earlier(q);
-            vec3 gap = (e.p.xyz - p.xyz) / max(max(footprint, e.footprint), 1e-30);
-            vec2 d = vec2(q) + e.offset - at;
-            if (e.p.w > 0.0 && surface_weight(p.xyz, n.xyz, footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES &&
-                dot(gap, gap) <= NEAR * NEAR && dot(d, d) < best) {
-                best = dot(d, d);
-                prev = e.sums, offset = d, chosen = q, picked = e;
-            }
-        }
+        // The previous pixel the choice took (stage 1), its sums and where their samples lie.
+        ivec2 q = unpack_pixel(lineage.y);
+        Earlier e = earlier(q);
+        prev = e.sums;
+        offset = vec2(q) + e.offset - previous_place(p.xyz, size).xy;
         // (Where the samples lie on the point itself, as under a still camera, all of it: no
         // gradient to measure.)
-        if (chosen.x >= 0 && prev.y > 0.0 && own.y > 0.0 && offset != vec2(0.0))
-            prev *= history_share(chosen, picked, offset, own.y);
+        if (prev.y > 0.0 && own.y > 0.0 && offset != vec2(0.0))
+            prev *= history_share(q, e, offset, own.y);
     }
     // Room for this frame's samples within the cap: the earlier ones scaled to what is left.
     if (prev.y + own.y > pc.cap && prev.y > 0.0)

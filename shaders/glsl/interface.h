@@ -92,8 +92,11 @@
 #define PN_SHADOW_BINDING_BLOCKERS 9 // rg32f: the blocked rays' nearest blocker as segment parameter t
                                      // (1 without one), and after a pixel's last chunk the penumbra
                                      // width it casts, world units (shadow_finish; the penumbra filter's)
-#define PN_SHADOW_BINDING_COUNT 10
-#define PN_SHADOW_BINDING_TLAS 10   // acceleration structure: only the modes whose needs.tlas is set
+#define PN_SHADOW_BINDING_LINEAGE 10 // rgba32ui: under the temporal history, the pixel whose samples
+                                     // each pixel continues (history.comp's lineage, x); without it
+                                     // bound to RAYS and never read (frame_side 0)
+#define PN_SHADOW_BINDING_COUNT 11
+#define PN_SHADOW_BINDING_TLAS 11   // acceleration structure: only the modes whose needs.tlas is set
 #define PN_SHADE_BINDING_P 0
 #define PN_SHADE_BINDING_N 1
 #define PN_SHADE_BINDING_ALBEDO 2
@@ -149,7 +152,19 @@
                                        // this frame's counts.z and counts.w
 #define PN_HISTORY_BINDING_PARAMS 8    // uniform HistoryParams
 #define PN_HISTORY_BINDING_POS_OUT 9   // rgba32f: this frame's P kept for the next frame (light 0's pass)
-#define PN_HISTORY_BINDING_COUNT 10
+#define PN_HISTORY_BINDING_LINEAGE 10  // rgba32ui: this frame's lineage per pixel (the choosing stage's
+                                       // out, the shadow pass's and the adding stage's in): the pixel
+                                       // whose samples it continues (x | y << 16), the previous pixel
+                                       // whose history it takes (the same packing; PN_HISTORY_NONE:
+                                       // none), where the lineage's point lies (half floats, pixels
+                                       // from its centre) and its normal (octahedral)
+#define PN_HISTORY_BINDING_TRAIL 11    // rgba32ui: the previous frame's lineage (light 0's adding stage
+                                       // copies it for the next frame's choice)
+#define PN_HISTORY_BINDING_COUNT 12
+#define PN_HISTORY_NONE 0xffffffffu
+// history.comp's stage, a pipeline each: 0 adds a light's samples, 1 chooses each pixel's lineage
+// (once a frame, before the shadow passes).
+#define PN_SPEC_HISTORY_STAGE 0
 // The most boxes of moved geometry one frame drops history under (more are merged on the host).
 #define PN_HISTORY_MAX_BOXES 32
 // filter.comp and penumbra_filter.comp: the counts they read are the history's (float sums).
@@ -433,14 +448,16 @@ PN_STRUCT(HistoryParams, pn_history_params) {
     PN_MEMBERS(Light, pn_light_gpu, lights, PN_MAX_LIGHTS) // this frame's lights
     PN_VEC4(eye)            // this frame's camera, with depth_from_eye
     PN_VEC4(forward)
+    PN_MAT4(view_proj)      // this frame's world -> clip: which pixel a previous pixel's point lands in
 } PN_END(HistoryParams, pn_history_params)
 
-// The temporal history's push constants: one light per dispatch. 16 bytes.
+// The temporal history's push constants: one light per dispatch. 20 bytes.
 PN_STRUCT(HistoryPush, pn_history_push) {
     PN_UINT(light) // the light (its layer of the store, its entry of HistoryParams.lights)
     PN_UINT(drop)  // 1: no history for this light (it moved, or the history was reset)
     PN_FLOAT(cap)  // the most samples the sums hold: older samples weigh less beyond it
     PN_FLOAT(noise_pixels) // the pixels a filter after averages a frame's noise over (1: none)
+    PN_UINT(follow) // the choosing stage: 1 where pixels continue lineages (no interleaved tile)
 } PN_END(HistoryPush, pn_history_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive

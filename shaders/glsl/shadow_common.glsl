@@ -38,6 +38,7 @@ bool budget_spent()
 
 layout(set = 0, binding = PN_SHADOW_BINDING_COUNTS, rgba32ui) uniform uimage2D img_counts; // (visible, valid) so far
 layout(std430, set = 0, binding = PN_SHADOW_BINDING_STATUS) buffer Status { uint truncated; } status;
+layout(set = 0, binding = PN_SHADOW_BINDING_LINEAGE, rgba32ui) uniform readonly uimage2D img_lineage;
 
 const uint SAMPLER_GRID = PN_SAMPLER_GRID_ID;
 const uint SAMPLER_STRATIFIED = PN_SAMPLER_STRATIFIED_ID;
@@ -92,6 +93,16 @@ struct PixelSampler {
 PixelSampler pixel_sampler(uvec2 pixel)
 {
     PixelSampler ps;
+    // Under the temporal history a pixel draws the samples of the pixel its point was first seen
+    // in (history.comp's lineage: the point followed through the camera's moves), so that the
+    // frames' samples of one surface point are that pixel's frame window, complementary strata of
+    // the light, as a still camera's are. Drawn by the pixel it now lies in, a moving point's
+    // samples came from different pixels' strata, no more complementary than independent ones
+    // (engine/gpu/README.md, the temporal history). A still camera's lineage is the pixel itself.
+    if (params.frame_side != 0u) {
+        uint origin = imageLoad(img_lineage, ivec2(pixel)).x;
+        pixel = uvec2(origin & 0xffffu, origin >> 16u);
+    }
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uvec2 tile = pixel / tile_size, member = pixel % tile_size;
     ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
