@@ -145,6 +145,7 @@ static bool history_begin(penumbra_recorder *rec, const penumbra_view *view)
 {
     if (rec->pending) {
         pn_history_pass_flip(&rec->history);
+        rec->history.trail_kept = true;
         rec->prev = rec->pending_view, rec->has_prev = true, rec->frame++;
         rec->drops_done = rec->pending_drops;
         rec->pending = false;
@@ -203,7 +204,7 @@ static penumbra_status record(penumbra_recorder *rec, VkCommandBuffer cmd, uint3
         pn_gpu_cmd_barrier(cmd, &before, 0, NULL);
         if (view) {
             pn_history_pass_record_start(cmd, &rec->history);
-            pn_history_pass_record_choose(cmd, &rec->history, fresh, true); // no filter, no tile
+            pn_history_pass_record_choose(cmd, &rec->history, fresh); // no filter: no tile
         }
         pn_shadow_pass_record(cmd, &rec->pass, rec->samples, 0);
         if (view) {
@@ -216,7 +217,7 @@ static penumbra_status record(penumbra_recorder *rec, VkCommandBuffer cmd, uint3
                                                        VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT};
             pn_gpu_cmd_barrier(cmd, &ready, 0, NULL);
             pn_history_pass_record(cmd, &rec->history, 0, fresh,
-                                   (float)rec->history_frames * (float)(rec->samples ? rec->samples : 1), 1.0f);
+                                   (float)rec->history_frames * (float)(rec->samples ? rec->samples : 1), 1.0f, true);
             rec->pending = true, rec->pending_view = *view;
         }
         // The pass's status flag (the loop budget's canary), read by penumbra_recorder_check once

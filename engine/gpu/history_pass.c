@@ -74,13 +74,18 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_LINEAGE, out->lineage.view);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_TRAIL, out->trail.view);
     }
-    // The choosing stage: the device's pipeline for the same layout (both sets share it).
-    const uint32_t stage = 1;
+    // The choosing stage and the stage that takes its choice: the device's pipelines for the same
+    // layout (both sets share it).
+    uint32_t stage = 1;
     const VkSpecializationMapEntry entry = {.constantID = PN_SPEC_HISTORY_STAGE, .offset = 0, .size = 4};
     VkSpecializationInfo spec = {.mapEntryCount = 1, .pMapEntries = &entry, .dataSize = 4, .pData = &stage};
     if (r == PN_OK)
         r = pn_gpu_compute_pipeline(dev, &out->compute[0], pn_spv_history_comp, sizeof pn_spv_history_comp, &spec,
                                     &out->choose);
+    stage = 2;
+    if (r == PN_OK)
+        r = pn_gpu_compute_pipeline(dev, &out->compute[0], pn_spv_history_comp, sizeof pn_spv_history_comp, &spec,
+                                    &out->take);
     if (r != PN_OK)
         pn_history_pass_destroy(dev, out);
     return r;
@@ -151,15 +156,18 @@ void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h)
 }
 
 void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap,
-                            float noise_pixels)
+                            float noise_pixels, bool chosen)
 {
     pn_history_push push = {.light = light, .drop = drop, .cap = cap, .noise_pixels = noise_pixels};
-    pn_gpu_compute_dispatch_rows(cmd, &h->compute[h->cur], sizeof push, &push, h->width, h->height, h->one_tile);
+    pn_gpu_compute c = h->compute[h->cur];
+    if (chosen)
+        c.pipeline = h->take;
+    pn_gpu_compute_dispatch_rows(cmd, &c, sizeof push, &push, h->width, h->height, h->one_tile);
 }
 
-void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh, bool follow)
+void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh)
 {
-    pn_history_push push = {.drop = fresh, .follow = follow};
+    pn_history_push push = {.drop = fresh};
     // The set holds the shadow pass's counts, which the choice does not read but whose layout the
     // set's use requires before that pass's own barrier makes it GENERAL (the first frame's is
     // UNDEFINED): discarded, as that pass rewrites them from its first chunk on.

@@ -31,7 +31,9 @@ typedef struct pn_history_pass {
     pn_gpu_buffer params;        // HistoryParams, host-visible
     pn_gpu_compute compute[2];
     VkPipeline choose; // the choosing stage's (the device's), with compute[cur]'s set
+    VkPipeline take;   // and the adding stage's that takes its choice (compute[k]'s own chooses itself)
     const pn_gpu_image *counts; // the shadow pass's, which the set holds (pn_history_pass_record_choose)
+    bool trail_kept; // the previous frame chose lineages: trail holds them (the caller's to set)
     uint32_t cur;
     bool ready;    // its images are in the GENERAL layout (pn_history_pass_record_start)
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only
@@ -58,18 +60,19 @@ void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h);
 
 // Records the frame's choice, before its shadow passes: each pixel's previous pixel (whose
 // history every light takes) and the lineage its samples continue (history.comp); fresh: no
-// previous frame to take them from; follow: pixels continue lineages (frames without an
-// interleaved tile: under one, each pixel keeps its own samples, whose tile-mates' are
-// complementary within the frame, which the filter's window relies on). Reads P and N
-// (compute-readable), writes h->lineage.
-void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh, bool follow);
+// previous frame to take them from. Only for frames without an interleaved tile (unfiltered):
+// under one, each pixel keeps its own samples, whose tile-mates' are complementary within the
+// frame, which the filter's window relies on, and each light's pass chooses for itself. Reads P and
+// N (compute-readable), writes h->lineage.
+void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh);
 
 // Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
 // sums hold (HistoryPush). Reads the counts and writes V_raw and h->out, both GENERAL.
 // noise_pixels: how many pixels the filter after it averages a frame's noise over (its tile; 1
 // unfiltered), which the share of a moved history weighs its bias against (history.comp).
+// chosen: the frame's choice was recorded (pn_history_pass_record_choose), and the pass takes it.
 void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap,
-                            float noise_pixels);
+                            float noise_pixels, bool chosen);
 
 // After a frame completed: its sums become the previous frame's.
 static inline void pn_history_pass_flip(pn_history_pass *h) { h->cur ^= 1u; }

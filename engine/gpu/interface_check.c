@@ -88,4 +88,4 @@ AT(pn_history_params, lights, 112 + 32 * PN_HISTORY_MAX_BOXES);
 AT(pn_history_params, eye, 112 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
 AT(pn_history_params, view_proj, 144 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
 SIZE(pn_history_params, 208 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
-SIZE(pn_history_push, 20);
+SIZE(pn_history_push, 16);

@@ -83,8 +83,8 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
                                0, NULL);
         }
         uint32_t ts = TS_LIGHT + 3 * i;
-        if (hist && i == 0) // P, N -> each pixel's previous pixel and lineage (its time counts in the shadow's)
-            pn_history_pass_record_choose(cmd, &r->history, hist->fresh, hist->follow);
+        if (hist && hist->follow && i == 0) // P, N -> each pixel's previous pixel and lineage (its time: the shadow's)
+            pn_history_pass_record_choose(cmd, &r->history, hist->fresh);
         pn_shadow_pass_record(cmd, &r->shadow, samples[i], i); // P, N -> V raw
         VkImageMemoryBarrier2 raw_ready[3] = {
             pn_gpu_image_barrier(&r->v_raw, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL),
@@ -103,7 +103,7 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
                                          .dstAccessMask = READ | WRITE};
             pn_gpu_cmd_barrier(cmd, &rw, 0, NULL);
             float tile = filtered(r) ? (float)(pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h)) : 1.0f;
-            pn_history_pass_record(cmd, &r->history, i, hist->drop[i], hist->cap[i], tile);
+            pn_history_pass_record(cmd, &r->history, i, hist->drop[i], hist->cap[i], tile, hist->follow);
             pn_gpu_cmd_barrier(cmd, &rw, 0, NULL);
         }
         if (filtered(r)) {
@@ -242,7 +242,7 @@ static pn_result history_begin(pn_renderer *r, const pn_gbuffer_push *cam, const
     hp->depth_from_eye = 0; // the G-buffer's N.w
     pn_history_pass_set_boxes(&r->history, &r->history_boxes, r->shadow.scene_mag,
                               r->shadow.mode->needs.tree ? r->desc.leaf_size : 0.0);
-    hf->fresh = fresh;
+    hf->fresh = fresh || !r->history.trail_kept; // a frame under a tile chose no lineages
     hf->follow = !filtered(r) || pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h) == 1;
     for (uint32_t i = 0; i < light_count; i++) {
         hp->lights[i] = l[i];
@@ -348,6 +348,7 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     if (hist) {
         // This frame's sums, camera and lights are the next frame's previous ones.
         pn_history_pass_flip(&r->history);
+        r->history.trail_kept = hist->follow;
         r->history_prev = true, r->history_drop = false, r->history_boxes.count = 0;
         r->history_camera = cam;
         r->history_angle = (float)pn_pixel_angle(camera->yfov_deg, r->height);

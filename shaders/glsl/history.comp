@@ -1,9 +1,10 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// The temporal history (--temporal), in two stages (STAGE): once a frame before the shadow passes,
-// each pixel's previous pixel and the lineage of samples it continues (choose); then once per
-// light after its shadow pass, each pixel's samples of earlier frames carried to it and added to
-// its own, so that the filters and the shading read V over all of them.
+// The temporal history (--temporal), once per light after its shadow pass: each pixel's samples of
+// earlier frames carried to it and added to its own, so that the filters and the shading read V
+// over all of them. Frames without an interleaved tile (unfiltered) choose each pixel's previous
+// pixel once before their shadow passes instead (STAGE 1, choose: its lineage), and the lights'
+// passes take that choice (STAGE 2).
 //
 // V at a surface point depends on the scene and the light, never on the camera: when only the
 // camera moved, every earlier sample of the point is still a sample of its V. So the point is
@@ -41,7 +42,8 @@ layout(set = 0, binding = PN_HISTORY_BINDING_TRAIL, rgba32ui) uniform uimage2D i
 layout(push_constant) uniform HistoryPushBlock { HistoryPush pc; };
 
 // The stage (PN_SPEC_HISTORY_STAGE): 0 adds a light's samples to its history (after its shadow
-// pass), 1 chooses each pixel's previous pixel and lineage (once a frame, before the shadow passes).
+// pass), choosing the previous pixel itself; 1 chooses each pixel's previous pixel and lineage
+// (once a frame, before the shadow passes); 2 adds a light's samples from the pixel 1 chose.
 layout(constant_id = PN_SPEC_HISTORY_STAGE) const uint STAGE = 0u;
 
 // As filter.comp's: a neighbour whose surface weight is below this does not continue the surface.
@@ -188,9 +190,7 @@ Trail trail(ivec2 q)
 {
     Trail t;
     t.p = imageLoad(img_prev_p, q);
-    // Without lineages (pc.follow 0), the place of light 0's samples (its store) stands in for the
-    // followed point's.
-    uvec4 l = pc.follow != 0u ? imageLoad(img_trail, q) : imageLoad(img_store_in, ivec3(q, 0));
+    uvec4 l = imageLoad(img_trail, q);
     t.origin = l.x;
     t.offset = unpackHalf2x16(l.z);
     t.n = unpack_normal(l.w);
@@ -240,12 +240,10 @@ void choose(ivec2 px, ivec2 size, vec4 p, vec4 n)
                 continue;
             Trail e = trail(q);
             vec3 gap = (e.p.xyz - p.xyz) / max(max(footprint, e.footprint), 1e-30);
-            // Where the followed point lies now, from this pixel's centre; without lineages, where
-            // the samples lie in the previous frame from this point's place there.
+            // Where the followed point lies now, from this pixel's centre.
             vec4 clip = params.view_proj * vec4(e.p.xyz, 1.0);
-            vec2 d = pc.follow != 0u ? (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5 + e.offset - vec2(px)
-                                     : vec2(q) + e.offset - at.xy;
-            if (e.p.w > 0.0 && (clip.w > 0.0 || pc.follow == 0u) &&
+            vec2 d = (clip.xy / clip.w * 0.5 + 0.5) * vec2(size) - 0.5 + e.offset - vec2(px);
+            if (e.p.w > 0.0 && clip.w > 0.0 &&
                 surface_weight(p.xyz, n.xyz, footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES &&
                 dot(gap, gap) <= NEAR * NEAR && dot(d, d) < best) {
                 best = dot(d, d);
@@ -254,10 +252,6 @@ void choose(ivec2 px, ivec2 size, vec4 p, vec4 n)
         }
         if (chosen.x >= 0) {
             lineage.y = pack_pixel(chosen);
-            if (pc.follow == 0u) {
-                imageStore(img_lineage, px, lineage);
-                return;
-            }
             // The lineage only where some light's history is there to continue: elsewhere the
             // pixel's samples stay the frame's own, as without history.
             bool held = false;
@@ -282,20 +276,21 @@ void main()
         return;
     }
     int layer = int(pc.light);
-    uvec4 lineage = imageLoad(img_lineage, px);
-    // This frame's P and lineage for the next frame's choice: the pass keeps its own copies (of P
+    uvec4 lineage = STAGE == 2u ? imageLoad(img_lineage, px) : uvec4(0u, PN_HISTORY_NONE, 0u, 0u);
+    // This frame's P (and lineage) for the next frame's choice: the pass keeps its own copies (of P
     // one of two, taken in turn as the sums are), so the renderer copies nothing between frames and
     // the library's recorder, whose P is the host's, needs nothing of it.
     if (pc.light == 0u) {
         imageStore(img_pos_out, px, p);
-        imageStore(img_trail, px, lineage);
+        if (STAGE == 2u)
+            imageStore(img_trail, px, lineage);
     }
     uvec4 counts = imageLoad(img_counts, px);
     vec2 own = vec2(counts.xy);
     vec2 prev = vec2(0.0);
     // A pixel on the background has no samples; one the light cannot reach (counts.z 0) keeps V's
     // convention and no history.
-    bool carry = p.w > 0.0 && counts.z != 0u && pc.drop == 0u && lineage.y != PN_HISTORY_NONE;
+    bool carry = p.w > 0.0 && counts.z != 0u && pc.drop == 0u && (STAGE == 0u || lineage.y != PN_HISTORY_NONE);
     // The boxes grown by the reach of the earlier pixels whose samples the history may hold
     // (within NEAR footprints of the point, and their offset within a pixel more).
     Light l = params.lights[pc.light];
@@ -307,15 +302,41 @@ void main()
     // 0 for the frame's own.
     vec2 offset = vec2(0.0);
     if (carry) {
-        // The previous pixel the choice took (stage 1), its sums and where their samples lie.
-        ivec2 q = unpack_pixel(lineage.y);
-        Earlier e = earlier(q);
-        prev = e.sums;
-        offset = vec2(q) + e.offset - previous_place(p.xyz, size).xy;
+        vec3 at = previous_place(p.xyz, size);
+        ivec2 chosen = ivec2(-1);
+        Earlier picked;
+        if (STAGE == 2u) {
+            // The previous pixel the choice took (stage 1), its sums and where their samples lie.
+            chosen = unpack_pixel(lineage.y);
+            picked = earlier(chosen);
+            prev = picked.sums, offset = vec2(chosen) + picked.offset - at.xy;
+        } else {
+            // Of the four pixels round the point's place in the previous frame, the one on the same
+            // surface whose samples lie nearest to it (a camera moving by a fraction of a pixel a
+            // frame keeps choosing the same pixel, and its samples fall behind the surface a
+            // fraction a frame: their place, carried along, says when a neighbour's lie nearer).
+            // The nearest pixel first: where its samples lie within half a pixel (a still
+            // camera's, all), the others are not read.
+            ivec2 q0 = ivec2(floor(at.xy)), nearest = ivec2(floor(at.xy + 0.5));
+            float footprint = depth * params.pixel_angle, best = 1e30;
+            for (int k = -1; k < 4 && at.z > 0.0 && best > 0.25; k++) {
+                ivec2 q = k < 0 ? nearest : q0 + ivec2(k & 1, k >> 1);
+                if ((k >= 0 && q == nearest) || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size)))
+                    continue;
+                Earlier e = earlier(q);
+                vec3 gap = (e.p.xyz - p.xyz) / max(max(footprint, e.footprint), 1e-30);
+                vec2 d = vec2(q) + e.offset - at.xy;
+                if (e.p.w > 0.0 && surface_weight(p.xyz, n.xyz, footprint, e.p.xyz, e.n, e.footprint, 1.0) >= SURFACE_CONTINUES &&
+                    dot(gap, gap) <= NEAR * NEAR && dot(d, d) < best) {
+                    best = dot(d, d);
+                    prev = e.sums, offset = d, chosen = q, picked = e;
+                }
+            }
+        }
         // (Where the samples lie on the point itself, as under a still camera, all of it: no
         // gradient to measure.)
-        if (prev.y > 0.0 && own.y > 0.0 && offset != vec2(0.0))
-            prev *= history_share(q, e, offset, own.y);
+        if (chosen.x >= 0 && prev.y > 0.0 && own.y > 0.0 && offset != vec2(0.0))
+            prev *= history_share(chosen, picked, offset, own.y);
     }
     // Room for this frame's samples within the cap: the earlier ones scaled to what is left.
     if (prev.y + own.y > pc.cap && prev.y > 0.0)

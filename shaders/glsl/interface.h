@@ -162,8 +162,9 @@
                                        // copies it for the next frame's choice)
 #define PN_HISTORY_BINDING_COUNT 12
 #define PN_HISTORY_NONE 0xffffffffu
-// history.comp's stage, a pipeline each: 0 adds a light's samples, 1 chooses each pixel's lineage
-// (once a frame, before the shadow passes).
+// history.comp's stage, a pipeline each: 0 adds a light's samples (choosing its previous pixel),
+// 1 chooses each pixel's previous pixel and lineage (once a frame, before the shadow passes, in
+// frames without an interleaved tile), 2 adds a light's samples from that choice.
 #define PN_SPEC_HISTORY_STAGE 0
 // The most boxes of moved geometry one frame drops history under (more are merged on the host).
 #define PN_HISTORY_MAX_BOXES 32
@@ -451,13 +452,12 @@ PN_STRUCT(HistoryParams, pn_history_params) {
     PN_MAT4(view_proj)      // this frame's world -> clip: which pixel a previous pixel's point lands in
 } PN_END(HistoryParams, pn_history_params)
 
-// The temporal history's push constants: one light per dispatch. 20 bytes.
+// The temporal history's push constants: one light per dispatch. 16 bytes.
 PN_STRUCT(HistoryPush, pn_history_push) {
     PN_UINT(light) // the light (its layer of the store, its entry of HistoryParams.lights)
     PN_UINT(drop)  // 1: no history for this light (it moved, or the history was reset)
     PN_FLOAT(cap)  // the most samples the sums hold: older samples weigh less beyond it
     PN_FLOAT(noise_pixels) // the pixels a filter after averages a frame's noise over (1: none)
-    PN_UINT(follow) // the choosing stage: 1 where pixels continue lineages (no interleaved tile)
 } PN_END(HistoryPush, pn_history_push)
 
 // The shadow pass's push constants: one chunk of one light's samples per dispatch, or adaptive

@@ -99,7 +99,10 @@ PixelSampler pixel_sampler(uvec2 pixel)
     // the light, as a still camera's are. Drawn by the pixel it now lies in, a moving point's
     // samples came from different pixels' strata, no more complementary than independent ones
     // (engine/gpu/README.md, the temporal history). A still camera's lineage is the pixel itself.
-    if (params.frame_side != 0u) {
+    // Only without an interleaved tile: under one, a pixel keeps its own samples, whose tile-mates'
+    // are complementary within the frame, which the filter's window relies on (and no lineage is
+    // chosen: history.comp's stage 1 runs only then).
+    if (params.frame_side != 0u && params.tile_w * params.tile_h == 1u) {
         uint origin = imageLoad(img_lineage, ivec2(pixel)).x;
         pixel = uvec2(origin & 0xffffu, origin >> 16u);
     }
