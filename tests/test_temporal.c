@@ -327,6 +327,91 @@ static void check_light_jump(pn_gpu_device *dev, const pn_scene *scene, const pn
     CHECK_MSG(ok && kept_px == 0 && differ == 0, "light moved: %zu pixels kept history, %zu differ", kept_px, differ);
 }
 
+// 5. Samples that follow the surface point (the lineage: history.comp's choosing stage,
+// shadow_common.glsl's pixel_sampler). A camera looking straight down on the ground pans by
+// exactly K pixels' footprint at the ground's depth: every ground point then shows K pixels on,
+// in a pixel that continues the lineage of the pixel it was in. Unfiltered (no tile), so the
+// moved frame's pixel p draws the samples the still camera's pixel p + s draws in the same frame
+// (s the shift back), at the same point and with the same history: the two V agree bit for bit
+// but for rays whose origins' rounding flips them. Samples drawn by the pixel, as before the
+// lineage, differ wherever V is fractional: the same two frames with their history dropped (each
+// pixel then starts its own lineage) show how often.
+static void check_pan(pn_gpu_device *dev, const pn_scene *scene, const float lo[3], const float hi[3],
+                      const pn_light *light)
+{
+    enum { K = 3 };
+    pn_camera top = {.target = {0.5f * (lo[0] + hi[0]), lo[1], 0.5f * (lo[2] + hi[2])}, .up = {0, 0, -1}, .yfov_deg = 45};
+    float extent = fmaxf(hi[0] - lo[0], hi[2] - lo[2]), depth = 2.5f * extent;
+    memcpy(top.pos, top.target, sizeof top.pos);
+    top.pos[1] += depth;
+    // A pixel's footprint at the ground (the plane lies a hair below lo[1]: pn_scene_add_ground).
+    double footprint = 2.0 * (depth + (lo[1] - hi[1]) * 0x1p-12) * tan(22.5 * 3.14159265358979 / 180.0) / H;
+    pn_camera moved = top;
+    moved.pos[0] = (float)(top.pos[0] + K * footprint), moved.target[0] = (float)(top.target[0] + K * footprint);
+    static float p_still[4 * PX], p_moved[4 * PX];
+    static frame still, pan, still_own, pan_own;
+    bool ok = true;
+    for (int run = 0; run < 4 && ok; run++) {
+        pn_setup s;
+        if (!setup(dev, scene, &top, light, SPP, 1, PN_FILTER_NONE, 32, &s))
+            return;
+        frame *f = (frame *[4]){&still, &pan, &still_own, &pan_own}[run];
+        const pn_camera *second = run % 2 ? &moved : &top;
+        ok = render(&s, &top, light, f);
+        if (run >= 2)
+            ok = ok && render_dropped(&s, second, light, 1, f);
+        else
+            ok = ok && render(&s, second, light, f);
+        pn_frame_images img;
+        pn_renderer_images(&s.renderer, &img);
+        if (ok && run < 2)
+            memcpy(run == 0 ? p_still : p_moved, img.p, sizeof p_still);
+        pn_setup_destroy(dev, &s);
+    }
+    if (!ok)
+        return;
+    // The shift back: where the moved frame's ground points lie in the still one's.
+    int best_s = 0, best_match = -1;
+    const int shifts[4][2] = {{K, 0}, {-K, 0}, {0, K}, {0, -K}};
+    for (int k = 0; k < 4; k++) {
+        int match = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                int u = x + shifts[k][0], v = y + shifts[k][1];
+                if (u < 0 || v < 0 || u >= W || v >= H)
+                    continue;
+                const float *a = &p_moved[4 * (y * W + x)], *b = &p_still[4 * (v * W + u)];
+                match += a[3] > 0 && b[3] > 0 && fabsf(a[0] - b[0]) + fabsf(a[2] - b[2]) < 0.01 * footprint;
+            }
+        if (match > best_match)
+            best_match = match, best_s = k;
+    }
+    size_t penumbra = 0, same = 0, same_own = 0;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int u = x + shifts[best_s][0], v = y + shifts[best_s][1];
+            if (u < 0 || v < 0 || u >= W || v >= H)
+                continue;
+            size_t i = (size_t)y * W + x, j = (size_t)v * W + u;
+            const float *a = &p_moved[4 * i], *b = &p_still[4 * j];
+            // Ground in both (below the bunny's lowest vertex), the same point, V fractional.
+            bool ground = a[3] > 0 && b[3] > 0 && a[1] < lo[1] && b[1] < lo[1] &&
+                          fabsf(a[0] - b[0]) + fabsf(a[2] - b[2]) < 0.01 * footprint;
+            if (!ground || !(still.v[j] > 0.0f && still.v[j] < 1.0f) || !kept(&pan, i))
+                continue;
+            penumbra++;
+            same += memcmp(&pan.v[i], &still.v[j], sizeof(float)) == 0;
+            same_own += memcmp(&pan_own.v[i], &still_own.v[j], sizeof(float)) == 0;
+        }
+    fprintf(stderr, "pan of %d pixels: %zu ground pixels in the penumbra; V as the still camera's pixel %d, %d "
+                    "on: %zu with the lineage; %zu drawn by the pixel (both histories dropped)\n",
+            K, penumbra, shifts[best_s][0], shifts[best_s][1], same, same_own);
+    CHECK_MSG(best_match > PX / 4, "pan: only %d ground pixels moved by %d pixels", best_match, K);
+    CHECK_MSG(penumbra > 100, "pan: %zu penumbra pixels on the ground: nothing to check", penumbra);
+    CHECK_MSG(same >= penumbra * 0.95, "pan: %zu of %zu penumbra pixels draw the samples of the point's pixel", same,
+              penumbra);
+}
+
 int main(void)
 {
     char path[1024];
@@ -340,6 +425,8 @@ int main(void)
     pn_camera_frame(scene.bounds_min, scene.bounds_max, 45.0f, &cam);
     pn_light light;
     pn_light_default(scene.bounds_min, scene.bounds_max, &light);
+    float lo[3], hi[3]; // the bunny's bounds
+    memcpy(lo, scene.bounds_min, sizeof lo), memcpy(hi, scene.bounds_max, sizeof hi);
     if (pn_scene_add_ground(&scene, 6.0f) != PN_OK) {
         CHECK_MSG(false, "the ground plane");
         pn_scene_destroy(&scene);
@@ -362,6 +449,7 @@ int main(void)
         else
             CHECK_MSG(false, "%s has no object to move", path);
         check_light_jump(&dev, &scene, &cam, &light, &frames[0], &frames[1]);
+        check_pan(&dev, &scene, lo, hi, &light);
     } else {
         CHECK_MSG(false, "out of memory, or no reference");
     }
