@@ -239,7 +239,7 @@ vec2 light_sample(uint k, PixelSampler ps)
     uvec2 sub_f = uvec2(0u);
     if (params.frame_side > 1u) {
         uint mask = params.frame_side * params.frame_side - 1u;
-        uint k = (params.frame_part + pcg(ps.h ^ pcg(i + pcg(j + 0x85ebca6bu)))) & mask;
+        uint k = (params.frame_part + pcg(ps.h ^ pcg(i + pcg(j + pcg(sub + 0x85ebca6bu))))) & mask;
         sub_f = sobol_bits(k) >> uvec2(32 - findMSB(params.frame_side));
     }
     vec2 jitter = vec2(0.5);

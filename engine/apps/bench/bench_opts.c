@@ -211,13 +211,15 @@ void pn_print_bench_help(void)
            "                       camera turns about the vertical through its target; one inside the\n"
            "                       scene's bounds, as Sponza's, looks round where it stands) or light (the\n"
            "                       light turns about the view's centre; modes without a tree, which is\n"
-           "                       culled by the light): per view, size, mode, filter and spp, every\n"
-           "                       frame with the temporal history (render --temporal), alone, and at\n"
-           "                       once with min(k+1, history) x spp, each against its own converged\n"
-           "                       reference (cached); sequence.csv, seq_*.png. Defaults under it:\n"
+           "                       culled by the light) or object (the scene's first object crosses the\n"
+           "                       light, --sequence-step percent of its radius a frame): per view,\n"
+           "                       size, mode, filter and spp, every frame with the temporal history\n"
+           "                       (render --temporal), alone, and at once with min(k+1, history) x\n"
+           "                       spp, each against its own converged reference (cached);\n"
+           "                       sequence.csv, seq_*.png. Defaults under it:\n"
            "                       --modes exact --filter penumbra --spp 1\n"
            "  --sequence-frames F  frames of a sequence (default 64)\n"
-           "  --sequence-step DEG  degrees a frame turns (default 2)\n"
+           "  --sequence-step DEG  degrees a frame turns (default 2; object: percent of its radius)\n"
            "  --history N          the history's length in frames (default 32, as render's)\n"
            "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
            "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
@@ -258,11 +260,12 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             snprintf(buf, sizeof buf, "%s", v ? v : "");
             int count = 0;
             for (char *tok = strtok(buf, ","); tok && ok; tok = strtok(NULL, ","), count++) {
-                bool orbit = strcmp(tok, "orbit") == 0, light = strcmp(tok, "light") == 0;
-                if (!orbit && !light)
-                    pn_error("--sequence: expected orbit or light, got '%s'", tok);
-                ok = orbit || light;
-                o->sequences[0] |= orbit, o->sequences[1] |= light;
+                bool orbit = strcmp(tok, "orbit") == 0, light = strcmp(tok, "light") == 0,
+                     object = strcmp(tok, "object") == 0;
+                if (!orbit && !light && !object)
+                    pn_error("--sequence: expected orbit, light or object, got '%s'", tok);
+                ok = orbit || light || object;
+                o->sequences[0] |= orbit, o->sequences[1] |= light, o->sequences[2] |= object;
             }
             ok = ok && count > 0;
         } else if (pn_args_value(&a, "--sequence-frames", &v, &err)) {
@@ -471,7 +474,7 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         if (!add_scene_arg(o, "builtin:default"))
             return PN_EXIT_USAGE;
     }
-    bool sequence = o->sequences[0] || o->sequences[1];
+    bool sequence = o->sequences[0] || o->sequences[1] || o->sequences[2];
     if ((o->seq_frames || o->seq_step != 0.0f || o->seq_history) && !sequence) {
         pn_error("--sequence-frames, --sequence-step and --history shape --sequence, which is not given");
         return PN_EXIT_USAGE;

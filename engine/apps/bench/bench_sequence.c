@@ -7,10 +7,16 @@
 //           (a camera inside the scene's bounds, as Sponza's, turns about its own place instead)
 //   light   the light turns about the vertical through the view's centre as much a frame (every
 //           frame a new light: the history drops its samples each frame, and must cost no error)
+//   object  the scene's first object (a glTF node: the mesh of the Table-1 views, not their
+//           ground) crosses the light: it moves sideways, level and square to the light's
+//           direction, --sequence-step percent of its bounding radius a frame, from as far on one
+//           side as it ends on the other (the history drops what its boxes before and after reach)
 // three renderers draw frame k: with the history (--history frames), without it (the frame alone,
 // the same spp), and without it at min(k + 1, history) x spp at once (what the history's samples
-// would give had the frame had them). sequence.csv has a line per frame; per sequence a plot of
-// the error per frame (seq_*.png) and a summary line on the console.
+// would give had the frame had them); under `object` a fourth at 16 spp unfiltered, and the errors
+// with and without the history over the pixels whose V the move changed since the frame before (a
+// ghost shows there). sequence.csv has a line per frame; per sequence a plot of the error per frame
+// (seq_*.png) and a summary line on the console.
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,7 +26,8 @@
 #include "core/log.h"
 #include "core/timer.h"
 
-static const char *const KIND_NAMES[] = {"orbit", "light"};
+static const char *const KIND_NAMES[PN_BENCH_SEQUENCES] = {"orbit", "light", "object"};
+enum { KIND_ORBIT, KIND_LIGHT, KIND_OBJECT };
 
 // `v` turned by `deg` degrees about the vertical (+Y): a direction, or a point relative to the
 // centre it turns round.
@@ -47,7 +54,7 @@ static void frame_at(int kind, int k, float step, const pn_prepared_scene *prep,
     *cam = prep->camera;
     *light = prep->lights[0];
     double deg = (double)k * step;
-    if (kind == 0) {
+    if (kind == KIND_ORBIT) {
         // A camera inside the scene's bounds (Sponza's atrium) turns where it stands, looking
         // round (an orbit about its target would take it through the walls); one outside them
         // orbits its target.
@@ -58,7 +65,7 @@ static void frame_at(int kind, int k, float step, const pn_prepared_scene *prep,
             turn_about(cam->pos, deg, prep->camera.target, cam->target);
         else
             turn_about(cam->target, deg, prep->camera.pos, cam->pos);
-    } else {
+    } else if (kind == KIND_LIGHT) {
         float centre[3];
         for (int i = 0; i < 3; i++)
             centre[i] = 0.5f * (prep->object_min[i] + prep->object_max[i]);
@@ -75,7 +82,33 @@ typedef struct seq_frame {
     double mae_history, mae_none, mae_at_once;
     uint32_t at_once_spp;
     double ms_history, ms_none;
+    // KIND_OBJECT (NaN otherwise): 16 spp unfiltered, and with and without the history over the
+    // pixels whose V changed since the frame before (`changed` of them).
+    double mae_16, mae_history_changed, mae_none_changed;
+    size_t changed;
 } seq_frame;
+
+// The moving object's offset in frame k of `frames`, along the unit direction `side`: centred on
+// its place, so that it crosses the light (KIND_OBJECT).
+static void object_offset(int k, uint32_t frames, float step, double radius, const float side[3], float out[3])
+{
+    double along = ((double)k - 0.5 * (double)(frames - 1)) * step * 0.01 * radius;
+    for (int i = 0; i < 3; i++)
+        out[i] = (float)(along * side[i]);
+}
+
+// The object's box (its vertices'), for the history's invalidation.
+static void object_box(const pn_scene *scene, uint32_t index, double lo[3], double hi[3])
+{
+    const pn_scene_object *ob = &scene->objects[index];
+    for (int k = 0; k < 3; k++)
+        lo[k] = INFINITY, hi[k] = -INFINITY;
+    for (uint32_t v = ob->first_vertex; v < ob->first_vertex + ob->vertex_count; v++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], scene->vertices[v].pos[k]);
+            hi[k] = fmax(hi[k], scene->vertices[v].pos[k]);
+        }
+}
 
 // The renderer's V against the reference; the history's mean samples a covered pixel.
 static double frame_error(const pn_renderer *r, const float *ref, const uint8_t *mask, size_t px, double *history)
@@ -135,9 +168,35 @@ static int by_value(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+// Moves the sequence's object to frame k's place (KIND_OBJECT): the scene's object 0 to its
+// offset, every renderer's structures built again over it, the history told of its boxes before
+// and after. `rest` holds its vertices' positions at rest.
+static bool object_frame(pn_gpu_device *dev, pn_prepared_scene *prep, const pn_setup_desc *sd, pn_setup *s, int count,
+                         const float (*rest)[3], const float offset[3], const pn_light *light)
+{
+    pn_scene *scene = &prep->scene;
+    const pn_scene_object *ob = &scene->objects[0];
+    double lo[2][3], hi[2][3];
+    object_box(scene, 0, lo[0], hi[0]);
+    for (uint32_t v = 0; v < ob->vertex_count; v++)
+        for (int k = 0; k < 3; k++)
+            scene->vertices[ob->first_vertex + v].pos[k] = rest[v][k] + offset[k];
+    pn_scene_update_bounds(scene);
+    object_box(scene, 0, lo[1], hi[1]);
+    for (int b = 0; b < 2; b++)
+        pn_renderer_history_moved(&s[0].renderer, lo[b], hi[b]);
+    for (int i = 0; i < count; i++) {
+        pn_setup_desc d = *sd;
+        d.frame = s[i].renderer.desc;
+        if (pn_setup_rebuild(dev, scene, light, &d, ob->first_vertex, ob->vertex_count, &s[i]) != PN_OK)
+            return false;
+    }
+    return true;
+}
+
 // One sequence of one configuration: frames 0 .. seq_frames - 1 with and without the history and at
 // once; lines into csv, a summary on stdout, a plot.
-static int run_sequence(const bench_opts *o, pn_gpu_device *dev, const pn_prepared_scene *prep, const char *view,
+static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_scene *prep, const char *view,
                         uint32_t w, uint32_t h, int kind, pn_shadow_mode mode, pn_filter filter, uint32_t spp, FILE *csv)
 {
     size_t px = (size_t)w * h;
@@ -150,15 +209,48 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, const pn_prepar
     pn_setup_desc sd = {.frame = {.width = w, .height = h, .mode = mode, .traversal = o->traversal, .sampler = o->sampler,
                                   .seed = o->seed, .spp = spp, .filter = filter, .tile_w = o->tile_w, .tile_h = o->tile_h},
                         .tree_n = o->trees[0][0], .tree_d = o->trees[0][1]};
-    pn_setup s[3] = {0}; // with the history, without, at once
+    // The moving object: where it rests, and the way it moves (level, square to the light's
+    // direction), its bounding radius the step's unit.
+    bool object = kind == KIND_OBJECT;
+    const pn_scene_object *ob = object ? &prep->scene.objects[0] : NULL;
+    float (*rest)[3] = NULL, side[3] = {0, 0, 0};
+    double radius = 0;
+    if (object) {
+        rest = malloc((size_t)ob->vertex_count * sizeof *rest);
+        for (uint32_t v = 0; rest && v < ob->vertex_count; v++)
+            memcpy(rest[v], prep->scene.vertices[ob->first_vertex + v].pos, sizeof rest[v]);
+        double lo[3], hi[3];
+        object_box(&prep->scene, 0, lo, hi);
+        radius = 0.5 * sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                            (hi[2] - lo[2]) * (hi[2] - lo[2]));
+        float dx = light.normal[0], dz = light.normal[2], len = sqrtf(dx * dx + dz * dz);
+        side[0] = len > 0 ? -dz / len : 1.0f, side[2] = len > 0 ? dx / len : 0.0f;
+    }
+    int count = object ? 4 : 3;
+    pn_setup s[4] = {0}; // with the history, without, at once, (object) 16 spp unfiltered
     int made = 0, rc = PN_EXIT_OK;
-    for (; made < 3; made++)
-        if (pn_setup_create(dev, &prep->scene, &light, &sd, &s[made]) != PN_OK) {
+    if (object && !rest) {
+        pn_error("bench --sequence object: out of memory for %s's object", view);
+        rc = PN_EXIT_FAILURE;
+    }
+    float offset[3];
+    if (object && rc == PN_EXIT_OK) {
+        // Its first place before anything is built over the scene.
+        object_offset(0, frames, o->seq_step, radius, side, offset);
+        for (uint32_t v = 0; v < ob->vertex_count; v++)
+            for (int k = 0; k < 3; k++)
+                prep->scene.vertices[ob->first_vertex + v].pos[k] = rest[v][k] + offset[k];
+        pn_scene_update_bounds(&prep->scene);
+    }
+    for (; made < count && rc == PN_EXIT_OK; made++) {
+        pn_setup_desc d = sd;
+        if (made == 3)
+            d.frame.filter = PN_FILTER_NONE, d.frame.spp = 16;
+        if (pn_setup_create(dev, &prep->scene, &light, &d, &s[made]) != PN_OK)
             rc = PN_EXIT_FAILURE;
-            break;
-        }
-    float *ref = malloc(px * sizeof *ref);
-    uint8_t *mask = malloc(px);
+    }
+    float *ref = malloc(2 * px * sizeof *ref); // this frame's, the last frame's
+    uint8_t *mask = malloc(2 * px);            // covered; and V changed since the last frame
     seq_frame *f = calloc(frames, sizeof *f);
     double *ratio = calloc(frames, sizeof *ratio);
     if (rc == PN_EXIT_OK && (!ref || !mask || !f || !ratio)) {
@@ -167,17 +259,29 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, const pn_prepar
     }
     if (rc == PN_EXIT_OK && pn_renderer_set_history(&s[0].renderer, o->seq_history) != PN_OK)
         rc = PN_EXIT_FAILURE;
+    // V changed between two frames' references where they differ by more than 4 deviations of the
+    // difference of two means of reference_spp samples (each at most 0.5 / sqrt(n)): not their noise.
+    const double changed_by = 4.0 * sqrt(2.0) * 0.5 / sqrt((double)o->reference_spp);
     for (uint32_t k = 0; k < frames && rc == PN_EXIT_OK; k++) {
         frame_at(kind, (int)k, o->seq_step, prep, &cam, &light);
+        if (object && k > 0) {
+            object_offset((int)k, frames, o->seq_step, radius, side, offset);
+            if (!object_frame(dev, prep, &sd, s, count, (const float(*)[3])rest, offset, &light)) {
+                rc = PN_EXIT_FAILURE;
+                break;
+            }
+        }
+        if (k > 0)
+            memcpy(ref + px, ref, px * sizeof *ref);
         if (pn_bench_reference(o, dev, &prep->scene, view, &cam, &light, w, h, ref, mask) != PN_OK) {
             rc = PN_EXIT_FAILURE;
             break;
         }
         seq_frame *fk = &f[k];
         fk->at_once_spp = spp * (k + 1 < o->seq_history ? k + 1 : o->seq_history);
-        pn_frame_times t[3];
+        pn_frame_times t[4];
         bool ok = pn_renderer_set_spp(&s[2].renderer, fk->at_once_spp) == PN_OK;
-        for (int i = 0; i < 3 && ok; i++)
+        for (int i = 0; i < count && ok; i++)
             ok = pn_renderer_render_lights(&s[i].renderer, &cam, &light, 1, &t[i]) == PN_OK;
         if (!ok) {
             rc = PN_EXIT_FAILURE;
@@ -187,40 +291,69 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, const pn_prepar
         fk->mae_none = frame_error(&s[1].renderer, ref, mask, px, NULL);
         fk->mae_at_once = frame_error(&s[2].renderer, ref, mask, px, NULL);
         fk->ms_history = frame_ms(&t[0]), fk->ms_none = frame_ms(&t[1]);
-        fprintf(csv, "%s,%u,%u,%s,%s,%s,%u,%u,%u,%.3f,%.6g,%.6g,%u,%.6g,%.3f,%.3f\n", view, w, h, KIND_NAMES[kind],
-                MODE_NAME(mode), pn_filter_names[filter], spp, o->seq_history, k, fk->history_samples, fk->mae_history,
-                fk->mae_none, fk->at_once_spp, fk->mae_at_once, fk->ms_history, fk->ms_none);
+        fk->mae_16 = fk->mae_history_changed = fk->mae_none_changed = NAN;
+        if (object) {
+            fk->mae_16 = frame_error(&s[3].renderer, ref, mask, px, NULL);
+            uint8_t *changed = mask + px;
+            fk->changed = 0;
+            for (size_t i = 0; i < px; i++) {
+                changed[i] = k > 0 && mask[i] && fabs((double)ref[i] - ref[px + i]) > changed_by;
+                fk->changed += changed[i];
+            }
+            if (fk->changed) {
+                fk->mae_history_changed = frame_error(&s[0].renderer, ref, changed, px, NULL);
+                fk->mae_none_changed = frame_error(&s[1].renderer, ref, changed, px, NULL);
+            }
+        }
+        fprintf(csv, "%s,%u,%u,%s,%s,%s,%u,%u,%u,%.3f,%.6g,%.6g,%u,%.6g,%.3f,%.3f,%.6g,%zu,%.6g,%.6g\n", view, w, h,
+                KIND_NAMES[kind], MODE_NAME(mode), pn_filter_names[filter], spp, o->seq_history, k,
+                fk->history_samples, fk->mae_history, fk->mae_none, fk->at_once_spp, fk->mae_at_once, fk->ms_history,
+                fk->ms_none, fk->mae_16, fk->changed, fk->mae_history_changed, fk->mae_none_changed);
     }
     if (rc == PN_EXIT_OK) {
         // The summary: from frame 15 on (the targets' "from frame 15"), the worst ratios of the error
         // with the history to the frame alone's and to the at-once frame's, and the median ratio of
         // their frame times (the first frames carry the pipelines' first runs: left out).
         uint32_t from = frames > 16 ? 15 : 0;
-        double worst_none = 0, worst_once = 0;
+        double worst_none = 0, worst_once = 0, worst_16 = 0, worst_ghost = 0;
         int n = 0;
         for (uint32_t k = from; k < frames; k++) {
             worst_none = fmax(worst_none, f[k].mae_history / f[k].mae_none);
             worst_once = fmax(worst_once, f[k].mae_history / f[k].mae_at_once);
+            worst_16 = fmax(worst_16, f[k].mae_history / f[k].mae_16);
             ratio[n++] = f[k].ms_history / f[k].ms_none;
         }
+        for (uint32_t k = 0; object && k < frames; k++)
+            if (f[k].changed)
+                worst_ghost = fmax(worst_ghost, f[k].mae_history_changed / f[k].mae_none_changed);
         qsort(ratio, (size_t)n, sizeof *ratio, by_value);
         printf("sequence %-6s %-10s %ux%u %-9s%-9s %3u spp: frame %u MAE %.5f with the history, %.5f alone, %.5f at "
-               "once (%u spp); from frame %u the worst ratio to alone %.2f, to at once %.2f; frame time %.2fx\n",
+               "once (%u spp); from frame %u the worst ratio to alone %.2f, to at once %.2f",
                KIND_NAMES[kind], view, w, h, MODE_NAME(mode), pn_bench_filter_suffix(filter), spp, frames - 1,
                f[frames - 1].mae_history, f[frames - 1].mae_none, f[frames - 1].mae_at_once, f[frames - 1].at_once_spp,
-               from, worst_none, worst_once, n ? ratio[n / 2] : 0.0);
+               from, worst_none, worst_once);
+        if (object)
+            printf(", to 16 spp unfiltered %.2f; where V changed, the worst ratio to alone %.2f", worst_16, worst_ghost);
+        printf("; frame time %.2fx\n", n ? ratio[n / 2] : 0.0);
         char stem[512], title[512];
         snprintf(stem, sizeof stem, "seq_%s_%ux%u_%s_%s%s_%uspp", view, w, h, KIND_NAMES[kind], MODE_NAME(mode),
                  pn_bench_filter_suffix(filter), spp);
         for (char *c = stem; *c; c++)
             if (*c == ':' || *c == '/' || *c == ' ' || *c == '+')
                 *c = '_';
-        snprintf(title, sizeof title, "%s %ux%u, %s %.3g deg a frame: %s%s, %u spp a frame, history %u frames", view, w,
-                 h, KIND_NAMES[kind], o->seq_step, MODE_NAME(mode), pn_bench_filter_suffix(filter), spp, o->seq_history);
+        snprintf(title, sizeof title, "%s %ux%u, %s %.3g %s a frame: %s%s, %u spp a frame, history %u frames", view, w,
+                 h, KIND_NAMES[kind], o->seq_step, object ? "% of its radius" : "deg", MODE_NAME(mode),
+                 pn_bench_filter_suffix(filter), spp, o->seq_history);
         if (!write_plot(o, stem, f, frames, title))
             rc = PN_EXIT_FAILURE;
     }
-    free(ref), free(mask), free(f), free(ratio);
+    // The scene as it was, for the sequences after this one.
+    if (object && rest) {
+        for (uint32_t v = 0; v < ob->vertex_count; v++)
+            memcpy(prep->scene.vertices[ob->first_vertex + v].pos, rest[v], sizeof rest[v]);
+        pn_scene_update_bounds(&prep->scene);
+    }
+    free(rest), free(ref), free(mask), free(f), free(ratio);
     for (int i = 0; i < made; i++)
         pn_setup_destroy(dev, &s[i]);
     return rc;
@@ -233,7 +366,8 @@ int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
     if (!csv)
         return PN_EXIT_FAILURE;
     fprintf(csv, "view,width,height,sequence,mode,filter,spp,history,frame,history_samples,mae_history,mae_none,"
-                 "at_once_spp,mae_at_once,ms_history,ms_none\n");
+                 "at_once_spp,mae_at_once,ms_history,ms_none,mae_16_unfiltered,changed_px,mae_history_changed,"
+                 "mae_none_changed\n");
     int rc = PN_EXIT_OK;
     uint64_t t0 = pn_time_ns();
     for (int vi = 0; vi < o->view_count && rc == PN_EXIT_OK; vi++) {
@@ -241,14 +375,18 @@ int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
         if ((rc = pn_bench_view_prepare(&o->views[vi], &prep)) != PN_EXIT_OK)
             break;
         for (int si = 0; si < o->size_count && rc == PN_EXIT_OK; si++)
-            for (int kind = 0; kind < 2 && rc == PN_EXIT_OK; kind++)
+            for (int kind = 0; kind < PN_BENCH_SEQUENCES && rc == PN_EXIT_OK; kind++)
                 for (int mi = 0; mi < o->mode_count && rc == PN_EXIT_OK; mi++)
                     for (int fi = 0; fi < o->filter_count && rc == PN_EXIT_OK; fi++)
                         for (int pi = 0; pi < o->spp_count && rc == PN_EXIT_OK; pi++) {
                             const pn_shadow_mode_info *m = pn_shadow_mode_get(o->modes[mi]);
                             // Uniform samples of a tracing mode: what the history takes; the light
-                            // sequence without a tree (culled by the first frame's light).
-                            if (!o->sequences[kind] || o->spp_mins[pi] || !m->traces || (kind == 1 && m->needs.tree))
+                            // sequence without a tree (culled by the first frame's light); the
+                            // object's where the scene has one that is not all of it.
+                            const pn_scene *sc = &prep.scene;
+                            bool movable = sc->object_count > 0 && sc->objects[0].vertex_count < sc->vertex_count;
+                            if (!o->sequences[kind] || o->spp_mins[pi] || !m->traces ||
+                                (kind == KIND_LIGHT && m->needs.tree) || (kind == KIND_OBJECT && !movable))
                                 continue;
                             rc = run_sequence(o, dev, &prep, o->views[vi].name, o->sizes[si][0], o->sizes[si][1],
                                               kind, o->modes[mi], o->filters[fi], o->spps[pi], csv);
