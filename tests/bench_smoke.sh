@@ -256,6 +256,32 @@ for kind in ("orbit", "light"):
 print("sequence rows ok: orbit history", ["%.2f" % x for x in h], "light", ["%.2f" % x for x in hl])
 PY
 
+# --sequence object: the bunny (its glTF node) crosses the light: the 16 spp unfiltered frame beside
+# it, and from the second frame on pixels whose V the move changed, scored with and without the
+# history. builtin:default has no object to move: a warning, no rows.
+"$BIN" bench --sequence object --scenes builtin:default --size 16x16 --sequence-frames 2 --reference-spp 16 \
+  --out "$OUT/seq_none" > /dev/null 2> "$OUT/seq_none.err" || { echo "FAIL: bench --sequence object without an object"; fail=1; }
+grep -q "no object to move" "$OUT/seq_none.err" || { echo "FAIL: bench --sequence object: no warning for a scene without objects"; fail=1; }
+ASSETS=${PN_ASSETS:-}
+if [ -f "$ASSETS/stanford-bunny-69k.glb" ]; then
+  "$BIN" bench --sequence object --views bunny --size 48x32 --sequence-frames 4 --sequence-step 10 --history 4 \
+    --reference-spp 256 --out "$OUT/seq_obj" > "$OUT/seq_obj.txt" 2> "$OUT/seq_obj.err" || { echo "FAIL: bench --sequence object"; cat "$OUT/seq_obj.err"; fail=1; }
+  python3 - "$OUT/seq_obj/sequence.csv" <<'PY' || fail=1
+import csv, math, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert len(rows) == 4 and all(r["sequence"] == "object" for r in rows), rows
+for r in rows:
+    assert math.isfinite(float(r["mae_16_unfiltered"])) and 0 < float(r["mae_16_unfiltered"]) < 0.5, r
+assert int(rows[0]["changed_px"]) == 0, rows[0]  # nothing before the first frame
+moved = [r for r in rows[1:] if int(r["changed_px"]) > 0]
+assert moved, ("the bunny's move changed no pixel's V", rows)
+for r in moved:
+    for k in ("mae_history_changed", "mae_none_changed"):
+        assert math.isfinite(float(r[k])) and 0 < float(r[k]) <= 1, (k, r)
+print("object sequence rows ok: changed pixels", [r["changed_px"] for r in rows])
+PY
+fi
+
 # Every standard view (bench's default when none is named) with the bunny's mesh alone at hand:
 # the views of missing meshes are skipped with a warning, and the bunny's under its three lights
 # (area, sun, sphere) and the built-in canopy benched at 16x16. The path over all views and the

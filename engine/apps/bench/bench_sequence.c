@@ -385,6 +385,9 @@ int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
                             // object's where the scene has one that is not all of it.
                             const pn_scene *sc = &prep.scene;
                             bool movable = sc->object_count > 0 && sc->objects[0].vertex_count < sc->vertex_count;
+                            if (kind == KIND_OBJECT && o->sequences[kind] && !movable && mi == 0 && fi == 0 && pi == 0)
+                                pn_warn("bench --sequence object: %s has no object to move (a glTF node with a "
+                                        "mesh that is not the whole scene): skipped", o->views[vi].name);
                             if (!o->sequences[kind] || o->spp_mins[pi] || !m->traces ||
                                 (kind == KIND_LIGHT && m->needs.tree) || (kind == KIND_OBJECT && !movable))
                                 continue;
