@@ -231,16 +231,18 @@ print("points rows ok")
 PY
 
 # --sequence: frames in motion (bench_sequence.c). An orbit keeps the history (its samples a pixel
-# grow with the frames), a light turning every frame drops it (each frame holds its own samples
-# alone); the at-once renderer takes min(k+1, history) x spp; every error and time is a number.
-"$BIN" bench --sequence orbit,light --scenes builtin:default --size 48x32 --sequence-frames 6 --history 4 \
+# grow with the frames), and so does a walk towards the target (less: what it magnifies starts
+# anew), a light turning every frame drops it (each frame holds its own samples alone); the at-once
+# renderer takes min(k+1, history) x spp; every error and time is a number.
+"$BIN" bench --sequence orbit,light,walk --scenes builtin:default --size 48x32 --sequence-frames 6 --history 4 \
   --reference-spp 256 --out "$OUT/seq" > "$OUT/seq.txt" 2> "$OUT/seq.err" || { echo "FAIL: bench --sequence"; cat "$OUT/seq.err"; fail=1; }
 python3 - "$OUT/seq/sequence.csv" "$OUT/seq" <<'PY' || fail=1
 import csv, math, os, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 orbit = [r for r in rows if r["sequence"] == "orbit"]
 light = [r for r in rows if r["sequence"] == "light"]
-assert len(orbit) == 6 and len(light) == 6, len(rows)
+walk = [r for r in rows if r["sequence"] == "walk"]
+assert len(orbit) == 6 and len(light) == 6 and len(walk) == 6, len(rows)
 for r in rows:
     assert r["mode"] == "exact" and r["filter"] == "penumbra" and r["spp"] == "1", r
     assert int(r["at_once_spp"]) == min(int(r["frame"]) + 1, 4), r
@@ -249,11 +251,14 @@ for r in rows:
     assert float(r["ms_history"]) > 0 and float(r["ms_none"]) > 0, r
 h = [float(r["history_samples"]) for r in orbit]
 assert h[5] > 3 * h[0], ("the orbit did not keep its history", h)
+hw = [float(r["history_samples"]) for r in walk]
+assert hw[5] > 1.5 * hw[0], ("the walk did not keep its history", hw)
 hl = [float(r["history_samples"]) for r in light]
 assert max(hl) <= 1.01 * hl[0], ("a light turned every frame should leave one frame's samples", hl)
-for kind in ("orbit", "light"):
+for kind in ("orbit", "light", "walk"):
     assert os.path.exists(os.path.join(sys.argv[2], "seq_builtin_default_48x32_%s_exact_penumbra_1spp.dat" % kind)), kind
-print("sequence rows ok: orbit history", ["%.2f" % x for x in h], "light", ["%.2f" % x for x in hl])
+print("sequence rows ok: orbit history", ["%.2f" % x for x in h], "light", ["%.2f" % x for x in hl],
+      "walk", ["%.2f" % x for x in hw])
 PY
 
 # --sequence object: the bunny (its glTF node) crosses the light: the 16 spp unfiltered frame beside

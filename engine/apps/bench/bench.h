@@ -32,8 +32,8 @@ enum { MAX_LIST = 32, MAX_BUDGETS = 8 };
 
 // The tree kinds of --tree-kinds, and their names in reports.
 enum { PN_TREE_KIND_SCENE, PN_TREE_KIND_OBJECT };
-// bench --sequence's kinds (bench_sequence.c): orbit, light, object.
-enum { PN_BENCH_SEQUENCES = 3 };
+// bench --sequence's kinds (bench_sequence.c): orbit, light, object, walk.
+enum { PN_BENCH_SEQUENCES = 4 };
 extern const char *const pn_bench_tree_kind_names[]; // "scene", "object", NULL
 
 // A standard view (bench_views.c): camera and light in units of the object's bounding-sphere radius
@@ -105,7 +105,7 @@ typedef struct bench_opts {
     // --sequence orbit,light: instead of the matrix, frames in motion with the temporal history
     // beside the same frames without it (bench_sequence.c): which kinds, how many frames, how far
     // a frame turns (degrees), the history's length (--history, frames).
-    bool sequences[PN_BENCH_SEQUENCES]; // orbit, light, object (bench_sequence.c)
+    bool sequences[PN_BENCH_SEQUENCES]; // orbit, light, object, walk (bench_sequence.c)
     uint32_t seq_frames, seq_history;
     float seq_step;
 } bench_opts;

@@ -212,14 +212,15 @@ void pn_print_bench_help(void)
            "                       scene's bounds, as Sponza's, looks round where it stands) or light (the\n"
            "                       light turns about the view's centre; modes without a tree, which is\n"
            "                       culled by the light) or object (the scene's first object crosses the\n"
-           "                       light, --sequence-step percent of its radius a frame): per view,\n"
-           "                       size, mode, filter and spp, every frame with the temporal history\n"
-           "                       (render --temporal), alone, and at once with min(k+1, history) x\n"
-           "                       spp, each against its own converged reference (cached);\n"
-           "                       sequence.csv, seq_*.png. Defaults under it:\n"
+           "                       light, --sequence-step percent of its radius a frame) or walk (the\n"
+           "                       camera walks towards its target, that percent of the view's radius\n"
+           "                       a frame): per view, size, mode, filter and spp, every frame with the\n"
+           "                       temporal history (render --temporal), alone, and at once with\n"
+           "                       min(k+1, history) x spp, each against its own converged reference\n"
+           "                       (cached); sequence.csv, seq_*.png. Defaults under it:\n"
            "                       --modes exact --filter penumbra --spp 1\n"
            "  --sequence-frames F  frames of a sequence (default 64)\n"
-           "  --sequence-step DEG  degrees a frame turns (default 2; object: percent of its radius)\n"
+           "  --sequence-step DEG  degrees a frame turns (default 2; object, walk: percent of a radius)\n"
            "  --history N          the history's length in frames (default 32, as render's)\n"
            "  --work               per cell, one more frame with the shadow shader's counting build: per\n"
            "                       pixel nodes visited, line-space lookups, triangle tests and deepest\n"
@@ -261,11 +262,12 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
             int count = 0;
             for (char *tok = strtok(buf, ","); tok && ok; tok = strtok(NULL, ","), count++) {
                 bool orbit = strcmp(tok, "orbit") == 0, light = strcmp(tok, "light") == 0,
-                     object = strcmp(tok, "object") == 0;
-                if (!orbit && !light && !object)
-                    pn_error("--sequence: expected orbit, light or object, got '%s'", tok);
-                ok = orbit || light || object;
+                     object = strcmp(tok, "object") == 0, walk = strcmp(tok, "walk") == 0;
+                if (!orbit && !light && !object && !walk)
+                    pn_error("--sequence: expected orbit, light, object or walk, got '%s'", tok);
+                ok = orbit || light || object || walk;
                 o->sequences[0] |= orbit, o->sequences[1] |= light, o->sequences[2] |= object;
+                o->sequences[3] |= walk;
             }
             ok = ok && count > 0;
         } else if (pn_args_value(&a, "--sequence-frames", &v, &err)) {
@@ -474,7 +476,9 @@ int pn_bench_parse(int argc, char **argv, bench_opts *o)
         if (!add_scene_arg(o, "builtin:default"))
             return PN_EXIT_USAGE;
     }
-    bool sequence = o->sequences[0] || o->sequences[1] || o->sequences[2];
+    bool sequence = false;
+    for (int k = 0; k < PN_BENCH_SEQUENCES; k++)
+        sequence = sequence || o->sequences[k];
     if ((o->seq_frames || o->seq_step != 0.0f || o->seq_history) && !sequence) {
         pn_error("--sequence-frames, --sequence-step and --history shape --sequence, which is not given");
         return PN_EXIT_USAGE;

@@ -7,6 +7,8 @@
 //           (a camera inside the scene's bounds, as Sponza's, turns about its own place instead)
 //   light   the light turns about the vertical through the view's centre as much a frame (every
 //           frame a new light: the history drops its samples each frame, and must cost no error)
+//   walk    the camera walks towards its target, level, --sequence-step percent of the view's
+//           bounding radius a frame (through Sponza's atrium; towards a Table-1 mesh)
 //   object  the scene's first object (a glTF node: the mesh of the Table-1 views, not their
 //           ground) crosses the light: it moves sideways, level and square to the light's
 //           direction, --sequence-step percent of its bounding radius a frame, from as far on one
@@ -26,8 +28,8 @@
 #include "core/log.h"
 #include "core/timer.h"
 
-static const char *const KIND_NAMES[PN_BENCH_SEQUENCES] = {"orbit", "light", "object"};
-enum { KIND_ORBIT, KIND_LIGHT, KIND_OBJECT };
+static const char *const KIND_NAMES[PN_BENCH_SEQUENCES] = {"orbit", "light", "object", "walk"};
+enum { KIND_ORBIT, KIND_LIGHT, KIND_OBJECT, KIND_WALK };
 
 // `v` turned by `deg` degrees about the vertical (+Y): a direction, or a point relative to the
 // centre it turns round.
@@ -65,6 +67,16 @@ static void frame_at(int kind, int k, float step, const pn_prepared_scene *prep,
             turn_about(cam->pos, deg, prep->camera.target, cam->target);
         else
             turn_about(cam->target, deg, prep->camera.pos, cam->pos);
+    } else if (kind == KIND_WALK) {
+        // Level, along the view's direction on the ground plane.
+        float d[3] = {cam->target[0] - cam->pos[0], 0.0f, cam->target[2] - cam->pos[2]}, r2 = 0;
+        for (int i = 0; i < 3; i++)
+            r2 += (prep->object_max[i] - prep->object_min[i]) * (prep->object_max[i] - prep->object_min[i]);
+        float len = sqrtf(d[0] * d[0] + d[2] * d[2]), along = (float)k * step * 0.01f * 0.5f * sqrtf(r2);
+        for (int i = 0; len > 0 && i < 3; i += 2) {
+            cam->pos[i] += along * d[i] / len;
+            cam->target[i] += along * d[i] / len;
+        }
     } else if (kind == KIND_LIGHT) {
         float centre[3];
         for (int i = 0; i < 3; i++)

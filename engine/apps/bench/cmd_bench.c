@@ -111,7 +111,7 @@ int pn_cmd_bench(int argc, char **argv)
         return PN_EXIT_FAILURE;
     }
     rc = o.points ? pn_bench_points(&o, &dev)
-         : o.sequences[0] || o.sequences[1] || o.sequences[2] ? pn_bench_sequences(&o, &dev)
+         : o.sequences[0] || o.sequences[1] || o.sequences[2] || o.sequences[3] ? pn_bench_sequences(&o, &dev)
                                               : run_matrix(&o, &dev);
     pn_gpu_device_destroy(&dev);
     free_opts(&o);
