@@ -249,6 +249,11 @@ for r in rows:
     for k in ("mae_history", "mae_none", "mae_at_once"):
         assert math.isfinite(float(r[k])) and 0 < float(r[k]) < 0.5, (k, r)
     assert float(r["ms_history"]) > 0 and float(r["ms_none"]) > 0, r
+# The CPU peer (Embree, plain exact): the fewest spp, a power of two, that reach the history's error.
+peer = [r for r in rows if int(r["embree_spp"]) > 0]
+assert peer, "Embree reached no frame's error"
+for r in peer:
+    assert int(r["embree_spp"]) in (1, 2, 4, 8, 16, 32, 64) and float(r["embree_ms"]) > 0, r
 h = [float(r["history_samples"]) for r in orbit]
 assert h[5] > 3 * h[0], ("the orbit did not keep its history", h)
 hw = [float(r["history_samples"]) for r in walk]

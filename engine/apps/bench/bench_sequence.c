@@ -17,8 +17,11 @@
 // the same spp), and without it at min(k + 1, history) x spp at once (what the history's samples
 // would give had the frame had them); under `object` a fourth at 16 spp unfiltered, and the errors
 // with and without the history over the pixels whose V the move changed since the frame before (a
-// ghost shows there). sequence.csv has a line per frame; per sequence a plot of the error per frame
-// (seq_*.png) and a summary line on the console.
+// ghost shows there). With Embree (not --no-embree), the CPU peer per frame: plain exact unfiltered
+// at 1, 2, 4, ... PEER_MAX_SPP spp, the fewest that reach the error the history's frame has, and
+// Embree's time to trace those rays (the same rays: apps/embree_peer.h). sequence.csv has a line
+// per frame; per sequence a plot of the error per frame (seq_*.png) and a summary line on the
+// console.
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -98,6 +101,10 @@ typedef struct seq_frame {
     // pixels whose V changed since the frame before (`changed` of them).
     double mae_16, mae_history_changed, mae_none_changed;
     size_t changed;
+    // With Embree: the fewest plain exact spp (a power of two) whose error is at most mae_history,
+    // 0 if even PEER_MAX_SPP's is not, and Embree's time for that frame's rays.
+    uint32_t embree_spp;
+    double embree_ms;
 } seq_frame;
 
 // The moving object's offset in frame k of `frames`, along the unit direction `side`: centred on
@@ -139,6 +146,38 @@ static double frame_error(const pn_renderer *r, const float *ref, const uint8_t 
         *history = n ? sum / (double)n : 0.0;
     }
     return m.mae;
+}
+
+// The most samples the CPU peer's exact frames take (a ray dump of that many a pixel).
+enum { PEER_MAX_SPP = 64 };
+
+// The CPU peer's part of frame k: the peer renderer's exact unfiltered frames at 1, 2, 4, ... spp
+// against the reference until one is no worse than the history's frame, then that frame again with
+// its ray dump, which Embree traces (timed once, as the frames are).
+static bool peer_frame(const bench_opts *o, const pn_embree_scene *rtc, pn_setup *peer, const pn_camera *cam,
+                       const pn_light *light, const float *ref, const uint8_t *mask, size_t px, seq_frame *fk)
+{
+    fk->embree_spp = 0, fk->embree_ms = NAN;
+    pn_frame_times t;
+    for (uint32_t spp = 1; spp <= PEER_MAX_SPP && !fk->embree_spp; spp *= 2) {
+        if (pn_renderer_set_spp(&peer->renderer, spp) != PN_OK ||
+            pn_renderer_render_lights(&peer->renderer, cam, light, 1, &t) != PN_OK)
+            return false;
+        if (frame_error(&peer->renderer, ref, mask, px, NULL) <= fk->mae_history)
+            fk->embree_spp = spp;
+    }
+    if (!fk->embree_spp)
+        return true;
+    uint64_t floats;
+    bench_opts once = *o;
+    once.repeat = 1, once.warmup = 0;
+    bool ok = pn_renderer_set_spp(&peer->renderer, fk->embree_spp) == PN_OK &&
+              pn_renderer_set_dump_rays(&peer->renderer, true) == PN_OK &&
+              pn_renderer_render_lights(&peer->renderer, cam, light, 1, &t) == PN_OK;
+    if (ok)
+        fk->embree_ms = pn_bench_embree_time(&once, rtc, pn_renderer_ray_dump(&peer->renderer, &floats), px,
+                                             fk->embree_spp);
+    return pn_renderer_set_dump_rays(&peer->renderer, false) == PN_OK && ok;
 }
 
 static bool write_plot(const bench_opts *o, const char *stem, const seq_frame *f, uint32_t frames, const char *title)
@@ -208,8 +247,9 @@ static bool object_frame(pn_gpu_device *dev, pn_prepared_scene *prep, const pn_s
 
 // One sequence of one configuration: frames 0 .. seq_frames - 1 with and without the history and at
 // once; lines into csv, a summary on stdout, a plot.
-static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_scene *prep, const char *view,
-                        uint32_t w, uint32_t h, int kind, pn_shadow_mode mode, pn_filter filter, uint32_t spp, FILE *csv)
+static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc, pn_prepared_scene *prep,
+                        const char *view, uint32_t w, uint32_t h, int kind, pn_shadow_mode mode, pn_filter filter,
+                        uint32_t spp, FILE *csv)
 {
     size_t px = (size_t)w * h;
     uint32_t frames = o->seq_frames;
@@ -238,8 +278,11 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
         float dx = light.normal[0], dz = light.normal[2], len = sqrtf(dx * dx + dz * dz);
         side[0] = len > 0 ? -dz / len : 1.0f, side[2] = len > 0 ? dx / len : 0.0f;
     }
-    int count = object ? 4 : 3;
-    pn_setup s[4] = {0}; // with the history, without, at once, (object) 16 spp unfiltered
+    // With the history, without, at once, (object) 16 spp unfiltered; then (Embree) the peer's exact.
+    int count = object ? 4 : 3, peer = rtc ? count : -1;
+    count += rtc != NULL;
+    pn_setup s[5] = {0};
+    pn_embree_scene *rtc_scene = NULL;
     int made = 0, rc = PN_EXIT_OK;
     if (object && !rest) {
         pn_error("bench --sequence object: out of memory for %s's object", view);
@@ -256,8 +299,11 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
     }
     for (; made < count && rc == PN_EXIT_OK; made++) {
         pn_setup_desc d = sd;
-        if (made == 3)
+        if (made == 3 && object)
             d.frame.filter = PN_FILTER_NONE, d.frame.spp = 16;
+        if (made == peer)
+            d.frame.mode = PN_SHADOW_EXACT, d.frame.filter = PN_FILTER_NONE, d.frame.spp = PEER_MAX_SPP,
+            d.frame.traversal = PN_TRAVERSAL_AUTO, d.frame.dump_rays = true;
         if (pn_setup_create(dev, &prep->scene, &light, &d, &s[made]) != PN_OK)
             rc = PN_EXIT_FAILURE;
     }
@@ -291,10 +337,12 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
         }
         seq_frame *fk = &f[k];
         fk->at_once_spp = spp * (k + 1 < o->seq_history ? k + 1 : o->seq_history);
-        pn_frame_times t[4];
+        pn_frame_times t[5];
         bool ok = pn_renderer_set_spp(&s[2].renderer, fk->at_once_spp) == PN_OK;
+        if (k == 0 && peer >= 0) // its dump only where Embree traces it (peer_frame)
+            ok = ok && pn_renderer_set_dump_rays(&s[peer].renderer, false) == PN_OK;
         for (int i = 0; i < count && ok; i++)
-            ok = pn_renderer_render_lights(&s[i].renderer, &cam, &light, 1, &t[i]) == PN_OK;
+            ok = i == peer || pn_renderer_render_lights(&s[i].renderer, &cam, &light, 1, &t[i]) == PN_OK;
         if (!ok) {
             rc = PN_EXIT_FAILURE;
             break;
@@ -303,7 +351,19 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
         fk->mae_none = frame_error(&s[1].renderer, ref, mask, px, NULL);
         fk->mae_at_once = frame_error(&s[2].renderer, ref, mask, px, NULL);
         fk->ms_history = frame_ms(&t[0]), fk->ms_none = frame_ms(&t[1]);
-        fk->mae_16 = fk->mae_history_changed = fk->mae_none_changed = NAN;
+        fk->mae_16 = fk->mae_history_changed = fk->mae_none_changed = fk->embree_ms = NAN;
+        if (peer >= 0) {
+            // Embree's BVH over the scene as it is (again each frame the object moved: it shares
+            // the scene's buffers, which must not change under it).
+            if (!rtc_scene || object) {
+                pn_embree_scene_destroy(rtc_scene);
+                rtc_scene = pn_embree_scene_create(rtc, &prep->scene);
+            }
+            if (!rtc_scene || !peer_frame(o, rtc_scene, &s[peer], &cam, &light, ref, mask, px, fk)) {
+                rc = PN_EXIT_FAILURE;
+                break;
+            }
+        }
         if (object) {
             fk->mae_16 = frame_error(&s[3].renderer, ref, mask, px, NULL);
             uint8_t *changed = mask + px;
@@ -317,10 +377,11 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
                 fk->mae_none_changed = frame_error(&s[1].renderer, ref, changed, px, NULL);
             }
         }
-        fprintf(csv, "%s,%u,%u,%s,%s,%s,%u,%u,%u,%.3f,%.6g,%.6g,%u,%.6g,%.3f,%.3f,%.6g,%zu,%.6g,%.6g\n", view, w, h,
-                KIND_NAMES[kind], MODE_NAME(mode), pn_filter_names[filter], spp, o->seq_history, k,
+        fprintf(csv, "%s,%u,%u,%s,%s,%s,%u,%u,%u,%.3f,%.6g,%.6g,%u,%.6g,%.3f,%.3f,%.6g,%zu,%.6g,%.6g,%u,%.3f\n", view,
+                w, h, KIND_NAMES[kind], MODE_NAME(mode), pn_filter_names[filter], spp, o->seq_history, k,
                 fk->history_samples, fk->mae_history, fk->mae_none, fk->at_once_spp, fk->mae_at_once, fk->ms_history,
-                fk->ms_none, fk->mae_16, fk->changed, fk->mae_history_changed, fk->mae_none_changed);
+                fk->ms_none, fk->mae_16, fk->changed, fk->mae_history_changed, fk->mae_none_changed, fk->embree_spp,
+                fk->embree_ms);
     }
     if (rc == PN_EXIT_OK) {
         // The summary: from frame 15 on (the targets' "from frame 15"), the worst ratios of the error
@@ -328,12 +389,15 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
         // their frame times (the first frames carry the pipelines' first runs: left out).
         uint32_t from = frames > 16 ? 15 : 0;
         double worst_none = 0, worst_once = 0, worst_16 = 0, worst_ghost = 0;
-        int n = 0;
+        double *vs_embree = calloc(frames, sizeof *vs_embree);
+        int n = 0, n_embree = 0;
         for (uint32_t k = from; k < frames; k++) {
             worst_none = fmax(worst_none, f[k].mae_history / f[k].mae_none);
             worst_once = fmax(worst_once, f[k].mae_history / f[k].mae_at_once);
             worst_16 = fmax(worst_16, f[k].mae_history / f[k].mae_16);
             ratio[n++] = f[k].ms_history / f[k].ms_none;
+            if (vs_embree && f[k].embree_spp)
+                vs_embree[n_embree++] = f[k].embree_ms / f[k].ms_history;
         }
         for (uint32_t k = 0; object && k < frames; k++)
             if (f[k].changed)
@@ -346,7 +410,19 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
                from, worst_none, worst_once);
         if (object)
             printf(", to 16 spp unfiltered %.2f; where V changed, the worst ratio to alone %.2f", worst_16, worst_ghost);
-        printf("; frame time %.2fx\n", n ? ratio[n / 2] : 0.0);
+        printf("; frame time %.2fx", n ? ratio[n / 2] : 0.0);
+        if (peer >= 0 && vs_embree) {
+            // Embree's time at equal error over the frame's with the history: the median from frame
+            // `from` of the frames whose error plain exact reaches within PEER_MAX_SPP.
+            qsort(vs_embree, (size_t)n_embree, sizeof *vs_embree, by_value);
+            if (n_embree)
+                printf("; Embree at its error %.2fx the frame's time (%d of %u frames)", vs_embree[n_embree / 2],
+                       n_embree, frames - from);
+            else
+                printf("; Embree not at its error within %u spp", (unsigned)PEER_MAX_SPP);
+        }
+        free(vs_embree);
+        printf("\n");
         char stem[512], title[512];
         snprintf(stem, sizeof stem, "seq_%s_%ux%u_%s_%s%s_%uspp", view, w, h, KIND_NAMES[kind], MODE_NAME(mode),
                  pn_bench_filter_suffix(filter), spp);
@@ -365,13 +441,14 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_prepared_sce
             memcpy(prep->scene.vertices[ob->first_vertex + v].pos, rest[v], sizeof rest[v]);
         pn_scene_update_bounds(&prep->scene);
     }
+    pn_embree_scene_destroy(rtc_scene);
     free(rest), free(ref), free(mask), free(f), free(ratio);
     for (int i = 0; i < made; i++)
         pn_setup_destroy(dev, &s[i]);
     return rc;
 }
 
-int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
+static int sequences(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc)
 {
     char path[4096], tmp[4096];
     FILE *csv = pn_bench_open_out(o->out_dir, "sequence.csv", path, tmp);
@@ -379,7 +456,7 @@ int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
         return PN_EXIT_FAILURE;
     fprintf(csv, "view,width,height,sequence,mode,filter,spp,history,frame,history_samples,mae_history,mae_none,"
                  "at_once_spp,mae_at_once,ms_history,ms_none,mae_16_unfiltered,changed_px,mae_history_changed,"
-                 "mae_none_changed\n");
+                 "mae_none_changed,embree_spp,embree_ms\n");
     int rc = PN_EXIT_OK;
     uint64_t t0 = pn_time_ns();
     for (int vi = 0; vi < o->view_count && rc == PN_EXIT_OK; vi++) {
@@ -403,8 +480,8 @@ int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
                             if (!o->sequences[kind] || o->spp_mins[pi] || !m->traces ||
                                 (kind == KIND_LIGHT && m->needs.tree) || (kind == KIND_OBJECT && !movable))
                                 continue;
-                            rc = run_sequence(o, dev, &prep, o->views[vi].name, o->sizes[si][0], o->sizes[si][1],
-                                              kind, o->modes[mi], o->filters[fi], o->spps[pi], csv);
+                            rc = run_sequence(o, dev, rtc, &prep, o->views[vi].name, o->sizes[si][0],
+                                              o->sizes[si][1], kind, o->modes[mi], o->filters[fi], o->spps[pi], csv);
                             fflush(stdout);
                         }
         pn_scene_destroy(&prep.scene);
@@ -419,4 +496,15 @@ int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
         return PN_EXIT_FAILURE;
     fprintf(stderr, "bench: sequences in %.1f s; %s and seq_*.png\n", pn_ms_since(t0) * 1e-3, path);
     return PN_EXIT_OK;
+}
+
+int pn_bench_sequences(const bench_opts *o, pn_gpu_device *dev)
+{
+    pn_embree *rtc = o->embree ? pn_embree_create() : NULL;
+    if (o->embree && !rtc)
+        pn_warn("Embree could not start: the sequences' CPU peer is skipped");
+    int rc = sequences(o, dev, rtc);
+    if (rtc)
+        pn_embree_destroy(rtc);
+    return rc;
 }
