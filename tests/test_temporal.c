@@ -20,6 +20,8 @@
 //     pixels must keep it and some drop it.
 //  4. A light that moves drops its history everywhere: the frame after is, bit for bit, the frame
 //     rendered with the history dropped ("no trace of the old shadow").
+//  5. Lineages (unfiltered): a pan of exactly 3 pixels over the ground seen from above, whose
+//     penumbra pixels then draw the samples of the pixel their point was in (check_pan).
 // Validation layer on, any message fails.
 #include <math.h>
 
@@ -344,8 +346,10 @@ static void check_pan(pn_gpu_device *dev, const pn_scene *scene, const float lo[
     float extent = fmaxf(hi[0] - lo[0], hi[2] - lo[2]), depth = 2.5f * extent;
     memcpy(top.pos, top.target, sizeof top.pos);
     top.pos[1] += depth;
-    // A pixel's footprint at the ground (the plane lies a hair below lo[1]: pn_scene_add_ground).
-    double footprint = 2.0 * (depth + (lo[1] - hi[1]) * 0x1p-12) * tan(22.5 * 3.14159265358979 / 180.0) / H;
+    // A pixel's footprint at the ground, which lies a hair below lo[1] (pn_scene_add_ground: 2^-12
+    // of the scene's largest extent).
+    double largest = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
+    double footprint = 2.0 * (depth + largest * 0x1p-12) * tan(22.5 * 3.14159265358979 / 180.0) / H;
     pn_camera moved = top;
     moved.pos[0] = (float)(top.pos[0] + K * footprint), moved.target[0] = (float)(top.target[0] + K * footprint);
     static float p_still[4 * PX], p_moved[4 * PX];

@@ -145,7 +145,6 @@ static bool history_begin(penumbra_recorder *rec, const penumbra_view *view)
 {
     if (rec->pending) {
         pn_history_pass_flip(&rec->history);
-        rec->history.trail_kept = true;
         rec->prev = rec->pending_view, rec->has_prev = true, rec->frame++;
         rec->drops_done = rec->pending_drops;
         rec->pending = false;
@@ -155,6 +154,8 @@ static bool history_begin(penumbra_recorder *rec, const penumbra_view *view)
     pn_history_params *hp = pn_history_pass_params(&rec->history);
     memcpy(hp->prev_view_proj, rec->prev.view_proj, sizeof hp->prev_view_proj);
     memcpy(hp->view_proj, view->view_proj, sizeof hp->view_proj);
+    hp->frame = rec->frame, hp->seed = rec->rd.seed; // as the shadow pass's (a new lineage's key)
+    hp->drop_mask = fresh ? 1u : 0u;
     for (int k = 0; k < 3; k++) {
         hp->prev_eye[k] = rec->prev.eye[k], hp->prev_forward[k] = rec->prev.forward[k];
         hp->eye[k] = view->eye[k], hp->forward[k] = view->forward[k];

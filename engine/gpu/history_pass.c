@@ -29,7 +29,8 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
         // read back with the frame (pn_frame_images.history)
         {&out->out, "history's counts", VK_FORMAT_R32G32B32A32_UINT, 0, storage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT},
         {&out->lineage, "history's lineage", VK_FORMAT_R32G32B32A32_UINT, 0, storage},
-        {&out->trail, "history's previous lineage", VK_FORMAT_R32G32B32A32_UINT, 0, storage},
+        {&out->trail[0], "history's lineages (even frames)", VK_FORMAT_R32G32B32A32_UINT, 0, storage},
+        {&out->trail[1], "history's lineages (odd frames)", VK_FORMAT_R32G32B32A32_UINT, 0, storage},
     };
     pn_result r = PN_OK;
     for (size_t i = 0; i < sizeof t / sizeof t[0] && r == PN_OK; i++)
@@ -72,7 +73,8 @@ pn_result pn_history_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t he
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_OUT, out->out.view);
         pn_gpu_compute_write_uniform(dev, c, PN_HISTORY_BINDING_PARAMS, out->params.buffer);
         pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_LINEAGE, out->lineage.view);
-        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_TRAIL, out->trail.view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_TRAIL, out->trail[k].view);
+        pn_gpu_compute_write_image(dev, c, PN_HISTORY_BINDING_TRAIL_OUT, out->trail[1 - k].view);
     }
     // The choosing stage and the stage that takes its choice: the device's pipelines for the same
     // layout (both sets share it).
@@ -97,10 +99,10 @@ void pn_history_pass_destroy(pn_gpu_device *dev, pn_history_pass *h)
         pn_gpu_compute_destroy(dev, &h->compute[k]);
         pn_gpu_image_destroy(dev, &h->store[k]);
         pn_gpu_image_destroy(dev, &h->pos[k]);
+        pn_gpu_image_destroy(dev, &h->trail[k]);
     }
     pn_gpu_image_destroy(dev, &h->out);
     pn_gpu_image_destroy(dev, &h->lineage);
-    pn_gpu_image_destroy(dev, &h->trail);
     pn_gpu_buffer_destroy(dev, &h->params);
     memset(h, 0, sizeof *h);
 }
@@ -146,12 +148,13 @@ void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h)
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT;
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
     VkImageLayout from = h->ready ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    VkImageMemoryBarrier2 b[7];
-    const pn_gpu_image *images[7] = {&h->store[0], &h->store[1], &h->pos[0], &h->pos[1], &h->out, &h->lineage, &h->trail};
-    for (uint32_t i = 0; i < 7; i++)
+    VkImageMemoryBarrier2 b[8];
+    const pn_gpu_image *images[8] = {&h->store[0], &h->store[1], &h->pos[0],   &h->pos[1],
+                                     &h->out,      &h->lineage,  &h->trail[0], &h->trail[1]};
+    for (uint32_t i = 0; i < 8; i++)
         b[i] = pn_gpu_image_barrier(images[i], ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                                     RW, from, VK_IMAGE_LAYOUT_GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 7, b);
+    pn_gpu_cmd_barrier(cmd, NULL, 8, b);
     h->ready = true;
 }
 
@@ -179,12 +182,14 @@ void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h
     pn_gpu_compute c = h->compute[h->cur];
     c.pipeline = h->choose;
     pn_gpu_compute_dispatch_rows(cmd, &c, sizeof push, &push, h->width, h->height, h->one_tile);
-    // The lineage before the shadow passes draw by it and the adding stages take the chosen pixels.
+    // The lineage before the shadow passes draw by it and the adding stages take the chosen pixels
+    // (and whatever else the set's images are written by next).
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
                                            .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                            .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                                           .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT},
+                                           .dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT |
+                                                            VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT},
                        0, NULL);
 }

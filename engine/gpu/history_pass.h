@@ -26,14 +26,14 @@ typedef struct pn_history_pass {
     pn_gpu_image pos[2];
     pn_gpu_image out;            // rgba32ui: the sums as float bits, counts.z, counts.w (the filters')
     // The lineage (PN_HISTORY_BINDING_LINEAGE): this frame's, which the shadow pass draws its
-    // samples by (pn_shadow_pass_set_lineage), and the previous frame's (trail).
-    pn_gpu_image lineage, trail;
+    // samples by (pn_shadow_pass_set_lineage); trail[k]: a frame's, kept for the next frame's
+    // choice (compute[k] reads trail[k], light 0's pass writes trail[1 - k]).
+    pn_gpu_image lineage, trail[2];
     pn_gpu_buffer params;        // HistoryParams, host-visible
     pn_gpu_compute compute[2];
     VkPipeline choose; // the choosing stage's (the device's), with compute[cur]'s set
     VkPipeline take;   // and the adding stage's that takes its choice (compute[k]'s own chooses itself)
     const pn_gpu_image *counts; // the shadow pass's, which the set holds (pn_history_pass_record_choose)
-    bool trail_kept; // the previous frame chose lineages: trail holds them (the caller's to set)
     uint32_t cur;
     bool ready;    // its images are in the GENERAL layout (pn_history_pass_record_start)
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only
@@ -62,8 +62,8 @@ void pn_history_pass_record_start(VkCommandBuffer cmd, pn_history_pass *h);
 // history every light takes) and the lineage its samples continue (history.comp); fresh: no
 // previous frame to take them from. Only for frames without an interleaved tile (unfiltered):
 // under one, each pixel keeps its own samples, whose tile-mates' are complementary within the
-// frame, which the filter's window relies on, and each light's pass chooses for itself. Reads P and
-// N (compute-readable), writes h->lineage.
+// frame, which the filter's window relies on, and each light's pass chooses for itself. Reads P, N
+// (compute-readable), the previous frame's P, lineages and sums; writes h->lineage.
 void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h, bool fresh);
 
 // Records light `light`'s pass: with drop, the frame's samples alone; cap: the most samples the
@@ -71,6 +71,8 @@ void pn_history_pass_record_choose(VkCommandBuffer cmd, const pn_history_pass *h
 // noise_pixels: how many pixels the filter after it averages a frame's noise over (its tile; 1
 // unfiltered), which the share of a moved history weighs its bias against (history.comp).
 // chosen: the frame's choice was recorded (pn_history_pass_record_choose), and the pass takes it.
+// Light 0's pass also keeps this frame's P and lineages for the next frame (a frame without a
+// choice starts every pixel's lineage).
 void pn_history_pass_record(VkCommandBuffer cmd, const pn_history_pass *h, uint32_t light, bool drop, float cap,
                             float noise_pixels, bool chosen);
 

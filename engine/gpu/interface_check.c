@@ -87,5 +87,7 @@ AT(pn_history_params, box_hi, 112 + 16 * PN_HISTORY_MAX_BOXES);
 AT(pn_history_params, lights, 112 + 32 * PN_HISTORY_MAX_BOXES);
 AT(pn_history_params, eye, 112 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
 AT(pn_history_params, view_proj, 144 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
-SIZE(pn_history_params, 208 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
+AT(pn_history_params, frame, 208 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
+SIZE(pn_history_params, 224 + 32 * PN_HISTORY_MAX_BOXES + 96 * PN_MAX_LIGHTS);
 SIZE(pn_history_push, 16);
+_Static_assert(PN_MAX_LIGHTS <= 32, "HistoryParams.drop_mask holds a bit per light");

@@ -237,17 +237,20 @@ static pn_result history_begin(pn_renderer *r, const pn_gbuffer_push *cam, const
     memcpy(hp->prev_eye, r->history_camera.eye, sizeof hp->prev_eye);
     memcpy(hp->prev_forward, r->history_camera.forward, sizeof hp->prev_forward);
     memcpy(hp->view_proj, cam->view_proj, sizeof hp->view_proj);
+    hp->frame = r->history_frame, hp->seed = r->desc.seed; // as the shadow pass's (a new lineage's key)
     hp->pixel_angle = (float)pn_pixel_angle(yfov_deg, r->height);
     hp->prev_pixel_angle = r->history_angle;
     hp->depth_from_eye = 0; // the G-buffer's N.w
     pn_history_pass_set_boxes(&r->history, &r->history_boxes, r->shadow.scene_mag,
                               r->shadow.mode->needs.tree ? r->desc.leaf_size : 0.0);
-    hf->fresh = fresh || !r->history.trail_kept; // a frame under a tile chose no lineages
+    hf->fresh = fresh;
+    hp->drop_mask = 0;
     hf->follow = !filtered(r) || pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h) == 1;
     for (uint32_t i = 0; i < light_count; i++) {
         hp->lights[i] = l[i];
         hf->drop[i] = fresh || memcmp(&l[i], &r->history_lights[i], sizeof l[i]) != 0;
         hf->cap[i] = (float)r->history_frames * (float)(samples[i] ? samples[i] : 1);
+        hp->drop_mask |= hf->drop[i] ? 1u << i : 0u;
     }
     return PN_OK;
 }
@@ -348,7 +351,6 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
     if (hist) {
         // This frame's sums, camera and lights are the next frame's previous ones.
         pn_history_pass_flip(&r->history);
-        r->history.trail_kept = hist->follow;
         r->history_prev = true, r->history_drop = false, r->history_boxes.count = 0;
         r->history_camera = cam;
         r->history_angle = (float)pn_pixel_angle(camera->yfov_deg, r->height);

@@ -22,6 +22,7 @@
 // resampled one fades (an exponential window of about cap / samples frames).
 #include "interface.h"
 #include "filter_common.glsl"
+#include "hash.glsl"
 
 layout(local_size_x = PN_ROW_GROUP) in;
 
@@ -37,7 +38,8 @@ layout(std140, set = 0, binding = PN_HISTORY_BINDING_PARAMS) uniform HistoryPara
 layout(set = 0, binding = PN_HISTORY_BINDING_POS_OUT, rgba32f) uniform writeonly image2D img_pos_out;
 
 layout(set = 0, binding = PN_HISTORY_BINDING_LINEAGE, rgba32ui) uniform uimage2D img_lineage;
-layout(set = 0, binding = PN_HISTORY_BINDING_TRAIL, rgba32ui) uniform uimage2D img_trail;
+layout(set = 0, binding = PN_HISTORY_BINDING_TRAIL, rgba32ui) uniform readonly uimage2D img_trail;
+layout(set = 0, binding = PN_HISTORY_BINDING_TRAIL_OUT, rgba32ui) uniform writeonly uimage2D img_trail_out;
 
 layout(push_constant) uniform HistoryPushBlock { HistoryPush pc; };
 
@@ -183,7 +185,7 @@ struct Trail {
     vec4 p;
     vec3 n;
     float footprint;
-    uint origin;
+    uint key;
     vec2 offset;
 };
 Trail trail(ivec2 q)
@@ -191,7 +193,7 @@ Trail trail(ivec2 q)
     Trail t;
     t.p = imageLoad(img_prev_p, q);
     uvec4 l = imageLoad(img_trail, q);
-    t.origin = l.x;
+    t.key = l.x;
     t.offset = unpackHalf2x16(l.z);
     t.n = unpack_normal(l.w);
     t.footprint = dot(t.p.xyz - params.prev_eye.xyz, params.prev_forward.xyz) * params.prev_pixel_angle;
@@ -208,10 +210,18 @@ vec3 previous_place(vec3 p, ivec2 size)
 uint pack_pixel(ivec2 q) { return uint(q.x) | uint(q.y) << 16u; }
 ivec2 unpack_pixel(uint u) { return ivec2(u & 0xffffu, u >> 16u); }
 
+// A lineage started at px this frame: its own key (hash.glsl), no previous pixel, its point the
+// pixel's centre.
+uvec4 fresh_lineage(ivec2 px, vec4 p, vec4 n)
+{
+    return uvec4(lineage_key(uvec2(px), params.seed, params.frame), PN_HISTORY_NONE, packHalf2x16(vec2(0.0)),
+                 pack_normal(p.w > 0.0 ? n.xyz : vec3(0.0, 0.0, 1.0)));
+}
+
 // Stage 1: each pixel's previous pixel, and the lineage of the samples it draws.
-// Every pixel of the previous frame carries a lineage: the pixel it began in (whose samples it
-// draws: shadow_common.glsl's pixel_sampler) and the point it follows, kept as where that point lies
-// from the pixel's centre. The point's place this frame is the pixel's P through this frame's
+// Every pixel of the previous frame carries a lineage: a sampler key (drawn where and when it began:
+// shadow_common.glsl's pixel_sampler draws the pixel's samples by it) and the point it follows, kept
+// as where that point lies from the pixel's centre. The point's place this frame is the pixel's P through this frame's
 // camera, plus that offset. A pixel takes, of the four previous pixels round its own point's place
 // in the previous frame (its P through the previous camera) that show the same surface (the
 // filters' test), the one whose followed point now lies nearest to its centre (the nearest pixel
@@ -221,12 +231,11 @@ ivec2 unpack_pixel(uint u) { return ivec2(u & 0xffffu, u >> 16u); }
 // the lineage, so a surface point's samples over the frames are one pixel's frame window,
 // complementary strata of the light, however the camera moved. Elsewhere (a pixel uncovered this
 // frame, off the last frame's image, a fresh history, the surface magnified so that two pixels
-// took one) the pixel starts a lineage of its own at its centre: its samples are those of a frame
-// without history, bit for bit.
+// took one) the pixel starts a lineage of its own at its centre, keyed by the pixel and the frame:
+// its samples are those of the same frame with its history dropped, bit for bit.
 void choose(ivec2 px, ivec2 size, vec4 p, vec4 n)
 {
-    uvec4 lineage = uvec4(pack_pixel(px), PN_HISTORY_NONE, packHalf2x16(vec2(0.0)),
-                          pack_normal(p.w > 0.0 ? n.xyz : vec3(0.0, 0.0, 1.0)));
+    uvec4 lineage = fresh_lineage(px, p, n);
     if (p.w > 0.0 && pc.drop == 0u) {
         float depth = params.depth_from_eye != 0u ? dot(p.xyz - params.eye.xyz, params.forward.xyz) : n.w;
         float footprint = depth * params.pixel_angle, best = 1e30;
@@ -252,13 +261,23 @@ void choose(ivec2 px, ivec2 size, vec4 p, vec4 n)
         }
         if (chosen.x >= 0) {
             lineage.y = pack_pixel(chosen);
-            // The lineage only where some light's history is there to continue: elsewhere the
-            // pixel's samples stay the frame's own, as without history.
+            // The lineage only where some light keeps history there (it holds samples, does not
+            // drop its history this frame, and the pixel's pyramid to it meets no moved box: the
+            // adding stage's own tests but the light's reach, which the shadow pass tells it), and
+            // only in the one pixel its point rounds to (half-open, so that a point half-way between
+            // two pixels lands in one of them). Where no light keeps it the pixel's samples are the
+            // frame's own as with its history dropped, bit for bit.
             bool held = false;
-            for (int layer = 0; layer < imageSize(img_store_in).z && !held; layer++)
-                held = uintBitsToFloat(imageLoad(img_store_in, ivec3(chosen, layer)).y) > 0.0;
-            if (held && all(lessThanEqual(abs(offset), vec2(0.5))))
-                lineage.x = picked.origin, lineage.z = packHalf2x16(offset);
+            vec3 reach = vec3((NEAR + 1.0) * footprint);
+            for (int layer = 0; layer < imageSize(img_store_in).z && !held; layer++) {
+                held = (params.drop_mask >> uint(layer) & 1u) == 0u &&
+                       uintBitsToFloat(imageLoad(img_store_in, ivec3(chosen, layer)).y) > 0.0;
+                for (uint b = 0u; held && b < params.box_count; b++)
+                    held = !pyramid_meets_box(p.xyz, params.lights[layer], params.box_lo[b].xyz - reach,
+                                              params.box_hi[b].xyz + reach);
+            }
+            if (held && all(greaterThanEqual(offset, vec2(-0.5))) && all(lessThan(offset, vec2(0.5))))
+                lineage.x = picked.key, lineage.z = packHalf2x16(offset);
         }
     }
     imageStore(img_lineage, px, lineage);
@@ -276,14 +295,14 @@ void main()
         return;
     }
     int layer = int(pc.light);
-    uvec4 lineage = STAGE == 2u ? imageLoad(img_lineage, px) : uvec4(0u, PN_HISTORY_NONE, 0u, 0u);
-    // This frame's P (and lineage) for the next frame's choice: the pass keeps its own copies (of P
-    // one of two, taken in turn as the sums are), so the renderer copies nothing between frames and
-    // the library's recorder, whose P is the host's, needs nothing of it.
+    // Stage 0 chose nothing: every pixel's lineage starts here (for a later frame without a tile).
+    uvec4 lineage = STAGE == 2u ? imageLoad(img_lineage, px) : fresh_lineage(px, p, n);
+    // This frame's P and lineages for the next frame's choice: the pass keeps its own copies (one
+    // of two, taken in turn as the sums are), so the renderer copies nothing between frames and the
+    // library's recorder, whose P is the host's, needs nothing of it.
     if (pc.light == 0u) {
         imageStore(img_pos_out, px, p);
-        if (STAGE == 2u)
-            imageStore(img_trail, px, lineage);
+        imageStore(img_trail_out, px, lineage);
     }
     uvec4 counts = imageLoad(img_counts, px);
     vec2 own = vec2(counts.xy);

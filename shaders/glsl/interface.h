@@ -92,8 +92,8 @@
 #define PN_SHADOW_BINDING_BLOCKERS 9 // rg32f: the blocked rays' nearest blocker as segment parameter t
                                      // (1 without one), and after a pixel's last chunk the penumbra
                                      // width it casts, world units (shadow_finish; the penumbra filter's)
-#define PN_SHADOW_BINDING_LINEAGE 10 // rgba32ui: under the temporal history, the pixel whose samples
-                                     // each pixel continues (history.comp's lineage, x); without it
+#define PN_SHADOW_BINDING_LINEAGE 10 // rgba32ui: under the temporal history, the sampler key of the
+                                     // lineage each pixel continues (history.comp, x); without it
                                      // bound to RAYS and never read (frame_side 0)
 #define PN_SHADOW_BINDING_COUNT 11
 #define PN_SHADOW_BINDING_TLAS 11   // acceleration structure: only the modes whose needs.tlas is set
@@ -153,14 +153,14 @@
 #define PN_HISTORY_BINDING_PARAMS 8    // uniform HistoryParams
 #define PN_HISTORY_BINDING_POS_OUT 9   // rgba32f: this frame's P kept for the next frame (light 0's pass)
 #define PN_HISTORY_BINDING_LINEAGE 10  // rgba32ui: this frame's lineage per pixel (the choosing stage's
-                                       // out, the shadow pass's and the adding stage's in): the pixel
-                                       // whose samples it continues (x | y << 16), the previous pixel
-                                       // whose history it takes (the same packing; PN_HISTORY_NONE:
-                                       // none), where the lineage's point lies (half floats, pixels
-                                       // from its centre) and its normal (octahedral)
-#define PN_HISTORY_BINDING_TRAIL 11    // rgba32ui: the previous frame's lineage (light 0's adding stage
-                                       // copies it for the next frame's choice)
-#define PN_HISTORY_BINDING_COUNT 12
+                                       // out, the shadow pass's and the adding stage's in): its sampler
+                                       // key (hash.glsl), the previous pixel whose history it takes
+                                       // (x | y << 16; PN_HISTORY_NONE: none), where the lineage's
+                                       // point lies (half floats, pixels from its centre) and the
+                                       // pixel's normal (octahedral)
+#define PN_HISTORY_BINDING_TRAIL 11    // rgba32ui: the previous frame's lineages (the choice reads them)
+#define PN_HISTORY_BINDING_TRAIL_OUT 12 // rgba32ui: this frame's, for the next (light 0's adding stage)
+#define PN_HISTORY_BINDING_COUNT 13
 #define PN_HISTORY_NONE 0xffffffffu
 // history.comp's stage, a pipeline each: 0 adds a light's samples (choosing its previous pixel),
 // 1 chooses each pixel's previous pixel and lineage (once a frame, before the shadow passes, in
@@ -450,6 +450,10 @@ PN_STRUCT(HistoryParams, pn_history_params) {
     PN_VEC4(eye)            // this frame's camera, with depth_from_eye
     PN_VEC4(forward)
     PN_MAT4(view_proj)      // this frame's world -> clip: which pixel a previous pixel's point lands in
+    PN_UINT(frame)          // the shadow passes' frame number and seed (ShadowParams'): a new
+    PN_UINT(seed)           // lineage's key (hash.glsl)
+    PN_UINT(drop_mask)      // bit i: light i drops its history this frame (HistoryPush.drop, for the choice)
+    PN_UINT(pad0)
 } PN_END(HistoryParams, pn_history_params)
 
 // The temporal history's push constants: one light per dispatch. 16 bytes.

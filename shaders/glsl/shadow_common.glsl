@@ -1,6 +1,7 @@
 // Shared by the shadow shaders: parameters, light samples and the surface offset.
 // ShadowParams and ShadowChunk are declared in interface.h, once for C and GLSL.
 #include "pools.glsl"
+#include "hash.glsl"
 
 layout(set = 0, binding = PN_SHADOW_BINDING_PARAMS, std140) uniform ShadowParamsBlock { ShadowParams params; };
 
@@ -43,13 +44,6 @@ layout(set = 0, binding = PN_SHADOW_BINDING_LINEAGE, rgba32ui) uniform readonly 
 const uint SAMPLER_GRID = PN_SAMPLER_GRID_ID;
 const uint SAMPLER_STRATIFIED = PN_SAMPLER_STRATIFIED_ID;
 
-// PCG hash (O'Neill): decorrelates pixels and seeds.
-uint pcg(uint v)
-{
-    uint state = v * 747796405u + 2891336453u;
-    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
 
 // Point k of the two-dimensional Sobol' sequence (van der Corput in base 2, and the Pascal
 // matrix's dimension), digitally shifted by `shift` (a hash of it XORed into each axis).
@@ -93,22 +87,20 @@ struct PixelSampler {
 PixelSampler pixel_sampler(uvec2 pixel)
 {
     PixelSampler ps;
-    // Under the temporal history a pixel draws the samples of the pixel its point was first seen
-    // in (history.comp's lineage: the point followed through the camera's moves), so that the
-    // frames' samples of one surface point are that pixel's frame window, complementary strata of
-    // the light, as a still camera's are. Drawn by the pixel it now lies in, a moving point's
-    // samples came from different pixels' strata, no more complementary than independent ones
-    // (engine/gpu/README.md, the temporal history). A still camera's lineage is the pixel itself.
-    // Only without an interleaved tile: under one, a pixel keeps its own samples, whose tile-mates'
-    // are complementary within the frame, which the filter's window relies on (and no lineage is
-    // chosen: history.comp's stage 1 runs only then).
-    if (params.frame_side != 0u && params.tile_w * params.tile_h == 1u) {
-        uint origin = imageLoad(img_lineage, ivec2(pixel)).x;
-        pixel = uvec2(origin & 0xffffu, origin >> 16u);
-    }
     uvec2 tile_size = uvec2(params.tile_w, params.tile_h);
     uvec2 tile = pixel / tile_size, member = pixel % tile_size;
-    ps.h = pcg(tile.x + pcg(tile.y + pcg(params.seed)));
+    ps.h = tile_hash(tile, params.seed);
+    // Under the temporal history a pixel draws the samples of the lineage it continues
+    // (history.comp: the surface point followed through the camera's moves, keyed where it was
+    // first seen), so that the frames' samples of one surface point are one key's frame window,
+    // complementary strata of the light, as a still camera's are. Drawn by the pixel it now lies
+    // in, a moving point's samples came from different pixels' strata, no more complementary than
+    // independent ones (engine/gpu/README.md, the temporal history). Only without an interleaved
+    // tile, where the key is all of a pixel's sampler (no position in a tile): under one, a pixel
+    // keeps its own samples, whose tile-mates' are complementary within the frame, which the
+    // filter's window relies on (and no lineage is chosen: history.comp's stage 1 runs only then).
+    if (params.frame_side != 0u && tile_size.x * tile_size.y == 1u)
+        ps.h = imageLoad(img_lineage, ivec2(pixel)).x;
     // The temporal history's frame window (light_sample): frame f moves every pixel to the tile
     // position f mod T further on (a bijection of the tile: each frame's tile still holds every
     // sub-cell once), so that over T consecutive frames each pixel takes every sub-cell of each

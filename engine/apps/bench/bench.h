@@ -102,9 +102,10 @@ typedef struct bench_opts {
     // writes a partial file for --merge (0/0: no --shard).
     int shard_k, shard_n;
     bool points; // --points: the library's points in, V out beside the renderer (bench_points.c) alone
-    // --sequence orbit,light: instead of the matrix, frames in motion with the temporal history
-    // beside the same frames without it (bench_sequence.c): which kinds, how many frames, how far
-    // a frame turns (degrees), the history's length (--history, frames).
+    // --sequence orbit,light,object,walk: instead of the matrix, frames in motion with the temporal
+    // history beside the same frames without it (bench_sequence.c): which kinds, how many frames,
+    // how far a frame goes (degrees; object and walk: percent of a radius), the history's length
+    // (--history, frames).
     bool sequences[PN_BENCH_SEQUENCES]; // orbit, light, object, walk (bench_sequence.c)
     uint32_t seq_frames, seq_history;
     float seq_step;

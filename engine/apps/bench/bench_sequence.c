@@ -278,9 +278,14 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc,
         float dx = light.normal[0], dz = light.normal[2], len = sqrtf(dx * dx + dz * dz);
         side[0] = len > 0 ? -dz / len : 1.0f, side[2] = len > 0 ? dx / len : 0.0f;
     }
-    // With the history, without, at once, (object) 16 spp unfiltered; then (Embree) the peer's exact.
-    int count = object ? 4 : 3, peer = rtc ? count : -1;
-    count += rtc != NULL;
+    // With the history, without, at once, (object) 16 spp unfiltered; then (Embree) the peer's exact,
+    // whose ray dump holds PEER_MAX_SPP + 1 points of 16 bytes a pixel (1.1 GB at 1280x720: none
+    // beyond 1 GiB).
+    bool peer_on = rtc && (uint64_t)px * (PEER_MAX_SPP + 1) * 16 <= (1ull << 30);
+    if (rtc && !peer_on)
+        pn_warn("bench --sequence: %ux%u: the CPU peer's ray dump would pass 1 GiB: no Embree per frame", w, h);
+    int count = object ? 4 : 3, peer = peer_on ? count : -1;
+    count += peer_on;
     pn_setup s[5] = {0};
     pn_embree_scene *rtc_scene = NULL;
     int made = 0, rc = PN_EXIT_OK;
@@ -355,11 +360,14 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc,
         if (peer >= 0) {
             // Embree's BVH over the scene as it is (again each frame the object moved: it shares
             // the scene's buffers, which must not change under it).
-            if (!rtc_scene || object) {
+            if (peer_on && (!rtc_scene || object)) {
                 pn_embree_scene_destroy(rtc_scene);
                 rtc_scene = pn_embree_scene_create(rtc, &prep->scene);
+                if (!rtc_scene)
+                    pn_warn("bench --sequence: Embree could not build %s: no CPU peer from frame %u", view, k);
+                peer_on = rtc_scene != NULL;
             }
-            if (!rtc_scene || !peer_frame(o, rtc_scene, &s[peer], &cam, &light, ref, mask, px, fk)) {
+            if (peer_on && !peer_frame(o, rtc_scene, &s[peer], &cam, &light, ref, mask, px, fk)) {
                 rc = PN_EXIT_FAILURE;
                 break;
             }
@@ -411,7 +419,7 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc,
         if (object)
             printf(", to 16 spp unfiltered %.2f; where V changed, the worst ratio to alone %.2f", worst_16, worst_ghost);
         printf("; frame time %.2fx", n ? ratio[n / 2] : 0.0);
-        if (peer >= 0 && vs_embree) {
+        if (peer >= 0 && peer_on && vs_embree) {
             // Embree's time at equal error over the frame's with the history: the median from frame
             // `from` of the frames whose error plain exact reaches within PEER_MAX_SPP.
             qsort(vs_embree, (size_t)n_embree, sizeof *vs_embree, by_value);
@@ -430,18 +438,18 @@ static int run_sequence(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc,
             if (*c == ':' || *c == '/' || *c == ' ' || *c == '+')
                 *c = '_';
         snprintf(title, sizeof title, "%s %ux%u, %s %.3g %s a frame: %s%s, %u spp a frame, history %u frames", view, w,
-                 h, KIND_NAMES[kind], o->seq_step, object ? "% of its radius" : "deg", MODE_NAME(mode),
+                 h, KIND_NAMES[kind], o->seq_step, object || kind == KIND_WALK ? "% of a radius" : "deg", MODE_NAME(mode),
                  pn_bench_filter_suffix(filter), spp, o->seq_history);
         if (!write_plot(o, stem, f, frames, title))
             rc = PN_EXIT_FAILURE;
     }
-    // The scene as it was, for the sequences after this one.
+    // The scene as it was, for the sequences after this one (Embree's BVH over it gone first).
+    pn_embree_scene_destroy(rtc_scene);
     if (object && rest) {
         for (uint32_t v = 0; v < ob->vertex_count; v++)
             memcpy(prep->scene.vertices[ob->first_vertex + v].pos, rest[v], sizeof rest[v]);
         pn_scene_update_bounds(&prep->scene);
     }
-    pn_embree_scene_destroy(rtc_scene);
     free(rest), free(ref), free(mask), free(f), free(ratio);
     for (int i = 0; i < made; i++)
         pn_setup_destroy(dev, &s[i]);
@@ -473,7 +481,8 @@ static int sequences(const bench_opts *o, pn_gpu_device *dev, pn_embree *rtc)
                             // sequence without a tree (culled by the first frame's light); the
                             // object's where the scene has one that is not all of it.
                             const pn_scene *sc = &prep.scene;
-                            bool movable = sc->object_count > 0 && sc->objects[0].vertex_count < sc->vertex_count;
+                            bool movable = sc->object_count > 0 && sc->objects[0].index_count > 0 &&
+                                           sc->objects[0].vertex_count < sc->vertex_count;
                             if (kind == KIND_OBJECT && o->sequences[kind] && !movable && mi == 0 && fi == 0 && pi == 0)
                                 pn_warn("bench --sequence object: %s has no object to move (a glTF node with a "
                                         "mesh that is not the whole scene): skipped", o->views[vi].name);
