@@ -245,7 +245,6 @@ static pn_result history_begin(pn_renderer *r, const pn_gbuffer_push *cam, const
                               r->shadow.mode->needs.tree ? r->desc.leaf_size : 0.0);
     hf->fresh = fresh;
     hp->drop_mask = 0;
-    hf->follow = !filtered(r) || pn_filter_tile(r->desc.tile_w) * pn_filter_tile(r->desc.tile_h) == 1;
     for (uint32_t i = 0; i < light_count; i++) {
         hp->lights[i] = l[i];
         hf->drop[i] = fresh || memcmp(&l[i], &r->history_lights[i], sizeof l[i]) != 0;
@@ -296,8 +295,10 @@ pn_result pn_renderer_render_lights(pn_renderer *r, const pn_camera *camera, con
         r->compile_pending_ms += pn_ms_since(t0);
     }
     history_frame hf_store, *hist = r->history_frames ? &hf_store : NULL;
-    if (hist)
+    if (hist) {
         PN_TRY(history_begin(r, &cam, l, samples, light_count, camera->yfov_deg, hist));
+        hist->follow = tiles == 1; // lineages where the shadow pass samples without a tile
+    }
     // A frame that continues the last one's counts cannot be warmed up: the warm-up's shadow pass
     // starts its images afresh and would lose them. It reports what was created for it, and a
     // pipeline made for it runs first within it (the demo's refinement, below 32 samples); so

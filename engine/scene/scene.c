@@ -51,8 +51,9 @@ void pn_scene_anim_destroy(pn_scene_anim *a)
 }
 
 // The box of the vertices object o's triangles use: its share of the bounds.
-static void object_bounds(const pn_scene *s, const pn_scene_object *o, float lo[3], float hi[3])
+void pn_scene_object_bounds(const pn_scene *s, uint32_t index, float lo[3], float hi[3])
 {
+    const pn_scene_object *o = &s->objects[index];
     for (int k = 0; k < 3; k++)
         lo[k] = FLT_MAX, hi[k] = -FLT_MAX;
     for (uint32_t i = o->first_index; i < o->first_index + o->index_count; i++) {
@@ -73,7 +74,7 @@ pn_result pn_scene_move_object(pn_scene *s, uint32_t index, const float delta[3]
     }
     pn_scene_object *o = &s->objects[index];
     float lo[3], hi[3];
-    object_bounds(s, o, lo, hi);
+    pn_scene_object_bounds(s, index, lo, hi);
     // The bounds follow from the object's box alone unless it held one of their faces and moves
     // inwards from it: then another vertex may hold that face, and only a pass over the whole scene
     // finds which (the demo's live moves would pay it on every move, 0.2 s on 4M triangles).

@@ -173,6 +173,8 @@ pn_result pn_scene_add_ground(pn_scene *scene, float scale);
 // Moves object `index` by `delta` in world space: its vertices, its transform and the bounds (the
 // demo's and --move-object's moving objects). PN_ERR_INVALID, logged, for no such object.
 pn_result pn_scene_move_object(pn_scene *scene, uint32_t index, const float delta[3]);
+// The box of object `index`'s triangles (index < object_count).
+void pn_scene_object_bounds(const pn_scene *scene, uint32_t index, float lo[3], float hi[3]);
 
 // Validates what every stage relies on: finite positions, indices in range, at least one triangle.
 // Logs the problem with the scene name.

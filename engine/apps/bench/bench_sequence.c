@@ -116,17 +116,13 @@ static void object_offset(int k, uint32_t frames, float step, double radius, con
         out[i] = (float)(along * side[i]);
 }
 
-// The object's box (its vertices'), for the history's invalidation.
+// The object's box (pn_scene_object_bounds), in the history's doubles.
 static void object_box(const pn_scene *scene, uint32_t index, double lo[3], double hi[3])
 {
-    const pn_scene_object *ob = &scene->objects[index];
+    float l[3], h[3];
+    pn_scene_object_bounds(scene, index, l, h);
     for (int k = 0; k < 3; k++)
-        lo[k] = INFINITY, hi[k] = -INFINITY;
-    for (uint32_t v = ob->first_vertex; v < ob->first_vertex + ob->vertex_count; v++)
-        for (int k = 0; k < 3; k++) {
-            lo[k] = fmin(lo[k], scene->vertices[v].pos[k]);
-            hi[k] = fmax(hi[k], scene->vertices[v].pos[k]);
-        }
+        lo[k] = l[k], hi[k] = h[k];
 }
 
 // The renderer's V against the reference; the history's mean samples a covered pixel.
