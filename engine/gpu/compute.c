@@ -272,11 +272,22 @@ pn_result pn_gpu_compute_create_images(pn_gpu_device *dev, const uint32_t *spirv
                                        const VkImageView *images, uint32_t count, uint32_t push_size,
                                        const VkSpecializationInfo *spec, pn_gpu_compute *out)
 {
+    return pn_gpu_compute_create_images_buffer(dev, spirv, spirv_size, images, count, UINT32_MAX, VK_NULL_HANDLE,
+                                               push_size, spec, out);
+}
+
+pn_result pn_gpu_compute_create_images_buffer(pn_gpu_device *dev, const uint32_t *spirv, size_t spirv_size,
+                                              const VkImageView *images, uint32_t count, uint32_t buffer_binding,
+                                              VkBuffer buffer, uint32_t push_size, const VkSpecializationInfo *spec,
+                                              pn_gpu_compute *out)
+{
     VkDescriptorSetLayoutBinding bindings[PN_GPU_MAX_IMAGE_BINDINGS];
     if (count > PN_GPU_MAX_IMAGE_BINDINGS)
         return PN_ERR_INVALID;
     for (uint32_t i = 0; i < count; i++)
-        bindings[i] = (VkDescriptorSetLayoutBinding){.binding = i, .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
+        bindings[i] = (VkDescriptorSetLayoutBinding){
+            .binding = i,
+            .descriptorType = i == buffer_binding ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_IMAGE};
     PN_TRY(pn_gpu_compute_create(dev,
                                  &(pn_gpu_compute_desc){.spirv = spirv,
                                                         .spirv_size = spirv_size,
@@ -285,8 +296,12 @@ pn_result pn_gpu_compute_create_images(pn_gpu_device *dev, const uint32_t *spirv
                                                         .push_size = push_size,
                                                         .spec = spec},
                                  out));
-    for (uint32_t i = 0; i < count; i++)
-        pn_gpu_compute_write_image(dev, out, i, images[i]);
+    for (uint32_t i = 0; i < count; i++) {
+        if (i == buffer_binding)
+            pn_gpu_compute_write_buffer(dev, out, i, buffer);
+        else
+            pn_gpu_compute_write_image(dev, out, i, images[i]);
+    }
     return PN_OK;
 }
 

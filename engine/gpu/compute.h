@@ -77,10 +77,16 @@ void pn_gpu_compute_destroy(pn_gpu_device *dev, pn_gpu_compute *c);
 
 // A compute pass whose set is storage images only, binding i = images[i] (GENERAL layout): the
 // shading and filter passes. spec may be NULL.
-enum { PN_GPU_MAX_IMAGE_BINDINGS = 8 };
+enum { PN_GPU_MAX_IMAGE_BINDINGS = 12 };
 pn_result pn_gpu_compute_create_images(pn_gpu_device *dev, const uint32_t *spirv, size_t spirv_size,
                                        const VkImageView *images, uint32_t count, uint32_t push_size,
                                        const VkSpecializationInfo *spec, pn_gpu_compute *out);
+// The same with binding buffer_binding a storage buffer, `buffer` (images[buffer_binding] unused):
+// the filters' list of tiles near a blocker (penumbra_pass.h).
+pn_result pn_gpu_compute_create_images_buffer(pn_gpu_device *dev, const uint32_t *spirv, size_t spirv_size,
+                                              const VkImageView *images, uint32_t count, uint32_t buffer_binding,
+                                              VkBuffer buffer, uint32_t push_size, const VkSpecializationInfo *spec,
+                                              pn_gpu_compute *out);
 
 // Points binding `binding` of the set at a storage image (GENERAL layout) or a storage buffer.
 void pn_gpu_compute_write_image(pn_gpu_device *dev, pn_gpu_compute *c, uint32_t binding, VkImageView view);

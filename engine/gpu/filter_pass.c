@@ -19,15 +19,15 @@ static pn_result create_pipeline(pn_gpu_device *dev, const pn_filter_pass *f, ui
                                            {.constantID = PN_SPEC_TILE_H, .offset = 4, .size = 4},
                                            {.constantID = PN_SPEC_FILTER_TEMPORAL, .offset = 8, .size = 4}};
     VkSpecializationInfo spec = {.mapEntryCount = 3, .pMapEntries = entries, .dataSize = sizeof values, .pData = values};
-    return pn_gpu_compute_create_images(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, f->images,
-                                        PN_FILTER_BINDING_COUNT, sizeof(pn_filter_push), &spec, out);
+    return pn_gpu_compute_create_images_buffer(dev, pn_spv_filter_comp, sizeof pn_spv_filter_comp, f->images,
+                                               PN_FILTER_BINDING_COUNT, PN_FILTER_BINDING_LIST, f->list,
+                                               sizeof(pn_filter_push), &spec, out);
 }
 
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
                                 const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                const pn_gpu_image *sigma, const pn_gpu_image *tiles, const pn_gpu_image *v,
-                                pn_filter_pass *out)
+                                const pn_penumbra_pass *penumbra, const pn_gpu_image *v, pn_filter_pass *out)
 {
     memset(out, 0, sizeof *out);
     out->width = width, out->height = height;
@@ -37,8 +37,10 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
     out->images[PN_FILTER_BINDING_V] = v->view;
     out->images[PN_FILTER_BINDING_COUNTS] = counts->view;
     out->images[PN_FILTER_BINDING_BLOCKERS] = blockers->view;
-    out->images[PN_FILTER_BINDING_SIGMA] = sigma->view;
-    out->images[PN_FILTER_BINDING_TILES] = tiles->view;
+    out->images[PN_FILTER_BINDING_SIGMA] = penumbra->sigma.view;
+    out->images[PN_FILTER_BINDING_TILES] = penumbra->tiles.view;
+    out->images[PN_FILTER_BINDING_SCRATCH] = penumbra->scratch.view;
+    out->list = penumbra->list.buffer;
     PN_TRY(create_pipeline(dev, out, tile_w, tile_h, &out->compute));
     out->tile_w = tile_w, out->tile_h = tile_h;
     return PN_OK;

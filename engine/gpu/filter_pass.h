@@ -2,9 +2,11 @@
 // pixel, across neighbours on the pixel's own surface only (shaders/glsl/filter.comp). Reads the
 // shadow pass's V (v_raw) and sample counts (which pixels have an estimate of V), writes the
 // filtered V the shading pass reads. Under --filter penumbra it also reads the blocker bounds and
-// writes the penumbra filter's footprints (gpu/penumbra_pass.h).
+// writes the penumbra filter's footprints, marks and list of tiles (gpu/penumbra_pass.h: its images
+// and list).
 #pragma once
 #include "gpu/compute.h"
+#include "gpu/penumbra_pass.h"
 #include "gpu/resources.h"
 #include "interface.h"
 
@@ -14,6 +16,7 @@ typedef struct pn_filter_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     uint32_t tile_w, tile_h; // the window: the tile of light_sample's interleaving
     VkImageView images[PN_FILTER_BINDING_COUNT]; // the set's, kept for a new window's pipeline
+    VkBuffer list; // the set's PN_FILTER_BINDING_LIST: the penumbra pass's list of tiles
     bool temporal; // the counts are the temporal history's sums (PN_SPEC_FILTER_TEMPORAL)
 } pn_filter_pass;
 
@@ -21,8 +24,7 @@ typedef struct pn_filter_pass {
 pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t height, uint32_t tile_w,
                                 uint32_t tile_h, const pn_gpu_image *p, const pn_gpu_image *n,
                                 const pn_gpu_image *v_raw, const pn_gpu_image *counts, const pn_gpu_image *blockers,
-                                const pn_gpu_image *sigma, const pn_gpu_image *tiles, const pn_gpu_image *v,
-                                pn_filter_pass *out);
+                                const pn_penumbra_pass *penumbra, const pn_gpu_image *v, pn_filter_pass *out);
 void pn_filter_pass_destroy(pn_gpu_device *dev, pn_filter_pass *f);
 // Another window: a pipeline specialised for it, made only when it changes. The device must be
 // idle with respect to f (the old pipeline is destroyed); f is unchanged on failure.

@@ -19,8 +19,9 @@ static pn_result create_compute(pn_gpu_device *dev, const pn_penumbra_pass *f, p
         {.constantID = PN_SPEC_PENUMBRA_STAGE, .offset = 4, .size = 4},
     };
     VkSpecializationInfo spec = {.mapEntryCount = 2, .pMapEntries = entries, .dataSize = sizeof values, .pData = values};
-    PN_TRY(pn_gpu_compute_create_images(dev, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
-                                        f->images, PN_PENUMBRA_BINDING_COUNT, sizeof(pn_penumbra_push), &spec, out));
+    PN_TRY(pn_gpu_compute_create_images_buffer(dev, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
+                                               f->images, PN_PENUMBRA_BINDING_COUNT, PN_PENUMBRA_BINDING_LIST,
+                                               f->list.buffer, sizeof(pn_penumbra_push), &spec, out));
     stages[PN_PENUMBRA_STAGE_BLUR_X] = out->pipeline;
     values[1] = PN_PENUMBRA_STAGE_BLUR_Y;
     pn_result r = pn_gpu_compute_pipeline(dev, out, pn_spv_penumbra_filter_comp, sizeof pn_spv_penumbra_filter_comp,
@@ -79,13 +80,20 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
                                                               VK_IMAGE_USAGE_TRANSFER_DST_BIT},
                                 &out->tiles);
+    // The list of marked tiles: at most every tile once (filter.comp lists a tile at its first mark).
+    out->tiles_across = (width + G - 1) / G, out->tiles_down = (height + G - 1) / G;
+    if (r == PN_OK)
+        r = pn_gpu_buffer_create(dev, "penumbra filter's tile list",
+                                 (PN_TILE_LIST_HEADER + (VkDeviceSize)out->tiles_across * out->tiles_down) * 4,
+                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                 PN_GPU_DEVICE_LOCAL, &out->list);
     out->images[PN_PENUMBRA_BINDING_P] = p->view;
     out->images[PN_PENUMBRA_BINDING_N] = n->view;
     out->images[PN_PENUMBRA_BINDING_COUNTS] = counts->view;
     out->images[PN_PENUMBRA_BINDING_V] = v->view;
     out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
     out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
-    out->images[PN_PENUMBRA_BINDING_TILES] = out->tiles.view;
     if (r == PN_OK)
         r = create_compute(dev, out, &out->compute, out->stages);
     if (r != PN_OK)
@@ -99,6 +107,7 @@ void pn_penumbra_pass_destroy(pn_gpu_device *dev, pn_penumbra_pass *f)
     pn_gpu_image_destroy(dev, &f->sigma);
     pn_gpu_image_destroy(dev, &f->scratch);
     pn_gpu_image_destroy(dev, &f->tiles);
+    pn_gpu_buffer_destroy(dev, &f->list);
     memset(f, 0, sizeof *f);
 }
 
@@ -138,10 +147,27 @@ void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
     pn_gpu_cmd_barrier(cmd, NULL, 1, &clear);
     vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1,
                          &(VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1});
+    // And the list empty, after the dispatches an earlier light or frame read it for.
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
+                                                           VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                           .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                           .dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
+                                           .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT},
+                       0, NULL);
+    const uint32_t empty[PN_TILE_LIST_HEADER] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1)
+    vkCmdUpdateBuffer(cmd, f->list.buffer, 0, sizeof empty, empty);
     VkImageMemoryBarrier2 cleared = pn_gpu_image_barrier(&f->tiles, VK_PIPELINE_STAGE_2_CLEAR_BIT,
                                                          VK_ACCESS_2_TRANSFER_WRITE_BIT,
                                                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, RW, GENERAL, GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &cleared);
+    pn_gpu_cmd_barrier(cmd,
+                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                           .srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
+                                           .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                           .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                           .dstAccessMask = RW},
+                       1, &cleared);
 }
 
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
@@ -154,18 +180,25 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
         .samples = samples,
         .adaptive = adaptive,
         .max_radius = pn_penumbra_max_radius(f->height),
+        .listed = !f->one_tile,
     };
     for (uint32_t stage = 0; stage < PN_PENUMBRA_STAGES; stage++) {
-        // Each stage reads what the ones before wrote (the first, the filter pass's footprints).
+        // Each stage reads what the ones before wrote (the first, the filter pass's footprints and
+        // its list of tiles, the dispatch's group count).
         pn_gpu_cmd_barrier(cmd,
                            &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                                .srcStageMask = COMPUTE,
                                                .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                               .dstStageMask = COMPUTE,
-                                               .dstAccessMask = RW},
+                                               .dstStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                               .dstAccessMask = RW | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT},
                            0, NULL);
         pn_gpu_compute c = f->compute;
         c.pipeline = f->stages[stage];
-        pn_gpu_compute_dispatch_rows(cmd, &c, sizeof push, &push, f->width, f->height, f->one_tile);
+        // The warm-up frame runs the first tile whatever the list holds, so that llvmpipe compiles
+        // both stages there (it compiles at a pipeline's first dispatch).
+        if (f->one_tile)
+            pn_gpu_compute_dispatch(cmd, &c, sizeof push, &push, 1, 1, 1);
+        else
+            pn_gpu_compute_dispatch_indirect(cmd, &c, sizeof push, &push, f->list.buffer, 0);
     }
 }

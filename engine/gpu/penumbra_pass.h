@@ -1,7 +1,8 @@
 // The penumbra filter (--filter penumbra): after the interleaved filter, a separable Gaussian as
 // wide as the penumbra each pixel lies in, from the nearest blocker the shadow pass met
 // (shaders/glsl/penumbra_filter.comp). The interleaved filter's pass writes each pixel's footprint
-// (filter.comp); then two dispatches: the Gaussian along rows and along columns. Reads the
+// and lists the tiles with a blocker near (filter.comp); then two dispatches over those tiles: the
+// Gaussian along rows and along columns. Reads the
 // G-buffer and the shadow pass's counts, and rewrites V (the interleaved filter's output) in
 // place; leaves each pixel's footprint (the Gaussian's standard deviation in pixels) in
 // `scratch`'s second channel for the EXR.
@@ -18,6 +19,8 @@ typedef struct pn_penumbra_pass {
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
     pn_gpu_image tiles;   // r32ui: per PN_PENUMBRA_MARK_TILE-square tile, whether a blocker lies near
+    pn_gpu_buffer list;   // the marked tiles (PN_TILE_LIST_*), the Gaussian's indirect dispatches
+    uint32_t tiles_across, tiles_down;
     VkImageView images[PN_PENUMBRA_BINDING_COUNT]; // the set's, kept for pn_penumbra_pass_set_counts
     bool temporal; // the counts are the temporal history's sums (PN_SPEC_PENUMBRA_TEMPORAL)
 } pn_penumbra_pass;

@@ -168,8 +168,7 @@ pn_result pn_renderer_create(pn_gpu_device *dev, const pn_scene *scene, const pn
     if (r == PN_OK)
         r = pn_filter_pass_create(dev, desc->width, desc->height, pn_filter_tile(desc->tile_w),
                                   pn_filter_tile(desc->tile_h), &out->p, &out->n, &out->v_raw, &out->shadow.counts,
-                                  &out->shadow.blockers, &out->penumbra.sigma, &out->penumbra.tiles, &out->v,
-                                  &out->filter);
+                                  &out->shadow.blockers, &out->penumbra, &out->v, &out->filter);
     if (r == PN_OK)
         r = pn_shade_pass_create(dev, desc->width, desc->height, &out->p, &out->n, &out->albedo,
                                  desc->filter != PN_FILTER_NONE ? &out->v : &out->v_raw, &out->radiance, &out->shade);

@@ -36,8 +36,18 @@ layout(set = 0, binding = PN_FILTER_BINDING_BLOCKERS, rg32f) uniform readonly im
 // its Gaussian (penumbra_filter.comp), written here where the pixel's counts and blockers are read
 // anyway: a dispatch of its own cost lavapipe about as much as one of the Gaussian's.
 layout(set = 0, binding = PN_FILTER_BINDING_SIGMA, rg32f) uniform writeonly image2D img_sigma;
-// With the penumbra filter: the tiles a pixel with a blocker lends its footprint to (below).
+// With the penumbra filter: the tiles a pixel with a blocker lends its footprint to (below), marked
+// and listed once each: the Gaussian runs only there.
 layout(set = 0, binding = PN_FILTER_BINDING_TILES, r32ui) uniform uimage2D img_tiles;
+layout(set = 0, binding = PN_FILTER_BINDING_LIST, std430) buffer TileList
+{
+    uint groups[PN_TILE_LIST_HEADER]; // VkDispatchIndirectCommand: the count of tiles, 1, 1
+    uint tiles[];                     // x | y << 16
+} list;
+// With the penumbra filter: the Gaussian's row pass's output (penumbra_filter.comp's row_value and
+// footprint) as that pass leaves it in a tile it does not run in: V, lent where the pixel lends it,
+// and no footprint. The row pass rewrites it in the listed tiles; the column pass reads it in all.
+layout(set = 0, binding = PN_FILTER_BINDING_SCRATCH, rg32f) uniform writeonly image2D img_scratch;
 
 layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // The window, fixed per pipeline (filter_pass.c builds one for the tile in use): with constant
@@ -104,6 +114,19 @@ float penumbra_weight(vec3 p, uint width_p, vec3 q, uint width_q)
     return max(1.0 - dot(r, r), 0.0);
 }
 
+// A pixel's outputs: V, and with the penumbra filter its footprint and whether it lends V (sigma),
+// and the row pass's output where that pass does not run (img_scratch).
+void store(ivec2 px, float v, vec2 sigma)
+{
+    imageStore(img_v, px, vec4(v));
+    if (pc.narrow > 0.0) {
+        imageStore(img_sigma, px, vec4(sigma, 0.0, 0.0));
+        imageStore(img_scratch, px, vec4(sigma.y > 0.0 ? v : -v, 0.0, 0.0, 0.0));
+    }
+}
+
+float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples);
+
 void main()
 {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
@@ -112,9 +135,7 @@ void main()
         return;
     vec4 p = imageLoad(img_p, px);
     if (p.w <= 0.0) {
-        imageStore(img_v, px, vec4(0.0));
-        if (pc.narrow > 0.0)
-            imageStore(img_sigma, px, vec4(0.0));
+        store(px, 0.0, vec2(0.0));
         return;
     }
     uvec4 counts_p = imageLoad(img_counts, px);
@@ -130,31 +151,42 @@ void main()
     // With history, its sum, at least the frame's own (a point light's V, samples 0, has no noise).
     float own_samples = (pc.adaptive != 0u || TEMPORAL) && pc.samples > 0u ? max(sums(counts_p).y, float(pc.samples))
                                                                             : float(pc.samples);
+    vec2 sigma = vec2(0.0);
     if (pc.narrow > 0.0) {
-        float sigma = unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius);
         // What the pixel lends the Gaussian (penumbra_filter.comp): 1 its V, an estimate of its own;
         // 0.5 a V this window takes from its neighbours below (no valid ray, but the light reaches
         // above its horizon), lent along columns only, after the row pass; 0 nothing (the light
         // cannot reach it: V is the convention 1).
-        imageStore(img_sigma, px, vec4(sigma, unknown ? (counts_p.z != 0u ? 0.5 : 0.0) : 1.0, 0.0, 0.0));
+        sigma = vec2(unknown ? -1.0 : penumbra_footprint(width_near, footprint_p, own_samples, pc.width_scale, pc.max_radius),
+                     unknown ? (counts_p.z != 0u ? 0.5 : 0.0) : 1.0);
         // A pixel with a blocker of its own lends its footprint to the pixels without one up to
         // PN_PENUMBRA_LEND_REACH away (narrowest_neighbour in penumbra_filter.comp): it marks the
-        // tiles those lie in (at most 2 x 2), so that the Gaussian's row pass loads the 24
-        // neighbours only in a marked tile; elsewhere none of them has a blocker and it lends
-        // nothing, exactly as the loads would have found. Every pixel with a blocker takes this
+        // tiles those lie in (at most 2 x 2), and the first to mark a tile lists it. Only in a
+        // marked tile does a pixel have a footprint, its own or lent, so only there can the
+        // Gaussian change one: its two passes run over the listed tiles alone, and elsewhere this
+        // pass leaves what the row pass would have (store). Every pixel with a blocker takes this
         // (one to four atomics: about 1.4 ms of builtin:default's 1280 x 720 frame).
-        if (sigma >= 0.0) {
+        if (sigma.x >= 0.0) {
             ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / PN_PENUMBRA_MARK_TILE;
             ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / PN_PENUMBRA_MARK_TILE;
             for (int ty = lo.y; ty <= hi.y; ty++)
                 for (int tx = lo.x; tx <= hi.x; tx++)
-                    imageAtomicOr(img_tiles, ivec2(tx, ty), 1u);
+                    if (imageAtomicOr(img_tiles, ivec2(tx, ty), 1u) == 0u)
+                        list.tiles[atomicAdd(list.groups[0], 1u)] = uint(tx) | uint(ty) << 16;
         }
     }
-    if (unknown && counts_p.z == 0u) {
-        imageStore(img_v, px, imageLoad(img_v_raw, px));
-        return;
-    }
+    store(px, filtered(px, size, p, counts_p, width_near, own_samples), sigma);
+}
+
+// V of a covered pixel p (counts counts_p, nearest blocker's penumbra width_near, samples
+// own_samples: main's): the window's geometry- and V-weighted mean.
+float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples)
+{
+    bool unknown = counts_p.y == 0u;
+    if (unknown && counts_p.z == 0u)
+        return imageLoad(img_v_raw, px).x;
+    vec4 n = imageLoad(img_n, px); // main's load again: in the cache
+    float footprint_p = n.w * pc.pixel_angle;
     // The window's first offset: odd tiles are centred, even ones reach one pixel further right and
     // down. Scalars: the validation layer's folding of specialisation constants takes no vectors.
     const int LO_X = -(TILE_W - 1) / 2, LO_Y = -(TILE_H - 1) / 2;
@@ -176,10 +208,8 @@ void main()
                 same = same && (cq.y == 0u || cq.x == (counts_p.x == 0u ? 0u : cq.y));
             }
         }
-        if (same) {
-            imageStore(img_v, px, vec4(counts_p.x == 0u ? 0.0 : 1.0));
-            return;
-        }
+        if (same)
+            return counts_p.x == 0u ? 0.0 : 1.0;
     }
     // Under the penumbra filter (pc.narrow > 0) the window's weights also fall as a Gaussian of
     // world distance: narrow x n^-3/4 of the nearest blocker's penumbra (pn_penumbra_window_scale).
@@ -275,10 +305,8 @@ void main()
     }
     // Without an estimate of its own, the geometric mean of its neighbours' (the convention 1 if
     // none has one).
-    if (unknown) {
-        imageStore(img_v, px, vec4(weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : 1.0));
-        return;
-    }
+    if (unknown)
+        return weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : 1.0;
     float v_p = vq[-LO_Y * TILE_W - LO_X]; // the pixel's own tap (dx = dy = 0), covered and inside
     // V's own weight (a cross-bilateral range term): a shadow edge sharper than the window (a contact
     // shadow, the sharp end of a penumbra) must not be averaged away. One pixel's V is the mean of
@@ -328,6 +356,5 @@ void main()
     }
     // weight is about 1 or more: the pixel itself has rho = 0, c = 1 and d = 0, unless its normal is
     // not a unit vector (a degenerate triangle's); then it keeps its own V.
-    float v = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
-    imageStore(img_v, px, vec4(v));
+    return weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
 }

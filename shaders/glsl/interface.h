@@ -111,9 +111,16 @@
 #define PN_FILTER_BINDING_BLOCKERS 5 // rg32f: the shadow pass's nearest blocker (with the penumbra filter)
 #define PN_FILTER_BINDING_SIGMA 6    // rg32f: out, with the penumbra filter: its footprint per pixel
                                      // (PN_PENUMBRA_BINDING_SIGMA)
-#define PN_FILTER_BINDING_TILES 7    // r32ui: out, with the penumbra filter: its tiles near a blocker
-                                     // (PN_PENUMBRA_BINDING_TILES)
-#define PN_FILTER_BINDING_COUNT 8
+#define PN_FILTER_BINDING_TILES 7    // r32ui, with the penumbra filter: a texel per
+                                     // PN_PENUMBRA_MARK_TILE-square tile, nonzero where a pixel within
+                                     // PN_PENUMBRA_LEND_REACH of the tile has a blocker of its own (the
+                                     // pass sets it, the frame clears it)
+#define PN_FILTER_BINDING_SCRATCH 8  // rg32f: out, with the penumbra filter: the row pass's output as
+                                     // that pass would leave it where no blocker lies near
+                                     // (PN_PENUMBRA_BINDING_SCRATCH)
+#define PN_FILTER_BINDING_LIST 9     // storage buffer, with the penumbra filter: out, the marked tiles
+                                     // (PN_PENUMBRA_BINDING_LIST)
+#define PN_FILTER_BINDING_COUNT 10
 // The penumbra filter (--filter penumbra, penumbra_filter.comp): after the interleaved filter, a
 // separable Gaussian as wide as the penumbra.
 #define PN_PENUMBRA_BINDING_P 0        // rgba32f: world position, w = 1 where geometry is
@@ -125,15 +132,19 @@
                                        // the interleaved filter's pass writes it (filter.comp)
 #define PN_PENUMBRA_BINDING_SCRATCH 5  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
                                        // the camera: world units over view depth x pixel angle; the EXR's)
-#define PN_PENUMBRA_BINDING_TILES 6    // r32ui, a texel per PN_PENUMBRA_MARK_TILE-square tile: nonzero where a pixel
-                                       // within PN_PENUMBRA_LEND_REACH of the tile has a blocker of its
-                                       // own (the interleaved filter's pass sets it, the frame clears it)
+#define PN_PENUMBRA_BINDING_LIST 6     // storage buffer: the marked tiles (PN_TILE_LIST_*), the Gaussian's
+                                       // dispatches' groups (the interleaved filter's pass fills it)
 #define PN_PENUMBRA_BINDING_COUNT 7
+// The list of marked tiles: a VkDispatchIndirectCommand (the count, 1, 1) and a word of padding,
+// then each tile as x | y << 16, in the order their first marks came; the frame empties it with the
+// marks. Only a marked tile holds a pixel the Gaussian changes (penumbra_filter.comp), so its two
+// dispatches run a group per listed tile.
+#define PN_TILE_LIST_HEADER 4
 // The farthest pixel (in x and y) whose footprint a pixel without a blocker takes: the 5 x 5's
 // outer ring (narrowest_neighbour in penumbra_filter.comp).
 #define PN_PENUMBRA_LEND_REACH 2
-// The tiles of PN_PENUMBRA_BINDING_TILES, in pixels: 8, so that each SIMD group of llvmpipe's (8
-// pixels of a row, x a multiple of 8) lies in one tile and skips the neighbours' loads together.
+// The tiles of PN_FILTER_BINDING_TILES, in pixels: 8, a work group of the Gaussian's (8 x 8 =
+// PN_ROW_GROUP invocations, each SIMD group of llvmpipe's 8 pixels of one of its rows).
 #define PN_PENUMBRA_MARK_TILE 8
 // The temporal history (--temporal, history.comp): after each light's shadow pass, the pixel's
 // samples of earlier frames carried to it and added to its own.
@@ -428,7 +439,8 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead, at least `samples`
                           // (FilterPush.adaptive)
     PN_UINT(max_radius)   // the most pixels a tap may lie from the pixel (the frame's budget)
-    PN_UINT(pad0)
+    PN_UINT(listed)       // 1: a group per tile of the list (PN_PENUMBRA_BINDING_LIST); 0: the
+                          // groups are the image's tiles (the renderer's warm-up frame)
     PN_UINT(pad1)
     PN_UINT(pad2)
     PN_UINT(pad3)

@@ -41,6 +41,7 @@
 #include "interface.h"
 #include "filter_common.glsl"
 
+// A tile of PN_PENUMBRA_MARK_TILE x PN_PENUMBRA_MARK_TILE pixels (main).
 layout(local_size_x = PN_ROW_GROUP) in;
 
 layout(set = 0, binding = PN_PENUMBRA_BINDING_P, rgba32f) uniform readonly image2D img_p;
@@ -49,7 +50,11 @@ layout(set = 0, binding = PN_PENUMBRA_BINDING_COUNTS, rgba32ui) uniform readonly
 layout(set = 0, binding = PN_PENUMBRA_BINDING_V, r32f) uniform image2D img_v;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SIGMA, rg32f) uniform image2D img_sigma;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SCRATCH, rg32f) uniform image2D img_scratch;
-layout(set = 0, binding = PN_PENUMBRA_BINDING_TILES, r32ui) uniform readonly uimage2D img_tiles;
+layout(set = 0, binding = PN_PENUMBRA_BINDING_LIST, std430) readonly buffer TileList
+{
+    uint groups[PN_TILE_LIST_HEADER];
+    uint tiles[]; // x | y << 16
+} list;
 
 layout(push_constant) uniform PenumbraPushBlock { PenumbraPush pc; };
 // With the temporal history the counts are its sums, as float bits (filter.comp's TEMPORAL): a
@@ -122,13 +127,10 @@ float narrowest_neighbour(ivec2 px, ivec2 size)
 {
     // img_sigma: x the footprint (>= 0 with a blocker, -1 without), y 1 where the pixel has an
     // estimate of its own (0 on the background, whose x is 0, and 0 or 0.5 without a valid ray).
-    // The pixel itself is left out: it has no blocker (the caller's condition).
-    // No pixel with a blocker within the 5 x 5 where the pixel's tile is unmarked (filter.comp):
-    // the loads below would find none, for most lit pixels. Measured (builtin:default at 1280 x
-    // 720, exact, 4 spp, medians of 5, two runs alternated): the filter pass 48.3 / 50.4 -> 40.5 /
-    // 42.3 ms, V the same bit for bit.
-    if (imageLoad(img_tiles, px / PN_PENUMBRA_MARK_TILE).x == 0u)
-        return 0.0;
+    // The pixel itself is left out: it has no blocker (the caller's condition). The pass runs only
+    // in tiles with a blocker in some pixel's 5 x 5 (filter.comp's marks); before the marks every
+    // lit pixel took these 24 loads (builtin:default at 1280 x 720, exact, 4 spp, medians of 5:
+    // the filter pass 48.3 / 50.4 -> 40.5 / 42.3 ms with the marks, V the same bit for bit).
     float narrowest = -1.0;
     for (int ring = 1; ring <= PN_PENUMBRA_LEND_REACH && narrowest < 0.0; ring++)
         for (int dy = -ring; dy <= ring; dy++)
@@ -246,7 +248,10 @@ void blur(ivec2 px, ivec2 size, bool rows)
 
 void main()
 {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    // A group per tile: the list's (filter.comp), or the image's in the warm-up frame.
+    uint tile = pc.listed != 0u ? list.tiles[gl_WorkGroupID.x] : gl_WorkGroupID.x | gl_WorkGroupID.y << 16;
+    const uint G = PN_PENUMBRA_MARK_TILE;
+    ivec2 px = ivec2(uvec2(tile & 0xffffu, tile >> 16) * G + uvec2(gl_LocalInvocationIndex % G, gl_LocalInvocationIndex / G));
     ivec2 size = imageSize(img_v);
     bool inside = all(lessThan(px, size));
     if (inside)
