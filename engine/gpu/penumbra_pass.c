@@ -67,7 +67,9 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                      .width = width,
                                                      .height = height,
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
-                                                              (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0)},
+                                                              (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+                                                                            VK_IMAGE_USAGE_TRANSFER_DST_BIT
+                                                                      : 0)},
                                 imgs[i]);
     // A texel per tile, cleared before each filter pass (pn_penumbra_pass_begin).
     const uint32_t G = PN_PENUMBRA_MARK_TILE;
@@ -94,6 +96,7 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
     out->images[PN_PENUMBRA_BINDING_V] = v->view;
     out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
     out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
+    out->images[PN_PENUMBRA_BINDING_TILES] = out->tiles.view;
     if (r == PN_OK)
         r = create_compute(dev, out, &out->compute, out->stages);
     if (r != PN_OK)
@@ -131,43 +134,43 @@ void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
     // Its images are rewritten: discard what an earlier light or frame left, after all of its work
     // on them (the readback's copy of the footprint among it).
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-    VkImageMemoryBarrier2 fresh[2];
-    const pn_gpu_image *images[2] = {&f->sigma, &f->scratch};
-    for (int i = 0; i < 2; i++)
-        fresh[i] = pn_gpu_image_barrier(images[i], VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
-                                        VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, RW, VK_IMAGE_LAYOUT_UNDEFINED,
-                                        VK_IMAGE_LAYOUT_GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 2, fresh);
-    // The tile marks start at 0: after every earlier read of them, cleared, then the filter pass
-    // sets them.
+    const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, CLEAR = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+    const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL;
-    VkImageMemoryBarrier2 clear = pn_gpu_image_barrier(&f->tiles, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
-                                                       VK_ACCESS_2_MEMORY_WRITE_BIT, VK_PIPELINE_STAGE_2_CLEAR_BIT,
-                                                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, GENERAL);
-    pn_gpu_cmd_barrier(cmd, NULL, 1, &clear);
-    vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1,
-                         &(VkImageSubresourceRange){VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1});
+    // The footprints the filter pass writes; the tile marks cleared (the filter pass sets them); and
+    // the row pass's output cleared, since that pass runs only in the marked tiles: elsewhere the
+    // footprint read back is then 0, as the pass would have left it (penumbra_filter.comp's
+    // row_output).
+    VkImageMemoryBarrier2 fresh[3] = {
+        pn_gpu_image_barrier(&f->sigma, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, RW, VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
+        pn_gpu_image_barrier(&f->tiles, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                             VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
+        pn_gpu_image_barrier(&f->scratch, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                             VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
+    };
     // And the list empty, after the dispatches an earlier light or frame read it for.
-    pn_gpu_cmd_barrier(cmd,
-                       &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
-                                           .srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |
-                                                           VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                                           .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                                           .dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
-                                           .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT},
-                       0, NULL);
+    VkMemoryBarrier2 list_free = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
+                                  .srcStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                                  .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                  .dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
+                                  .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT};
+    pn_gpu_cmd_barrier(cmd, &list_free, 3, fresh);
+    const VkImageSubresourceRange all = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1, &all);
+    vkCmdClearColorImage(cmd, f->scratch.image, GENERAL, &(VkClearColorValue){.float32 = {0, 0, 0, 0}}, 1, &all);
     const uint32_t empty[PN_TILE_LIST_HEADER] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1)
     vkCmdUpdateBuffer(cmd, f->list.buffer, 0, sizeof empty, empty);
-    VkImageMemoryBarrier2 cleared = pn_gpu_image_barrier(&f->tiles, VK_PIPELINE_STAGE_2_CLEAR_BIT,
-                                                         VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                                                         VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, RW, GENERAL, GENERAL);
+    VkImageMemoryBarrier2 cleared[2] = {
+        pn_gpu_image_barrier(&f->tiles, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT, COMPUTE, RW, GENERAL, GENERAL),
+        pn_gpu_image_barrier(&f->scratch, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT, COMPUTE, RW, GENERAL, GENERAL),
+    };
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
                                            .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                                           .dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                           .dstStageMask = COMPUTE,
                                            .dstAccessMask = RW},
-                       1, &cleared);
+                       2, cleared);
 }
 
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
@@ -182,7 +185,7 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
         .max_radius = pn_penumbra_max_radius(f->height),
         .listed = !f->one_tile,
     };
-    for (uint32_t stage = 0; stage < PN_PENUMBRA_STAGES; stage++) {
+    for (uint32_t stage = 0; stage < (PN_PENUMBRA_STAGES); stage++) {
         // Each stage reads what the ones before wrote (the first, the filter pass's footprints and
         // its list of tiles, the dispatch's group count).
         pn_gpu_cmd_barrier(cmd,

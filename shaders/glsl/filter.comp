@@ -44,10 +44,6 @@ layout(set = 0, binding = PN_FILTER_BINDING_LIST, std430) buffer TileList
     uint groups[PN_TILE_LIST_HEADER]; // VkDispatchIndirectCommand: the count of tiles, 1, 1
     uint tiles[];                     // x | y << 16
 } list;
-// With the penumbra filter: the Gaussian's row pass's output (penumbra_filter.comp's row_value and
-// footprint) as that pass leaves it in a tile it does not run in: V, lent where the pixel lends it,
-// and no footprint. The row pass rewrites it in the listed tiles; the column pass reads it in all.
-layout(set = 0, binding = PN_FILTER_BINDING_SCRATCH, rg32f) uniform writeonly image2D img_scratch;
 
 layout(push_constant) uniform FilterPushBlock { FilterPush pc; };
 // The window, fixed per pipeline (filter_pass.c builds one for the tile in use): with constant
@@ -114,15 +110,30 @@ float penumbra_weight(vec3 p, uint width_p, vec3 q, uint width_q)
     return max(1.0 - dot(r, r), 0.0);
 }
 
-// A pixel's outputs: V, and with the penumbra filter its footprint and whether it lends V (sigma),
-// and the row pass's output where that pass does not run (img_scratch).
+// The window's first offset: odd tiles are centred, even ones reach one pixel further right and
+// down. Scalars: the validation layer's folding of specialisation constants takes no vectors.
+const int LO_X = -(TILE_W - 1) / 2, LO_Y = -(TILE_H - 1) / 2;
+
+// Whether every pixel of the window with an estimate of V saw all of its rays blocked (dark) or
+// none (filtered's lit and dark windows).
+bool window_agrees(ivec2 px, ivec2 size, bool dark)
+{
+    bool same = true;
+    for (int dy = LO_Y; dy < LO_Y + TILE_H; dy++) {
+        for (int dx = LO_X; dx < LO_X + TILE_W; dx++) {
+            uvec2 cq = imageLoad(img_counts, clamp(px + ivec2(dx, dy), ivec2(0), size - 1)).xy;
+            same = same && (cq.y == 0u || cq.x == (dark ? 0u : cq.y));
+        }
+    }
+    return same;
+}
+
+// A pixel's outputs: V, and with the penumbra filter its footprint and whether it lends V (sigma).
 void store(ivec2 px, float v, vec2 sigma)
 {
     imageStore(img_v, px, vec4(v));
-    if (pc.narrow > 0.0) {
+    if (pc.narrow > 0.0)
         imageStore(img_sigma, px, vec4(sigma, 0.0, 0.0));
-        imageStore(img_scratch, px, vec4(sigma.y > 0.0 ? v : -v, 0.0, 0.0, 0.0));
-    }
 }
 
 float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples);
@@ -133,18 +144,26 @@ void main()
     ivec2 size = imageSize(img_v);
     if (any(greaterThanEqual(px, size)))
         return;
+    uvec4 counts_p = imageLoad(img_counts, px);
+    // The penumbra filter's: from the nearest blocker's penumbra (-1 without a blocker, and without
+    // a valid ray); a pixel lends its V where it has an estimate.
+    float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).y : PN_PENUMBRA_NONE;
+    // Lit, with its window (filtered): V is 1 and it has no footprint, without its position and
+    // normal (a pixel with rays is covered: shadow_frame.glsl). Most of an image, and these passes
+    // are bound by their own pixels' loads (engine/gpu/llvmpipe.md).
+    if (counts_p.y > 0u && counts_p.x == counts_p.y && width_near >= PN_PENUMBRA_NONE && pc.samples > 0u &&
+        window_agrees(px, size, false)) {
+        store(px, 1.0, vec2(-1.0, 1.0));
+        return;
+    }
     vec4 p = imageLoad(img_p, px);
     if (p.w <= 0.0) {
         store(px, 0.0, vec2(0.0));
         return;
     }
-    uvec4 counts_p = imageLoad(img_counts, px);
     bool unknown = counts_p.y == 0u; // no valid ray: no estimate of V
     vec4 n = imageLoad(img_n, px);
     float footprint_p = n.w * pc.pixel_angle;
-    // The penumbra filter's: from the nearest blocker's penumbra (-1 without a blocker, and without
-    // a valid ray); a pixel lends its V where it has an estimate.
-    float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).y : PN_PENUMBRA_NONE;
     // Adaptive: the pixel's valid rays, at least the first round's (as uniform samples count a pixel
     // whose rays fell partly below its horizon), so that a pixel no round refined is filtered as in
     // the uniform frame of MIN samples, whose rays its first round's are.
@@ -163,9 +182,9 @@ void main()
         // PN_PENUMBRA_LEND_REACH away (narrowest_neighbour in penumbra_filter.comp): it marks the
         // tiles those lie in (at most 2 x 2), and the first to mark a tile lists it. Only in a
         // marked tile does a pixel have a footprint, its own or lent, so only there can the
-        // Gaussian change one: its two passes run over the listed tiles alone, and elsewhere this
-        // pass leaves what the row pass would have (store). Every pixel with a blocker takes this
-        // (one to four atomics: about 1.4 ms of builtin:default's 1280 x 720 frame).
+        // Gaussian change one: its two passes run over the listed tiles alone. Every pixel with a
+        // blocker takes this (one to four atomics: about 1.4 ms of builtin:default's 1280 x 720
+        // frame).
         if (sigma.x >= 0.0) {
             ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / PN_PENUMBRA_MARK_TILE;
             ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / PN_PENUMBRA_MARK_TILE;
@@ -187,9 +206,6 @@ float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, f
         return imageLoad(img_v_raw, px).x;
     vec4 n = imageLoad(img_n, px); // main's load again: in the cache
     float footprint_p = n.w * pc.pixel_angle;
-    // The window's first offset: odd tiles are centred, even ones reach one pixel further right and
-    // down. Scalars: the validation layer's folding of specialisation constants takes no vectors.
-    const int LO_X = -(TILE_W - 1) / 2, LO_Y = -(TILE_H - 1) / 2;
     // Lit or in umbra with its whole window: where every pixel of the window with an estimate saw
     // the pixel's V of 1 (or 0), every weighted mean of them below is that V, bit for bit (the sums
     // of w and of w V are the same numbers). The window's counts tell it (pixels off the image or
@@ -200,17 +216,8 @@ float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, f
     // 4 spp, the penumbra filter's whole pass, two runs alternated, V the same bit for bit): the
     // bunny 22.4 -> 17.9 ms, dragon 22.2 -> 16.0; Sponza 29.2 -> 29.2 (its wide penumbrae leave
     // few windows all lit or all dark at 1-4 spp).
-    if (!unknown && (counts_p.x == 0u || counts_p.x == counts_p.y)) {
-        bool same = true;
-        for (int dy = LO_Y; dy < LO_Y + TILE_H; dy++) {
-            for (int dx = LO_X; dx < LO_X + TILE_W; dx++) {
-                uvec2 cq = imageLoad(img_counts, clamp(px + ivec2(dx, dy), ivec2(0), size - 1)).xy;
-                same = same && (cq.y == 0u || cq.x == (counts_p.x == 0u ? 0u : cq.y));
-            }
-        }
-        if (same)
-            return counts_p.x == 0u ? 0.0 : 1.0;
-    }
+    if (!unknown && (counts_p.x == 0u || counts_p.x == counts_p.y) && window_agrees(px, size, counts_p.x == 0u))
+        return counts_p.x == 0u ? 0.0 : 1.0;
     // Under the penumbra filter (pc.narrow > 0) the window's weights also fall as a Gaussian of
     // world distance: narrow x n^-3/4 of the nearest blocker's penumbra (pn_penumbra_window_scale).
     // At a few samples it is pixels wide and the window averages as before; as the samples grow

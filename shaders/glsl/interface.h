@@ -115,12 +115,9 @@
                                      // PN_PENUMBRA_MARK_TILE-square tile, nonzero where a pixel within
                                      // PN_PENUMBRA_LEND_REACH of the tile has a blocker of its own (the
                                      // pass sets it, the frame clears it)
-#define PN_FILTER_BINDING_SCRATCH 8  // rg32f: out, with the penumbra filter: the row pass's output as
-                                     // that pass would leave it where no blocker lies near
-                                     // (PN_PENUMBRA_BINDING_SCRATCH)
-#define PN_FILTER_BINDING_LIST 9     // storage buffer, with the penumbra filter: out, the marked tiles
+#define PN_FILTER_BINDING_LIST 8     // storage buffer, with the penumbra filter: out, the marked tiles
                                      // (PN_PENUMBRA_BINDING_LIST)
-#define PN_FILTER_BINDING_COUNT 10
+#define PN_FILTER_BINDING_COUNT 9
 // The penumbra filter (--filter penumbra, penumbra_filter.comp): after the interleaved filter, a
 // separable Gaussian as wide as the penumbra.
 #define PN_PENUMBRA_BINDING_P 0        // rgba32f: world position, w = 1 where geometry is
@@ -134,7 +131,8 @@
                                        // the camera: world units over view depth x pixel angle; the EXR's)
 #define PN_PENUMBRA_BINDING_LIST 6     // storage buffer: the marked tiles (PN_TILE_LIST_*), the Gaussian's
                                        // dispatches' groups (the interleaved filter's pass fills it)
-#define PN_PENUMBRA_BINDING_COUNT 7
+#define PN_PENUMBRA_BINDING_TILES 7    // r32ui: the marks (PN_FILTER_BINDING_TILES): where the row pass ran
+#define PN_PENUMBRA_BINDING_COUNT 8
 // The list of marked tiles: a VkDispatchIndirectCommand (the count, 1, 1) and a word of padding,
 // then each tile as x | y << 16, in the order their first marks came; the frame empties it with the
 // marks. Only a marked tile holds a pixel the Gaussian changes (penumbra_filter.comp), so its two
