@@ -136,14 +136,25 @@ void store(ivec2 px, float v, vec2 sigma)
         imageStore(img_sigma, px, vec4(sigma, 0.0, 0.0));
 }
 
+void covered_or_not(ivec2 px, ivec2 size);
+void covered(ivec2 px, ivec2 size, uvec4 counts_p, float width_near);
+void covered_pixel(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near);
 float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples);
+float window_mean(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples);
 
 void main()
 {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(img_v);
-    if (any(greaterThanEqual(px, size)))
-        return;
+    if (all(lessThan(px, size)))
+        covered_or_not(px, size);
+}
+
+// Every exit below is structured (no early return): llvmpipe miscompiled the early returns of this
+// pass once functions were inlined into it (pixels without a valid ray took their neighbours'
+// V where the convention's 1 was theirs: engine/gpu/llvmpipe.md, fact 7).
+void covered_or_not(ivec2 px, ivec2 size)
+{
     uvec4 counts_p = imageLoad(img_counts, px);
     // The penumbra filter's: from the nearest blocker's penumbra (-1 without a blocker, and without
     // a valid ray); a pixel lends its V where it has an estimate.
@@ -152,15 +163,24 @@ void main()
     // normal (a pixel with rays is covered: shadow_frame.glsl). Most of an image, and these passes
     // are bound by their own pixels' loads (engine/gpu/llvmpipe.md).
     if (counts_p.y > 0u && counts_p.x == counts_p.y && width_near >= PN_PENUMBRA_NONE && pc.samples > 0u &&
-        window_agrees(px, size, false)) {
+        window_agrees(px, size, false))
         store(px, 1.0, vec2(-1.0, 1.0));
-        return;
-    }
+    else
+        covered(px, size, counts_p, width_near);
+}
+
+// A pixel whose window is not all lit: the background's V is 0, a covered pixel's filtered.
+void covered(ivec2 px, ivec2 size, uvec4 counts_p, float width_near)
+{
     vec4 p = imageLoad(img_p, px);
-    if (p.w <= 0.0) {
+    if (p.w <= 0.0)
         store(px, 0.0, vec2(0.0));
-        return;
-    }
+    else
+        covered_pixel(px, size, p, counts_p, width_near);
+}
+
+void covered_pixel(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near)
+{
     bool unknown = counts_p.y == 0u; // no valid ray: no estimate of V
     vec4 n = imageLoad(img_n, px);
     float footprint_p = n.w * pc.pixel_angle;
@@ -202,10 +222,9 @@ void main()
 float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples)
 {
     bool unknown = counts_p.y == 0u;
+    float v;
     if (unknown && counts_p.z == 0u)
-        return imageLoad(img_v_raw, px).x;
-    vec4 n = imageLoad(img_n, px); // main's load again: in the cache
-    float footprint_p = n.w * pc.pixel_angle;
+        v = imageLoad(img_v_raw, px).x;
     // Lit or in umbra with its whole window: where every pixel of the window with an estimate saw
     // the pixel's V of 1 (or 0), every weighted mean of them below is that V, bit for bit (the sums
     // of w and of w V are the same numbers). The window's counts tell it (pixels off the image or
@@ -216,8 +235,19 @@ float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, f
     // 4 spp, the penumbra filter's whole pass, two runs alternated, V the same bit for bit): the
     // bunny 22.4 -> 17.9 ms, dragon 22.2 -> 16.0; Sponza 29.2 -> 29.2 (its wide penumbrae leave
     // few windows all lit or all dark at 1-4 spp).
-    if (!unknown && (counts_p.x == 0u || counts_p.x == counts_p.y) && window_agrees(px, size, counts_p.x == 0u))
-        return counts_p.x == 0u ? 0.0 : 1.0;
+    else if (!unknown && (counts_p.x == 0u || counts_p.x == counts_p.y) && window_agrees(px, size, counts_p.x == 0u))
+        v = counts_p.x == 0u ? 0.0 : 1.0;
+    else
+        v = window_mean(px, size, p, counts_p, width_near, own_samples);
+    return v;
+}
+
+// filtered's: the window's mean.
+float window_mean(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, float own_samples)
+{
+    bool unknown = counts_p.y == 0u;
+    vec4 n = imageLoad(img_n, px); // covered_pixel's load again: in the cache
+    float footprint_p = n.w * pc.pixel_angle;
     // Under the penumbra filter (pc.narrow > 0) the window's weights also fall as a Gaussian of
     // world distance: narrow x n^-3/4 of the nearest blocker's penumbra (pn_penumbra_window_scale).
     // At a few samples it is pixels wide and the window averages as before; as the samples grow
@@ -312,56 +342,60 @@ float filtered(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_near, f
     }
     // Without an estimate of its own, the geometric mean of its neighbours' (the convention 1 if
     // none has one).
-    if (unknown)
-        return weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : 1.0;
-    float v_p = vq[-LO_Y * TILE_W - LO_X]; // the pixel's own tap (dx = dy = 0), covered and inside
-    // V's own weight (a cross-bilateral range term): a shadow edge sharper than the window (a contact
-    // shadow, the sharp end of a penumbra) must not be averaged away. One pixel's V is the mean of
-    // `samples` Bernoulli trials, so where the window's pixels see the same V (estimated by `mean`,
-    // their geometry-weighted V) one pixel's standard deviation is sigma = sqrt(V (1 - V) / samples)
-    // and two pixels differ by sigma sqrt 2. They differ by more than RANGE_SIGMAS times that with a
-    // probability of about 1% (a normal tail; stratification only narrows it), so a neighbour that far
-    // from the pixel sees another V: a shadow edge lies between them. The weight falls from 1 at equal
-    // V to 0 there. Pixels with fewer valid rays (samples below their horizon) are noisier than this
-    // assumes and are filtered a little less. All dimensionless: the same at every scale. Measured
-    // (bench, standard views, 4 and 16 spp): 2.5 sigmas keeps the MAE of 3 and halves the edge leak;
-    // 2 cuts the leak again but loses 4 spp's noise reduction; 4 blurs contact shadows again.
-    const float RANGE_SIGMAS = 2.5;
-    float mean = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
-    // samples = 0: V has no noise (a point light), so only equal V averages and V stays as it is.
-    // Adaptive sampling: each pixel's own valid rays, at least the first round's (own_samples).
-    float samples = own_samples;
-    // One sample a pixel (since stop 57), under the penumbra filter and away from edges of geometry
-    // (the edge rule's near_edge): V is 0 or 1, and two pixels that see the same V differ by 1 with
-    // a probability of 2 V (1 - V), one in five at V = 0.9. The window's mean over 9 single samples
-    // cannot tell that V: at a mean of 0.9 the test above refused a neighbour that differs by 1
-    // (weight 0.11), so a pixel whose one ray passed by luck on the lit side of a penumbra kept its
-    // 1. There V's variance is taken at its largest, 1/4, whatever the mean: such a neighbour
-    // weighs 0.68. Under adaptive sampling (1:MAX) for a pixel its first round left at one sample:
-    // its neighbours mostly hold one too, and a refined one's V is nearer its mean, which 1/4
-    // bounds the variance of as well. Measured (bench, 512 x 512, exact, the five standard views,
-    // reference MAE at 1 spp, seeds 1 / 2): the bunny 0.0131 / 0.0131 -> 0.0123 / 0.0122, the
-    // dragon 0.0111 / 0.0112 -> 0.0108 / 0.0109, the buddha 0.0098 / 0.0099 -> 0.0098 / 0.0098,
-    // Sponza 0.0150 / 0.0151 -> 0.0137 / 0.0138, the canopy 0.0264 / 0.0258 -> 0.0267 / 0.0261; the
-    // edge leak at most 0.97% (the dragon, seed 1; the bunny, seed 2). Tried and dropped: the same
-    // at 2 samples as well, the bunny and Sponza lower but the buddha 0.0061 -> 0.0063, and at 4,
-    // higher on three views (the buddha 0.0039 -> 0.0042); no range weight at all at one sample
-    // away from edges, Sponza 0.0117 but the canopy 0.0278 and the dragon's leak 1.03%; near edges
-    // too, leaks of 1.1-1.3%.
-    float var = mean * (1.0 - mean);
-    if (pc.narrow > 0.0 && pc.samples == 1u && own_samples == 1.0 && !near_edge)
-        var = 0.25;
-    float spread = pc.samples == 0u ? 0.0 : RANGE_SIGMAS * sqrt(2.0 * var / samples);
-    sum = 0.0;
-    weight = 0.0;
-    for (int j = 0; j < k; j++) {
-        float d = abs(vq[j] - v_p);
-        float r = d / max(spread, 1e-30);
-        float w = wg[j] * (d == 0.0 ? 1.0 : max(1.0 - r * r, 0.0));
-        sum += w * vq[j];
-        weight += w;
+    float v = 1.0;
+    if (unknown) {
+        v = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : 1.0;
+    } else {
+        float v_p = vq[-LO_Y * TILE_W - LO_X]; // the pixel's own tap (dx = dy = 0), covered and inside
+        // V's own weight (a cross-bilateral range term): a shadow edge sharper than the window (a contact
+        // shadow, the sharp end of a penumbra) must not be averaged away. One pixel's V is the mean of
+        // `samples` Bernoulli trials, so where the window's pixels see the same V (estimated by `mean`,
+        // their geometry-weighted V) one pixel's standard deviation is sigma = sqrt(V (1 - V) / samples)
+        // and two pixels differ by sigma sqrt 2. They differ by more than RANGE_SIGMAS times that with a
+        // probability of about 1% (a normal tail; stratification only narrows it), so a neighbour that far
+        // from the pixel sees another V: a shadow edge lies between them. The weight falls from 1 at equal
+        // V to 0 there. Pixels with fewer valid rays (samples below their horizon) are noisier than this
+        // assumes and are filtered a little less. All dimensionless: the same at every scale. Measured
+        // (bench, standard views, 4 and 16 spp): 2.5 sigmas keeps the MAE of 3 and halves the edge leak;
+        // 2 cuts the leak again but loses 4 spp's noise reduction; 4 blurs contact shadows again.
+        const float RANGE_SIGMAS = 2.5;
+        float mean = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
+        // samples = 0: V has no noise (a point light), so only equal V averages and V stays as it is.
+        // Adaptive sampling: each pixel's own valid rays, at least the first round's (own_samples).
+        float samples = own_samples;
+        // One sample a pixel (since stop 57), under the penumbra filter and away from edges of geometry
+        // (the edge rule's near_edge): V is 0 or 1, and two pixels that see the same V differ by 1 with
+        // a probability of 2 V (1 - V), one in five at V = 0.9. The window's mean over 9 single samples
+        // cannot tell that V: at a mean of 0.9 the test above refused a neighbour that differs by 1
+        // (weight 0.11), so a pixel whose one ray passed by luck on the lit side of a penumbra kept its
+        // 1. There V's variance is taken at its largest, 1/4, whatever the mean: such a neighbour
+        // weighs 0.68. Under adaptive sampling (1:MAX) for a pixel its first round left at one sample:
+        // its neighbours mostly hold one too, and a refined one's V is nearer its mean, which 1/4
+        // bounds the variance of as well. Measured (bench, 512 x 512, exact, the five standard views,
+        // reference MAE at 1 spp, seeds 1 / 2): the bunny 0.0131 / 0.0131 -> 0.0123 / 0.0122, the
+        // dragon 0.0111 / 0.0112 -> 0.0108 / 0.0109, the buddha 0.0098 / 0.0099 -> 0.0098 / 0.0098,
+        // Sponza 0.0150 / 0.0151 -> 0.0137 / 0.0138, the canopy 0.0264 / 0.0258 -> 0.0267 / 0.0261; the
+        // edge leak at most 0.97% (the dragon, seed 1; the bunny, seed 2). Tried and dropped: the same
+        // at 2 samples as well, the bunny and Sponza lower but the buddha 0.0061 -> 0.0063, and at 4,
+        // higher on three views (the buddha 0.0039 -> 0.0042); no range weight at all at one sample
+        // away from edges, Sponza 0.0117 but the canopy 0.0278 and the dragon's leak 1.03%; near edges
+        // too, leaks of 1.1-1.3%.
+        float var = mean * (1.0 - mean);
+        if (pc.narrow > 0.0 && pc.samples == 1u && own_samples == 1.0 && !near_edge)
+            var = 0.25;
+        float spread = pc.samples == 0u ? 0.0 : RANGE_SIGMAS * sqrt(2.0 * var / samples);
+        sum = 0.0;
+        weight = 0.0;
+        for (int j = 0; j < k; j++) {
+            float d = abs(vq[j] - v_p);
+            float r = d / max(spread, 1e-30);
+            float w = wg[j] * (d == 0.0 ? 1.0 : max(1.0 - r * r, 0.0));
+            sum += w * vq[j];
+            weight += w;
+        }
+        // weight is about 1 or more: the pixel itself has rho = 0, c = 1 and d = 0, unless its normal is
+        // not a unit vector (a degenerate triangle's); then it keeps its own V.
+        v = weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
     }
-    // weight is about 1 or more: the pixel itself has rho = 0, c = 1 and d = 0, unless its normal is
-    // not a unit vector (a degenerate triangle's); then it keeps its own V.
-    return weight > 0.0 ? clamp(sum / weight, 0.0, 1.0) : v_p;
+    return v;
 }

@@ -163,12 +163,15 @@ bool row_lends(float stored) { return (floatBitsToUint(stored) >> 31u) == 0u; }
 // frame's store of an rg32f image cost lavapipe about 5 ms at 1280 x 720; a neighbour's loads,
 // mostly cached, far less). The column pass writes V only in the marked tiles, so V read here is
 // the interleaved filter's.
+// One exit: the function is inlined into the taps' loop (engine/gpu/llvmpipe.md, fact 7).
 vec2 row_output(ivec2 q)
 {
+    vec2 out_q;
     if (imageLoad(img_tiles, q / PN_PENUMBRA_MARK_TILE).x != 0u)
-        return imageLoad(img_scratch, q).xy;
-    float v = imageLoad(img_v, q).x;
-    return vec2(row_value(v, imageLoad(img_sigma, q).y > 0.0), 0.0);
+        out_q = imageLoad(img_scratch, q).xy;
+    else
+        out_q = vec2(row_value(imageLoad(img_v, q).x, imageLoad(img_sigma, q).y > 0.0), 0.0);
+    return out_q;
 }
 
 // The Gaussian along rows (img_v -> scratch, with the pixel's footprint) or columns (scratch ->
