@@ -71,19 +71,20 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                                             VK_IMAGE_USAGE_TRANSFER_DST_BIT
                                                                       : 0)},
                                 imgs[i]);
-    // A texel per tile, cleared before each filter pass (pn_penumbra_pass_begin).
-    const uint32_t G = PN_PENUMBRA_MARK_TILE;
+    // A texel per block, cleared before each filter pass (pn_penumbra_pass_begin).
+    const uint32_t BW = PN_PENUMBRA_BLOCK_W, BH = PN_PENUMBRA_BLOCK_H;
     if (r == PN_OK)
         r = pn_gpu_image_create(dev,
                                 &(pn_gpu_image_desc){.name = "penumbra filter's tile marks",
                                                      .format = VK_FORMAT_R32_UINT,
-                                                     .width = (width + G - 1) / G,
-                                                     .height = (height + G - 1) / G,
+                                                     .width = (width + BW - 1) / BW,
+                                                     .height = (height + BH - 1) / BH,
                                                      .usage = VK_IMAGE_USAGE_STORAGE_BIT |
                                                               VK_IMAGE_USAGE_TRANSFER_DST_BIT},
                                 &out->tiles);
-    // The list of marked tiles: at most every tile once (filter.comp lists a tile at its first mark).
-    out->tiles_across = (width + G - 1) / G, out->tiles_down = (height + G - 1) / G;
+    // The list of marked blocks: at most every block once (filter.comp lists a block at its first
+    // mark).
+    out->tiles_across = (width + BW - 1) / BW, out->tiles_down = (height + BH - 1) / BH;
     if (r == PN_OK)
         r = pn_gpu_buffer_create(dev, "penumbra filter's tile list",
                                  (PN_TILE_LIST_HEADER + (VkDeviceSize)out->tiles_across * out->tiles_down) * 4,

@@ -18,8 +18,8 @@ typedef struct pn_penumbra_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
-    pn_gpu_image tiles;   // r32ui: per PN_PENUMBRA_MARK_TILE-square tile, whether a blocker lies near
-    pn_gpu_buffer list;   // the marked tiles (PN_TILE_LIST_*), the Gaussian's indirect dispatches
+    pn_gpu_image tiles;   // r32ui: per PN_PENUMBRA_BLOCK_W x _H block, whether a blocker lies near
+    pn_gpu_buffer list;   // the marked blocks (PN_TILE_LIST_*), the Gaussian's indirect dispatches
     uint32_t tiles_across, tiles_down;
     VkImageView images[PN_PENUMBRA_BINDING_COUNT]; // the set's, kept for pn_penumbra_pass_set_counts
     bool temporal; // the counts are the temporal history's sums (PN_SPEC_PENUMBRA_TEMPORAL)

@@ -111,10 +111,10 @@
 #define PN_FILTER_BINDING_BLOCKERS 5 // rg32f: the shadow pass's nearest blocker (with the penumbra filter)
 #define PN_FILTER_BINDING_SIGMA 6    // rg32f: out, with the penumbra filter: its footprint per pixel
                                      // (PN_PENUMBRA_BINDING_SIGMA)
-#define PN_FILTER_BINDING_TILES 7    // r32ui, with the penumbra filter: a texel per
-                                     // PN_PENUMBRA_MARK_TILE-square tile, nonzero where a pixel within
-                                     // PN_PENUMBRA_LEND_REACH of the tile has a blocker of its own (the
-                                     // pass sets it, the frame clears it)
+#define PN_FILTER_BINDING_TILES 7    // r32ui, with the penumbra filter: a texel per block of
+                                     // PN_PENUMBRA_BLOCK_W x PN_PENUMBRA_BLOCK_H pixels, nonzero where
+                                     // a pixel within PN_PENUMBRA_LEND_REACH of the block has a blocker
+                                     // of its own (the pass sets it, the frame clears it)
 #define PN_FILTER_BINDING_LIST 8     // storage buffer, with the penumbra filter: out, the marked tiles
                                      // (PN_PENUMBRA_BINDING_LIST)
 #define PN_FILTER_BINDING_COUNT 9
@@ -133,17 +133,18 @@
                                        // dispatches' groups (the interleaved filter's pass fills it)
 #define PN_PENUMBRA_BINDING_TILES 7    // r32ui: the marks (PN_FILTER_BINDING_TILES): where the row pass ran
 #define PN_PENUMBRA_BINDING_COUNT 8
-// The list of marked tiles: a VkDispatchIndirectCommand (the count, 1, 1) and a word of padding,
-// then each tile as x | y << 16, in the order their first marks came; the frame empties it with the
-// marks. Only a marked tile holds a pixel the Gaussian changes (penumbra_filter.comp), so its two
-// dispatches run a group per listed tile.
+// The list of marked blocks: a VkDispatchIndirectCommand (PN_PENUMBRA_BLOCK_H groups per block, 1,
+// 1) and a word of padding, then each block as x | y << 16, in the order their first marks came;
+// the frame empties it with the marks. Only a marked block holds a pixel the Gaussian changes
+// (penumbra_filter.comp), so its two dispatches run a group per row of each listed block.
 #define PN_TILE_LIST_HEADER 4
 // The farthest pixel (in x and y) whose footprint a pixel without a blocker takes: the 5 x 5's
 // outer ring (narrowest_neighbour in penumbra_filter.comp).
 #define PN_PENUMBRA_LEND_REACH 2
-// The tiles of PN_FILTER_BINDING_TILES, in pixels: 8, a work group of the Gaussian's (8 x 8 =
-// PN_ROW_GROUP invocations, each SIMD group of llvmpipe's 8 pixels of one of its rows).
-#define PN_PENUMBRA_MARK_TILE 8
+// The blocks of PN_FILTER_BINDING_TILES, in pixels: PN_ROW_GROUP x 8, eight of the Gaussian's work
+// groups (a row each, as every image pass's: its loads run along image rows).
+#define PN_PENUMBRA_BLOCK_W PN_ROW_GROUP
+#define PN_PENUMBRA_BLOCK_H 8
 // The temporal history (--temporal, history.comp): after each light's shadow pass, the pixel's
 // samples of earlier frames carried to it and added to its own.
 #define PN_HISTORY_BINDING_P 0         // rgba32f: this frame's world position, w = 1 where geometry is

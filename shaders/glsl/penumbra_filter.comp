@@ -41,8 +41,8 @@
 #include "interface.h"
 #include "filter_common.glsl"
 
-// A tile of PN_PENUMBRA_MARK_TILE x PN_PENUMBRA_MARK_TILE pixels (main).
-layout(local_size_x = PN_ROW_GROUP) in;
+// A row of a block of PN_PENUMBRA_BLOCK_W x PN_PENUMBRA_BLOCK_H pixels (main).
+layout(local_size_x = PN_PENUMBRA_BLOCK_W) in;
 
 layout(set = 0, binding = PN_PENUMBRA_BINDING_P, rgba32f) uniform readonly image2D img_p;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_N, rgba32f) uniform readonly image2D img_n;
@@ -167,7 +167,7 @@ bool row_lends(float stored) { return (floatBitsToUint(stored) >> 31u) == 0u; }
 vec2 row_output(ivec2 q)
 {
     vec2 out_q;
-    if (imageLoad(img_tiles, q / PN_PENUMBRA_MARK_TILE).x != 0u)
+    if (imageLoad(img_tiles, q / ivec2(PN_PENUMBRA_BLOCK_W, PN_PENUMBRA_BLOCK_H)).x != 0u)
         out_q = imageLoad(img_scratch, q).xy;
     else
         out_q = vec2(row_value(imageLoad(img_v, q).x, imageLoad(img_sigma, q).y > 0.0), 0.0);
@@ -267,10 +267,11 @@ void blur(ivec2 px, ivec2 size, bool rows)
 
 void main()
 {
-    // A group per tile: the list's (filter.comp), or the image's in the warm-up frame.
-    uint tile = pc.listed != 0u ? list.tiles[gl_WorkGroupID.x] : gl_WorkGroupID.x | gl_WorkGroupID.y << 16;
-    const uint G = PN_PENUMBRA_MARK_TILE;
-    ivec2 px = ivec2(uvec2(tile & 0xffffu, tile >> 16) * G + uvec2(gl_LocalInvocationIndex % G, gl_LocalInvocationIndex / G));
+    // A group per row of a block: the list's (filter.comp), or the image's in the warm-up frame.
+    const uint H = PN_PENUMBRA_BLOCK_H;
+    uint block = pc.listed != 0u ? list.tiles[gl_WorkGroupID.x / H] : gl_WorkGroupID.x | gl_WorkGroupID.y << 16;
+    uint row = pc.listed != 0u ? gl_WorkGroupID.x % H : 0u;
+    ivec2 px = ivec2((block & 0xffffu) * PN_PENUMBRA_BLOCK_W + gl_LocalInvocationIndex, (block >> 16) * H + row);
     ivec2 size = imageSize(img_v);
     bool inside = all(lessThan(px, size));
     if (inside)
