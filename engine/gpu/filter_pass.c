@@ -39,6 +39,7 @@ pn_result pn_filter_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t hei
     out->images[PN_FILTER_BINDING_BLOCKERS] = blockers->view;
     out->images[PN_FILTER_BINDING_SIGMA] = penumbra->sigma.view;
     out->images[PN_FILTER_BINDING_TILES] = penumbra->tiles.view;
+    out->images[PN_FILTER_BINDING_SCRATCH] = penumbra->scratch.view;
     out->list = penumbra->list.buffer;
     PN_TRY(create_pipeline(dev, out, tile_w, tile_h, &out->compute));
     out->tile_w = tile_w, out->tile_h = tile_h;

@@ -97,7 +97,6 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
     out->images[PN_PENUMBRA_BINDING_V] = v->view;
     out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
     out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
-    out->images[PN_PENUMBRA_BINDING_TILES] = out->tiles.view;
     if (r == PN_OK)
         r = create_compute(dev, out, &out->compute, out->stages);
     if (r != PN_OK)
@@ -138,10 +137,9 @@ void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, CLEAR = VK_PIPELINE_STAGE_2_CLEAR_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL;
-    // The footprints the filter pass writes; the tile marks cleared (the filter pass sets them); and
-    // the row pass's output cleared, since that pass runs only in the marked tiles: elsewhere the
-    // footprint read back is then 0, as the pass would have left it (penumbra_filter.comp's
-    // row_output).
+    // The footprints the filter pass writes; the marks cleared (the filter pass sets them); and the
+    // row pass's output cleared to a lit pixel's, since that pass runs only in the marked blocks
+    // (PN_PENUMBRA_SCRATCH_CLEAR).
     VkImageMemoryBarrier2 fresh[3] = {
         pn_gpu_image_barrier(&f->sigma, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, RW, VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
         pn_gpu_image_barrier(&f->tiles, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT,
@@ -158,7 +156,8 @@ void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
     pn_gpu_cmd_barrier(cmd, &list_free, 3, fresh);
     const VkImageSubresourceRange all = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1, &all);
-    vkCmdClearColorImage(cmd, f->scratch.image, GENERAL, &(VkClearColorValue){.float32 = {0, 0, 0, 0}}, 1, &all);
+    vkCmdClearColorImage(cmd, f->scratch.image, GENERAL,
+                         &(VkClearColorValue){.float32 = {PN_PENUMBRA_SCRATCH_CLEAR, 0, 0, 0}}, 1, &all);
     const uint32_t empty[PN_TILE_LIST_HEADER] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1)
     vkCmdUpdateBuffer(cmd, f->list.buffer, 0, sizeof empty, empty);
     VkImageMemoryBarrier2 cleared[2] = {

@@ -115,9 +115,11 @@
                                      // PN_PENUMBRA_BLOCK_W x PN_PENUMBRA_BLOCK_H pixels, nonzero where
                                      // a pixel within PN_PENUMBRA_LEND_REACH of the block has a blocker
                                      // of its own (the pass sets it, the frame clears it)
-#define PN_FILTER_BINDING_LIST 8     // storage buffer, with the penumbra filter: out, the marked tiles
+#define PN_FILTER_BINDING_LIST 8     // storage buffer, with the penumbra filter: out, the marked blocks
                                      // (PN_PENUMBRA_BINDING_LIST)
-#define PN_FILTER_BINDING_COUNT 9
+#define PN_FILTER_BINDING_SCRATCH 9  // rg32f, with the penumbra filter: out, the row pass's output where
+                                     // it is not a lit pixel's (PN_PENUMBRA_SCRATCH_CLEAR)
+#define PN_FILTER_BINDING_COUNT 10
 // The penumbra filter (--filter penumbra, penumbra_filter.comp): after the interleaved filter, a
 // separable Gaussian as wide as the penumbra.
 #define PN_PENUMBRA_BINDING_P 0        // rgba32f: world position, w = 1 where geometry is
@@ -131,8 +133,12 @@
                                        // the camera: world units over view depth x pixel angle; the EXR's)
 #define PN_PENUMBRA_BINDING_LIST 6     // storage buffer: the marked tiles (PN_TILE_LIST_*), the Gaussian's
                                        // dispatches' groups (the interleaved filter's pass fills it)
-#define PN_PENUMBRA_BINDING_TILES 7    // r32ui: the marks (PN_FILTER_BINDING_TILES): where the row pass ran
-#define PN_PENUMBRA_BINDING_COUNT 8
+#define PN_PENUMBRA_BINDING_COUNT 7
+// What the frame clears the row pass's output to (PN_PENUMBRA_BINDING_SCRATCH): a lit pixel's, V 1
+// lent and no footprint. The row pass runs only in the marked blocks; elsewhere the interleaved
+// filter's pass writes it where it differs at a covered pixel (no valid ray; the background's is
+// never read: it lends nothing), so the column pass reads it as the row pass would have left it.
+#define PN_PENUMBRA_SCRATCH_CLEAR 1.0
 // The list of marked blocks: a VkDispatchIndirectCommand (PN_PENUMBRA_BLOCK_H groups per block, 1,
 // 1) and a word of padding, then each block as x | y << 16, in the order their first marks came;
 // the frame empties it with the marks. Only a marked block holds a pixel the Gaussian changes

@@ -50,7 +50,6 @@ layout(set = 0, binding = PN_PENUMBRA_BINDING_COUNTS, rgba32ui) uniform readonly
 layout(set = 0, binding = PN_PENUMBRA_BINDING_V, r32f) uniform image2D img_v;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SIGMA, rg32f) uniform image2D img_sigma;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_SCRATCH, rg32f) uniform image2D img_scratch;
-layout(set = 0, binding = PN_PENUMBRA_BINDING_TILES, r32ui) uniform readonly uimage2D img_tiles;
 layout(set = 0, binding = PN_PENUMBRA_BINDING_LIST, std430) readonly buffer TileList
 {
     uint groups[PN_TILE_LIST_HEADER];
@@ -156,24 +155,6 @@ float row_value(float v, bool lends) { return lends ? v : -v; }
 float row_v(float stored) { return abs(stored); }
 bool row_lends(float stored) { return (floatBitsToUint(stored) >> 31u) == 0u; }
 
-// The row pass's output at q as the column pass reads it. The row pass ran only in the marked tiles
-// (filter.comp lists them); elsewhere no pixel has a footprint, its own or lent, and the row pass
-// would have left the pixel's V, lent where it lends it, with no footprint: made here from the
-// interleaved filter's V and footprints rather than stored by that pass for every pixel (a full
-// frame's store of an rg32f image cost lavapipe about 5 ms at 1280 x 720; a neighbour's loads,
-// mostly cached, far less). The column pass writes V only in the marked tiles, so V read here is
-// the interleaved filter's.
-// One exit: the function is inlined into the taps' loop (engine/gpu/llvmpipe.md, fact 7).
-vec2 row_output(ivec2 q)
-{
-    vec2 out_q;
-    if (imageLoad(img_tiles, q / ivec2(PN_PENUMBRA_BLOCK_W, PN_PENUMBRA_BLOCK_H)).x != 0u)
-        out_q = imageLoad(img_scratch, q).xy;
-    else
-        out_q = vec2(row_value(imageLoad(img_v, q).x, imageLoad(img_sigma, q).y > 0.0), 0.0);
-    return out_q;
-}
-
 // The Gaussian along rows (img_v -> scratch, with the pixel's footprint) or columns (scratch ->
 // img_v), over world distance on the pixel's surface: a surface seen at a grazing angle packs more
 // of it into a pixel, and a Gaussian over pixels would reach across its penumbra.
@@ -242,7 +223,7 @@ void blur(ivec2 px, ivec2 size, bool rows)
         // Along columns the row pass's output: its V, whether it lends it (row_value) and its
         // footprint.
         vec4 qp = imageLoad(img_p, q), m = imageLoad(img_n, q);
-        vec2 sc = rows ? vec2(0.0) : row_output(q);
+        vec2 sc = rows ? vec2(0.0) : imageLoad(img_scratch, q).xy;
         vec2 sq = rows ? pixel_footprint(q) : vec2(sc.y * m.w * pc.pixel_angle, row_lends(sc.x) ? 1.0 : 0.0);
         float v_q = rows ? imageLoad(img_v, q).x : row_v(sc.x);
         // The narrower of the two footprints: a pixel next to a contact shadow does not reach
