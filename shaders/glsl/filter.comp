@@ -214,7 +214,8 @@ void covered_pixel(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_nea
             ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / BLOCK;
             for (int ty = lo.y; ty <= hi.y; ty++)
                 for (int tx = lo.x; tx <= hi.x; tx++)
-                    if (imageAtomicOr(img_tiles, ivec2(tx, ty), 1u) == 0u)
+                    // A load first: most of a block's blockers find it marked, and spare the atomic.
+                    if (imageLoad(img_tiles, ivec2(tx, ty)).x == 0u && imageAtomicOr(img_tiles, ivec2(tx, ty), 1u) == 0u)
                         list.tiles[atomicAdd(list.groups[0], uint(PN_PENUMBRA_BLOCK_H)) / uint(PN_PENUMBRA_BLOCK_H)] =
                             uint(tx) | uint(ty) << 16;
         }
@@ -222,10 +223,14 @@ void covered_pixel(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_nea
     float v = filtered(px, size, p, counts_p, width_near, own_samples);
     store(px, v, sigma);
     // What the row pass would leave outside the marked blocks (penumbra_filter.comp's row_value, no
-    // footprint), where the clear value is not it: a pixel without a valid ray, or in a marked
-    // block (which the row pass rewrites). A store for every pixel cost about 5 ms at 1280 x 720.
+    // footprint), where the clear value is not it. Outside them a pixel with a valid ray has V 1
+    // and lends it, the clear value, wherever the window reaches no further than the marks
+    // (PN_PENUMBRA_LEND_REACH): a blocked ray in its window would have marked its block. So only a
+    // pixel without one stores it (or every pixel, under a wider window); in a marked block the
+    // row pass rewrites it. A store for every pixel cost about 5 ms at 1280 x 720.
+    const bool WIDE = max(TILE_W, TILE_H) > 2 * PN_PENUMBRA_LEND_REACH + 1;
     float row_out = sigma.y > 0.0 ? v : -v;
-    if (pc.narrow > 0.0 && row_out != PN_PENUMBRA_SCRATCH_CLEAR)
+    if (pc.narrow > 0.0 && (unknown || WIDE) && row_out != PN_PENUMBRA_SCRATCH_CLEAR)
         imageStore(img_scratch, px, vec4(row_out, 0.0, 0.0, 0.0));
 }
 
