@@ -8,6 +8,10 @@
 #include "gpu/frame.h"
 #include "penumbra_filter_comp.h"
 
+// A block's marks fit its texel, a bit per tile (interface.h).
+_Static_assert(PN_PENUMBRA_BLOCK_W % PN_PENUMBRA_MARK_W == 0 && PN_PENUMBRA_BLOCK_W / PN_PENUMBRA_MARK_W <= 32,
+               "a block's tiles are a bit each of its mark");
+
 // The pass's set over f's images and a pipeline per stage (the first the set's own, the second the
 // device's for the same layout), specialised for f->temporal.
 static pn_result create_compute(pn_gpu_device *dev, const pn_penumbra_pass *f, pn_gpu_compute *out,
@@ -66,10 +70,8 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
                                                      .format = VK_FORMAT_R32G32_SFLOAT,
                                                      .width = width,
                                                      .height = height,
-                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT |
-                                                              (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
-                                                                            VK_IMAGE_USAGE_TRANSFER_DST_BIT
-                                                                      : 0)},
+                                                     .usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                                                              (i == 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0)},
                                 imgs[i]);
     // A texel per block, cleared before each filter pass (pn_penumbra_pass_begin).
     const uint32_t BW = PN_PENUMBRA_BLOCK_W, BH = PN_PENUMBRA_BLOCK_H;
@@ -97,6 +99,7 @@ pn_result pn_penumbra_pass_create(pn_gpu_device *dev, uint32_t width, uint32_t h
     out->images[PN_PENUMBRA_BINDING_V] = v->view;
     out->images[PN_PENUMBRA_BINDING_SIGMA] = out->sigma.view;
     out->images[PN_PENUMBRA_BINDING_SCRATCH] = out->scratch.view;
+    out->images[PN_PENUMBRA_BINDING_TILES] = out->tiles.view;
     if (r == PN_OK)
         r = create_compute(dev, out, &out->compute, out->stages);
     if (r != PN_OK)
@@ -129,48 +132,64 @@ uint32_t pn_penumbra_max_radius(uint32_t height)
     return r < 8 ? 8 : r > 32 ? 32 : r;
 }
 
-void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f)
+void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f, const pn_gpu_image *v)
 {
-    // Its images are rewritten: discard what an earlier light or frame left, after all of its work
-    // on them (the readback's copy of the footprint among it).
+    // Its images (and V) are rewritten: discard what an earlier light or frame left, after all of
+    // its work on them (the shade pass's reads of V, the readback's copies of V and the footprint).
     const VkAccessFlags2 RW = VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+    const VkAccessFlags2 WRITTEN = VK_ACCESS_2_MEMORY_WRITE_BIT, CLEARS = VK_ACCESS_2_TRANSFER_WRITE_BIT;
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, CLEAR = VK_PIPELINE_STAGE_2_CLEAR_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-    const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL;
-    // The footprints the filter pass writes; the marks cleared (the filter pass sets them); and the
-    // row pass's output cleared to a lit pixel's, since that pass runs only in the marked blocks
-    // (PN_PENUMBRA_SCRATCH_CLEAR).
-    VkImageMemoryBarrier2 fresh[3] = {
-        pn_gpu_image_barrier(&f->sigma, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, COMPUTE, RW, VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
-        pn_gpu_image_barrier(&f->tiles, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                             VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
-        pn_gpu_image_barrier(&f->scratch, ALL, VK_ACCESS_2_MEMORY_WRITE_BIT, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                             VK_IMAGE_LAYOUT_UNDEFINED, GENERAL),
+    const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL, UNDEFINED = VK_IMAGE_LAYOUT_UNDEFINED;
+    // The marks cleared (the filter pass sets them); the row pass's output cleared to a lit
+    // pixel's, since that pass runs only in the marked blocks (PN_PENUMBRA_SCRATCH_CLEAR); under
+    // the penumbra filter V and the footprints too (PN_PENUMBRA_LIT_V, _FOOTPRINT), which the
+    // filter pass then writes only where they differ. The interleaved filter alone writes both
+    // everywhere.
+    bool lit = v != NULL;
+    VkImageMemoryBarrier2 fresh[4] = {
+        pn_gpu_image_barrier(&f->tiles, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL),
+        pn_gpu_image_barrier(&f->scratch, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL),
+        lit ? pn_gpu_image_barrier(&f->sigma, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL)
+            : pn_gpu_image_barrier(&f->sigma, ALL, WRITTEN, COMPUTE, RW, UNDEFINED, GENERAL),
     };
+    if (lit)
+        fresh[3] = pn_gpu_image_barrier(v, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL);
     // And the list empty, after the dispatches an earlier light or frame read it for.
     VkMemoryBarrier2 list_free = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                   .srcStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                                   .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                   .dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
                                   .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT};
-    pn_gpu_cmd_barrier(cmd, &list_free, 3, fresh);
+    pn_gpu_cmd_barrier(cmd, &list_free, lit ? 4 : 3, fresh);
     const VkImageSubresourceRange all = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1, &all);
     vkCmdClearColorImage(cmd, f->scratch.image, GENERAL,
                          &(VkClearColorValue){.float32 = {PN_PENUMBRA_SCRATCH_CLEAR, 0, 0, 0}}, 1, &all);
-    const uint32_t empty[PN_TILE_LIST_HEADER] = {0, 1, 1, 0}; // VkDispatchIndirectCommand (0, 1, 1)
+    if (lit) {
+        vkCmdClearColorImage(cmd, f->sigma.image, GENERAL,
+                             &(VkClearColorValue){.float32 = {PN_PENUMBRA_LIT_FOOTPRINT, 1, 0, 0}}, 1, &all);
+        vkCmdClearColorImage(cmd, v->image, GENERAL, &(VkClearColorValue){.float32 = {PN_PENUMBRA_LIT_V, 0, 0, 0}},
+                             1, &all);
+    }
+    // VkDispatchIndirectCommand (0 blocks, a row each), and a first block at the origin for the
+    // warm-up frame's one group (pn_penumbra_pass_record).
+    const uint32_t empty[PN_TILE_LIST_HEADER + 1] = {0, PN_PENUMBRA_BLOCK_H, 1, 0, 0};
     vkCmdUpdateBuffer(cmd, f->list.buffer, 0, sizeof empty, empty);
-    VkImageMemoryBarrier2 cleared[2] = {
-        pn_gpu_image_barrier(&f->tiles, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT, COMPUTE, RW, GENERAL, GENERAL),
-        pn_gpu_image_barrier(&f->scratch, CLEAR, VK_ACCESS_2_TRANSFER_WRITE_BIT, COMPUTE, RW, GENERAL, GENERAL),
+    VkImageMemoryBarrier2 cleared[4] = {
+        pn_gpu_image_barrier(&f->tiles, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL),
+        pn_gpu_image_barrier(&f->scratch, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL),
+        pn_gpu_image_barrier(&f->sigma, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL),
     };
+    if (lit)
+        cleared[3] = pn_gpu_image_barrier(v, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL);
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
                                            .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
                                            .dstStageMask = COMPUTE,
                                            .dstAccessMask = RW},
-                       2, cleared);
+                       lit ? 4 : 2, cleared);
 }
 
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,
@@ -183,7 +202,6 @@ void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uin
         .samples = samples,
         .adaptive = adaptive,
         .max_radius = pn_penumbra_max_radius(f->height),
-        .listed = !f->one_tile,
     };
     for (uint32_t stage = 0; stage < (PN_PENUMBRA_STAGES); stage++) {
         // Each stage reads what the ones before wrote (the first, the filter pass's footprints and

@@ -1,11 +1,11 @@
 // The penumbra filter (--filter penumbra): after the interleaved filter, a separable Gaussian as
 // wide as the penumbra each pixel lies in, from the nearest blocker the shadow pass met
-// (shaders/glsl/penumbra_filter.comp). The interleaved filter's pass writes each pixel's footprint
-// and lists the tiles with a blocker near (filter.comp); then two dispatches over those tiles: the
-// Gaussian along rows and along columns. Reads the
-// G-buffer and the shadow pass's counts, and rewrites V (the interleaved filter's output) in
-// place; leaves each pixel's footprint (the Gaussian's standard deviation in pixels) in
-// `scratch`'s second channel for the EXR.
+// (shaders/glsl/penumbra_filter.comp). The interleaved filter's pass writes each pixel's footprint,
+// marks the 8 x 8 tiles with a blocker near and lists the 64 x 8 blocks that hold them
+// (filter.comp); then two indirect dispatches over the listed blocks: the Gaussian along rows and
+// along columns. Reads the G-buffer and the shadow pass's counts, and rewrites V (the interleaved
+// filter's output) in place; leaves each pixel's footprint (the Gaussian's standard deviation in
+// pixels) in `scratch`'s second channel for the EXR (0 outside the listed blocks).
 #pragma once
 #include "gpu/compute.h"
 #include "gpu/resources.h"
@@ -18,7 +18,7 @@ typedef struct pn_penumbra_pass {
     bool one_tile; // the renderer's warm-up frame: dispatch over the first tile only (renderer.c)
     pn_gpu_image sigma;   // rg32f: each pixel's own footprint (world units) and whether it lends its V
     pn_gpu_image scratch; // rg32f: the row pass's V and each pixel's footprint
-    pn_gpu_image tiles;   // r32ui: per PN_PENUMBRA_BLOCK_W x _H block, whether a blocker lies near
+    pn_gpu_image tiles;   // r32ui: per PN_PENUMBRA_BLOCK_W x _H block, a bit per tile with a blocker near
     pn_gpu_buffer list;   // the marked blocks (PN_TILE_LIST_*), the Gaussian's indirect dispatches
     uint32_t tiles_across, tiles_down;
     VkImageView images[PN_PENUMBRA_BINDING_COUNT]; // the set's, kept for pn_penumbra_pass_set_counts
@@ -61,8 +61,10 @@ uint32_t pn_penumbra_max_radius(uint32_t height);
 
 // Discards its images' contents and makes them GENERAL, the tile marks cleared, before the filter
 // pass writes the footprints and marks (every frame and light with a filter: the filter pass's set
-// holds `sigma` and `tiles`).
-void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f);
+// holds `sigma` and `tiles`). Under the penumbra filter, v is V (the filter pass's output, with
+// TRANSFER_DST): it and the footprints are cleared to a lit pixel's, which the filter pass leaves
+// (filter.comp); NULL under the interleaved filter alone.
+void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f, const pn_gpu_image *v);
 // Records the two dispatches with the barriers before and between them; V and the footprints
 // must be written (the filter pass's), and V is visible to compute reads after. samples, adaptive,
 // yfov_deg: as pn_filter_pass_record.

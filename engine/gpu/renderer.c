@@ -35,7 +35,7 @@ static pn_result create_targets(pn_renderer *r)
         {&r->depth, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT,
          "depth image"},
         {&r->v_raw, VK_FORMAT_R32_SFLOAT, comp, 0, "raw visibility image"},
-        {&r->v, VK_FORMAT_R32_SFLOAT, comp, 0, "visibility image"},
+        {&r->v, VK_FORMAT_R32_SFLOAT, comp | VK_IMAGE_USAGE_TRANSFER_DST_BIT, 0, "visibility image"}, // cleared: penumbra_pass.h
         {&r->radiance, RGBA32F, comp, 0, "radiance image"},
     };
     for (size_t i = 0; i < sizeof t / sizeof t[0]; i++)

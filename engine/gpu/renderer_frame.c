@@ -111,7 +111,9 @@ static void record_frame(pn_renderer *r, VkCommandBuffer cmd, const pn_gbuffer_p
             // history's where there is one: filter.comp).
             bool penumbra = r->desc.filter == PN_FILTER_PENUMBRA;
             float narrow = penumbra ? (float)pn_penumbra_window_scale() : 0.0f;
-            pn_penumbra_pass_begin(cmd, &r->penumbra); // the filter pass's set holds its footprints
+            // The filter pass's set holds its footprints; under the penumbra filter it writes V only
+            // where a pixel is not lit.
+            pn_penumbra_pass_begin(cmd, &r->penumbra, penumbra ? &r->v : NULL);
             pn_filter_pass_record(cmd, &r->filter, noise_samples[i], pn_shadow_adaptive(&r->shadow, samples[i]),
                                   yfov_deg, narrow, (float)pn_penumbra_width_scale()); // P, N, V raw -> V
             VkImageMemoryBarrier2 v_ready = pn_gpu_image_barrier(&r->v, COMPUTE, WRITE, COMPUTE, READ, GENERAL, GENERAL);

@@ -164,11 +164,14 @@ void covered_or_not(ivec2 px, ivec2 size)
     float width_near = pc.narrow > 0.0 ? imageLoad(img_blockers, px).y : PN_PENUMBRA_NONE;
     // Lit, with its window (filtered): V is 1 and it has no footprint, without its position and
     // normal (a pixel with rays is covered: shadow_frame.glsl). Most of an image, and these passes
-    // are bound by their own pixels' loads (engine/gpu/llvmpipe.md).
+    // are bound by their own pixels' loads and stores (engine/gpu/llvmpipe.md): under the penumbra
+    // filter the frame cleared V and the footprints to these (PN_PENUMBRA_LIT_V, _FOOTPRINT), and
+    // the pixel stores nothing.
     if (counts_p.y > 0u && counts_p.x == counts_p.y && width_near >= PN_PENUMBRA_NONE && pc.samples > 0u &&
-        window_agrees(px, size, false))
-        store(px, 1.0, vec2(-1.0, 1.0));
-    else
+        window_agrees(px, size, false)) {
+        if (pc.narrow <= 0.0)
+            store(px, 1.0, vec2(PN_PENUMBRA_LIT_FOOTPRINT, 1.0));
+    } else
         covered(px, size, counts_p, width_near);
 }
 
@@ -203,21 +206,26 @@ void covered_pixel(ivec2 px, ivec2 size, vec4 p, uvec4 counts_p, float width_nea
                      unknown ? (counts_p.z != 0u ? 0.5 : 0.0) : 1.0);
         // A pixel with a blocker of its own lends its footprint to the pixels without one up to
         // PN_PENUMBRA_LEND_REACH away (narrowest_neighbour in penumbra_filter.comp): it marks the
-        // tiles those lie in (at most 2 x 2), and the first to mark a tile lists it. Only in a
-        // marked tile does a pixel have a footprint, its own or lent, so only there can the
-        // Gaussian change one: its two passes run over the listed tiles alone. Every pixel with a
-        // blocker takes this (one to four atomics: about 1.4 ms of builtin:default's 1280 x 720
-        // frame).
+        // tiles those lie in (at most 2 x 2, a bit each in their block's texel), and the first to
+        // mark a block lists it. Only in a marked tile does a pixel have a footprint, its own or
+        // lent, so only there can the Gaussian change one: its two passes run over the listed
+        // blocks alone, and search a lit pixel's neighbours only in a marked tile. Every pixel
+        // with a blocker takes this (one to four atomics: about 1.4 ms of builtin:default's 1280
+        // x 720 frame).
         if (sigma.x >= 0.0) {
-            const ivec2 BLOCK = ivec2(PN_PENUMBRA_BLOCK_W, PN_PENUMBRA_BLOCK_H);
-            ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / BLOCK;
-            ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / BLOCK;
+            const ivec2 TILE = ivec2(PN_PENUMBRA_MARK_W, PN_PENUMBRA_BLOCK_H);
+            const int PER_BLOCK = PN_PENUMBRA_BLOCK_W / PN_PENUMBRA_MARK_W;
+            ivec2 lo = max(px - PN_PENUMBRA_LEND_REACH, ivec2(0)) / TILE;
+            ivec2 hi = min(px + PN_PENUMBRA_LEND_REACH, size - 1) / TILE;
             for (int ty = lo.y; ty <= hi.y; ty++)
-                for (int tx = lo.x; tx <= hi.x; tx++)
-                    // A load first: most of a block's blockers find it marked, and spare the atomic.
-                    if (imageLoad(img_tiles, ivec2(tx, ty)).x == 0u && imageAtomicOr(img_tiles, ivec2(tx, ty), 1u) == 0u)
-                        list.tiles[atomicAdd(list.groups[0], uint(PN_PENUMBRA_BLOCK_H)) / uint(PN_PENUMBRA_BLOCK_H)] =
-                            uint(tx) | uint(ty) << 16;
+                for (int tx = lo.x; tx <= hi.x; tx++) {
+                    ivec2 block = ivec2(tx / PER_BLOCK, ty);
+                    uint bit = 1u << uint(tx % PER_BLOCK);
+                    // A load first: most of a tile's blockers find it marked, and spare the atomic.
+                    if ((imageLoad(img_tiles, block).x & bit) == 0u && imageAtomicOr(img_tiles, block, bit) == 0u)
+                        list.tiles[atomicAdd(list.groups[0], 1u)] =
+                            uint(block.x * PN_PENUMBRA_BLOCK_W) | uint(block.y * PN_PENUMBRA_BLOCK_H) << 16;
+                }
         }
     }
     float v = filtered(px, size, p, counts_p, width_near, own_samples);

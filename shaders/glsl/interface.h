@@ -112,9 +112,10 @@
 #define PN_FILTER_BINDING_SIGMA 6    // rg32f: out, with the penumbra filter: its footprint per pixel
                                      // (PN_PENUMBRA_BINDING_SIGMA)
 #define PN_FILTER_BINDING_TILES 7    // r32ui, with the penumbra filter: a texel per block of
-                                     // PN_PENUMBRA_BLOCK_W x PN_PENUMBRA_BLOCK_H pixels, nonzero where
-                                     // a pixel within PN_PENUMBRA_LEND_REACH of the block has a blocker
-                                     // of its own (the pass sets it, the frame clears it)
+                                     // PN_PENUMBRA_BLOCK_W x PN_PENUMBRA_BLOCK_H pixels, a bit per
+                                     // PN_PENUMBRA_MARK_W x _BLOCK_H tile of it set where a pixel within
+                                     // PN_PENUMBRA_LEND_REACH of the tile has a blocker of its own (the
+                                     // pass sets them, the frame clears them)
 #define PN_FILTER_BINDING_LIST 8     // storage buffer, with the penumbra filter: out, the marked blocks
                                      // (PN_PENUMBRA_BINDING_LIST)
 #define PN_FILTER_BINDING_SCRATCH 9  // rg32f, with the penumbra filter: out, the row pass's output where
@@ -131,17 +132,23 @@
                                        // the interleaved filter's pass writes it (filter.comp)
 #define PN_PENUMBRA_BINDING_SCRATCH 5  // rg32f: the row pass's V and the pixel's footprint (in pixels facing
                                        // the camera: world units over view depth x pixel angle; the EXR's)
-#define PN_PENUMBRA_BINDING_LIST 6     // storage buffer: the marked tiles (PN_TILE_LIST_*), the Gaussian's
+#define PN_PENUMBRA_BINDING_LIST 6     // storage buffer: the marked blocks (PN_TILE_LIST_*), the Gaussian's
                                        // dispatches' groups (the interleaved filter's pass fills it)
-#define PN_PENUMBRA_BINDING_COUNT 7
+#define PN_PENUMBRA_BINDING_TILES 7    // r32ui: the marks (PN_FILTER_BINDING_TILES), read
+#define PN_PENUMBRA_BINDING_COUNT 8
 // What the frame clears the row pass's output to (PN_PENUMBRA_BINDING_SCRATCH): a lit pixel's, V 1
 // lent and no footprint. The row pass runs only in the marked blocks; elsewhere the interleaved
 // filter's pass writes it where it differs at a covered pixel (no valid ray; the background's is
 // never read: it lends nothing), so the column pass reads it as the row pass would have left it.
 #define PN_PENUMBRA_SCRATCH_CLEAR 1.0
-// The list of marked blocks: a VkDispatchIndirectCommand (PN_PENUMBRA_BLOCK_H groups per block, 1,
-// 1) and a word of padding, then each block as x | y << 16, in the order their first marks came;
-// the frame empties it with the marks. Only a marked block holds a pixel the Gaussian changes
+// What the frame clears V (PN_FILTER_BINDING_V) and the footprints (PN_FILTER_BINDING_SIGMA: x; y is
+// 1, it lends its V) to under the penumbra filter: a lit pixel's, V 1 and no blocker of its own.
+// The interleaved filter's pass leaves them there (filter.comp's lit pixels: most of an image).
+#define PN_PENUMBRA_LIT_V 1.0
+#define PN_PENUMBRA_LIT_FOOTPRINT -1.0
+// The list of marked blocks: a VkDispatchIndirectCommand (the blocks, PN_PENUMBRA_BLOCK_H, 1) and a
+// word of padding, then each block's first pixel as x | y << 16, in the order their first marks
+// came; the frame empties it with the marks. Only a marked block holds a pixel the Gaussian changes
 // (penumbra_filter.comp), so its two dispatches run a group per row of each listed block.
 #define PN_TILE_LIST_HEADER 4
 // The farthest pixel (in x and y) whose footprint a pixel without a blocker takes: the 5 x 5's
@@ -151,6 +158,10 @@
 // groups (a row each, as every image pass's: its loads run along image rows).
 #define PN_PENUMBRA_BLOCK_W PN_ROW_GROUP
 #define PN_PENUMBRA_BLOCK_H 8
+// A block's marks, a bit per tile of PN_PENUMBRA_MARK_W x PN_PENUMBRA_BLOCK_H pixels (bit x / MARK_W
+// within the block): the row pass searches a lit pixel's neighbours for a footprint only in a
+// marked tile (one of llvmpipe's SIMD rows of 8 lanes: the search is skipped where all 8 agree).
+#define PN_PENUMBRA_MARK_W 8
 // The temporal history (--temporal, history.comp): after each light's shadow pass, the pixel's
 // samples of earlier frames carried to it and added to its own.
 #define PN_HISTORY_BINDING_P 0         // rgba32f: this frame's world position, w = 1 where geometry is
@@ -444,8 +455,7 @@ PN_STRUCT(PenumbraPush, pn_penumbra_push) {
     PN_UINT(adaptive)     // 1: each pixel's own valid rays count instead, at least `samples`
                           // (FilterPush.adaptive)
     PN_UINT(max_radius)   // the most pixels a tap may lie from the pixel (the frame's budget)
-    PN_UINT(listed)       // 1: a group per tile of the list (PN_PENUMBRA_BINDING_LIST); 0: the
-                          // groups are the image's tiles (the renderer's warm-up frame)
+    PN_UINT(pad0)
     PN_UINT(pad1)
     PN_UINT(pad2)
     PN_UINT(pad3)
