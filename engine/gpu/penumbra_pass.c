@@ -141,55 +141,52 @@ void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f, cons
     const VkPipelineStageFlags2 ALL = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, CLEAR = VK_PIPELINE_STAGE_2_CLEAR_BIT;
     const VkPipelineStageFlags2 COMPUTE = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
     const VkImageLayout GENERAL = VK_IMAGE_LAYOUT_GENERAL, UNDEFINED = VK_IMAGE_LAYOUT_UNDEFINED;
-    // The marks cleared (the filter pass sets them); the row pass's output cleared to a lit
-    // pixel's, since that pass runs only in the marked blocks (PN_PENUMBRA_SCRATCH_CLEAR); under
-    // the penumbra filter V and the footprints too (PN_PENUMBRA_LIT_V, _FOOTPRINT), which the
-    // filter pass then writes only where they differ. The interleaved filter alone writes both
-    // everywhere.
-    bool lit = v != NULL;
-    VkImageMemoryBarrier2 fresh[4] = {
-        pn_gpu_image_barrier(&f->tiles, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL),
-        pn_gpu_image_barrier(&f->scratch, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL),
-        lit ? pn_gpu_image_barrier(&f->sigma, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL)
-            : pn_gpu_image_barrier(&f->sigma, ALL, WRITTEN, COMPUTE, RW, UNDEFINED, GENERAL),
-    };
-    if (lit)
-        fresh[3] = pn_gpu_image_barrier(v, ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL);
-    // And the list empty, after the dispatches an earlier light or frame read it for.
+    // Under the interleaved filter alone nothing of the pass is read or written: its images need
+    // only be GENERAL, as for any dispatch of the filter pass's set, which holds them.
+    const pn_gpu_image *imgs[4] = {&f->tiles, &f->scratch, &f->sigma, v};
+    uint32_t count = v ? 4 : 3;
+    VkImageMemoryBarrier2 fresh[4];
+    for (uint32_t i = 0; i < count; i++)
+        fresh[i] = v ? pn_gpu_image_barrier(imgs[i], ALL, WRITTEN, CLEAR, CLEARS, UNDEFINED, GENERAL)
+                     : pn_gpu_image_barrier(imgs[i], ALL, WRITTEN, COMPUTE, RW, UNDEFINED, GENERAL);
+    if (!v) {
+        pn_gpu_cmd_barrier(cmd, NULL, count, fresh);
+        return;
+    }
+    // Under the penumbra filter: the marks cleared (the filter pass sets them); the row pass's
+    // output cleared to a lit pixel's, since that pass runs only in the marked blocks
+    // (PN_PENUMBRA_SCRATCH_CLEAR); V and the footprints too (PN_PENUMBRA_LIT_V, _FOOTPRINT), which
+    // the filter pass then writes only where they differ; and the list emptied, after the
+    // dispatches an earlier light or frame read it for.
     VkMemoryBarrier2 list_free = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                   .srcStageMask = COMPUTE | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                                   .srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                   .dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
                                   .dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT};
-    pn_gpu_cmd_barrier(cmd, &list_free, lit ? 4 : 3, fresh);
+    pn_gpu_cmd_barrier(cmd, &list_free, count, fresh);
     const VkImageSubresourceRange all = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    vkCmdClearColorImage(cmd, f->tiles.image, GENERAL, &(VkClearColorValue){.uint32 = {0, 0, 0, 0}}, 1, &all);
-    vkCmdClearColorImage(cmd, f->scratch.image, GENERAL,
-                         &(VkClearColorValue){.float32 = {PN_PENUMBRA_SCRATCH_CLEAR, 0, 0, 0}}, 1, &all);
-    if (lit) {
-        vkCmdClearColorImage(cmd, f->sigma.image, GENERAL,
-                             &(VkClearColorValue){.float32 = {PN_PENUMBRA_LIT_FOOTPRINT, 1, 0, 0}}, 1, &all);
-        vkCmdClearColorImage(cmd, v->image, GENERAL, &(VkClearColorValue){.float32 = {PN_PENUMBRA_LIT_V, 0, 0, 0}},
-                             1, &all);
+    const VkClearColorValue clears[4] = {
+        {.uint32 = {0, 0, 0, 0}},
+        {.float32 = {PN_PENUMBRA_SCRATCH_CLEAR, 0, 0, 0}},
+        {.float32 = {PN_PENUMBRA_LIT_FOOTPRINT, 1, 0, 0}},
+        {.float32 = {PN_PENUMBRA_LIT_V, 0, 0, 0}},
+    };
+    VkImageMemoryBarrier2 cleared[4];
+    for (uint32_t i = 0; i < count; i++) {
+        vkCmdClearColorImage(cmd, imgs[i]->image, GENERAL, &clears[i], 1, &all);
+        cleared[i] = pn_gpu_image_barrier(imgs[i], CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL);
     }
     // VkDispatchIndirectCommand (0 blocks, a row each), and a first block at the origin for the
     // warm-up frame's one group (pn_penumbra_pass_record).
     const uint32_t empty[PN_TILE_LIST_HEADER + 1] = {0, PN_PENUMBRA_BLOCK_H, 1, 0, 0};
     vkCmdUpdateBuffer(cmd, f->list.buffer, 0, sizeof empty, empty);
-    VkImageMemoryBarrier2 cleared[4] = {
-        pn_gpu_image_barrier(&f->tiles, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL),
-        pn_gpu_image_barrier(&f->scratch, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL),
-        pn_gpu_image_barrier(&f->sigma, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL),
-    };
-    if (lit)
-        cleared[3] = pn_gpu_image_barrier(v, CLEAR, CLEARS, COMPUTE, RW, GENERAL, GENERAL);
     pn_gpu_cmd_barrier(cmd,
                        &(VkMemoryBarrier2){.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2,
                                            .srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT,
                                            .srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT,
                                            .dstStageMask = COMPUTE,
                                            .dstAccessMask = RW},
-                       lit ? 4 : 2, cleared);
+                       count, cleared);
 }
 
 void pn_penumbra_pass_record(VkCommandBuffer cmd, const pn_penumbra_pass *f, uint32_t samples, bool adaptive,

@@ -59,11 +59,11 @@ float pn_penumbra_window_scale(void);
 // (a penumbra spans more pixels at a higher resolution) within [8, 32].
 uint32_t pn_penumbra_max_radius(uint32_t height);
 
-// Discards its images' contents and makes them GENERAL, the tile marks cleared, before the filter
-// pass writes the footprints and marks (every frame and light with a filter: the filter pass's set
-// holds `sigma` and `tiles`). Under the penumbra filter, v is V (the filter pass's output, with
-// TRANSFER_DST): it and the footprints are cleared to a lit pixel's, which the filter pass leaves
-// (filter.comp); NULL under the interleaved filter alone.
+// Discards its images' contents and makes them GENERAL before the filter pass (every frame and
+// light with a filter: the filter pass's set holds them). Under the penumbra filter v is V (the
+// filter pass's output, with TRANSFER_DST): the marks and the list are emptied, and V, the
+// footprints and the row pass's output cleared to a lit pixel's, which the filter pass leaves
+// (filter.comp); NULL under the interleaved filter alone, which uses none of them.
 void pn_penumbra_pass_begin(VkCommandBuffer cmd, const pn_penumbra_pass *f, const pn_gpu_image *v);
 // Records the two dispatches with the barriers before and between them; V and the footprints
 // must be written (the filter pass's), and V is visible to compute reads after. samples, adaptive,
