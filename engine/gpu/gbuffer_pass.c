@@ -108,6 +108,11 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
         return PN_ERR_MEMORY;
     memcpy(r->draws, s->draws, s->draw_count * sizeof *r->draws);
     r->draw_count = s->draw_count;
+    r->cull = calloc(s->draw_count ? s->draw_count : 1, sizeof *r->cull);
+    if (!r->cull)
+        return PN_ERR_MEMORY;
+    for (uint32_t i = 0; i < s->draw_count; i++)
+        PN_TRY(pn_gbuffer_cull_analyse(s, &s->draws[i], &r->cull[i]));
     memcpy(r->scene_min, s->bounds_min, sizeof r->scene_min);
     memcpy(r->scene_max, s->bounds_max, sizeof r->scene_max);
     return PN_OK;
@@ -155,11 +160,15 @@ static pn_result create_pipeline(pn_gpu_device *dev, pn_gbuffer_pass *r)
         .viewportCount = 1,
         .scissorCount = 1,
     };
-    // No culling: open meshes (Sponza's walls, the ground) are seen from both sides.
+    // The cull mode per draw (dynamic): open meshes (Sponza's walls, the ground) are seen from both
+    // sides, closed ones from outside cull their back faces (gbuffer_cull.h). glTF's front faces
+    // wind counter-clockwise; with the projection's y flipped (pn_gbuffer_camera) Vulkan sees them
+    // counter-clockwise too (checked: culling the other way empties the dragon's silhouette).
     VkPipelineRasterizationStateCreateInfo rs = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO,
         .polygonMode = VK_POLYGON_MODE_FILL,
         .cullMode = VK_CULL_MODE_NONE,
+        .frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE,
         .lineWidth = 1.0f,
     };
     VkPipelineMultisampleStateCreateInfo ms = {
@@ -179,10 +188,10 @@ static pn_result create_pipeline(pn_gpu_device *dev, pn_gbuffer_pass *r)
         .attachmentCount = 3,
         .pAttachments = blend,
     };
-    VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_CULL_MODE};
     VkPipelineDynamicStateCreateInfo dy = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO,
-        .dynamicStateCount = 2,
+        .dynamicStateCount = 3,
         .pDynamicStates = dyn,
     };
     VkFormat colors[3] = {FMT_RGBA32F, FMT_RGBA32F, FMT_RGBA32F};
@@ -315,6 +324,7 @@ void pn_gbuffer_pass_destroy(pn_gpu_device *dev, pn_gbuffer_pass *g)
     pn_gpu_buffer_destroy(dev, &g->indices);
     pn_gpu_buffer_destroy(dev, &g->materials);
     free(g->draws);
+    free(g->cull);
     memset(g, 0, sizeof *g);
 }
 
@@ -331,7 +341,30 @@ pn_result pn_gbuffer_pass_update_vertices(pn_gpu_device *dev, pn_gbuffer_pass *g
                                (VkDeviceSize)count * sizeof(pn_vertex)));
     memcpy(g->scene_min, scene->bounds_min, sizeof g->scene_min);
     memcpy(g->scene_max, scene->bounds_max, sizeof g->scene_max);
+    for (uint32_t i = 0; i < g->draw_count; i++)
+        if (g->draws[i].index_count && g->cull[i].last >= first && g->cull[i].first < first + count)
+            pn_gbuffer_cull_moved(scene, &g->draws[i], &g->cull[i]);
     return PN_OK;
+}
+
+// The near and far planes' view depths for an eye at `eye`: around the scene's bounding sphere.
+static float clip_planes(const pn_gbuffer_pass *r, const float eye[3], float *zfar)
+{
+    // Clip planes enclose the scene's bounding sphere. Far/near is capped at 2^20: with reversed Z
+    // in a float depth buffer that still leaves about 2^-3 relative depth resolution... per ulp
+    // of the float exponent range, far more than 24-bit fixed point gives.
+    float c[3], rad = 0, dist = 0;
+    for (int k = 0; k < 3; k++) {
+        c[k] = 0.5f * (r->scene_min[k] + r->scene_max[k]);
+        float e = r->scene_max[k] - r->scene_min[k];
+        rad += e * e;
+        dist += (eye[k] - c[k]) * (eye[k] - c[k]);
+    }
+    rad = 0.5f * sqrtf(rad);
+    dist = sqrtf(dist);
+    *zfar = (dist + rad) * 1.01f;
+    float znear = fmaxf(dist - rad, 0.0f) * 0.99f;
+    return znear < *zfar * 0x1p-20f ? *zfar * 0x1p-20f : znear;
 }
 
 pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *r, const pn_camera *cam, uint32_t width, uint32_t height)
@@ -343,22 +376,7 @@ pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *r, const pn_camera *cam
     vec3 fwd;
     glm_vec3_sub(target, eye, fwd);
     glm_vec3_normalize(fwd);
-    // Clip planes enclose the scene's bounding sphere. Far/near is capped at 2^20: with reversed Z
-    // in a float depth buffer that still leaves about 2^-3 relative depth resolution... per ulp
-    // of the float exponent range, far more than 24-bit fixed point gives.
-    vec3 c;
-    float rad = 0;
-    for (int k = 0; k < 3; k++) {
-        c[k] = 0.5f * (r->scene_min[k] + r->scene_max[k]);
-        float e = r->scene_max[k] - r->scene_min[k];
-        rad += e * e;
-    }
-    rad = 0.5f * sqrtf(rad);
-    float dist = glm_vec3_distance(eye, c);
-    float zfar = (dist + rad) * 1.01f;
-    float znear = fmaxf(dist - rad, 0.0f) * 0.99f;
-    if (znear < zfar * 0x1p-20f)
-        znear = zfar * 0x1p-20f;
+    float zfar, znear = clip_planes(r, eye, &zfar);
     mat4 view, proj, vp;
     glm_lookat_rh(eye, target, up, view);
     float aspect = (float)width / (float)height;
@@ -370,6 +388,12 @@ pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *r, const pn_camera *cam
     push->eye[0] = eye[0], push->eye[1] = eye[1], push->eye[2] = eye[2], push->eye[3] = 1;
     push->forward[0] = fwd[0], push->forward[1] = fwd[1], push->forward[2] = fwd[2], push->forward[3] = 0;
     return out;
+}
+
+bool pn_gbuffer_pass_culls(const pn_gbuffer_pass *g, uint32_t draw, const pn_gbuffer_push *camera)
+{
+    float zfar, znear = clip_planes(g, camera->eye, &zfar);
+    return pn_gbuffer_cull_back(&g->cull[draw], camera->eye, camera->forward, znear);
 }
 
 void pn_gbuffer_pass_record(VkCommandBuffer cmd, const pn_gbuffer_pass *g, const pn_gbuffer_targets *t,
@@ -427,7 +451,12 @@ void pn_gbuffer_pass_record(VkCommandBuffer cmd, const pn_gbuffer_pass *g, const
     vkCmdBindVertexBuffers(cmd, 0, 1, &g->vertices.buffer, &(VkDeviceSize){0});
     vkCmdBindIndexBuffer(cmd, g->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
     pn_gbuffer_push push = *camera;
+    VkCullModeFlags mode = VK_CULL_MODE_NONE;
+    vkCmdSetCullMode(cmd, mode);
     for (uint32_t i = 0; i < g->draw_count; i++) {
+        VkCullModeFlags want = pn_gbuffer_pass_culls(g, i, camera) ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+        if (want != mode)
+            vkCmdSetCullMode(cmd, mode = want);
         push.material = g->draws[i].material;
         vkCmdPushConstants(cmd, g->layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof push,
                            &push);

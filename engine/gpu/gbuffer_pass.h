@@ -3,6 +3,7 @@
 // textures) and the graphics pipeline.
 #pragma once
 #include "gpu/compute.h"
+#include "gpu/gbuffer_cull.h"
 #include "gpu/resources.h"
 #include "interface.h"
 #include "scene/scene.h"
@@ -14,6 +15,7 @@ typedef struct pn_gbuffer_pass {
     uint32_t texture_count;
     VkSampler sampler;
     pn_draw *draws;
+    pn_gbuffer_cull *cull; // per draw: whether it may cull its back faces (gbuffer_cull.h)
     uint32_t draw_count;
     float scene_min[3], scene_max[3]; // for the clip planes
     VkDescriptorPool descriptor_pool;
@@ -49,6 +51,9 @@ const uint32_t *pn_gbuffer_pass_spirv(int stage, size_t *size);
 // The camera as the pass's push constants for an image of width x height: view-projection with
 // clip planes around the scene's bounding sphere, eye and view direction.
 pn_gbuffer_push pn_gbuffer_camera(const pn_gbuffer_pass *g, const pn_camera *cam, uint32_t width, uint32_t height);
+
+// Whether draw `draw` culls its back faces seen by `camera` (gbuffer_cull.h).
+bool pn_gbuffer_pass_culls(const pn_gbuffer_pass *g, uint32_t draw, const pn_gbuffer_push *camera);
 
 // Records the draws, with the targets' barriers: before, after any earlier access (their contents
 // are discarded); after, for reads by compute shaders in GENERAL layout.

@@ -1298,7 +1298,7 @@ void Loader::build_materials()
 {
     for (size_t i = 0; i < m_.materials.size(); i++) {
         const tinygltf::PbrMetallicRoughness &pbr = m_.materials[i].pbrMetallicRoughness;
-        pn_material mat{{1.0f, 1.0f, 1.0f, 1.0f}, -1, 0.0f};
+        pn_material mat{{1.0f, 1.0f, 1.0f, 1.0f}, -1, 0.0f, m_.materials[i].doubleSided};
         bool ok = pbr.baseColorFactor.size() == 4;
         for (size_t c = 0; ok && c < 4; c++)
             ok = std::isfinite(pbr.baseColorFactor[c]);
@@ -1378,7 +1378,7 @@ int32_t Loader::texture_for(int material, const tinygltf::TextureInfo &info)
 void Loader::emit(pn_scene *out)
 {
     if (default_material_used_) {
-        const pn_material white{{1.0f, 1.0f, 1.0f, 1.0f}, -1, 0.0f};
+        const pn_material white{{1.0f, 1.0f, 1.0f, 1.0f}, -1, 0.0f, false}; // glTF's default material: single-sided
         built(pn_scene_build_add_material(&b_, &white));
     }
     std::snprintf(b_.scene.name, sizeof b_.scene.name, "%s", path_);

@@ -125,6 +125,7 @@ pn_result pn_scene_add_material(pn_scene *s, const float base_color[4], uint32_t
     memcpy(m[s->material_count].base_color, base_color, 4 * sizeof(float));
     m[s->material_count].texture = -1;
     m[s->material_count].alpha_cutoff = 0; // opaque
+    m[s->material_count].double_sided = true;
     *index = s->material_count++;
     return PN_OK;
 }

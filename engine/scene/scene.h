@@ -19,6 +19,10 @@ typedef struct pn_material {
     // Alpha-masked (glTF alphaMode MASK, and BLEND taken as MASK at 0.5): the surface is cut out
     // where base_color[3] x the texture's alpha is below this; 0: opaque.
     float alpha_cutoff;
+    // Both sides drawn whatever the view (glTF doubleSided true; every material made in code). A
+    // single-sided one (glTF's default) lets the G-buffer cull back faces where that cannot open
+    // a surface (gpu/gbuffer_cull.h); elsewhere its back faces are drawn too.
+    bool double_sided;
 } pn_material;
 
 typedef struct pn_texture {
