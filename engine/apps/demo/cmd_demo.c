@@ -309,9 +309,9 @@ static void print_summary(const pn_demo *d, const pn_demo_opts *o, uint32_t widt
     if (d->record_total > d->record_count)
         printf("  of %llu rendered frames, the last %zu:\n", (unsigned long long)d->record_total, d->record_count);
     printf("  medians of %zu rendered frames: frame %.1f ms (render %.1f, compose %.1f, present %.1f); "
-           "gpu ms gbuffer %.2f, shadow %.2f, shade %.2f; %.3g shadow rays/s\n",
+           "gpu ms gbuffer %.2f, shadow %.2f, filter %.2f, shade %.2f; %.3g shadow rays/s\n",
            d->record_count, MED(frame_ms), MED(render_ms), MED(compose_ms), MED(present_ms), MED(times.gbuffer_ms),
-           MED(times.shadow_ms), MED(times.shade_ms), MED(rays_per_s));
+           MED(times.shadow_ms), MED(times.filter_ms), MED(times.shade_ms), MED(rays_per_s));
 #undef MED
     // What moves and rebuilds cost the frame: with against without.
     size_t moved, still, building, idle;
