@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "core/log.h"
+#include "core/parallel.h"
 #include "io/file.h"
 
 // libpng's error callback: report with the output's path (its error pointer) and leave through
@@ -115,12 +116,27 @@ static uint8_t tonemap_channel(float v, float exposure)
     return (uint8_t)q;
 }
 
+typedef struct tonemap_job {
+    const float *rgba;
+    float exposure;
+    uint8_t *out;
+} tonemap_job;
+
+static void tonemap_pixels(void *ctx, uint64_t begin, uint64_t end, unsigned thread)
+{
+    (void)thread;
+    const tonemap_job *j = ctx;
+    for (uint64_t i = begin; i < end; i++)
+        for (int c = 0; c < 3; c++)
+            j->out[i * 3 + c] = tonemap_channel(j->rgba[i * 4 + c], j->exposure);
+}
+
+// On the worker threads: three double-precision pows a pixel were 44 ms of the demo's 1280x720
+// frame on one core.
 void pn_tonemap_srgb8(const float *rgba, int width, int height, float exposure, uint8_t *out)
 {
     if (!rgba || !out || width <= 0 || height <= 0)
         return;
-    size_t n = (size_t)width * (size_t)height;
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++)
-            out[i * 3 + c] = tonemap_channel(rgba[i * 4 + c], exposure);
+    tonemap_job job = {rgba, exposure, out};
+    pn_parallel_for((uint64_t)width * (uint64_t)height, 16384, tonemap_pixels, &job);
 }
