@@ -61,12 +61,17 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
     PN_TRY(pn_gpu_buffer_create_with_data(dev, "vertex buffer", s->vertices, (VkDeviceSize)s->vertex_count * sizeof(pn_vertex),
                                           VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                           &r->vertices));
-    uint32_t *idx;
-    PN_TRY(raster_indices(s, &idx));
-    pn_result ir = pn_gpu_buffer_create_with_data(dev, "index buffer", idx, (VkDeviceSize)s->index_count * sizeof(uint32_t),
-                                                  VK_BUFFER_USAGE_INDEX_BUFFER_BIT, &r->indices);
-    free(idx);
-    PN_TRY(ir);
+    PN_TRY(raster_indices(s, &r->raster_indices));
+    PN_TRY(pn_gpu_buffer_create_with_data(dev, "index buffer", r->raster_indices,
+                                          (VkDeviceSize)s->index_count * sizeof(uint32_t), VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
+                                          &r->indices));
+    PN_TRY(pn_gbuffer_clusters_build(s, r->raster_indices, &r->clusters));
+    uint32_t most = 1;
+    for (uint32_t d = 0; d < s->draw_count; d++)
+        most = r->clusters.first[d + 1] - r->clusters.first[d] > most ? r->clusters.first[d + 1] - r->clusters.first[d] : most;
+    r->runs = malloc(most * sizeof *r->runs);
+    if (!r->runs)
+        return PN_ERR_MEMORY;
     pn_material_gpu *m = calloc(s->material_count, sizeof *m);
     if (!m)
         return PN_ERR_MEMORY;
@@ -325,6 +330,9 @@ void pn_gbuffer_pass_destroy(pn_gpu_device *dev, pn_gbuffer_pass *g)
     pn_gpu_buffer_destroy(dev, &g->materials);
     free(g->draws);
     free(g->cull);
+    pn_gbuffer_clusters_destroy(&g->clusters);
+    free(g->raster_indices);
+    free(g->runs);
     memset(g, 0, sizeof *g);
 }
 
@@ -342,8 +350,10 @@ pn_result pn_gbuffer_pass_update_vertices(pn_gpu_device *dev, pn_gbuffer_pass *g
     memcpy(g->scene_min, scene->bounds_min, sizeof g->scene_min);
     memcpy(g->scene_max, scene->bounds_max, sizeof g->scene_max);
     for (uint32_t i = 0; i < g->draw_count; i++)
-        if (g->draws[i].index_count && g->cull[i].last >= first && g->cull[i].first < first + count)
+        if (g->draws[i].index_count && g->cull[i].last >= first && g->cull[i].first < first + count) {
             pn_gbuffer_cull_moved(scene, &g->draws[i], &g->cull[i]);
+            pn_gbuffer_clusters_moved(&g->clusters, scene, g->raster_indices, i);
+        }
     return PN_OK;
 }
 
@@ -454,13 +464,23 @@ void pn_gbuffer_pass_record(VkCommandBuffer cmd, const pn_gbuffer_pass *g, const
     VkCullModeFlags mode = VK_CULL_MODE_NONE;
     vkCmdSetCullMode(cmd, mode);
     for (uint32_t i = 0; i < g->draw_count; i++) {
-        VkCullModeFlags want = pn_gbuffer_pass_culls(g, i, camera) ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+        bool back = pn_gbuffer_pass_culls(g, i, camera);
+        uint64_t kept;
+        uint32_t runs = 1;
+        if (g->draw_all)
+            g->runs[0] = (pn_gbuffer_run){g->draws[i].first_index, g->draws[i].index_count};
+        else
+            runs = pn_gbuffer_clusters_runs(&g->clusters, i, camera, t->width, t->height, back, g->runs, &kept);
+        if (runs == 0)
+            continue;
+        VkCullModeFlags want = back ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
         if (want != mode)
             vkCmdSetCullMode(cmd, mode = want);
         push.material = g->draws[i].material;
         vkCmdPushConstants(cmd, g->layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof push,
                            &push);
-        vkCmdDrawIndexed(cmd, g->draws[i].index_count, 1, g->draws[i].first_index, 0, 0);
+        for (uint32_t k = 0; k < runs; k++)
+            vkCmdDrawIndexed(cmd, g->runs[k].index_count, 1, g->runs[k].first_index, 0, 0);
     }
     vkCmdEndRendering(cmd);
     // The compute passes read all three.

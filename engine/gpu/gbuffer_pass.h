@@ -3,6 +3,7 @@
 // textures) and the graphics pipeline.
 #pragma once
 #include "gpu/compute.h"
+#include "gpu/gbuffer_clusters.h"
 #include "gpu/gbuffer_cull.h"
 #include "gpu/resources.h"
 #include "interface.h"
@@ -17,6 +18,12 @@ typedef struct pn_gbuffer_pass {
     pn_draw *draws;
     pn_gbuffer_cull *cull; // per draw: whether it may cull its back faces (gbuffer_cull.h)
     uint32_t draw_count;
+    // The draws cut into clusters, what a frame skips (gbuffer_clusters.h), over the raster order
+    // (raster_indices, kept for their bounds when vertices move), and room for one draw's runs.
+    pn_gbuffer_clusters clusters;
+    uint32_t *raster_indices;
+    pn_gbuffer_run *runs;
+    bool draw_all; // every triangle drawn, no cluster skipped: the reference tests compare with
     float scene_min[3], scene_max[3]; // for the clip planes
     VkDescriptorPool descriptor_pool;
     VkDescriptorSetLayout set_layout;
