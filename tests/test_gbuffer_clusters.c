@@ -4,6 +4,7 @@
 //     open ground grid (it does not): seen from outside, clusters of the sphere's far side are
 //     skipped and none of its near side's; looking away, nothing is kept; the ground keeps every
 //     cluster in view (no back-face skip for an open mesh).
+//     The margins on a cluster made here: the frustum's 2 pixels and the cone's slack.
 //  2. Rendered: P, N and albedo at every pixel bit for bit against the same renderer drawing every
 //     triangle (pn_gbuffer_pass.draw_all), from outside, close up with most of the sphere off the
 //     image (the frustum skips there), grazing along the ground, from inside the sphere (no back
@@ -164,6 +165,39 @@ int main(void)
               (unsigned long long)sphere);
     pn_gbuffer_push in_push = pn_gbuffer_camera(&ren.gbuffer, &inside, SIZE, SIZE);
     CHECK_MSG(!pn_gbuffer_pass_culls(&ren.gbuffer, 0, &in_push), "inside: the sphere's back faces are its front");
+
+    // The margins, on one cluster made here, seen from the origin along -z (90 degrees: x / -z is
+    // the normalised x): a box half a pixel beyond the image's right edge is kept (the rasterizer's
+    // rounding may reach it), 3 pixels beyond skipped; a cluster facing away by 0.3 degrees (within
+    // the cone's 2^-7 rad slack) is kept, by 1 degree skipped, one facing the eye by 1 degree kept.
+    {
+        const pn_camera origin = {.pos = {0, 0, 0}, .target = {0, 0, -1}, .up = {0, 1, 0}, .yfov_deg = 90};
+        pn_gbuffer_push push = pn_gbuffer_camera(&ren.gbuffer, &origin, SIZE, SIZE);
+        pn_gbuffer_cluster one = {.index_count = 3, .radius = 1e-3f, .cutoff = 1.0f};
+        uint32_t first[2] = {0, 1};
+        pn_gbuffer_clusters c = {.items = &one, .first = first, .draw_count = 1};
+        pn_gbuffer_run run;
+        uint64_t k1;
+        const double pixel = 2.0 / SIZE;
+        const double beyond[2] = {0.5, 3.0}; // pixels
+        for (int i = 0; i < 2; i++) {
+            float x = (float)(10 * (1 + beyond[i] * pixel));
+            one.min[0] = x, one.max[0] = x + 0.01f, one.min[1] = -0.1f, one.max[1] = 0.1f, one.min[2] = -10, one.max[2] = -10;
+            uint32_t n = pn_gbuffer_clusters_runs(&c, 0, &push, SIZE, SIZE, false, &run, &k1);
+            CHECK_MSG(n == (i == 0 ? 1u : 0u), "a box %.1f pixels beyond the image's edge: %u runs", beyond[i], n);
+        }
+        one.min[0] = -0.1f, one.max[0] = 0.1f; // in view: the facing alone decides
+        const double tilt[3] = {0.3, 1.0, -1.0}; // degrees from edge-on, facing away (> 0)
+        const uint32_t want[3] = {1, 0, 1};
+        for (int i = 0; i < 3; i++) {
+            double t = tilt[i] * 3.14159265358979323846 / 180;
+            one.center[0] = 0, one.center[1] = 0, one.center[2] = -10;
+            one.axis[0] = (float)cos(t), one.axis[1] = 0, one.axis[2] = (float)-sin(t); // . (0, 0, -1) = sin(t)
+            one.cutoff = 0; // one normal
+            uint32_t n = pn_gbuffer_clusters_runs(&c, 0, &push, SIZE, SIZE, true, &run, &k1);
+            CHECK_MSG(n == want[i], "a cluster %.1f degrees from edge-on: %u runs, expected %u", tilt[i], n, want[i]);
+        }
+    }
 
     // 2. Rendered, bit for bit.
     check_same(&ren, &outside, "outside");
