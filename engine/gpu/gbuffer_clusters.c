@@ -6,7 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-
 // A triangle's normal (p1 - p0) x (p2 - p0), in double from its float corners: exact but for the
 // products' last rounding.
 static void normal_of(const float *p[3], double n[3])
@@ -42,7 +41,7 @@ static void bound(pn_gbuffer_cluster *k, const pn_scene *s, const uint32_t *indi
         normal_of(p, n);
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         degenerate = degenerate || !(len > 0);
-        for (int a = 0; degenerate == false && a < 3; a++)
+        for (int a = 0; !degenerate && a < 3; a++)
             sum[a] += n[a] / len;
     }
     double centre[3], radius = 0, axis_len = sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
