@@ -157,14 +157,14 @@ static bool outside_frustum(const pn_gbuffer_cluster *k, const float m[16], doub
 }
 
 // Whether every triangle of the cluster faces away from the eye: meshoptimizer's conservative
-// test (its README's, for meshopt_computeClusterBounds' cones) over the bounding sphere (every point of the sphere sees every normal of the cone from
-// behind), with the cone widened by 2^-7 radians: the cone and sphere are bound()'s, rounded
-// outwards, and the rasterizer takes a triangle's facing from its corners rounded to 2^-8 of a pixel, which turns a triangle a pixel
-// high by at most about 2^-8. A smaller triangle facing away within that rounding may still be
-// drawn without the clusters; facing away, it can show only at a silhouette of its closed surface
-// and only by a depth test's rounding there (the surface in front of it meets it at the
-// silhouette): the one way this differs from drawing everything, not seen in any measurement
-// (engine/gpu/README.md).
+// test over the bounding sphere (its README's, for meshopt_computeClusterBounds' cones: every point
+// of the sphere sees every normal of the cone from behind), the cone and sphere bound()'s, rounded
+// outwards, and the cone widened by 2^-7 radians: the rasterizer takes a triangle's facing from its
+// corners rounded to 2^-8 of a pixel, which turns a triangle a pixel high by at most about 2^-8. A
+// smaller triangle facing away within that rounding may still be drawn without the clusters;
+// facing away, it can show only at a silhouette of its closed surface and only by a depth test's
+// rounding there (the surface in front of it meets it at the silhouette): the one way this differs
+// from drawing everything, not seen in any measurement (engine/gpu/README.md).
 static bool facing_away(const pn_gbuffer_cluster *k, const float eye[3])
 {
     if (!(k->cutoff < 1.0f))

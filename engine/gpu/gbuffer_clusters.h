@@ -4,10 +4,9 @@
 // the view frustum (every draw), and those whose triangles all face away from the eye (the draws
 // that cull their back faces: gbuffer_cull.h). The rest is drawn in the order it had, a draw per run
 // of clusters kept, so every pixel is what it was (the rasterizer would have made nothing of what is
-// skipped; but see facing_away in gbuffer_clusters.c for sub-pixel triangles at a silhouette); the
-// vertex shader and the triangle setup no longer run for what is skipped, which on
-// llvmpipe is most of the pass on a big mesh (engine/gpu/README.md, "Clusters in the G-buffer
-// pass").
+// skipped; but see facing_away in gbuffer_clusters.c for sub-pixel triangles at a silhouette). The
+// vertex shader and the triangle setup no longer run for what is skipped, which on llvmpipe is most
+// of the pass on a big mesh (engine/gpu/README.md, "Clusters in the G-buffer pass").
 #pragma once
 #include <stdbool.h>
 #include <stddef.h>

@@ -66,9 +66,11 @@ static pn_result upload_scene(pn_gpu_device *dev, pn_gbuffer_pass *r, const pn_s
                                           (VkDeviceSize)s->index_count * sizeof(uint32_t), VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
                                           &r->indices));
     PN_TRY(pn_gbuffer_clusters_build(s, r->raster_indices, &r->clusters));
-    uint32_t most = 1;
-    for (uint32_t d = 0; d < s->draw_count; d++)
-        most = r->clusters.first[d + 1] - r->clusters.first[d] > most ? r->clusters.first[d + 1] - r->clusters.first[d] : most;
+    uint32_t most = 1; // the most clusters of a draw: room for its runs (pn_gbuffer_clusters_runs)
+    for (uint32_t d = 0; d < s->draw_count; d++) {
+        uint32_t n = r->clusters.first[d + 1] - r->clusters.first[d];
+        most = n > most ? n : most;
+    }
     r->runs = malloc(most * sizeof *r->runs);
     if (!r->runs)
         return PN_ERR_MEMORY;
